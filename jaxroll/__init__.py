@@ -1,0 +1,62 @@
+"""jaxroll: parametric roll of ships in long-crested irregular waves, in JAX.
+
+Pipeline: sea spectrum → Grim's effective wave (superposition or a shaping filter) → ΔGM(ζ_mid) → roll equation
+→ Monte Carlo → amplitudes → PDFs, theory, maxima, calibration.
+
+jaxroll enables float64 in JAX on import: its statistics, moment equations and tail probabilities need it.
+"""
+
+import importlib.metadata
+
+import jax
+
+jax.config.update("jax_enable_x64", True)
+
+from ._amplitudes import (
+    hilbert_envelope as hilbert_envelope,
+    zero_crossing_amplitudes as zero_crossing_amplitudes,
+)
+from ._dynamics import (
+    FilterExcitation as FilterExcitation,
+    RollProblem as RollProblem,
+    SuperpositionExcitation as SuperpositionExcitation,
+    roll_acceleration as roll_acceleration,
+    roll_time_series as roll_time_series,
+    roll_vector_field as roll_vector_field,
+)
+from ._filters import FilterFit as FilterFit, ShapingFilter as ShapingFilter, fit_filter as fit_filter
+from ._grim import EffectiveWave as EffectiveWave, grim_transfer as grim_transfer, superpose as superpose
+from ._monte_carlo import (
+    AmplitudeStatistics as AmplitudeStatistics,
+    check_time_step as check_time_step,
+    make_problem as make_problem,
+    monte_carlo_amplitudes as monte_carlo_amplitudes,
+)
+from ._restoring import (
+    delta_gm as delta_gm,
+    parametric_excitation as parametric_excitation,
+    restoring_moment as restoring_moment,
+    righting_lever as righting_lever,
+    vanishing_angle as vanishing_angle,
+)
+from ._ship import (
+    Ship as Ship,
+    c11_representative as c11_representative,
+    load_ship as load_ship,
+    ship_from_dict as ship_from_dict,
+    ship_to_dict as ship_to_dict,
+    ship_to_toml as ship_to_toml,
+)
+from ._spectra import (
+    ITTC as ITTC,
+    JONSWAP as JONSWAP,
+    AbstractWaveSpectrum as AbstractWaveSpectrum,
+    encounter_frequency as encounter_frequency,
+    encounter_spectrum as encounter_spectrum,
+    spectral_moment as spectral_moment,
+)
+
+try:
+    __version__ = importlib.metadata.version("jaxroll")
+except importlib.metadata.PackageNotFoundError:  # pragma: no cover - running from a source tree
+    __version__ = "0.0.0+unknown"

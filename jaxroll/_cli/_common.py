@@ -1,0 +1,106 @@
+"""Helpers shared by the subcommands: atomic output files, JSON with provenance, progress, ship loading."""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import sys
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+
+class CLIError(Exception):
+    """A user error on the command line; printed as `jaxroll CMD: error: ...` with exit code 2."""
+
+
+def atomic_write_bytes(path: str | Path, data: bytes) -> None:
+    """Write `data` to `path` completely or not at all (temporary file in the same folder, then rename)."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "wb") as f:
+            f.write(data)
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def atomic_write_text(path: str | Path, text: str) -> None:
+    atomic_write_bytes(path, text.encode())
+
+
+def to_jsonable(obj: Any) -> Any:
+    """Arrays → lists, NaN/inf → null, numpy/JAX scalars → Python numbers."""
+    if isinstance(obj, dict):
+        return {str(k): to_jsonable(v) for k, v in obj.items()}
+    if isinstance(obj, list | tuple):
+        return [to_jsonable(v) for v in obj]
+    if hasattr(obj, "__array__") and not isinstance(obj, str | bytes):
+        arr = np.asarray(obj)
+        if arr.ndim == 0:
+            return to_jsonable(arr.item())
+        return to_jsonable(arr.tolist())
+    if isinstance(obj, float):
+        return obj if math.isfinite(obj) else None
+    if isinstance(obj, np.generic):
+        return to_jsonable(obj.item())
+    return obj
+
+
+def write_json(path: str | Path, payload: dict[str, Any]) -> None:
+    """Write `payload` as JSON atomically, with `jaxroll_version` first."""
+    from .. import __version__
+
+    data = {"jaxroll_version": __version__, **payload}
+    atomic_write_text(path, json.dumps(to_jsonable(data), indent=2) + "\n")
+
+
+def save_figure(fig, path: str | Path) -> None:
+    """Save a matplotlib figure atomically (PNG, 150 dpi) and close it."""
+    import io
+
+    import matplotlib.pyplot as plt
+
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=150, bbox_inches="tight")
+    plt.close(fig)
+    atomic_write_bytes(path, buf.getvalue())
+
+
+def load_ship_arg(path: str | None):
+    """The ship named on the command line, or the default C11 (representative)."""
+    from .._ship import c11_representative, load_ship
+
+    if path is None:
+        return c11_representative()
+    return load_ship(path)
+
+
+class Progress:
+    """A one-line progress display on stderr (only when stderr is a terminal, or when forced)."""
+
+    def __init__(self, total: int, label: str, *, enabled: bool | None = None):
+        self.total, self.label, self.start = total, label, time.time()
+        self.enabled = sys.stderr.isatty() if enabled is None else enabled
+        self.done = 0
+
+    def __call__(self, done: int) -> None:
+        self.done = done
+        if not self.enabled:
+            return
+        elapsed = time.time() - self.start
+        eta = elapsed / done * (self.total - done) if done else float("nan")
+        sys.stderr.write(f"\r{self.label}: {done}/{self.total} ({100 * done / self.total:5.1f} %), "
+                         f"{elapsed:6.1f} s elapsed, ~{eta:6.1f} s left ")
+        sys.stderr.flush()
+        if done >= self.total:
+            sys.stderr.write("\n")

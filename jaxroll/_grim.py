@@ -1,0 +1,103 @@
+"""Grim's effective wave: transfer function, effective-wave spectrum, and Method 1 (component superposition).
+
+ζ_G(t) is the least-squares fit of the wave profile over the hull x ∈ [−L/2, L/2] by a wave of length L with its
+crest amidships; its amplitude transfer function for a component of wave number k is
+
+    F(k) = (kL) sin(kL/2) / (π² − (kL/2)²),   F(2π/L) = 1.
+
+The roll model uses ζ_mid = −ζ_G (positive when a trough is amidships); see `jaxroll.delta_gm`.
+"""
+
+from __future__ import annotations
+
+import equinox as eqx
+import jax.numpy as jnp
+import jax.random as jr
+from jaxtyping import Array, Float, PRNGKeyArray
+
+from ._spectra import GRAVITY, AbstractWaveSpectrum, spectral_moment, wave_frequencies_from_encounter
+
+
+def grim_transfer(k, length):
+    """Grim's amplitude transfer F(k) [-] of a wave of number k [rad/m] for a hull of length L [m] (λ/L = 1)."""
+    k = jnp.asarray(k, dtype=float)
+    x = k * length / 2
+    # 2x sin x / (π² − x²) = 2x/(π + x) · sin(π − x)/(π − x): no 0/0 at λ = L.
+    return 2 * x / (jnp.pi + x) * jnp.sinc((jnp.pi - x) / jnp.pi)
+
+
+class EffectiveWave(eqx.Module):
+    """Grim's effective wave of a sea for a ship of length L at speed U, heading head/following."""
+
+    sea: AbstractWaveSpectrum
+    length: Float[Array, ""]
+    speed: Float[Array, ""]
+    heading: str = eqx.field(static=True)
+
+    def __init__(self, sea: AbstractWaveSpectrum, length, speed=0.0, heading: str = "head"):
+        """**Arguments:** `sea`: one-sided sea spectrum; `length`: L = Lpp [m]; `speed`: U [m/s] ≥ 0;
+        `heading`: `"head"` or `"following"` (long-crested)."""
+        if heading not in ("head", "following"):
+            raise ValueError(f"`heading` must be 'head' or 'following'; got {heading!r}.")
+        self.sea = sea
+        length = jnp.asarray(length, dtype=float)
+        self.length = eqx.error_if(length, ~(length > 0), "ship length must be > 0 [m].")
+        speed = jnp.asarray(speed, dtype=float)
+        self.speed = eqx.error_if(speed, ~(speed >= 0), "`speed` must be >= 0 [m/s]; use `heading` for direction.")
+        self.heading = heading
+
+    def spectrum(self, omega_e) -> Float[Array, "..."]:
+        """One-sided effective-wave spectrum S_G(ω_e) = Σ F(k)² S(ω)/|dω_e/dω| [m² s/rad] in encounter frequency."""
+        omegas, weights = wave_frequencies_from_encounter(omega_e, self.speed, self.heading)
+        f = grim_transfer(omegas**2 / GRAVITY, self.length)
+        return jnp.sum(f**2 * self.sea(omegas) * weights, axis=-1)
+
+    def variance(self) -> Float[Array, ""]:
+        """σ_G² = ∫ S_G dω_e [m²]."""
+        return spectral_moment(self.spectrum, 0)
+
+
+def _fft_length(n: int) -> int:
+    """Smallest 2^a 3^b 5^c ≥ n (fast FFT sizes)."""
+    best = 1 << (n - 1).bit_length()
+    p5 = 1
+    while p5 < 2 * n:
+        p35 = p5
+        while p35 < 2 * n:
+            m = p35
+            while m < n:
+                m *= 2
+            best = min(best, m)
+            p35 *= 3
+        p5 *= 5
+    return best
+
+
+def superposition_length(num_samples: int) -> int:
+    """FFT length M ≥ num_samples: the synthesised process has period M·dt, longer than the trial."""
+    return _fft_length(int(num_samples))
+
+
+def superpose(
+    wave: EffectiveWave, key: PRNGKeyArray, num_samples: int, dt: float
+) -> tuple[Float[Array, " num_samples"], Float[Array, " num_samples"]]:
+    """Method 1: one realization of ζ_G and dζ_G/dt on t = 0, dt, …, by component superposition (FFT).
+
+    Components sit at ω_j = 2πj/(M dt) with M ≥ `num_samples` (so the record never repeats within the trial)
+    and complex Gaussian amplitudes of variance S_G(ω_j)Δω: the realization is exactly Gaussian with the
+    discretised spectrum. Two standard normals per component.
+
+    **Returns:** `(zeta_g [m], dzeta_g [m/s])`, each of length `num_samples`.
+    """
+    m = superposition_length(num_samples)
+    domega = 2 * jnp.pi / (m * dt)
+    j = jnp.arange(m // 2 + 1)
+    omega = j * domega
+    s = wave.spectrum(omega)
+    s = s.at[0].set(0.0).at[-1].set(0.0)
+    xy = jr.normal(key, (2, m // 2 + 1))
+    coef = jnp.sqrt(s * domega) * (xy[0] + 1j * xy[1]) * (m / 2)
+    zeta = jnp.fft.irfft(coef, n=m)[:num_samples]
+    dzeta = jnp.fft.irfft(1j * omega * coef, n=m)[:num_samples]
+    return zeta, dzeta
+

@@ -1,0 +1,300 @@
+"""Monte Carlo over realizations: chunked, vmapped, keyed by realization index, reduced on the fly.
+
+Memory is bounded by `chunk_size` whatever the number of realizations; results are identical for a given seed
+whatever the chunk size (realization i always uses `fold_in(key, i)`, histogram counts are integers and
+per-realization sums are added in index order on the host).
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import jax.random as jr
+import numpy as np
+
+from ._amplitudes import (
+    hilbert_envelope,
+    histogram_counts,
+    zero_crossing_init,
+    zero_crossing_update,
+)
+from ._dynamics import FilterExcitation, RollProblem, SuperpositionExcitation, simulate
+from ._filters import FilterFit, fit_filter
+from ._grim import EffectiveWave
+from ._ship import Ship
+from ._spectra import AbstractWaveSpectrum
+
+QUANTILE_LEVELS = (0.5, 0.9, 0.99)
+
+
+def excitation_bandwidth(wave: EffectiveWave, fraction: float = 0.999) -> float:
+    """Encounter frequency [rad/s] below which `fraction` of the effective-wave variance lies."""
+    w = np.linspace(0.0, 6.0, 12001)
+    s = np.asarray(wave.spectrum(w))
+    cum = np.concatenate([[0.0], np.cumsum((s[1:] + s[:-1]) / 2 * np.diff(w))])
+    return float(np.interp(fraction * cum[-1], cum, w))
+
+
+def check_time_step(dt: float, ship: Ship, wave: EffectiveWave) -> None:
+    """Validate the time step [s] against the roll period and the excitation bandwidth.
+
+    Error when dt > Tφ/10 or ω_max·dt > 1 (RK4 loses accuracy and may go unstable); a warning when
+    dt > Tφ/40 or ω_max·dt > 0.6 (halving dt may then change the mean amplitude by more than ~1 %). ω_max is the
+    encounter frequency below which 99.9 % of the effective-wave variance lies.
+    """
+    if not (isinstance(dt, int | float) and math.isfinite(dt) and dt > 0):
+        raise ValueError(f"`dt` must be a finite number > 0 [s]; got {dt!r}.")
+    t_roll = float(ship.roll_period)
+    w_max = excitation_bandwidth(wave)
+    if dt > t_roll / 10 or w_max * dt > 1.0:
+        raise ValueError(
+            f"dt = {dt} s is too large: it must be <= Tφ/10 = {t_roll / 10:.3g} s and <= 1/ω_max = "
+            f"{1 / w_max:.3g} s (ω_max = {w_max:.3g} rad/s holds 99.9 % of the effective-wave variance). "
+            f"Use dt <= {min(t_roll / 40, 0.6 / w_max):.3g} s for ~1 % accuracy."
+        )
+    if dt > t_roll / 40 or w_max * dt > 0.6:
+        warnings.warn(
+            f"dt = {dt} s may bias the amplitudes by more than ~1 %. This warning appears because dt > Tφ/40 = "
+            f"{t_roll / 40:.3g} s or ω_max·dt > 0.6 (ω_max = {w_max:.3g} rad/s); use dt <= "
+            f"{min(t_roll / 40, 0.6 / w_max):.3g} s.",
+            stacklevel=3,
+        )
+
+
+def make_problem(
+    ship: Ship,
+    sea: AbstractWaveSpectrum,
+    *,
+    speed: float = 0.0,
+    heading: str = "head",
+    method: str = "filter",
+    dt: float = 0.5,
+    filter_order: int = 4,
+    phi0_deg: float = 5.0,
+    dphi0_deg_s: float = 0.0,
+) -> tuple[RollProblem, FilterFit | None]:
+    """Assemble a `RollProblem`: Grim's effective wave of `sea` for `ship`, excitation by `method`, initial roll.
+
+    **Arguments:** `ship`; `sea`: one-sided sea spectrum; `speed` [m/s]; `heading`: "head" | "following";
+    `method`: "filter" (Method 2, the paper's for Monte Carlo) or "superposition" (Method 1); `dt`: time step
+    [s]; `filter_order` (Method 2); `phi0_deg` [deg], `dphi0_deg_s` [deg/s]: initial condition.
+
+    **Returns:** `(problem, filter_fit)` (`filter_fit` is None for superposition).
+    """
+    if method not in ("filter", "superposition"):
+        raise ValueError(f"`method` must be 'filter' or 'superposition'; got {method!r}.")
+    for name, value in (("phi0_deg", phi0_deg), ("dphi0_deg_s", dphi0_deg_s)):
+        if not math.isfinite(value):
+            raise ValueError(f"`{name}` must be finite; got {value!r}.")
+    wave = EffectiveWave(sea, ship.lpp, speed, heading)
+    check_time_step(dt, ship, wave)
+    if method == "filter":
+        fit = fit_filter(wave, order=filter_order, match_frequency=2 * ship.omega0)
+        excitation = FilterExcitation(fit.filter, dt)
+    else:
+        fit = None
+        excitation = SuperpositionExcitation(wave, dt)
+    problem = RollProblem(ship, excitation, jnp.deg2rad(phi0_deg), jnp.deg2rad(dphi0_deg_s))
+    if abs(phi0_deg) >= float(jnp.rad2deg(problem.capsize_angle)):
+        raise ValueError(
+            f"`phi0_deg` = {phi0_deg} is beyond the angle of vanishing stability "
+            f"({float(jnp.rad2deg(problem.capsize_angle)):.1f}°)."
+        )
+    return problem, fit
+
+
+# ----------------------------------------------------------------------------------------------------------------
+# Amplitude statistics
+# ----------------------------------------------------------------------------------------------------------------
+
+
+@dataclass
+class AmplitudeStatistics:
+    """Reduced Monte Carlo statistics of roll amplitudes (host numpy arrays; angles in degrees).
+
+    `counts_*` are histograms on the fine grid `edges_deg`; per-realization arrays are in realization order.
+    Capsized realizations are excluded from every amplitude statistic and counted in `capsized`.
+    """
+
+    edges_deg: np.ndarray
+    counts_zero_crossing: np.ndarray
+    counts_envelope: np.ndarray
+    capsized: np.ndarray
+    capsize_time: np.ndarray
+    per_realization: dict[str, np.ndarray] = field(default_factory=dict)
+    config: dict = field(default_factory=dict)
+
+    @property
+    def n_realizations(self) -> int:
+        return int(self.capsized.size)
+
+    @property
+    def n_capsized(self) -> int:
+        return int(self.capsized.sum())
+
+    @property
+    def capsize_probability(self) -> float:
+        return self.n_capsized / max(self.n_realizations, 1)
+
+    def n_amplitudes(self, method: str) -> int:
+        return int(self._counts(method).sum())
+
+    def _counts(self, method: str) -> np.ndarray:
+        if method == "zero_crossing":
+            return self.counts_zero_crossing
+        if method == "envelope":
+            return self.counts_envelope
+        raise ValueError(f"`method` must be 'zero_crossing' or 'envelope'; got {method!r}.")
+
+    def mean(self, method: str) -> float:
+        """Mean amplitude [deg] (exact: from per-realization sums, not the histogram)."""
+        key = "zc" if method == "zero_crossing" else "env"
+        self._counts(method)
+        n = self.per_realization[f"n_{key}"].sum()
+        return float(np.rad2deg(self.per_realization[f"sum_{key}"].sum() / n)) if n else float("nan")
+
+    def moment(self, method: str, order: int = 2) -> float:
+        """E[Aⁿ] [rad^n] for n = 1, 2 (exact, from per-realization sums)."""
+        key = "zc" if method == "zero_crossing" else "env"
+        n = self.per_realization[f"n_{key}"].sum()
+        name = {1: "sum", 2: "sumsq"}[order]
+        return float(self.per_realization[f"{name}_{key}"].sum() / n) if n else float("nan")
+
+    def quantiles(self, method: str, levels=QUANTILE_LEVELS) -> np.ndarray:
+        """Quantiles [deg] of the amplitude (linear within the fine bins, ±half a fine bin)."""
+        counts = self._counts(method)
+        cdf = np.concatenate([[0.0], np.cumsum(counts)]) / max(counts.sum(), 1)
+        return np.interp(np.asarray(levels, dtype=float), cdf, self.edges_deg)
+
+    def pdf(self, method: str, bins_deg: np.ndarray) -> np.ndarray:
+        """Density per degree on `bins_deg` (edges that are a subset of the fine edges), integrating to 1."""
+        counts = self._counts(method)
+        cum = np.concatenate([[0.0], np.cumsum(counts)])
+        idx = np.searchsorted(self.edges_deg, bins_deg - 1e-9 * (self.edges_deg[1] - self.edges_deg[0]))
+        if not np.allclose(self.edges_deg[np.clip(idx, 0, self.edges_deg.size - 1)], bins_deg, atol=1e-9):
+            raise ValueError("`bins_deg` must be edges of the fine histogram grid (multiples of its width).")
+        binned = np.diff(cum[idx])
+        total = counts.sum()
+        return binned / max(total, 1) / np.diff(bins_deg)
+
+    def phi_moments(self) -> dict[str, float]:
+        """Time-sampled E[φ²] [rad²] and E[φ⁴] [rad⁴] over surviving realizations (after the discard)."""
+        pr = self.per_realization
+        n = pr["n_samples"].sum()
+        return {"E_phi2": float(pr["sum_phi2"].sum() / n), "E_phi4": float(pr["sum_phi4"].sum() / n)}
+
+
+def _chunk_statistics(problem, key, indices, valid, num_steps, discard_steps, width, nbins):
+    def one(i):
+        def observe(zc, k, y, alive):
+            zc, amp = zero_crossing_update(zc, y[0])
+            return zc, (y[0], amp)
+
+        _, (phi, amp), end = simulate(
+            problem, jr.fold_in(key, i), num_steps, observe, zero_crossing_init(problem.phi0)
+        )
+        return phi, amp, end
+
+    phi, amp, end = jax.vmap(one)(indices)
+    keep = valid & ~end.capsized
+    phi = phi[:, discard_steps:]
+    amp = amp[:, discard_steps:]
+    zc_w = ((amp > 0) & keep[:, None]).astype(float)
+    env = hilbert_envelope(phi)
+    env_w = jnp.broadcast_to(keep[:, None], env.shape).astype(float)
+    deg = 180 / jnp.pi
+    counts_zc = histogram_counts(amp * deg, zc_w, width, nbins)
+    counts_env = histogram_counts(env * deg, env_w, width, nbins)
+    kf = keep.astype(float)
+    per = {
+        "n_zc": jnp.sum(zc_w, 1),
+        "sum_zc": jnp.sum(zc_w * amp, 1),
+        "sumsq_zc": jnp.sum(zc_w * amp**2, 1),
+        "n_env": jnp.sum(env_w, 1),
+        "sum_env": jnp.sum(env_w * env, 1),
+        "sumsq_env": jnp.sum(env_w * env**2, 1),
+        "n_samples": kf * phi.shape[1],
+        "sum_phi2": kf * jnp.sum(phi**2, 1),
+        "sum_phi4": kf * jnp.sum(phi**4, 1),
+    }
+    return counts_zc, counts_env, end.capsized & valid, end.capsize_time, per
+
+
+_chunk_statistics_jit = eqx.filter_jit(_chunk_statistics)
+
+
+def monte_carlo_amplitudes(
+    problem: RollProblem,
+    key,
+    *,
+    num_realizations: int = 10_000,
+    duration: float = 3600.0,
+    discard: float = 0.0,
+    chunk_size: int = 1000,
+    bin_width_deg: float = 0.05,
+    max_deg: float = 90.0,
+    progress: Callable[[int], None] | None = None,
+) -> AmplitudeStatistics:
+    """Monte Carlo amplitude statistics of `problem` (the paper's MCS protocol by default).
+
+    **Arguments:**
+
+    - `problem`: from `make_problem`.
+    - `key`: a JAX PRNG key (`jax.random.key(seed)`); realization i uses `fold_in(key, i)`.
+    - `num_realizations`: trials (10⁴); `duration`: simulated time per trial [s] (3600).
+    - `discard`: initial transient excluded from the statistics [s] (0).
+    - `chunk_size`: realizations per compiled batch (bounds the memory: ~chunk·duration/dt·24 bytes).
+    - `bin_width_deg`, `max_deg`: the fine histogram grid [deg] behind every PDF and quantile.
+    - `progress`: called with the number of realizations done after each chunk.
+
+    **Returns:** `AmplitudeStatistics` (zero-crossing amplitudes per half cycle, envelope amplitudes per sample).
+    """
+    for name, value in (("num_realizations", num_realizations), ("chunk_size", chunk_size)):
+        if not (isinstance(value, int) and value > 0):
+            raise ValueError(f"`{name}` must be a positive integer; got {value!r}.")
+    if not (math.isfinite(duration) and duration > 0):
+        raise ValueError(f"`duration` must be > 0 [s]; got {duration!r}.")
+    if not (0 <= discard < duration):
+        raise ValueError(f"`discard` must be in [0, duration) = [0, {duration}) s; got {discard!r}.")
+    dt = problem.dt
+    num_steps = int(round(duration / dt))
+    discard_steps = int(round(discard / dt))
+    if num_steps - discard_steps < 16:
+        raise ValueError(f"duration − discard = {duration - discard} s leaves fewer than 16 time steps of {dt} s.")
+    nbins = int(round(max_deg / bin_width_deg))
+    chunk = min(chunk_size, num_realizations)
+    counts_zc = np.zeros(nbins)
+    counts_env = np.zeros(nbins)
+    capsized = np.zeros(num_realizations, bool)
+    capsize_time = np.full(num_realizations, np.inf)
+    per: dict[str, np.ndarray] = {}
+    for start in range(0, num_realizations, chunk):
+        idx = np.arange(start, start + chunk)
+        valid = idx < num_realizations
+        czc, cenv, cap, tcap, p = _chunk_statistics_jit(
+            problem, key, jnp.asarray(idx), jnp.asarray(valid), num_steps, discard_steps, bin_width_deg, nbins
+        )
+        n = int(valid.sum())
+        counts_zc += np.asarray(czc)
+        counts_env += np.asarray(cenv)
+        capsized[start : start + n] = np.asarray(cap)[:n]
+        capsize_time[start : start + n] = np.asarray(tcap)[:n]
+        for k, v in p.items():
+            per.setdefault(k, np.zeros(num_realizations))[start : start + n] = np.asarray(v)[:n]
+        if progress is not None:
+            progress(start + n)
+    return AmplitudeStatistics(
+        edges_deg=np.arange(nbins + 1) * bin_width_deg,
+        counts_zero_crossing=counts_zc,
+        counts_envelope=counts_env,
+        capsized=capsized,
+        capsize_time=capsize_time,
+        per_realization=per,
+        config={"num_realizations": num_realizations, "duration_s": duration, "discard_s": discard, "dt_s": dt},
+    )

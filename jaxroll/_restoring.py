@@ -1,0 +1,58 @@
+"""Restoring: the GZ polynomial, the non-memory ΔGM(ζ_mid) polynomial and the parametric term P(t)."""
+
+from __future__ import annotations
+
+import jax.numpy as jnp
+from jaxtyping import Array, Float
+
+from ._ship import Ship
+
+_ODD_POWERS = jnp.array([1, 3, 5, 7, 9])
+
+
+def restoring_moment(ship: Ship, phi) -> Float[Array, "..."]:
+    """Calm-water restoring per unit roll inertia a1φ + a3φ³ + … + a9φ⁹ [1/s²] at roll angle φ [rad]."""
+    phi = jnp.asarray(phi, dtype=float)
+    a = ship.restoring_coefficients
+    phi2 = phi * phi
+    poly = a[0] + phi2 * (a[1] + phi2 * (a[2] + phi2 * (a[3] + phi2 * a[4])))
+    return poly * phi
+
+
+def righting_lever(ship: Ship, phi) -> Float[Array, "..."]:
+    """Calm-water righting lever GZ(φ) [m] = GM0 · (restoring moment)/a1 at roll angle φ [rad]."""
+    return ship.gm0 * restoring_moment(ship, phi) / ship.omega0**2
+
+
+def vanishing_angle(ship: Ship, *, num: int = 4096) -> Float[Array, ""]:
+    """Angle of vanishing stability [rad]: the first φ > 0 where GZ returns to zero (π if it never does).
+
+    Found on a grid over (0, π] and refined by bisection; trajectories beyond it count as capsized.
+    """
+    phi = jnp.linspace(0.0, jnp.pi, num + 1)[1:]
+    gz = restoring_moment(ship, phi)
+    negative = gz <= 0
+    idx = jnp.argmax(negative)
+    found = negative[idx]
+    lo = jnp.where(idx > 0, phi[idx - 1], 0.0)
+    hi = phi[idx]
+    for _ in range(40):
+        mid = (lo + hi) / 2
+        neg = restoring_moment(ship, mid) <= 0
+        lo, hi = jnp.where(neg, lo, mid), jnp.where(neg, mid, hi)
+    return jnp.where(found, (lo + hi) / 2, jnp.pi)
+
+
+def delta_gm(ship: Ship, zeta_mid) -> Float[Array, "..."]:
+    """Non-memory GM variation ΔGM(ζ_mid) = Σ_k C_k ζ_midᵏ [m]; ζ_mid [m] > 0 when a trough is amidships."""
+    zeta_mid = jnp.asarray(zeta_mid, dtype=float)
+    c = ship.delta_gm
+    out = jnp.zeros_like(zeta_mid) + c[-1]
+    for k in range(c.size - 2, -1, -1):
+        out = out * zeta_mid + c[k]
+    return out
+
+
+def parametric_excitation(ship: Ship, zeta_g) -> Float[Array, "..."]:
+    """P(t) = r · (ω0²/GM0) · ΔGM(ζ_mid) [1/s²] from Grim's effective wave ζ_G [m] (ζ_mid = −ζ_G), r = σ_obs/σ_thr."""
+    return ship.gm_correction * ship.omega0**2 / ship.gm0 * delta_gm(ship, -jnp.asarray(zeta_g, dtype=float))
