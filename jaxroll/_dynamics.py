@@ -27,11 +27,11 @@ from ._ship import Ship
 BLOCK = 256  # time steps per noise block
 
 
-def roll_acceleration(ship: Ship, phi, dphi, p) -> Float[Array, "..."]:
-    """φ̈ [rad/s²] of the paper's equation at roll φ [rad], rate φ̇ [rad/s], parametric term P [1/s²]."""
+def roll_acceleration(ship: Ship, phi, dphi, p, m=0.0) -> Float[Array, "..."]:
+    """φ̈ [rad/s²] at roll φ [rad], rate φ̇ [rad/s], parametric term P [1/s²] and roll moment M_w [rad/s²]."""
     b1, b2, b3 = ship.damping[0], ship.damping[1], ship.damping[2]
     damping = dphi * (b1 + b2 * jnp.abs(dphi) + b3 * dphi * dphi)
-    return -damping - restoring_moment(ship, phi) - p * phi
+    return m - damping - restoring_moment(ship, phi) - p * phi
 
 
 def roll_vector_field(t, y, args):
@@ -40,16 +40,16 @@ def roll_vector_field(t, y, args):
     return jnp.stack([y[1], roll_acceleration(ship, y[0], y[1], p_of_t(t))])
 
 
-def rk4_step(ship: Ship, y, p0, pm, p1, h):
-    """One RK4 step of (φ, φ̇) over h [s] with P at the start, middle and end of the step."""
+def rk4_step(ship: Ship, y, p, m, h):
+    """One RK4 step of (φ, φ̇) over h [s]; `p`, `m` = (start, middle, end) values of P [1/s²] and M_w [rad/s²]."""
 
-    def f(y, p):
-        return jnp.stack([y[1], roll_acceleration(ship, y[0], y[1], p)])
+    def f(y, i):
+        return jnp.stack([y[1], roll_acceleration(ship, y[0], y[1], p[i], m[i])])
 
-    k1 = f(y, p0)
-    k2 = f(y + h / 2 * k1, pm)
-    k3 = f(y + h / 2 * k2, pm)
-    k4 = f(y + h * k3, p1)
+    k1 = f(y, 0)
+    k2 = f(y + h / 2 * k1, 1)
+    k3 = f(y + h / 2 * k2, 1)
+    k4 = f(y + h * k3, 2)
     return y + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
 
 
@@ -144,22 +144,42 @@ class SuperpositionExcitation(AbstractExcitation):
 
 
 class RollProblem(eqx.Module):
-    """Everything one realization needs: ship, excitation source and initial condition."""
+    """Everything one realization needs: ship, excitation source(s) and initial condition."""
 
     ship: Ship
     excitation: AbstractExcitation
     phi0: Float[Array, ""]
     dphi0: Float[Array, ""]
     capsize_angle: Float[Array, ""]
+    moment_excitation: AbstractExcitation | None
 
-    def __init__(self, ship: Ship, excitation: AbstractExcitation, phi0=jnp.deg2rad(5.0), dphi0=0.0):
-        """**Arguments:** `ship`; `excitation`: `FilterExcitation` or `SuperpositionExcitation`;
-        `phi0`: initial roll [rad] (5°, the paper's); `dphi0`: initial roll rate [rad/s]."""
+    def __init__(
+        self,
+        ship: Ship,
+        excitation: AbstractExcitation,
+        phi0=jnp.deg2rad(5.0),
+        dphi0=0.0,
+        *,
+        moment_excitation: AbstractExcitation | None = None,
+    ):
+        """**Arguments:**
+
+        - `ship`: the roll model's parameters.
+        - `excitation`: source of Grim's effective wave ζ_G [m] (`FilterExcitation`, `SuperpositionExcitation`).
+        - `phi0`: initial roll [rad] (5°, the paper's); `dphi0`: initial roll rate [rad/s].
+        - `moment_excitation`: optional source of an external roll moment per unit inertia M_w(t) [rad/s²]
+          (zero in long-crested head or following seas; used for beam-sea studies and exact test cases).
+        """
         self.ship = ship
         self.excitation = excitation
         self.phi0 = jnp.asarray(phi0, dtype=float)
         self.dphi0 = jnp.asarray(dphi0, dtype=float)
         self.capsize_angle = vanishing_angle(ship)
+        if moment_excitation is not None and moment_excitation.dt != excitation.dt:
+            raise ValueError(
+                f"`moment_excitation.dt` ({moment_excitation.dt}) must equal `excitation.dt` ({excitation.dt})."
+            )
+        self.moment_excitation = moment_excitation
 
     @property
     def dt(self) -> float:
@@ -182,33 +202,49 @@ def simulate(problem: RollProblem, key: PRNGKeyArray, num_steps: int, observe, o
 
     **Returns:** `(obs_state, outputs, RealizationEnd)`.
     """
-    ship, exc, h = problem.ship, problem.excitation, problem.dt
+    ship, h = problem.ship, problem.dt
+    sources = [problem.excitation]
+    if problem.moment_excitation is not None:
+        sources.append(problem.moment_excitation)
+    keys = [key, jr.fold_in(key, 0x7FFFFFFE)]
     num_blocks = -(-num_steps // BLOCK)
-    exc_state, zeta0, dzeta0 = exc.init(key, num_steps)
+    inits = [src.init(k, num_steps) for src, k in zip(sources, keys, strict=False)]
+    src_states = tuple(i[0] for i in inits)
+    x0 = jnp.stack([i[1] for i in inits])
+    dx0 = jnp.stack([i[2] for i in inits])
     y0 = jnp.stack([problem.phi0, problem.dphi0])
-    pe = lambda z: parametric_excitation(ship, z)
+
+    def forcing(x0, dx0, x1, dx1):
+        xm = (x0 + x1) / 2 + h * (dx0 - dx1) / 8  # cubic Hermite midpoint
+        p = parametric_excitation(ship, jnp.stack([x0[0], xm[0], x1[0]]))
+        m = jnp.stack([x0[1], xm[1], x1[1]]) if len(sources) > 1 else jnp.zeros(3)
+        return p, m
 
     def step(carry, inp):
-        y, zeta, dzeta, alive, k_cap, obs, k = carry
-        zeta1, dzeta1 = inp
-        zm = (zeta + zeta1) / 2 + h * (dzeta - dzeta1) / 8
-        y1 = rk4_step(ship, y, pe(zeta), pe(zm), pe(zeta1), h)
+        y, x, dx, alive, k_cap, obs, k = carry
+        x1, dx1 = inp
+        y1 = rk4_step(ship, y, *forcing(x, dx, x1, dx1), h)
         ok = jnp.all(jnp.isfinite(y1)) & (jnp.abs(y1[0]) < problem.capsize_angle)
         newly = alive & ~ok
         k_cap = jnp.where(newly, k + 1, k_cap)
         alive = alive & ok
         y1 = jnp.where(alive, y1, y)
         obs, out = observe(obs, k + 1, y1, alive)
-        return (y1, zeta1, dzeta1, alive, k_cap, obs, k + 1), out
+        return (y1, x1, dx1, alive, k_cap, obs, k + 1), out
 
     def block(carry, index):
-        exc_state, inner = carry
-        exc_state, zetas, dzetas = exc.block(key, exc_state, index)
-        inner, outs = jax.lax.scan(step, inner, (zetas, dzetas))
-        return (exc_state, inner), outs
+        src_states, inner = carry
+        new_states, xs, dxs = [], [], []
+        for src, st, k in zip(sources, src_states, keys, strict=False):
+            st, x, dx = src.block(k, st, index)
+            new_states.append(st)
+            xs.append(x)
+            dxs.append(dx)
+        inner, outs = jax.lax.scan(step, inner, (jnp.stack(xs, -1), jnp.stack(dxs, -1)))
+        return (tuple(new_states), inner), outs
 
-    inner0 = (y0, zeta0, dzeta0, jnp.array(True), jnp.array(-1), obs_state, jnp.array(0))
-    (_, inner), outs = jax.lax.scan(block, (exc_state, inner0), jnp.arange(num_blocks))
+    inner0 = (y0, x0, dx0, jnp.array(True), jnp.array(-1), obs_state, jnp.array(0))
+    (_, inner), outs = jax.lax.scan(block, (src_states, inner0), jnp.arange(num_blocks))
     _, _, _, alive, k_cap, obs_state, _ = inner
     outs = jax.tree_util.tree_map(lambda o: o.reshape(num_blocks * BLOCK, *o.shape[2:])[:num_steps], outs)
     end = RealizationEnd(~alive, jnp.where(alive, jnp.inf, k_cap * h))

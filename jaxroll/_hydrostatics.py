@@ -347,7 +347,23 @@ def _integrals(hull: Hull, heel, sinkage, trim, zeta_mid, wavelength) -> _Integr
     )
 
 
-def immersed_volume(
+class Buoyancy(eqx.Module):
+    """Volume and centre of buoyancy of the hull at a given waterline (no balance)."""
+
+    volume: Float[Array, ""]
+    lcb: Float[Array, ""]
+    horizontal_centre: Float[Array, ""]
+    vertical_centre: Float[Array, ""]
+
+
+Buoyancy.__init__.__doc__ = """Fields: `volume` ∇ [m³]; `lcb` [m] from the AP; `horizontal_centre` [m]: horizontal
+distance of B to starboard of the baseline point on the centre plane (= TCB upright, and GZ + KG sin φ when heeled);
+`vertical_centre` [m]: earth-vertical height of B above that point (= KB upright).
+"""
+
+
+@eqx.filter_jit
+def buoyancy(
     hull: Hull,
     sinkage: ArrayLike,
     *,
@@ -355,19 +371,27 @@ def immersed_volume(
     heel: ArrayLike = 0.0,
     zeta_mid: ArrayLike = 0.0,
     wavelength: ArrayLike | None = None,
-) -> Float[Array, ""]:
-    """Immersed volume ∇ [m³] at a given waterline (no balance).
+) -> Buoyancy:
+    """Immersed volume and centre of buoyancy at a prescribed waterline (sinkage, trim, heel held, no balance).
 
     **Arguments:**
 
     - `hull`: the hull.
-    - `sinkage`: draught amidships [m] (earth-vertical, to the calm-water level of the wave).
+    - `sinkage`: draught amidships [m] (earth-vertical, to the mean level of the wave).
     - `trim`: d_FP − d_AP [m], positive by the head.
     - `heel`: φ [rad], positive to starboard.
-    - `zeta_mid`: wave amplitude [m] (> 0: trough amidships); `wavelength`: λ [m], default Lpp.
+    - `zeta_mid`: wave amplitude at amidships [m] (> 0: trough); `wavelength`: λ [m], default Lpp.
+
+    **Returns:** a [`Buoyancy`][] (scalars).
     """
     f = lambda a: jnp.asarray(a, dtype=float)
-    return _integrals(hull, f(heel), f(sinkage), f(trim), f(zeta_mid), wavelength).volume
+    ints = _integrals(hull, f(heel), f(sinkage), f(trim), f(zeta_mid), wavelength)
+    return Buoyancy(
+        volume=ints.volume,
+        lcb=ints.moment_x / ints.volume,
+        horizontal_centre=ints.moment_u / ints.volume,
+        vertical_centre=ints.moment_vertical / ints.volume,
+    )
 
 
 # ----------------------------------------------------------------------------------------------------------------
@@ -605,6 +629,13 @@ def _check_result(result, throw: bool, what: str):
     )
 
 
+def _equilibrium_batch(hull, loading, heel, zeta_mid, wavelength) -> Equilibrium:
+    """Balances at 1-D arrays of heels and amplitudes, one vmapped Newton solve (no throwing)."""
+    guess = jnp.stack([loading.draught, jnp.zeros_like(loading.draught)])
+    fn = lambda p, z: _equilibrium_single(hull, loading, p, z, wavelength, guess)
+    return jax.vmap(fn)(heel, zeta_mid)
+
+
 @eqx.filter_jit
 def equilibrium(
     hull: Hull,
@@ -628,9 +659,7 @@ def equilibrium(
     **Returns:** an [`Equilibrium`][] with the broadcast shape of `heel` and `zeta_mid`.
     """
     heel, zeta_mid = jnp.broadcast_arrays(jnp.asarray(heel, dtype=float), jnp.asarray(zeta_mid, dtype=float))
-    guess = jnp.stack([loading.draught, jnp.asarray(0.0)])
-    fn = lambda p, z: _equilibrium_single(hull, loading, p, z, wavelength, guess)
-    flat = jax.vmap(fn)(heel.ravel(), zeta_mid.ravel())
+    flat = _equilibrium_batch(hull, loading, heel.ravel(), zeta_mid.ravel(), wavelength)
     out = jax.tree_util.tree_map(lambda a: a.reshape(heel.shape + a.shape[1:]), flat)
     result = _check_result(out.result, throw, "this heel / wave")
     return eqx.tree_at(lambda e: e.result, out, result)
@@ -777,10 +806,14 @@ def hydrostatic_particulars(
     BM = KM − KB with KM = KG + GM, GM from [`metacentric_height`][] (so in calm water BM = I_T/∇ exactly).
     """
     zeta = jnp.asarray(zeta_mid, dtype=float)
+    eq = equilibrium(hull, loading, heel=jnp.zeros(()), zeta_mid=zeta, wavelength=wavelength, throw=throw)
+    gm = _gm_at(hull, loading, eq.sinkage, eq.trim, zeta, wavelength)
+    return _particulars(hull, loading, eq, gm, zeta, wavelength)
+
+
+def _particulars(hull, loading, eq: Equilibrium, gm, zeta, wavelength) -> Particulars:
     zero = jnp.zeros(())
-    eq = equilibrium(hull, loading, heel=zero, zeta_mid=zeta, wavelength=wavelength, throw=throw)
     s, t = eq.sinkage, eq.trim
-    gm = _gm_at(hull, loading, s, t, zeta, wavelength)
     km = gm + loading.kg
 
     def vol_mx(y):
@@ -791,21 +824,19 @@ def hydrostatic_particulars(
     awp = jac[0, 0]
     lcf = jac[1, 0] / awp
     xm, lpp = hull.amidships, hull.lpp
-    # ∂∫xA/∂trim = ∫ b x (x − xm) dx / L; ∂∇/∂trim = ∫ b (x − xm) dx / L.
+    # ∂∫xA/∂trim = ∫ b x (x − xm) dx / L and ∂∇/∂trim = ∫ b (x − xm) dx / L, b the waterline breadth.
     i_xm = lpp * (jac[1, 1] - xm * jac[0, 1])  # ∫ b (x − xm)² dx
     i_l = i_xm - awp * (lcf - xm) ** 2
     bm_l = i_l / eq.volume
 
     ys, zs = _section_polygons(hull)
     h = s + t * (hull.stations - xm) / lpp + wave_elevation(hull, zeta, wavelength)
-    breadth_wl = jax.jacfwd(lambda hh: _immersed_section_moments(ys, zs, zero, hh)[0])(h)
-    b_wl = jnp.max(jnp.diag(breadth_wl))
-    area = _immersed_section_moments(ys, zs, zero, h)[0]
+    area, breadth = jax.jvp(lambda hh: _immersed_section_moments(ys, zs, zero, hh)[0], (h,), (jnp.ones_like(h),))
+    b_wl = jnp.max(breadth)
     a_mid = jnp.interp(xm, hull.stations, area)
     cb = eq.volume / (lpp * b_wl * s)
     cm = a_mid / (b_wl * s)
     kb = eq.vertical_centre_of_buoyancy
-    result = _check_result(eq.result, throw, "the upright condition")
     return Particulars(
         displacement=eq.volume * loading.water_density,
         volume=eq.volume,
@@ -829,7 +860,7 @@ def hydrostatic_particulars(
         midship_coefficient=cm,
         prismatic_coefficient=cb / cm,
         waterplane_coefficient=awp / (lpp * b_wl),
-        result=result,
+        result=eq.result,
     )
 
 
@@ -970,20 +1001,30 @@ def default_heel_grid(heel_max: float = _DEFAULT_HEEL_MAX, n: int = _DEFAULT_N_H
 @eqx.filter_jit
 def _hydrostatics_core(hull, loading, zeta, heels, wavelength, throw):
     lam = hull.lpp if wavelength is None else jnp.asarray(wavelength, dtype=float)
-    particulars = hydrostatic_particulars(hull, loading, wavelength=lam, throw=throw)
+    nz, nh = zeta.shape[0], heels.shape[0]
     zz, pp = jnp.meshgrid(zeta, heels, indexing="ij")
-    table = equilibrium(hull, loading, heel=pp, zeta_mid=zz, wavelength=lam, throw=False)
-    calm = equilibrium(hull, loading, heel=heels, zeta_mid=jnp.zeros_like(heels), wavelength=lam, throw=False)
-    upright = equilibrium(hull, loading, heel=jnp.zeros_like(zeta), zeta_mid=zeta, wavelength=lam, throw=False)
-    gm = jax.vmap(lambda s, t, z: _gm_at(hull, loading, s, t, z, lam))(upright.sinkage, upright.trim, zeta)
-    delta_gm = gm - particulars.gm
-    g, g_rms = fit_gz_polynomial(heels, calm.gz, particulars.gm)
+    # One batch of balances: the table, the calm GZ curve, the upright wave conditions, and calm upright.
+    all_heel = jnp.concatenate([pp.ravel(), heels, jnp.zeros(nz + 1)])
+    all_zeta = jnp.concatenate([zz.ravel(), jnp.zeros(nh), zeta, jnp.zeros(1)])
+    eqs = _equilibrium_batch(hull, loading, all_heel, all_zeta, lam)
+    pick = lambda lo, hi: jax.tree_util.tree_map(lambda a: a[lo:hi], eqs)
+    table = jax.tree_util.tree_map(lambda a: a.reshape(nz, nh), pick(0, nz * nh))
+    calm = pick(nz * nh, nz * nh + nh)
+    upright = pick(nz * nh + nh, nz * nh + nh + nz + 1)
+    gms = jax.vmap(lambda s, t, z: _gm_at(hull, loading, s, t, z, lam))(
+        upright.sinkage, upright.trim, upright.zeta_mid
+    )
+    gm, gm0 = gms[:nz], gms[nz]
+    calm_upright = jax.tree_util.tree_map(lambda a: a[nz], upright)
+    particulars = _particulars(hull, loading, calm_upright, gm0, jnp.zeros(()), lam)
+    delta_gm = gm - gm0
+    g, g_rms = fit_gz_polynomial(heels, calm.gz, gm0)
     c, c_rms = fit_delta_gm_polynomial(zeta, delta_gm)
-    converged = table.converged & calm.converged[None, :] & upright.converged[:, None]
+    converged = table.converged & calm.converged[None, :] & jnp.all(upright.converged)
     result = optx.RESULTS.where(jnp.all(converged), optx.RESULTS.successful, optx.RESULTS.nonlinear_divergence)
     result = _check_result(result, throw, "at least one (ζ_mid, φ) of the table")
-    vol_err = jnp.max(jnp.abs(jnp.concatenate([table.volume.ravel(), calm.volume, upright.volume]) / loading.volume - 1))
-    lcb_err = jnp.max(jnp.abs(jnp.concatenate([table.lcb.ravel(), calm.lcb, upright.lcb]) - loading.lcg))
+    vol_err = jnp.max(jnp.abs(eqs.volume / loading.volume - 1))
+    lcb_err = jnp.max(jnp.abs(eqs.lcb - loading.lcg))
     return HydrostaticsSolution(
         particulars=particulars,
         zeta_mid=zeta,
@@ -1127,7 +1168,7 @@ def ship_from_hydrostatics(
         damping=np.asarray(damping, dtype=float),
         delta_gm=np.asarray(solution.delta_gm_coefficients),
         gm_correction=gm_correction,
-        name=name if name is not None else f"{hull.name} (hull-derived)",
+        name=name if name is not None else f"{hull.name}, hull-derived",
         provenance=provenance
         if provenance is not None
         else (
@@ -1313,34 +1354,53 @@ def loading_from_dict(hull: Hull, loading: Mapping[str, float], **overrides) -> 
     return loading_condition(hull, **values)
 
 
-def hull_to_dict(hull: Hull, loading: Mapping[str, float] | None = None, *, digits: int = 4) -> dict[str, Any]:
-    """The hull-file dictionary of `hull` (offsets rounded to `digits` decimals of a metre)."""
-    r = lambda v: round(float(v), digits)
-    out: dict[str, Any] = {"name": hull.name}
-    if hull.provenance:
-        out["provenance"] = hull.provenance
-    out["hull"] = {
-        "lpp_m": r(hull.lpp),
-        "depth_m": r(hull.depth),
-        "station_origin": "ap",
-        "stations_m": [r(v) for v in np.asarray(hull.stations)],
-        "waterlines_m": [r(v) for v in np.asarray(hull.waterlines)],
-        "half_breadths_m": [[r(v) for v in row] for row in np.asarray(hull.half_breadths)],
-    }
-    if loading:
-        out["loading"] = {k: float(v) for k, v in loading.items()}
-    return out
+def _fmt(v: float, digits: int) -> str:
+    r = round(float(v), digits)
+    return repr(r + 0.0)  # + 0.0 turns -0.0 into 0.0
 
 
-def hull_to_toml(hull: Hull, loading: Mapping[str, float] | None = None, *, header: str = "") -> str:
-    """The hull file text (TOML) of `hull`, with an optional `[loading]` table and a comment header."""
+def hull_to_toml(
+    hull: Hull, loading: Mapping[str, float] | None = None, *, header: str = "", digits: int = 4
+) -> str:
+    """The hull file text (TOML) of `hull`: one offsets row per line, with an optional `[loading]` table.
+
+    **Arguments:**
+
+    - `hull`: the hull. `loading`: `[loading]` keys (`kg_m`, `draught_m` or `displacement_kg`, `lcg_m`,
+        `water_density_kg_m3`) to store with it, or None.
+    - `header`: comment lines put at the top of the file.
+    - `digits`: decimals of a metre kept in the offsets (4: 0.1 mm).
+    """
     import tomli_w
 
-    head = "".join(f"# {line}\n".replace("# \n", "#\n") for line in header.splitlines()) if header else ""
-    head += "# jaxroll hull file: full scale, SI units. Format: docs/hydrostatics.md\n"
-    body = tomli_w.dumps(hull_to_dict(hull, loading))
-    # One offsets row per line keeps the table readable and diffable.
-    return head + body
+    lines = [f"# {line}".rstrip() for line in header.splitlines()] if header else []
+    lines.append("# jaxroll hull file: full scale, SI units. Format: docs/hydrostatics.md")
+    meta = {"name": hull.name, **({"provenance": hull.provenance} if hull.provenance else {})}
+    lines.append(tomli_w.dumps(meta).rstrip())
+    f = lambda v: _fmt(v, digits)
+    stations, waterlines = np.asarray(hull.stations), np.asarray(hull.waterlines)
+
+    def wrapped(values, per_line=10):
+        chunks = [", ".join(f(v) for v in values[i : i + per_line]) for i in range(0, len(values), per_line)]
+        return "[\n" + "".join(f"    {c},\n" for c in chunks) + "]"
+
+    lines += [
+        "",
+        "[hull]",
+        f"lpp_m = {f(hull.lpp)}",
+        f"depth_m = {f(hull.depth)}",
+        'station_origin = "ap"  # stations are x [m] from the aft perpendicular, positive forward',
+        f"stations_m = {wrapped(stations)}",
+        f"waterlines_m = {wrapped(waterlines)}  # z [m] above the baseline",
+        "# half-breadths y [m]: one row per station, one column per waterline",
+        "half_breadths_m = [",
+    ]
+    for x, row in zip(stations, np.asarray(hull.half_breadths)):
+        lines.append(f"    [{', '.join(f(v) for v in row)}],  # x = {f(x)} m")
+    lines.append("]")
+    if loading:
+        lines += ["", "[loading]", tomli_w.dumps({k: float(v) for k, v in loading.items()}).rstrip()]
+    return "\n".join(lines) + "\n"
 
 
 # ----------------------------------------------------------------------------------------------------------------
@@ -1412,7 +1472,8 @@ def _c11_half_breadth(xi: np.ndarray, z: np.ndarray, p: Mapping[str, float]) -> 
     # Forebody waterlines: y/b2 = 1 − ((ξ − ξf)/(ξstem − ξf))^pf, fuller (flared) higher up; raked stem.
     xi_f = p["xi_fwd"]
     stem = 1.0 + p["stem_rake"] * above
-    pf = p["pf_keel"] + (p["pf_wl"] - p["pf_keel"]) * np.clip(tz, 0.0, 1.0) + (p["pf_deck"] - p["pf_wl"]) * above
+    rise = np.clip(tz, 0.0, 1.0) ** p["section_power"]
+    pf = p["pf_keel"] + (p["pf_wl"] - p["pf_keel"]) * rise + (p["pf_deck"] - p["pf_wl"]) * above
     sf = np.clip((xi - xi_f) / (stem - xi_f), 0.0, 1.0)
     fwd = 1.0 - sf**pf
     # Afterbody waterlines end at the transom (ξ = ξT) above its lower edge zT with breadth ratio τ(z); below zT
@@ -1422,7 +1483,7 @@ def _c11_half_breadth(xi: np.ndarray, z: np.ndarray, p: Mapping[str, float]) -> 
     tau = p["transom_ratio"] * np.sqrt(s_t)
     low = np.clip(z / z_t, 0.0, 1.0)
     xi_end = np.where(z >= z_t, xi_t, p["xi_run_keel"] + (xi_t - p["xi_run_keel"]) * low**p["run_shape"])
-    pa = p["pa_keel"] + (p["pa_deck"] - p["pa_keel"]) * np.clip(z / depth, 0.0, 1.0)
+    pa = p["pa_keel"] + (p["pa_wl"] - p["pa_keel"]) * rise + (p["pa_deck"] - p["pa_wl"]) * above
     sa = np.clip((xi_a - xi) / (xi_a - xi_end), 0.0, None)
     aft = np.where(sa <= 1.0, tau + (1 - tau) * (1 - np.clip(sa, 0.0, 1.0) ** pa), 0.0)
     shape = np.where(xi > xi_f, fwd, np.where(xi < xi_a, aft, 1.0))
@@ -1431,20 +1492,22 @@ def _c11_half_breadth(xi: np.ndarray, z: np.ndarray, p: Mapping[str, float]) -> 
 
 
 C11_SHAPE = dict(
-    bilge_radius=3.0,
-    xi_fwd=0.52,
+    bilge_radius=5.0,
+    xi_fwd=0.50,
     stem_rake=0.03,
-    pf_keel=1.45,
-    pf_wl=1.85,
-    pf_deck=3.2,
-    xi_aft=0.40,
+    pf_keel=0.4,
+    pf_wl=1.8,
+    pf_deck=6.0,
+    xi_aft=0.38,
     xi_transom=-0.02,
-    z_transom=12.5,
-    transom_ratio=0.8,
-    xi_run_keel=0.06,
+    z_transom=12.0,
+    transom_ratio=0.9,
+    xi_run_keel=0.12,
     run_shape=1.5,
-    pa_keel=1.5,
-    pa_deck=2.6,
+    pa_keel=0.6,
+    pa_wl=2.3,
+    pa_deck=3.5,
+    section_power=1.0,
 )
 """Shape parameters of the representative C11-like hull (see `c11_like_offsets`)."""
 
@@ -1475,6 +1538,49 @@ def c11_like_offsets(**shape: float) -> tuple[np.ndarray, np.ndarray, np.ndarray
     z = np.unique(z)
     y = _c11_half_breadth(xi, z, p)
     return xi * lpp, z, y
+
+
+def c11_like_hull(**shape: float) -> Hull:
+    """The representative C11-like hull straight from the formula of [`c11_like_offsets`][] (not rounded)."""
+    x, z, y = c11_like_offsets(**shape)
+    return Hull(
+        stations=x,
+        waterlines=z,
+        half_breadths=y,
+        lpp=C11_PARTICULARS["lpp"],
+        depth=C11_PARTICULARS["depth"],
+        name="C11-like hull (representative)",
+        provenance=C11_HULL_NOTE,
+    )
+
+
+C11_GM0 = 1.9299
+"""GM0 [m] of the default ship (Table 1); the shipped hull's KG is chosen to give it at d = 11.5 m."""
+
+
+def write_c11_hull_file(path: str | Path | None = None) -> Path:
+    """(Re)generate `jaxroll/data/c11_hull.toml` from [`c11_like_offsets`][], with KG giving GM0 = 1.9299 m.
+
+    **Returns:** the path written.
+    """
+    path = _c11_hull_path() if path is None else Path(path)
+    draft = c11_like_hull()
+    # Round-trip through the file format first, so that KG is computed for the offsets actually stored.
+    text = hull_to_toml(draft)
+    hull, _ = hull_from_dict(tomllib.loads(text), source=str(path))
+    kg = round(float(kg_for_gm(hull, C11_GM0, draught=C11_PARTICULARS["draught"])), 4)
+    loading = {"draught_m": C11_PARTICULARS["draught"], "kg_m": kg, "water_density_kg_m3": SEAWATER_DENSITY}
+    header = (
+        "REPRESENTATIVE C11-like hull, NOT the real C11 lines (which are unpublished).\n"
+        "Generated by jaxroll._hydrostatics.write_c11_hull_file() from the parametric formula of\n"
+        "jaxroll._hydrostatics.c11_like_offsets (see docs/hydrostatics.md): Lpp 262 m, B 40 m, D 24.45 m,\n"
+        "d 11.5 m (paper's Table 1), flat bottom with 5 m bilge radius, flared bow with raked stem, wide transom\n"
+        "aft of the AP. At d = 11.5 m, rho = 1025 kg/m3: displacement ~6.82e7 kg, Cb ~0.552 (Table 1: 6.7247e7 kg,\n"
+        "0.56, which are mutually consistent only at rho = 1000). KG below gives GM0 = 1.9299 m."
+    )
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(hull_to_toml(hull, loading, header=header))
+    return path
 
 
 def c11_hull() -> Hull:

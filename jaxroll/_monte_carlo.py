@@ -183,10 +183,32 @@ class AmplitudeStatistics:
         total = counts.sum()
         return binned / max(total, 1) / np.diff(bins_deg)
 
+    def summary(self, bins_deg) -> dict:
+        """The amplitude statistics as plain numbers on `bins_deg` (the `pdf.json` fields; angles in degrees)."""
+        bins_deg = np.asarray(bins_deg, dtype=float)
+        out: dict = {"bins_deg": bins_deg}
+        for method in ("zero_crossing", "envelope"):
+            out[f"pdf_{method}"] = self.pdf(method, bins_deg)
+        labels = {"zero_crossing": "per half cycle", "envelope": "per time sample"}
+        out["amplitude_sampling"] = labels
+        out["n_amplitudes"] = {m: self.n_amplitudes(m) for m in labels}
+        out["mean_amplitude_deg"] = {m: self.mean(m) for m in labels}
+        out["quantiles_deg"] = {
+            m: {f"{int(q * 100)}": float(v) for q, v in zip(QUANTILE_LEVELS, self.quantiles(m), strict=True)}
+            for m in labels
+        }
+        out["n_realizations"] = self.n_realizations
+        out["n_capsized"] = self.n_capsized
+        out["capsize_probability"] = self.capsize_probability
+        out["roll_moments"] = self.phi_moments()
+        return out
+
     def phi_moments(self) -> dict[str, float]:
         """Time-sampled E[φ²] [rad²] and E[φ⁴] [rad⁴] over surviving realizations (after the discard)."""
         pr = self.per_realization
         n = pr["n_samples"].sum()
+        if n == 0:
+            return {"E_phi2": float("nan"), "E_phi4": float("nan")}
         return {"E_phi2": float(pr["sum_phi2"].sum() / n), "E_phi4": float(pr["sum_phi4"].sum() / n)}
 
 

@@ -1,0 +1,80 @@
+"""Command-line options shared by every subcommand that simulates a sea state."""
+
+from __future__ import annotations
+
+import argparse
+import math
+
+from ._common import CLIError
+
+
+def add_sea_options(p: argparse.ArgumentParser) -> None:
+    """--hs --t01 --speed --heading --ship --dt --method --filter-order --seed."""
+    g = p.add_argument_group("sea state and ship (full scale)")
+    g.add_argument("--hs", type=float, default=7.0, help="significant wave height H1/3 [m] (default 7)")
+    g.add_argument("--t01", type=float, default=10.0, help="mean wave period T01 [s] (default 10)")
+    g.add_argument("--speed", type=float, default=0.0, help="ship speed [m/s] (default 0)")
+    g.add_argument("--heading", choices=("head", "following"), default="head", help="long-crested waves from")
+    g.add_argument("--ship", metavar="FILE", default=None, help="ship file (TOML); default: C11 (representative)")
+    n = p.add_argument_group("numerics")
+    n.add_argument("--dt", type=float, default=0.5, help="time step [s] (default 0.5)")
+    n.add_argument(
+        "--method",
+        choices=("filter", "superposition"),
+        default="filter",
+        help="effective wave: Method 2 shaping filter (paper's MCS, default) or Method 1 superposition",
+    )
+    n.add_argument("--filter-order", type=int, default=4, help="order of the Method-2 filter (default 4)")
+    n.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+
+
+def check_positive(args, *names: str) -> None:
+    """Raise CLIError unless every named option is a finite number > 0."""
+    for name in names:
+        value = getattr(args, name)
+        if not (math.isfinite(value) and value > 0):
+            raise CLIError(f"--{name.replace('_', '-')} must be a finite number > 0; got {value}.")
+
+
+def sea_config(args, ship) -> dict:
+    """The sea/numerics part of a run's configuration, for JSON provenance."""
+    from .. import ship_to_dict
+    from .._ship import DEFAULT_SHIP_NOTE
+
+    cfg = {
+        "sea": {"spectrum": "ITTC", "hs_m": args.hs, "t01_s": args.t01},
+        "speed_m_s": args.speed,
+        "heading": args.heading,
+        "ship": ship_to_dict(ship),
+        "ship_file": args.ship,
+        "dt_s": args.dt,
+        "method": args.method,
+        "filter_order": args.filter_order,
+        "seed": args.seed,
+    }
+    if args.ship is None:
+        cfg["ship_note"] = DEFAULT_SHIP_NOTE
+    return cfg
+
+
+def build_problem(args, ship, *, phi0_deg: float = 5.0):
+    """make_problem from the parsed options. **Returns:** `(problem, filter_fit, sea)`."""
+    from .. import ITTC, make_problem
+
+    check_positive(args, "hs", "t01", "dt")
+    if not (math.isfinite(args.speed) and args.speed >= 0):
+        raise CLIError(f"--speed must be >= 0 [m/s] (use --heading for direction); got {args.speed}.")
+    if args.method == "filter" and args.filter_order < 3:
+        raise CLIError(f"--filter-order must be >= 3 (4 recommended); got {args.filter_order}.")
+    sea = ITTC(args.hs, args.t01)
+    problem, fit = make_problem(
+        ship,
+        sea,
+        speed=args.speed,
+        heading=args.heading,
+        method=args.method,
+        dt=args.dt,
+        filter_order=args.filter_order,
+        phi0_deg=phi0_deg,
+    )
+    return problem, fit, sea

@@ -1,0 +1,113 @@
+"""Paper-style figures (the only module of the numerical package that imports matplotlib).
+
+Colours follow the paper: Monte Carlo / experiment zero-crossing amplitudes black dots, envelope red dots;
+theories as lines — Roberts blue, ESAM yellow, moment method purple. When an experiment is shown, the Monte
+Carlo dots turn green (filled: zero-crossing, open: envelope).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt
+import numpy as np
+
+THEORY_COLOURS = {"roberts": "tab:blue", "esam": "gold", "moment": "purple"}
+THEORY_LABELS = {"roberts": "Roberts (SAM)", "esam": "ESAM", "moment": "moment method"}
+
+
+@dataclass
+class Curve:
+    """One curve of an amplitude-PDF figure: density per degree on bin centres or a grid."""
+
+    x_deg: np.ndarray
+    density: np.ndarray
+    label: str
+    style: str = "dots"  # "dots", "open" or "line"
+    color: str = "k"
+
+
+def amplitude_curves(summary: dict, *, experiment: dict | None = None) -> list[Curve]:
+    """Curves of a `pdf.json`-like summary: Monte Carlo, optional experiment, and every theory present."""
+    edges = np.asarray(summary["bins_deg"], dtype=float)
+    centres = (edges[1:] + edges[:-1]) / 2
+    curves = []
+    mc_colours = ("tab:green", "tab:green") if experiment else ("k", "tab:red")
+    styles = ("dots", "open") if experiment else ("dots", "dots")
+    for (key, name), colour, style in zip(
+        (("pdf_zero_crossing", "zero-crossing"), ("pdf_envelope", "envelope")), mc_colours, styles, strict=True
+    ):
+        if summary.get(key) is not None:
+            curves.append(Curve(centres, np.asarray(summary[key], float), f"MCS {name}", style, colour))
+    if experiment:
+        for key, name, colour in (("pdf_zero_crossing", "zero-crossing", "k"), ("pdf_envelope", "envelope", "tab:red")):
+            if experiment.get(key) is not None:
+                curves.append(Curve(centres, np.asarray(experiment[key], float), f"experiment {name}", "dots", colour))
+    for method, result in (summary.get("theory") or {}).items():
+        label = THEORY_LABELS.get(method, method)
+        if result.get("estimator"):
+            label += f" ({result['estimator'].replace('_', '-')})"
+        curves.append(Curve(centres, np.asarray(result["pdf"], float), label, "line", THEORY_COLOURS.get(method, "c")))
+    return curves
+
+
+def plot_amplitude_pdf(curves: Sequence[Curve], *, log: bool = False, ax=None, title: str | None = None):
+    """Draw amplitude PDFs [1/deg] against amplitude [deg]; `log=True` gives the paper's semi-log tail view.
+
+    **Returns:** the matplotlib `Axes`.
+    """
+    if ax is None:
+        _, ax = plt.subplots(figsize=(6.0, 4.2))
+    ymax = 0.0
+    for c in curves:
+        y = np.where(c.density > 0, c.density, np.nan) if log else c.density
+        if c.style == "line":
+            ax.plot(c.x_deg, y, "-", color=c.color, lw=1.8, label=c.label)
+        else:
+            face = "none" if c.style == "open" else c.color
+            ax.plot(c.x_deg, y, "o", ms=3.5, mfc=face, mec=c.color, label=c.label)
+        if np.any(np.isfinite(c.density)):
+            ymax = max(ymax, float(np.nanmax(c.density)))
+    ax.set_xlabel("roll amplitude [deg]")
+    ax.set_ylabel("probability density [1/deg]")
+    if log:
+        ax.set_yscale("log")
+        positive = [np.nanmin(np.where(c.density > 0, c.density, np.nan)) for c in curves if np.any(c.density > 0)]
+        if positive and ymax > 0:
+            ax.set_ylim(max(min(positive) / 2, ymax * 1e-7), ymax * 2)
+    else:
+        ax.set_ylim(0, ymax * 1.1 if ymax > 0 else 1)
+    ax.set_xlim(left=0)
+    ax.grid(True, alpha=0.3, which="both" if log else "major")
+    ax.legend(fontsize=8)
+    if title:
+        ax.set_title(title, fontsize=9)
+    return ax
+
+
+def amplitude_pdf_figures(summary: dict, *, experiment: dict | None = None, title: str | None = None):
+    """Linear and log figures of a `pdf.json`-like summary. **Returns:** `(fig_linear, fig_log)`."""
+    curves = amplitude_curves(summary, experiment=experiment)
+    figs = []
+    for log in (False, True):
+        fig, ax = plt.subplots(figsize=(6.0, 4.2))
+        plot_amplitude_pdf(curves, log=log, ax=ax, title=title)
+        figs.append(fig)
+    return figs[0], figs[1]
+
+
+def plot_spectrum(omega, values, *, ax=None, label=None, **kwargs):
+    """Plot a one-sided spectrum [m² s/rad] against frequency [rad/s]. **Returns:** the `Axes`."""
+    if ax is None:
+        _, ax = plt.subplots(figsize=(6.0, 4.0))
+    ax.plot(np.asarray(omega), np.asarray(values), label=label, **kwargs)
+    ax.set_xlabel("frequency [rad/s]")
+    ax.set_ylabel("spectrum [m² s/rad]")
+    ax.grid(True, alpha=0.3)
+    if label:
+        ax.legend(fontsize=8)
+    return ax

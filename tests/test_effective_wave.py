@@ -1,0 +1,125 @@
+"""Grim's effective wave: transfer function, Method 1 (superposition) and Method 2 (shaping filter)."""
+
+import jax
+import jax.numpy as jnp
+import jax.random as jr
+import numpy as np
+import pytest
+import scipy.linalg
+import scipy.signal
+
+import jaxroll
+from jaxroll._filters import filter_from_parameters
+
+L = 262.0
+
+
+def test_grim_transfer_special_values():
+    np.testing.assert_allclose(jaxroll.grim_transfer(2 * np.pi / L, L), 1.0, rtol=1e-14, atol=0)
+    np.testing.assert_allclose(jaxroll.grim_transfer(2 * np.pi / (0.8 * L), L), 1.0004, atol=1e-4, rtol=0)
+    for n in (2, 3, 4):
+        np.testing.assert_allclose(jaxroll.grim_transfer(2 * np.pi * n / L, L), 0.0, atol=1e-14, rtol=0)
+    assert abs(float(jaxroll.grim_transfer(1e-6, L))) < 1e-6
+
+
+@pytest.mark.parametrize("wavelength_over_l", [0.6, 0.85, 1.0, 1.3, 2.0, 4.0])
+def test_grim_transfer_equals_least_squares_fit(wavelength_over_l):
+    """F(k) is the least-squares amplitude of cos(2πx/L) fitted to a sampled profile a·cos(kx) over the hull."""
+    k = 2 * np.pi / (wavelength_over_l * L)
+    x = -L / 2 + (np.arange(20000) + 0.5) * L / 20000  # midpoint rule: the discrete fit is the continuous one
+    profile = np.cos(k * x)
+    basis = np.stack([np.cos(2 * np.pi * x / L), np.ones_like(x)], 1)  # a mean level changes nothing
+    coef, *_ = np.linalg.lstsq(basis, profile, rcond=None)
+    np.testing.assert_allclose(jaxroll.grim_transfer(k, L), coef[0], rtol=1e-6, atol=1e-8)
+
+
+def test_effective_wave_numbers_match_theory():
+    # THEORY.md §1 table: σ_G = 1.246 m (7 m), 0.890 m (5 m). Its S_G⁺(2ω0) = 9.33 / 4.76 m²s are 0.17 % high:
+    # the closed form F(k)²S(ω) at zero speed gives 9.3144 / 4.7522 (checked here independently in numpy).
+    w0 = 2 * np.pi / 24.4
+    w = 2 * w0
+    kl = w**2 / 9.80665 * L
+    f = kl * np.sin(kl / 2) / (np.pi**2 - (kl / 2) ** 2)
+    b = (2 * np.pi / 1.2254167024651779) ** 4 / 10.0**4  # Γ(3/4) = 1.2254167024651779
+    for hs, sigma in ((7.0, 1.246), (5.0, 0.890)):
+        wave = jaxroll.EffectiveWave(jaxroll.ITTC(hs, 10.0), L)
+        np.testing.assert_allclose(jnp.sqrt(wave.variance()), sigma, atol=1e-3, rtol=0)
+        s = b * hs**2 / 4 * w**-5 * np.exp(-b * w**-4)
+        np.testing.assert_allclose(wave.spectrum(w), f**2 * s, rtol=1e-12, atol=0)
+    np.testing.assert_allclose(jaxroll.EffectiveWave(jaxroll.ITTC(7.0, 10.0), L).spectrum(w), 9.3144, atol=1e-4)
+
+
+def test_superposition_variance_and_derivative(getkey):
+    wave = jaxroll.EffectiveWave(jaxroll.ITTC(7.0, 10.0), L)
+    n, dt = 7201, 0.5
+    zs, dzs = jax.vmap(lambda k: jaxroll.superpose(wave, k, n, dt))(jr.split(getkey(), 64))
+    var = float(jnp.var(zs))
+    # Each realization is exactly Gaussian with the discretised spectrum; the sample variance of 64 records of
+    # 3600 s scatters by ~sqrt(2 τ_c / T / 64) ≈ 1.5 %: allow 4 standard errors.
+    np.testing.assert_allclose(var, wave.variance(), rtol=0.06, atol=0)
+    # The derivative channel is the exact derivative of the synthesised series.
+    fd = (zs[:, 2:] - zs[:, :-2]) / (2 * dt)
+    err = jnp.sqrt(jnp.mean((fd - dzs[:, 1:-1]) ** 2) / jnp.mean(dzs**2))
+    assert float(err) < 0.05  # central difference error (ωdt)²/6 at ω ≈ 0.6 rad/s
+    # Does not repeat within the trial: the FFT period exceeds the record length.
+    assert jaxroll._grim.superposition_length(n) >= n
+
+
+def test_filter_spectrum_matches_scipy_freqs():
+    f = filter_from_parameters(jnp.array([np.log(0.5), np.log(0.2), np.log(0.7), np.log(0.3), 1.0, 0.3]), 4)
+    num = np.asarray(f.c)[::-1]
+    den = np.concatenate([[1.0], -np.asarray(f.a[-1])[::-1]])
+    w = np.linspace(0.05, 2.0, 200)
+    _, h = scipy.signal.freqs(np.trim_zeros(num, "f"), den, worN=w)
+    np.testing.assert_allclose(f.spectrum(w), np.abs(h) ** 2 / np.pi, rtol=1e-10, atol=0)
+
+
+@pytest.mark.parametrize("order", [3, 4, 6])
+def test_filter_fit_variance_and_lyapunov(order):
+    wave = jaxroll.EffectiveWave(jaxroll.ITTC(7.0, 10.0), L)
+    fit = jaxroll.fit_filter(wave, order=order, match_frequency=2 * 2 * np.pi / 24.4)
+    f = fit.filter
+    sigma = f.stationary_covariance()
+    ref = scipy.linalg.solve_continuous_lyapunov(np.asarray(f.a), -np.outer(f.b, f.b))
+    np.testing.assert_allclose(sigma, ref, rtol=1e-8, atol=1e-12 * np.abs(ref).max())
+    # Variance matched exactly; equal to the integral of the filter's own spectrum.
+    np.testing.assert_allclose(f.variance(), wave.variance(), rtol=1e-10, atol=0)
+    np.testing.assert_allclose(jaxroll.spectral_moment(f.spectrum, 0), wave.variance(), rtol=1e-6, atol=0)
+    assert np.all(np.linalg.eigvals(np.asarray(f.a)).real < 0)
+    assert float(f.c @ f.b) == 0.0  # relative degree ≥ 2: ζ_G differentiable
+    # THEORY.md §6: an order-4 fit has relative L2 error ≈ 0.06; higher orders fit better.
+    assert float(fit.relative_l2_error) < {3: 0.25, 4: 0.07, 6: 0.03}[order]
+    np.testing.assert_allclose(fit.spectrum_filter_at_match, fit.spectrum_target_at_match, rtol=0.03, atol=0)
+
+
+def test_filter_exact_discretisation_statistics(getkey):
+    wave = jaxroll.EffectiveWave(jaxroll.ITTC(7.0, 10.0), L)
+    f = jaxroll.fit_filter(wave, order=4).filter
+    exc = jaxroll.FilterExcitation(f, 0.5)
+    # Exact one-step covariance: stationary Σ is invariant under z' = Φz + Lε.
+    sigma = f.stationary_covariance()
+    np.testing.assert_allclose(exc.phi @ sigma @ exc.phi.T + exc.chol @ exc.chol.T, sigma, rtol=1e-9,
+                               atol=1e-12 * float(jnp.abs(sigma).max()))
+
+    def run(key):
+        z, zeta0, _ = exc.init(key, 0)
+        def body(z, i):
+            z, zetas, dzetas = exc.block(key, z, i)
+            return z, (zetas, dzetas)
+        _, (zetas, dzetas) = jax.lax.scan(body, z, jnp.arange(28))
+        return zetas.reshape(-1), dzetas.reshape(-1)
+
+    zs, dzs = jax.vmap(run)(jr.split(getkey(), 64))
+    np.testing.assert_allclose(jnp.var(zs), wave.variance(), rtol=0.06, atol=0)  # ≈ 4 standard errors
+    var_dz = f.c @ f.a @ sigma @ f.a.T @ f.c
+    np.testing.assert_allclose(jnp.var(dzs), var_dz, rtol=0.06, atol=0)
+
+
+def test_filter_errors():
+    wave = jaxroll.EffectiveWave(jaxroll.ITTC(7.0, 10.0), L)
+    with pytest.raises(ValueError, match="`order` must be >= 3"):
+        jaxroll.fit_filter(wave, order=2)
+    with pytest.raises(ValueError, match="`heading` must be 'head' or 'following'"):
+        jaxroll.EffectiveWave(jaxroll.ITTC(7.0, 10.0), L, 0.0, "beam")
+    with pytest.raises(RuntimeError, match="`speed` must be >= 0"):
+        jaxroll.EffectiveWave(jaxroll.ITTC(7.0, 10.0), L, -1.0)
