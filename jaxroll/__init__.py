@@ -19,6 +19,7 @@ from ._amplitudes import (
 from ._dynamics import (
     FilterExcitation as FilterExcitation,
     RollProblem as RollProblem,
+    SampledExcitation as SampledExcitation,
     SuperpositionExcitation as SuperpositionExcitation,
     roll_acceleration as roll_acceleration,
     roll_time_series as roll_time_series,

@@ -107,6 +107,42 @@ class FilterExcitation(AbstractExcitation):
         return z, zs @ self.c, zs @ self.c_a
 
 
+def _slice_block(series, index):
+    return jax.lax.dynamic_slice_in_dim(series, index * BLOCK + 1, BLOCK)
+
+
+class SampledExcitation(AbstractExcitation):
+    """A given record of ζ_G [m] and dζ_G/dt [m/s] on t_k = k·dt (e.g. a measured or precomputed wave).
+
+    The record must cover the simulated time: at least `num_steps + 1` samples (padded with zeros to a whole
+    number of blocks).
+    """
+
+    zeta: Float[Array, " n"]
+    dzeta: Float[Array, " n"]
+    dt: float = eqx.field(static=True)
+
+    def __init__(self, zeta, dzeta, dt: float):
+        """**Arguments:** `zeta` [m], `dzeta` [m/s]: 1-D records of equal length; `dt`: their sampling step [s]."""
+        zeta, dzeta = jnp.asarray(zeta, dtype=float), jnp.asarray(dzeta, dtype=float)
+        if zeta.ndim != 1 or zeta.shape != dzeta.shape:
+            raise ValueError(f"`zeta` and `dzeta` must be 1-D of equal length; got {zeta.shape} and {dzeta.shape}.")
+        self.zeta, self.dzeta, self.dt = zeta, dzeta, float(dt)
+
+    def init(self, key, num_steps):
+        if self.zeta.size < num_steps + 1:
+            raise ValueError(
+                f"the excitation record has {self.zeta.size} samples; {num_steps + 1} are needed "
+                f"({num_steps} steps of {self.dt} s)."
+            )
+        pad = -(-num_steps // BLOCK) * BLOCK + 1 - self.zeta.size
+        padded = [jnp.pad(x, (0, max(pad, 0))) for x in (self.zeta, self.dzeta)]
+        return tuple(padded), self.zeta[0], self.dzeta[0]
+
+    def block(self, key, state, index):
+        return state, _slice_block(state[0], index), _slice_block(state[1], index)
+
+
 class SuperpositionExcitation(AbstractExcitation):
     """Method 1: component superposition synthesised by FFT over the whole trial (see `jaxroll.superpose`)."""
 
@@ -119,8 +155,7 @@ class SuperpositionExcitation(AbstractExcitation):
         self.dt = float(dt)
 
     def init(self, key, num_steps):
-        num_blocks = -(-num_steps // BLOCK)
-        n = num_blocks * BLOCK + 1
+        n = -(-num_steps // BLOCK) * BLOCK + 1
         if superposition_length(n) > 2**24:
             raise ValueError(
                 f"superposition of {n} samples is too long for one FFT; use the filter method for long trials."
@@ -129,13 +164,7 @@ class SuperpositionExcitation(AbstractExcitation):
         return (zeta, dzeta), zeta[0], dzeta[0]
 
     def block(self, key, state, index):
-        zeta, dzeta = state
-        start = index * BLOCK + 1
-        return (
-            state,
-            jax.lax.dynamic_slice_in_dim(zeta, start, BLOCK),
-            jax.lax.dynamic_slice_in_dim(dzeta, start, BLOCK),
-        )
+        return state, _slice_block(state[0], index), _slice_block(state[1], index)
 
 
 # ----------------------------------------------------------------------------------------------------------------

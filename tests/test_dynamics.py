@@ -1,0 +1,202 @@
+"""The roll integrator and the Monte Carlo against exact stochastic results (THEORY.md §8)."""
+
+import warnings
+
+import jax
+import jax.numpy as jnp
+import jax.random as jr
+import numpy as np
+import pytest
+from scipy import integrate
+
+import jaxroll
+from jaxroll._dynamics import BLOCK
+
+
+def white_noise_filter(intensity, omega_f=8.0, zeta_f=0.7):
+    """A broadband 2nd-order filter whose output approximates white noise of two-sided intensity D (E[w w'] = Dδ)
+    for frequencies well below ω_f (flat to 0.1 % at ω ≤ 2 rad/s for ω_f = 8): H = ω_f²√D/(s² + 2ζω_f s + ω_f²)."""
+    a = jnp.array([[0.0, 1.0], [-(omega_f**2), -2 * zeta_f * omega_f]])
+    return jaxroll.ShapingFilter(a, jnp.array([0.0, 1.0]), jnp.array([omega_f**2 * np.sqrt(intensity), 0.0]))
+
+
+def unit_ship(*, a3=0.0, b1=0.1, c1=0.0):
+    """ω0 = 1 rad/s, GM0 = 1 m, so P = C1·ζ_mid and ΔGM/GM0 = C1 ζ_mid."""
+    return jaxroll.Ship(lpp=100.0, breadth=10.0, depth=10.0, draught=5.0, displacement=1e6, block_coefficient=0.6,
+                        gm0=1.0, roll_period=2 * np.pi, restoring=[a3, 0.0, 0.0, 0.0], damping=[b1, 0.0, 0.0],
+                        delta_gm=[0.0, c1, 0.0, 0.0, 0.0, 0.0, 0.0])
+
+
+def run_moments(problem, key, n, duration, discard):
+    stats = jaxroll.monte_carlo_amplitudes(problem, key, num_realizations=n, duration=duration, discard=discard,
+                                          chunk_size=n)
+    pr = stats.per_realization
+    e2 = pr["sum_phi2"] / pr["n_samples"]
+    e4 = pr["sum_phi4"] / pr["n_samples"]
+    return stats, (e2.mean(), e2.std(ddof=1) / np.sqrt(n)), (e4.mean(), e4.std(ddof=1) / np.sqrt(n))
+
+
+def test_caughey_exact_stationary_law_nonlinear_restoring(getkey):
+    """Additive white noise on φ̈ + cφ̇ + φ + a3φ³ = W: p(φ) ∝ exp(−(2c/D) G(φ)) exactly (Caughey)."""
+    c, d, a3 = 0.1, 0.05, 2.0
+    ship = unit_ship(a3=a3, b1=c)
+    dt = 0.05
+    zero = jaxroll.FilterExcitation(white_noise_filter(1e-30), dt)  # no parametric excitation (ΔGM = 0 anyway)
+    problem = jaxroll.RollProblem(ship, zero, 0.0, 0.0, moment_excitation=jaxroll.FilterExcitation(
+        white_noise_filter(d), dt))
+    _, (e2, se2), (e4, se4) = run_moments(problem, getkey(), 96, 1100.0, 100.0)
+    g = lambda x: x**2 / 2 + a3 * x**4 / 4
+    w = lambda x: np.exp(-2 * c / d * g(x))
+    z = integrate.quad(w, -np.inf, np.inf)[0]
+    m2 = integrate.quad(lambda x: x**2 * w(x), -np.inf, np.inf)[0] / z
+    m4 = integrate.quad(lambda x: x**4 * w(x), -np.inf, np.inf)[0] / z
+    assert abs(e2 - m2) < 4 * se2, (e2, m2, se2)
+    assert abs(e4 - m4) < 4 * se4, (e4, m4, se4)
+    # The nonlinearity matters at this level: the linear result D/(2c) is 30 % off, so the test can tell.
+    assert abs(d / (2 * c) - m2) > 10 * se2
+
+
+@pytest.mark.parametrize("fraction", [0.25, 0.5])
+def test_white_parametric_noise_stationary_second_moment(getkey, fraction):
+    """φ̈ + 2ζω0φ̇ + ω0²(1 + ξ)φ = W_e: mean-square stable iff D < 4ζ/ω0; E[φ²] = D_e/(ω0³(4ζ − ω0 D))."""
+    zeta, d_e = 0.05, 0.01
+    threshold = 4 * zeta
+    d = fraction * threshold
+    dt = 0.05
+    ship = unit_ship(b1=2 * zeta, c1=1.0)
+    problem = jaxroll.RollProblem(ship, jaxroll.FilterExcitation(white_noise_filter(d), dt), 0.0, 0.0,
+                                  moment_excitation=jaxroll.FilterExcitation(white_noise_filter(d_e), dt))
+    _, (e2, se2), _ = run_moments(problem, getkey(), 128, 1100.0, 100.0)
+    exact = d_e / (threshold - d)
+    # 4 standard errors plus 1 % for the colour of the "white" filter noise.
+    assert abs(e2 - exact) < 4 * se2 + 0.01 * exact, (e2, exact, se2)
+
+
+def test_white_parametric_noise_above_threshold_grows(getkey):
+    """Above the mean-square threshold D = 4ζ/ω0 the second moment grows without bound (here 3× threshold)."""
+    zeta, dt = 0.05, 0.05
+    ship = unit_ship(b1=2 * zeta, c1=1.0)
+    problem = jaxroll.RollProblem(ship, jaxroll.FilterExcitation(white_noise_filter(0.6), dt), 0.01, 0.0)
+
+    def run(key):
+        phi, _, _ = jaxroll.roll_time_series(problem, key, 400.0)
+        return phi
+
+    phi = jax.vmap(run)(jr.split(getkey(), 64))
+    early = jnp.mean(phi[:, 100:1000] ** 2)
+    late = jnp.mean(phi[:, -900:] ** 2)
+    # Exact growth rate of E[φ²] is the largest root of λ³ + 6ζλ² + (8ζ²+4)λ + 8ζ − 2D: ≈ 0.2 /s here.
+    rate = max(np.roots([1, 6 * zeta, 8 * zeta**2 + 4, 8 * zeta - 2 * 0.6]).real)
+    assert rate > 0.1
+    assert float(late) > 100 * float(early)
+
+
+def test_time_step_convergence_with_common_random_numbers(getkey):
+    """Halving dt changes the mean zero-crossing amplitude of the default ship (H1/3 = 7 m) by < 1 %.
+
+    The same effective-wave path drives both runs: the exact filter discretisation at dt/2, subsampled for dt.
+    """
+    ship = jaxroll.c11_representative()
+    wave = jaxroll.EffectiveWave(jaxroll.ITTC(7.0, 10.0), ship.lpp)
+    f = jaxroll.fit_filter(wave, order=4, match_frequency=2 * ship.omega0).filter
+    dt, duration = 0.5, 1800.0
+    fine = jaxroll.FilterExcitation(f, dt / 2)
+    n_fine = int(duration / (dt / 2))
+    n_blocks = -(-n_fine // BLOCK)
+
+    def path(key):
+        z, zeta0, dzeta0 = fine.init(key, n_fine)
+        def body(z, i):
+            z, a, b = fine.block(key, z, i)
+            return z, (a, b)
+        _, (a, b) = jax.lax.scan(body, z, jnp.arange(n_blocks))
+        return (jnp.concatenate([zeta0[None], a.reshape(-1)])[: n_fine + 1],
+                jnp.concatenate([dzeta0[None], b.reshape(-1)])[: n_fine + 1])
+
+    def mean_amp(key):
+        zeta, dzeta = path(key)
+        out = []
+        for step, sub in ((dt, 2), (dt / 2, 1)):
+            problem = jaxroll.RollProblem(ship, jaxroll.SampledExcitation(zeta[::sub], dzeta[::sub], step))
+            phi, _, end = jaxroll.roll_time_series(problem, key, duration)
+            a = jaxroll.zero_crossing_amplitudes(phi)
+            out.append(jnp.sum(a) / jnp.sum(a > 0))
+        return jnp.stack(out), end.capsized
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        means, capsized = jax.vmap(mean_amp)(jr.split(getkey(), 48))
+    means = np.asarray(means)[~np.asarray(capsized)]
+    rel = means[:, 0].mean() / means[:, 1].mean() - 1
+    assert abs(rel) < 0.01, rel
+
+
+def test_capsize_counted_and_never_poisons_statistics(getkey):
+    ship = jaxroll.c11_representative()
+    problem, _ = jaxroll.make_problem(ship, jaxroll.ITTC(12.0, 10.0), dt=0.5)
+    stats = jaxroll.monte_carlo_amplitudes(problem, getkey(), num_realizations=40, duration=1200.0, chunk_size=20)
+    assert 0 < stats.n_capsized < 40
+    assert np.all(np.isfinite(stats.counts_zero_crossing)) and np.all(np.isfinite(stats.counts_envelope))
+    assert np.all(np.isfinite(stats.capsize_time[stats.capsized]))
+    assert np.all(np.isinf(stats.capsize_time[~stats.capsized]))
+    pr = stats.per_realization
+    assert np.all(pr["n_zc"][stats.capsized] == 0)  # excluded from amplitude statistics
+    assert stats.n_amplitudes("zero_crossing") == pr["n_zc"].sum()
+    assert np.isfinite(stats.mean("zero_crossing"))
+    assert stats.quantiles("envelope")[-1] < np.rad2deg(float(problem.capsize_angle))
+
+
+def test_results_independent_of_chunk_size(getkey):
+    problem, _ = jaxroll.make_problem(jaxroll.c11_representative(), jaxroll.ITTC(7.0, 10.0), dt=0.5)
+    key = getkey()
+    runs = [jaxroll.monte_carlo_amplitudes(problem, key, num_realizations=7, duration=600.0, chunk_size=c)
+            for c in (3, 7)]
+    np.testing.assert_array_equal(runs[0].counts_zero_crossing, runs[1].counts_zero_crossing)
+    np.testing.assert_array_equal(runs[0].counts_envelope, runs[1].counts_envelope)
+    for k in runs[0].per_realization:
+        np.testing.assert_allclose(runs[0].per_realization[k], runs[1].per_realization[k], rtol=1e-13, atol=0)
+    assert runs[0].mean("envelope") == pytest.approx(runs[1].mean("envelope"), rel=1e-13)
+
+
+def test_rk4_order_on_free_decay():
+    """Deterministic free decay (no waves): RK4 error falls as dt⁴ against a fine diffrax reference."""
+    import diffrax
+
+    ship = jaxroll.c11_representative()
+    no_wave = lambda t: 0.0
+    term = diffrax.ODETerm(jaxroll.roll_vector_field)
+    ref = diffrax.diffeqsolve(term, diffrax.Dopri8(), 0.0, 120.0, 0.01, jnp.array([0.5, 0.0]), args=(ship, no_wave),
+                              stepsize_controller=diffrax.PIDController(rtol=1e-12, atol=1e-12), max_steps=100000)
+    errors = []
+    for dt in (2.0, 1.0, 0.5):
+        exc = jaxroll.SampledExcitation(jnp.zeros(4096), jnp.zeros(4096), dt)
+        phi, _, _ = jaxroll.roll_time_series(jaxroll.RollProblem(ship, exc, 0.5, 0.0), jr.key(0), 120.0)
+        errors.append(abs(float(phi[-1] - ref.ys[-1, 0])))
+    orders = np.log2(np.array(errors[:-1]) / np.array(errors[1:]))
+    assert np.all(orders > 3.6), orders
+
+
+def test_problem_errors():
+    ship = jaxroll.c11_representative()
+    sea = jaxroll.ITTC(7.0, 10.0)
+    with pytest.raises(ValueError, match="dt = 3.0 s is too large"):
+        jaxroll.make_problem(ship, sea, dt=3.0)
+    with pytest.warns(UserWarning, match="This warning appears because dt"):
+        jaxroll.make_problem(ship, sea, dt=0.9)
+    with pytest.raises(ValueError, match="`dt` must be a finite number > 0"):
+        jaxroll.make_problem(ship, sea, dt=-1.0)
+    with pytest.raises(ValueError, match="`method` must be 'filter' or 'superposition'"):
+        jaxroll.make_problem(ship, sea, method="magic")
+    with pytest.raises(ValueError, match="beyond the angle of vanishing stability"):
+        jaxroll.make_problem(ship, sea, phi0_deg=80.0)
+    problem, _ = jaxroll.make_problem(ship, sea)
+    with pytest.raises(ValueError, match="`num_realizations` must be a positive integer"):
+        jaxroll.monte_carlo_amplitudes(problem, jr.key(0), num_realizations=0)
+    with pytest.raises(ValueError, match="`discard` must be in"):
+        jaxroll.monte_carlo_amplitudes(problem, jr.key(0), num_realizations=2, duration=100.0, discard=200.0)
+    with pytest.raises(ValueError, match="the excitation record has 10 samples"):
+        exc = jaxroll.SampledExcitation(jnp.zeros(10), jnp.zeros(10), 0.5)
+        jaxroll.roll_time_series(jaxroll.RollProblem(ship, exc), jr.key(0), 100.0)
+    with pytest.raises(ValueError, match="must equal `excitation.dt`"):
+        jaxroll.RollProblem(ship, jaxroll.SampledExcitation(jnp.zeros(10), jnp.zeros(10), 0.5),
+                            moment_excitation=jaxroll.SampledExcitation(jnp.zeros(10), jnp.zeros(10), 0.25))
