@@ -213,6 +213,8 @@ class AmplitudeStatistics:
 
 
 def _chunk_statistics(problem, key, indices, valid, num_steps, discard_steps, width, nbins):
+    """Amplitude statistics of one chunk: (summed histograms, per-realization arrays)."""
+
     def one(i):
         def observe(zc, k, y, alive):
             zc, amp = zero_crossing_update(zc, y[0])
@@ -231,10 +233,14 @@ def _chunk_statistics(problem, key, indices, valid, num_steps, discard_steps, wi
     env = hilbert_envelope(phi)
     env_w = jnp.broadcast_to(keep[:, None], env.shape).astype(float)
     deg = 180 / jnp.pi
-    counts_zc = histogram_counts(amp * deg, zc_w, width, nbins)
-    counts_env = histogram_counts(env * deg, env_w, width, nbins)
+    summed = {
+        "counts_zero_crossing": histogram_counts(amp * deg, zc_w, width, nbins),
+        "counts_envelope": histogram_counts(env * deg, env_w, width, nbins),
+    }
     kf = keep.astype(float)
     per = {
+        "capsized": end.capsized & valid,
+        "capsize_time": end.capsize_time,
         "n_zc": jnp.sum(zc_w, 1),
         "sum_zc": jnp.sum(zc_w * amp, 1),
         "sumsq_zc": jnp.sum(zc_w * amp**2, 1),
@@ -245,10 +251,46 @@ def _chunk_statistics(problem, key, indices, valid, num_steps, discard_steps, wi
         "sum_phi2": kf * jnp.sum(phi**2, 1),
         "sum_phi4": kf * jnp.sum(phi**4, 1),
     }
-    return counts_zc, counts_env, end.capsized & valid, end.capsize_time, per
+    return summed, per
 
 
-_chunk_statistics_jit = eqx.filter_jit(_chunk_statistics)
+def run_chunks(chunk_fn, problem, key, num_realizations: int, chunk_size: int, static: tuple, progress=None):
+    """Run `chunk_fn(problem, key, indices, valid, *static) -> (summed, per_realization)` over all realizations.
+
+    `summed` (dict of arrays) is added over chunks; `per_realization` (dict of arrays with a leading chunk axis) is
+    placed at the realizations' indices. The last chunk is padded with invalid realizations (`valid` False) so
+    that every chunk has the same shape and compiles once.
+
+    **Returns:** `(summed, per_realization)` as host numpy arrays.
+    """
+    chunk = min(chunk_size, num_realizations)
+    fn = _compiled(chunk_fn)
+    summed: dict[str, np.ndarray] = {}
+    per: dict[str, np.ndarray] = {}
+    for start in range(0, num_realizations, chunk):
+        idx = np.arange(start, start + chunk)
+        valid = idx < num_realizations
+        s, p = fn(problem, key, jnp.asarray(idx), jnp.asarray(valid), *static)
+        n = int(valid.sum())
+        for k, v in s.items():
+            summed[k] = summed.get(k, 0) + np.asarray(v)
+        for k, v in p.items():
+            v = np.asarray(v)
+            if k not in per:
+                per[k] = np.zeros((num_realizations, *v.shape[1:]), v.dtype)
+            per[k][start : start + n] = v[:n]
+        if progress is not None:
+            progress(start + n)
+    return summed, per
+
+
+_COMPILED: dict = {}
+
+
+def _compiled(fn):
+    if fn not in _COMPILED:
+        _COMPILED[fn] = eqx.filter_jit(fn)
+    return _COMPILED[fn]
 
 
 def monte_carlo_amplitudes(
@@ -290,31 +332,21 @@ def monte_carlo_amplitudes(
     if num_steps - discard_steps < 16:
         raise ValueError(f"duration − discard = {duration - discard} s leaves fewer than 16 time steps of {dt} s.")
     nbins = int(round(max_deg / bin_width_deg))
-    chunk = min(chunk_size, num_realizations)
-    counts_zc = np.zeros(nbins)
-    counts_env = np.zeros(nbins)
-    capsized = np.zeros(num_realizations, bool)
-    capsize_time = np.full(num_realizations, np.inf)
-    per: dict[str, np.ndarray] = {}
-    for start in range(0, num_realizations, chunk):
-        idx = np.arange(start, start + chunk)
-        valid = idx < num_realizations
-        czc, cenv, cap, tcap, p = _chunk_statistics_jit(
-            problem, key, jnp.asarray(idx), jnp.asarray(valid), num_steps, discard_steps, bin_width_deg, nbins
-        )
-        n = int(valid.sum())
-        counts_zc += np.asarray(czc)
-        counts_env += np.asarray(cenv)
-        capsized[start : start + n] = np.asarray(cap)[:n]
-        capsize_time[start : start + n] = np.asarray(tcap)[:n]
-        for k, v in p.items():
-            per.setdefault(k, np.zeros(num_realizations))[start : start + n] = np.asarray(v)[:n]
-        if progress is not None:
-            progress(start + n)
+    summed, per = run_chunks(
+        _chunk_statistics,
+        problem,
+        key,
+        num_realizations,
+        chunk_size,
+        (num_steps, discard_steps, bin_width_deg, nbins),
+        progress,
+    )
+    capsized = per.pop("capsized")
+    capsize_time = per.pop("capsize_time")
     return AmplitudeStatistics(
         edges_deg=np.arange(nbins + 1) * bin_width_deg,
-        counts_zero_crossing=counts_zc,
-        counts_envelope=counts_env,
+        counts_zero_crossing=summed["counts_zero_crossing"],
+        counts_envelope=summed["counts_envelope"],
         capsized=capsized,
         capsize_time=capsize_time,
         per_realization=per,
