@@ -111,3 +111,54 @@ def plot_spectrum(omega, values, *, ax=None, label=None, **kwargs):
     if label:
         ax.legend(fontsize=8)
     return ax
+
+
+def maxima_figures(centres_deg, histograms: dict, *, title: str | None = None):
+    """The paper's Figs. 12-13 analogue: Monte Carlo PDFs of the maximum amplitude, one curve per N0.
+
+    **Returns:** `(fig_linear, fig_log)`.
+    """
+    figs = []
+    for log in (False, True):
+        fig, ax = plt.subplots(figsize=(6.0, 4.2))
+        for n0, h in sorted(histograms.items()):
+            h = np.asarray(h, float)
+            ax.plot(centres_deg, np.where(h > 0, h, np.nan) if log else h, "o-", ms=3, lw=0.8, label=f"N0 = {n0}")
+        ax.set_xlabel("maximum roll amplitude [deg]")
+        ax.set_ylabel("probability density [1/deg]")
+        if log:
+            ax.set_yscale("log")
+        ax.grid(True, alpha=0.3)
+        ax.legend(fontsize=8)
+        if title:
+            ax.set_title(title, fontsize=9)
+        figs.append(fig)
+    return figs[0], figs[1]
+
+
+def maxima_comparison_figure(centres_deg, histogram, grid_deg, curves: dict, n0: int):
+    """The paper's Figs. 14-19 analogue: MCS maxima PDF (dots) vs P*(A_M), exact (solid) and asymptotic (dashed).
+
+    `curves` maps a source ("mcs_amplitudes", "moment", "roberts", …) to {"exact": …, "asymptotic": …} [1/deg].
+    **Returns:** the figure (linear and log panels).
+    """
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4.2))
+    colours = {"mcs_amplitudes": "tab:green", **THEORY_COLOURS}
+    labels = {"mcs_amplitudes": "P from MCS amplitudes", **THEORY_LABELS}
+    for ax, log in zip(axes, (False, True), strict=True):
+        h = np.asarray(histogram, float)
+        ax.plot(centres_deg, np.where(h > 0, h, np.nan) if log else h, "ko", ms=3.5, label="MCS maxima")
+        for name, c in curves.items():
+            col = colours.get(name, "c")
+            ax.plot(grid_deg, np.asarray(c["exact"]), "-", color=col, lw=1.6, label=f"{labels.get(name, name)}: exact")
+            ax.plot(grid_deg, np.asarray(c["asymptotic"]), "--", color=col, lw=1.0, label="asymptotic")
+        ax.set_xlabel("maximum roll amplitude [deg]")
+        ax.set_ylabel("probability density [1/deg]")
+        if log:
+            ax.set_yscale("log")
+            peak = np.nanmax(h) if np.any(h > 0) else 1.0
+            ax.set_ylim(peak * 1e-5, peak * 5)
+        ax.grid(True, alpha=0.3)
+        ax.set_title(f"N0 = {n0}", fontsize=9)
+    axes[0].legend(fontsize=7)
+    return fig

@@ -1,0 +1,131 @@
+"""`jaxroll maxima`: the paper's maxima protocol by Monte Carlo, compared with P*(A_M) from amplitude PDFs."""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+from ._common import CLIError, Progress, load_ship_arg, save_figure, write_json
+from ._sea import add_sea_options, build_problem, sea_config
+
+
+def register(sub) -> None:
+    p = sub.add_parser(
+        "maxima",
+        help="PDF of the maximum of the first N0 roll amplitudes (paper's Figs. 12-19 analogue)",
+        description="Per trial: φ(0)=5°, discard the first 500 s, the maximum of the first N0 zero-crossing "
+        "amplitudes. N0 below 10⁴ share --realizations trials (10⁴); N0 ≥ 10⁴ use --realizations-large (5·10³).",
+    )
+    add_sea_options(p)
+    m = p.add_argument_group("maxima protocol")
+    m.add_argument("--n0", default="20,50,100,1000,10000", help="comma-separated N0 values (default paper's)")
+    m.add_argument("--realizations", type=int, default=10_000, help="trials for N0 < 10⁴ (default 10000)")
+    m.add_argument("--realizations-large", type=int, default=5000, help="trials for N0 ≥ 10⁴ (default 5000)")
+    m.add_argument("--discard", type=float, default=500.0, help="initial time left out [s] (500)")
+    m.add_argument("--duration", type=float, default=None, help="simulated time per trial [s] (default: enough)")
+    m.add_argument("--chunk-size", type=int, default=1000, help="trials per compiled batch")
+    m.add_argument("--theory", default="", help="comma-separated amplitude PDFs for P*: roberts,esam,moment")
+    p.add_argument("--out", default="jaxroll-out/maxima", help="output folder (default ./jaxroll-out/maxima)")
+    p.add_argument("--quiet", action="store_true", help="no progress display")
+    p.set_defaults(func=run)
+
+
+def parse_n0(text: str) -> list[int]:
+    try:
+        values = sorted({int(v) for v in text.split(",") if v.strip()})
+    except ValueError:
+        raise CLIError(f"--n0 must be comma-separated integers; got {text!r}.") from None
+    if not values or values[0] < 1:
+        raise CLIError(f"--n0 values must be integers >= 1; got {text!r}.")
+    return values
+
+
+def run(args) -> int:
+    import jax
+    import numpy as np
+
+    from .._extremes import AmplitudeDistribution, max_pdf, max_pdf_asymptotic
+    from .._maxima import monte_carlo_maxima
+    from ..plotting import maxima_comparison_figure, maxima_figures
+    from .pdf import parse_theories
+
+    n0_all = parse_n0(args.n0)
+    theories = parse_theories(args.theory)
+    for name in ("realizations", "realizations_large", "chunk_size"):
+        if getattr(args, name) < 1:
+            raise CLIError(f"--{name.replace('_', '-')} must be >= 1; got {getattr(args, name)}.")
+    ship = load_ship_arg(args.ship)
+    problem, fit, sea = build_problem(args, ship)
+    groups = [(g, n) for g, n in (([v for v in n0_all if v < 10_000], args.realizations),
+                                  ([v for v in n0_all if v >= 10_000], args.realizations_large)) if g]
+    out = Path(args.out)
+    bins = np.arange(0.0, 90.0 + 1e-9, 1.0)
+    centres = (bins[1:] + bins[:-1]) / 2
+    grid_deg = np.linspace(0.0, 89.0, 891)
+    per_n0: dict[str, dict] = {}
+    amplitude_summaries = []
+    t0 = time.time()
+    for n0s, n_trials in groups:
+        print(f"maxima: N0 = {n0s}, {n_trials} trials, discard {args.discard} s")
+        progress = Progress(n_trials, f"trials (N0 ≤ {max(n0s)})", enabled=None if not args.quiet else False)
+        stats = monte_carlo_maxima(problem, jax.random.key(args.seed), n0=n0s, num_realizations=n_trials,
+                                   discard=args.discard, duration=args.duration, chunk_size=args.chunk_size,
+                                   progress=progress)
+        # Pool the 0.25° histogram into 1° bins: P* amplifies the histogram's noise.
+        counts = stats.amplitude_counts.astype(float).reshape(-1, 4).sum(1)
+        edges = stats.edges_deg[::4]
+        mc_dist = AmplitudeDistribution.from_pdf(
+            np.deg2rad((edges[1:] + edges[:-1]) / 2), counts / max(counts.sum(), 1) / np.diff(np.deg2rad(edges)))
+        amplitude_summaries.append({"n0": n0s, "n_amplitudes": int(counts.sum())})
+        for j, n0 in enumerate(stats.n0):
+            x = stats.maxima_deg[stats.valid(j), j]
+            hist, _ = np.histogram(x, bins=bins, density=True) if x.size else (np.zeros(bins.size - 1), None)
+            a = np.deg2rad(grid_deg)
+            curves = {"mcs_amplitudes": {
+                "exact": np.asarray(max_pdf(mc_dist, a, n0)) * np.pi / 180,
+                "asymptotic": np.asarray(max_pdf_asymptotic(mc_dist, a, n0)) * np.pi / 180}}
+            if theories:
+                from ._theory import theory_distributions
+
+                for name, dist in theory_distributions(ship, sea, args, theories).items():
+                    curves[name] = {"exact": np.asarray(max_pdf(dist, a, n0)) * np.pi / 180,
+                                    "asymptotic": np.asarray(max_pdf_asymptotic(dist, a, n0)) * np.pi / 180}
+            per_n0[str(n0)] = {
+                "n_trials": n_trials,
+                "n_valid": int(x.size),
+                "n_capsized_before": stats.n_capsized_before(j),
+                "n_incomplete": stats.n_incomplete(j),
+                "histogram_pdf_per_deg": hist,
+                "mean_deg": float(x.mean()) if x.size else float("nan"),
+                "quantiles_deg": {k: float(np.quantile(x, q)) if x.size else float("nan")
+                                  for k, q in (("50", 0.5), ("90", 0.9), ("99", 0.99))},
+                "curves": curves,
+            }
+            if stats.n_incomplete(j):
+                print(f"warning: {stats.n_incomplete(j)} trials did not reach N0 = {n0} amplitudes; "
+                      "increase --duration")
+    elapsed = time.time() - t0
+    payload = {
+        "config": {**sea_config(args, ship), "n0": n0_all, "realizations": args.realizations,
+                   "realizations_large": args.realizations_large, "discard_s": args.discard,
+                   "duration_s": args.duration, "theory": theories,
+                   "amplitudes": "zero-crossing (per half cycle), the first N0 after the discard"},
+        "bins_deg": bins,
+        "grid_deg": grid_deg,
+        "per_n0": per_n0,
+        "amplitude_samples": amplitude_summaries,
+        "run_time_s": elapsed,
+    }
+    fig_lin, fig_log = maxima_figures(centres, {int(k): v["histogram_pdf_per_deg"] for k, v in per_n0.items()},
+                                      title=f"{ship.name}: H1/3 = {args.hs:g} m, T01 = {args.t01:g} s")
+    save_figure(fig_lin, out / "maxima_linear.png")
+    save_figure(fig_log, out / "maxima_log.png")
+    for k, v in per_n0.items():
+        fig = maxima_comparison_figure(centres, v["histogram_pdf_per_deg"], grid_deg, v["curves"], int(k))
+        save_figure(fig, out / f"maxima_N0_{k}.png")
+    write_json(out / "maxima.json", payload)
+    for k, v in per_n0.items():
+        print(f"N0 = {k:>6}: mean max {v['mean_deg']:.2f}°, 99 % {v['quantiles_deg']['99']:.2f}° "
+              f"({v['n_valid']} trials, {v['n_capsized_before']} capsized before N0)")
+    print(f"done in {elapsed:.1f} s; wrote {out}/maxima_linear.png, maxima_log.png, maxima_N0_*.png, maxima.json")
+    return 0
