@@ -1,0 +1,127 @@
+"""`jaxroll risk`: probability that the roll exceeds an angle within an exposure time, and the largest roll."""
+
+from __future__ import annotations
+
+import math
+import time
+from pathlib import Path
+
+from ._common import CLIError, Progress, load_ship_arg, write_json
+from ._sea import add_sea_options, build_problem, check_positive, sea_config
+
+
+def register(sub) -> None:
+    p = sub.add_parser(
+        "risk",
+        help="P(roll > ANGLE within HOURS), most probable and expected largest roll, capsize probability",
+        description="Monte Carlo per-cycle (zero-crossing) amplitudes → exceedance within the exposure, with 95 % "
+        "Wilson intervals; optionally the same from theoretical amplitude PDFs (--theory).",
+    )
+    add_sea_options(p)
+    p.add_argument("--angle", type=float, default=30.0, help="threshold roll angle [deg] (30)")
+    p.add_argument("--hours", type=float, default=3.0, help="exposure time [h] (3)")
+    p.add_argument("--realizations", type=int, default=2000, help="Monte Carlo trials (2000)")
+    p.add_argument("--duration", type=float, default=3600.0, help="simulated time per trial [s] (3600)")
+    p.add_argument("--discard", type=float, default=500.0, help="initial transient left out [s] (500)")
+    p.add_argument("--chunk-size", type=int, default=1000, help="trials per compiled batch")
+    p.add_argument("--theory", default="", help="also from theory: roberts,esam,moment")
+    p.add_argument("--out", default="jaxroll-out/risk", help="output folder for risk.json")
+    p.add_argument("--quiet", action="store_true", help="no progress display")
+    p.set_defaults(func=run)
+
+
+def _risk_dict(r) -> dict:
+    return {
+        "n_cycles": float(r.n_cycles),
+        "exceedance_per_cycle": float(r.exceedance_per_cycle),
+        "exceedance_per_cycle_ci95": [float(r.exceedance_per_cycle_lower), float(r.exceedance_per_cycle_upper)],
+        "probability": float(r.probability),
+        "probability_poisson": float(r.probability_poisson),
+        "probability_ci95": [float(r.probability_lower), float(r.probability_upper)],
+        "most_probable_largest_deg": float(r.most_probable_largest_deg),
+        "characteristic_largest_deg": float(r.characteristic_largest_deg),
+        "characteristic_largest_ci95_deg": [float(r.characteristic_largest_lower_deg),
+                                            float(r.characteristic_largest_upper_deg)],
+        "expected_largest_deg": float(r.expected_largest_deg),
+    }
+
+
+def run(args) -> int:
+    import jax
+    import jax.numpy as jnp
+    import numpy as np
+
+    from .. import monte_carlo_amplitudes
+    from .._extremes import AmplitudeDistribution, exposure_risk, wilson_interval
+    from .pdf import parse_theories
+
+    theories = parse_theories(args.theory)
+    check_positive(args, "hours", "duration")
+    if not (math.isfinite(args.angle) and 0 < args.angle < 90):
+        raise CLIError(f"--angle must be in (0, 90) degrees; got {args.angle}.")
+    if args.realizations < 1:
+        raise CLIError(f"--realizations must be >= 1; got {args.realizations}.")
+    ship = load_ship_arg(args.ship)
+    problem, _, sea = build_problem(args, ship)
+    exposure = args.hours * 3600.0
+    t0 = time.time()
+    progress = Progress(args.realizations, "realizations", enabled=None if not args.quiet else False)
+    stats = monte_carlo_amplitudes(problem, jax.random.key(args.seed), num_realizations=args.realizations,
+                                   duration=args.duration, discard=args.discard, chunk_size=args.chunk_size,
+                                   progress=progress)
+    counts = stats.counts_zero_crossing
+    edges = stats.edges_deg
+    n_amp = int(counts.sum())
+    if n_amp == 0:
+        raise CLIError("no amplitudes were recorded (every trial capsized?); reduce H1/3 or check the ship.")
+    k = int(round(args.angle / (edges[1] - edges[0])))
+    n_exceed = int(counts[k:].sum())
+    angle_used = float(edges[k])
+    survivors = stats.n_realizations - stats.n_capsized
+    rate = n_amp / (survivors * (args.duration - args.discard))
+    centres = np.deg2rad((edges[1:] + edges[:-1]) / 2)
+    dist = AmplitudeDistribution.from_pdf(centres, counts / n_amp / np.diff(np.deg2rad(edges)))
+    mc = exposure_risk(dist, jnp.deg2rad(angle_used), rate=rate, duration=exposure, n_amplitudes=n_amp,
+                       n_exceed=n_exceed)
+    # Capsize within the exposure from a constant hazard λ = capsizes / time at risk (after the transient).
+    at_risk = float(np.sum(np.minimum(stats.capsize_time, args.duration)))
+    lam = stats.n_capsized / at_risk
+    lo, hi = (np.asarray(v) for v in wilson_interval(stats.n_capsized, stats.n_realizations))
+    capsize = {
+        "n_capsized": stats.n_capsized,
+        "n_realizations": stats.n_realizations,
+        "probability_within_trial": stats.capsize_probability,
+        "probability_within_trial_ci95": [float(lo), float(hi)],
+        "hazard_per_hour": lam * 3600,
+        "probability_within_exposure": 1 - math.exp(-lam * exposure),
+    }
+    result = {"monte_carlo": {"angle_deg": angle_used, "rate_per_s": rate, "n_amplitudes": n_amp,
+                              "n_exceed": n_exceed, **_risk_dict(mc)},
+              "capsize": capsize}
+    if theories:
+        from ._theory import theory_distributions
+
+        for name, tdist in theory_distributions(ship, sea, args, theories).items():
+            result[name] = _risk_dict(exposure_risk(tdist, jnp.deg2rad(angle_used), rate=rate, duration=exposure))
+    payload = {"config": {**sea_config(args, ship), "angle_deg": args.angle, "hours": args.hours,
+                          "realizations": args.realizations, "duration_s": args.duration,
+                          "discard_s": args.discard, "theory": theories,
+                          "amplitudes": "zero-crossing, per half cycle; amplitudes assumed independent"},
+               **result, "run_time_s": time.time() - t0}
+    write_json(Path(args.out) / "risk.json", payload)
+    m = result["monte_carlo"]
+    print(f"Sea: H1/3 {args.hs} m, T01 {args.t01} s, {args.heading} seas, U {args.speed} m/s; ship {ship.name}")
+    print(f"Monte Carlo ({args.realizations} × {args.duration:g} s): {n_amp} amplitudes, {rate * 3600:.0f} per hour")
+    print(f"P(roll > {angle_used:g}° within {args.hours:g} h) = {m['probability']:.4f} "
+          f"(95 % CI {m['probability_ci95'][0]:.4f}–{m['probability_ci95'][1]:.4f})")
+    print(f"most probable largest roll in {args.hours:g} h: {m['most_probable_largest_deg']:.1f}°; "
+          f"characteristic largest {m['characteristic_largest_deg']:.1f}° "
+          f"(95 % CI {m['characteristic_largest_ci95_deg'][0]:.1f}–{m['characteristic_largest_ci95_deg'][1]:.1f}°); "
+          f"expected largest {m['expected_largest_deg']:.1f}°")
+    print(f"capsize: {stats.n_capsized}/{stats.n_realizations} trials; P(capsize within {args.hours:g} h) ≈ "
+          f"{capsize['probability_within_exposure']:.4f} (constant hazard {capsize['hazard_per_hour']:.2e}/h)")
+    for name in theories:
+        t = result[name]
+        print(f"{name}: P = {t['probability']:.4f}, most probable largest {t['most_probable_largest_deg']:.1f}°")
+    print(f"wrote {Path(args.out) / 'risk.json'}")
+    return 0
