@@ -28,13 +28,11 @@ class _MaximaObserver(eqx.Module):
     count: jnp.ndarray
     running_max: jnp.ndarray
     maxima: jnp.ndarray
-    counts: jnp.ndarray
 
 
-def _chunk_maxima(problem, key, indices, valid, num_steps, discard_steps, n0, width, nbins):
+def _chunk_maxima(problem, key, indices, valid, num_steps, discard_steps, n0):
     n0_arr = jnp.asarray(n0)
     n_max = max(n0)
-    deg = 180 / jnp.pi
 
     def one(i):
         def observe(obs, k, y, alive):
@@ -43,30 +41,25 @@ def _chunk_maxima(problem, key, indices, valid, num_steps, discard_steps, n0, wi
             count = obs.count + counted
             running = jnp.where(counted, jnp.maximum(obs.running_max, amp), obs.running_max)
             maxima = jnp.where(counted & (count == n0_arr), running, obs.maxima)
-            b = jnp.clip(jnp.floor(amp * deg / width).astype(jnp.int32), 0, nbins - 1)
-            counts = obs.counts.at[b].add(counted.astype(obs.counts.dtype))
-            return _MaximaObserver(zc, count, running, maxima, counts), None
+            return _MaximaObserver(zc, count, running, maxima), None
 
         obs0 = _MaximaObserver(
             zero_crossing_init(problem.phi0),
             jnp.array(0),
             jnp.array(0.0),
             jnp.full(len(n0), -1.0),
-            jnp.zeros(nbins, jnp.int32),
         )
         obs, _, end = simulate(problem, jr.fold_in(key, i), num_steps, observe, obs0)
         return obs, end
 
     obs, end = jax.vmap(one)(indices)
-    v = valid[:, None]
-    summed = {"amplitude_counts": jnp.sum(jnp.where(v, obs.counts, 0), 0)}
     per = {
-        "maxima": jnp.where(v, obs.maxima, -1.0),
+        "maxima": jnp.where(valid[:, None], obs.maxima, -1.0),
         "count": jnp.where(valid, obs.count, 0),
         "capsized": end.capsized & valid,
         "capsize_time": end.capsize_time,
     }
-    return summed, per
+    return {}, per
 
 
 @dataclass
@@ -75,13 +68,11 @@ class MaximaStatistics:
 
     `maxima_deg[i, j]` is trial i's maximum over its first `n0[j]` amplitudes after the discard, NaN where the
     trial capsized or ended before reaching n0[j] amplitudes (counted in `n_capsized_before`, `n_incomplete`).
-    `amplitude_counts` is the histogram (on `edges_deg`) of every counted amplitude (the first max(n0) per trial).
+    `count` is the number of amplitudes each trial contributed (at most max(n0)).
     """
 
     n0: tuple[int, ...]
     maxima_deg: np.ndarray
-    amplitude_counts: np.ndarray
-    edges_deg: np.ndarray
     capsized: np.ndarray
     capsize_time: np.ndarray
     count: np.ndarray
@@ -114,8 +105,6 @@ def monte_carlo_maxima(
     discard: float = 500.0,
     duration: float | None = None,
     chunk_size: int = 1000,
-    bin_width_deg: float = 0.25,
-    max_deg: float = 90.0,
     progress: Callable[[int], None] | None = None,
 ) -> MaximaStatistics:
     """The paper's maxima protocol: per trial, the largest of the first N0 zero-crossing amplitudes after `discard`.
@@ -129,7 +118,6 @@ def monte_carlo_maxima(
     - `discard`: initial time left out [s] (500).
     - `duration`: simulated time per trial [s]; default `default_duration` (1.6 × max(n0) half roll periods).
     - `chunk_size`: trials per compiled batch (memory is bounded by it, not by N0 or N).
-    - `bin_width_deg`, `max_deg`: histogram grid of the counted amplitudes.
 
     **Returns:** `MaximaStatistics`.
     """
@@ -146,14 +134,13 @@ def monte_carlo_maxima(
         raise ValueError(f"`duration` must be > discard = {discard} s; got {duration!r}.")
     dt = problem.dt
     num_steps = int(round(duration / dt))
-    nbins = int(round(max_deg / bin_width_deg))
-    summed, per = run_chunks(
+    _, per = run_chunks(
         _chunk_maxima,
         problem,
         key,
         num_realizations,
         chunk_size,
-        (num_steps, int(round(discard / dt)), n0, bin_width_deg, nbins),
+        (num_steps, int(round(discard / dt)), n0),
         progress,
     )
     maxima = np.where(per["maxima"] >= 0, np.rad2deg(per["maxima"]), np.nan)
@@ -161,8 +148,6 @@ def monte_carlo_maxima(
     return MaximaStatistics(
         n0=n0,
         maxima_deg=maxima,
-        amplitude_counts=summed["amplitude_counts"].astype(np.int64),
-        edges_deg=np.arange(nbins + 1) * bin_width_deg,
         capsized=per["capsized"],
         capsize_time=per["capsize_time"],
         count=count,
