@@ -27,6 +27,22 @@ from ._dynamics import (
 )
 from ._filters import FilterFit as FilterFit, ShapingFilter as ShapingFilter, fit_filter as fit_filter
 from ._grim import EffectiveWave as EffectiveWave, grim_transfer as grim_transfer, superpose as superpose
+from ._hydrostatics import (
+    Hull as Hull,
+    box_hull as box_hull,
+    c11_hull as c11_hull,
+    c11_hull_ship as c11_hull_ship,
+    equilibrium as equilibrium,
+    gz_curve as gz_curve,
+    hull_hydrostatics as hull_hydrostatics,
+    hydrostatic_particulars as hydrostatic_particulars,
+    load_hull as load_hull,
+    loading_condition as loading_condition,
+    metacentric_height as metacentric_height,
+    ship_from_hull as ship_from_hull,
+    wigley_hull as wigley_hull,
+)
+from ._maxima import MaximaStatistics as MaximaStatistics, monte_carlo_maxima as monte_carlo_maxima
 from ._monte_carlo import (
     AmplitudeStatistics as AmplitudeStatistics,
     check_time_step as check_time_step,

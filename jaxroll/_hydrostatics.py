@@ -1,24 +1,25 @@
 r"""Hull hydrostatics: GZ(φ) and ΔGM(ζ_mid) from station offsets (Froude–Krylov, quasi-static balance).
 
-The paper (Katsumura et al., arXiv 2407.02728, appendix A) obtains the non-memory relation ΔGM(ζ_mid) by computing
-the GM of the hull in a wave of length L with its crest or trough amidships, sinkage and trim balanced
-quasi-statically, for several wave amplitudes, and fitting a 6th-order polynomial. This module does the same from a
-hull description, exactly for the polygonal hull the offsets define, and differentiably in JAX.
+The paper (Katsumura et al., arXiv 2407.02728, appendix A) obtains the non-memory relation ΔGM(ζ_mid) by
+computing the GM of the hull in a wave of length L with its crest or trough amidships, sinkage and trim
+balanced quasi-statically, for several wave amplitudes, and fitting a 6th-order polynomial. This module does
+the same from a hull description, exactly for the polygonal hull the offsets define, and differentiably in
+JAX.
 
 **Method.** Each station's section is the polygon of its offsets, mirrored to port and closed by the deck at
-`depth`. At heel φ the water surface in the section plane is a straight line; the immersed part of the section is
-the polygon clipped by that half-plane. Its area and first moments follow from Green's theorem written in
-coordinates $(u, w)$ — $u$ horizontal (to starboard), $w$ depth below the surface — in which the clipping line is
-$w = 0$, so that only the (clipped) hull edges contribute:
+`depth`. At heel φ the water surface in the section plane is a straight line; the immersed part of the section
+is the polygon clipped by that half-plane. Its area and first moments follow from Green's theorem written in
+coordinates $(u, w)$ — $u$ horizontal (to starboard), $w$ depth below the surface — in which the clipping line
+is $w = 0$, so that only the (clipped) hull edges contribute:
 
 $$A = \oint w\,du, \qquad \iint u\,dA = \oint u w\,du, \qquad \iint w\,dA = \oint \tfrac12 w^2\,du .$$
 
-Every edge integral is a closed-form polynomial of its clipped end points, so the result is exact for the polygon
-and piecewise smooth in every input (vectorised over stations and edges with `jnp.where`; no Python loops). The
-sections are integrated along the hull with the trapezoid rule. Sinkage and trim are balanced with
-`optimistix.Newton` so that the displaced mass equals the ship's mass and LCB = LCG, in calm water, in a wave of
-length λ (default L) with its crest or trough amidships, and at every heel (free trim). Gradients pass through the
-balance by the implicit function theorem.
+Every edge integral is a closed-form polynomial of its clipped end points, so the result is exact for the
+polygon and piecewise smooth in every input (vectorised over stations and edges with `jnp.where`; no Python
+loops). The sections are integrated along the hull with the trapezoid rule. Sinkage and trim are balanced with
+`optimistix.Newton` so that the displaced mass equals the ship's mass and LCB = LCG, in calm water, in a wave
+of length λ (default L) with its crest or trough amidships, and at every heel (free trim). Gradients pass
+through the balance by the implicit function theorem.
 
 **Frames and signs** (see `docs/hydrostatics.md`):
 
@@ -34,6 +35,8 @@ balance by the implicit function theorem.
 
 from __future__ import annotations
 
+import functools
+import inspect
 import math
 import tomllib
 from collections.abc import Mapping
@@ -71,9 +74,9 @@ _NEWTON = optx.Newton(rtol=1e-10, atol=1e-9)
 _MAX_STEPS = 64
 
 
-# ----------------------------------------------------------------------------------------------------------------
+# ------------------------------------------------------------------------------------------------------------
 # Small helpers
-# ----------------------------------------------------------------------------------------------------------------
+# ------------------------------------------------------------------------------------------------------------
 
 
 def _concrete(x) -> np.ndarray | None:
@@ -82,6 +85,30 @@ def _concrete(x) -> np.ndarray | None:
         return np.asarray(x, dtype=float)
     except (jax.errors.TracerArrayConversionError, jax.errors.ConcretizationTypeError, TypeError):
         return None
+
+
+def _entry_point(fn):
+    """`eqx.filter_jit` with Python numbers and lists turned into float arrays first.
+
+    `filter_jit` treats Python scalars as static, so `gz_curve(..., zeta_mid=3.0)` would compile again for
+    every new amplitude; as arrays they are traced and one compilation serves all values.
+    """
+    jitted = eqx.filter_jit(fn)
+
+    def convert(v):
+        if isinstance(v, bool) or not isinstance(v, int | float | list | np.ndarray | np.generic):
+            return v
+        return jnp.asarray(v, dtype=float)
+
+    signature = inspect.signature(fn)
+
+    @functools.wraps(fn)
+    def wrapper(*args, **kwargs):
+        bound = signature.bind(*args, **kwargs)
+        bound.apply_defaults()  # defaults too: a Python-float default would be static as well
+        return jitted(*map(convert, bound.args), **{k: convert(v) for k, v in bound.kwargs.items()})
+
+    return wrapper
 
 
 def _trapezoid_weights(x: Float[Array, " n"]) -> Float[Array, " n"]:
@@ -93,8 +120,8 @@ def _trapezoid_weights(x: Float[Array, " n"]) -> Float[Array, " n"]:
 def _first_moment_weights(x: Float[Array, " n"]) -> Float[Array, " n"]:
     """Weights w with Σ w f = ∫ x f dx exactly for f linear between the nodes x.
 
-    Consistent with the trapezoid rule for ∫ f dx: the LCB is that of the piecewise-linear sectional-area curve, so
-    it is exact for a trimmed box and trim moments are not polluted by an O(Δx²) error of x·A.
+    Consistent with the trapezoid rule for ∫ f dx: the LCB is that of the piecewise-linear sectional-area
+    curve, so it is exact for a trimmed box and trim moments are not polluted by an O(Δx²) error of x·A.
     """
     x0, x1 = x[:-1], x[1:]
     dx = x1 - x0
@@ -104,9 +131,9 @@ def _first_moment_weights(x: Float[Array, " n"]) -> Float[Array, " n"]:
     return jnp.concatenate([left, zero]) + jnp.concatenate([zero, right])
 
 
-# ----------------------------------------------------------------------------------------------------------------
+# ------------------------------------------------------------------------------------------------------------
 # The hull
-# ----------------------------------------------------------------------------------------------------------------
+# ------------------------------------------------------------------------------------------------------------
 
 
 def _validate_offsets(stations, waterlines, half_breadths, lpp, depth, source: str) -> None:
@@ -123,14 +150,16 @@ def _validate_offsets(stations, waterlines, half_breadths, lpp, depth, source: s
     expected = (stations.size, waterlines.size)
     if half_breadths.shape != expected:
         raise ValueError(
-            f"{pre}`half_breadths` must have one row per station and one column per waterline, shape {expected}; "
+            f"{pre}`half_breadths` must have one row per station and one column per waterline, shape "
+            f"{expected}; "
             f"got {half_breadths.shape}."
         )
     for label, arr in (("stations", stations), ("waterlines", waterlines), ("half_breadths", half_breadths)):
         bad = np.argwhere(~np.isfinite(arr))
         if bad.size:
             raise ValueError(
-                f"{pre}`{label}` contains a non-finite value ({arr[tuple(bad[0])]}) at index {tuple(bad[0].tolist())}; "
+                f"{pre}`{label}` contains a non-finite value ({arr[tuple(bad[0])]}) at index "
+                f"{tuple(bad[0].tolist())}; "
                 "every offset must be a finite number in metres (write 0.0 where the hull has no breadth)."
             )
     for label, arr in (("lpp", lpp), ("depth", depth)):
@@ -151,7 +180,8 @@ def _validate_offsets(stations, waterlines, half_breadths, lpp, depth, source: s
     if neg.size:
         i, j = neg[0]
         raise ValueError(
-            f"{pre}half-breadths must be >= 0 [m] (the offsets of the starboard half, measured from the centre "
+            f"{pre}half-breadths must be >= 0 [m] (the offsets of the starboard half, measured from the "
+            "centre "
             f"plane); got {half_breadths[i, j]} at station {i} (x = {stations[i]} m), waterline {j} "
             f"(z = {waterlines[j]} m)."
         )
@@ -159,14 +189,17 @@ def _validate_offsets(stations, waterlines, half_breadths, lpp, depth, source: s
         raise ValueError(f"{pre}every half-breadth is zero: the hull has no volume. Check the offsets table.")
     if waterlines[-1] > depth:
         raise ValueError(
-            f"{pre}the highest waterline z = {waterlines[-1]} m is above the depth D = {float(depth)} m. The deck "
-            "closes the hull at z = D: raise `depth` to the deck at side, or drop the waterlines above the deck."
+            f"{pre}the highest waterline z = {waterlines[-1]} m is above the depth D = {float(depth)} m. The "
+            "deck "
+            "closes the hull at z = D: raise `depth` to the deck at side, or drop the waterlines above the "
+            "deck."
         )
     if not stations[0] < lpp / 2 < stations[-1]:
         raise ValueError(
             f"{pre}the stations span x = {stations[0]} .. {stations[-1]} m, which does not contain amidships "
-            f"x = Lpp/2 = {float(lpp) / 2} m. Stations are measured from the aft perpendicular (AP), positive "
-            "forward; if yours are measured from amidships, set station_origin = \"amidships\" in the hull "
+            f"x = Lpp/2 = {float(lpp) / 2} m. Stations are measured from the aft perpendicular (AP), "
+            "positive "
+            'forward; if yours are measured from amidships, set station_origin = "amidships" in the hull '
             "file (or add Lpp/2 to every station)."
         )
 
@@ -174,10 +207,10 @@ def _validate_offsets(stations, waterlines, half_breadths, lpp, depth, source: s
 class Hull(eqx.Module):
     """A ship hull described by station offsets (full scale, SI units).
 
-    The section at station `i` is the polygon through the starboard offsets `(half_breadths[i, j], waterlines[j])`,
-    continued vertically to the deck at `depth` with the last half-breadth, closed across the deck, mirrored to
-    port and closed across the bottom at the lowest waterline. Between offsets the hull is linear; along x the
-    section properties are integrated with the trapezoid rule.
+    The section at station `i` is the polygon through the starboard offsets `(half_breadths[i, j],
+    waterlines[j])`, continued vertically to the deck at `depth` with the last half-breadth, closed across the
+    deck, mirrored to port and closed across the bottom at the lowest waterline. Between offsets the hull is
+    linear; along x the section properties are integrated with the trapezoid rule.
     """
 
     stations: Float[Array, " stations"]
@@ -224,7 +257,8 @@ class Hull(eqx.Module):
 Hull.__init__.__doc__ = """**Arguments:**
 
 - `stations`: x of each station [m], measured from the aft perpendicular (AP), positive forward, strictly
-    increasing, shape `(stations,)`. Stations may lie aft of the AP (a transom) or forward of the FP (x = Lpp).
+    increasing, shape `(stations,)`. Stations may lie aft of the AP (a transom) or forward of the FP (x =
+    Lpp).
 - `waterlines`: heights z of the offsets above the baseline [m], strictly increasing, shape `(waterlines,)`.
 - `half_breadths`: starboard half-breadths y [m] >= 0, shape `(stations, waterlines)`.
 - `lpp`: length between perpendiculars L [m] > 0; amidships is at x = L/2.
@@ -232,8 +266,8 @@ Hull.__init__.__doc__ = """**Arguments:**
 - `name`, `provenance`: free text carried into outputs.
 
 **Raises:** `ValueError` (for concrete inputs) naming the offending entry: wrong shapes, non-finite values,
-non-increasing stations or waterlines, negative half-breadths, a waterline above the deck, or stations that do not
-contain amidships.
+non-increasing stations or waterlines, negative half-breadths, a waterline above the deck, or stations that do
+not contain amidships.
 """
 
 
@@ -264,13 +298,15 @@ def scale_hull(
     )
 
 
-# ----------------------------------------------------------------------------------------------------------------
+# ------------------------------------------------------------------------------------------------------------
 # Section integrals (the hot path)
-# ----------------------------------------------------------------------------------------------------------------
+# ------------------------------------------------------------------------------------------------------------
 
 
-def _section_polygons(hull: Hull) -> tuple[Float[Array, "stations vertices"], Float[Array, "stations vertices"]]:
-    """Vertices (y, z) of each closed section polygon, counter-clockwise in (y, z): starboard up, deck, port down."""
+def _section_polygons(
+    hull: Hull,
+) -> tuple[Float[Array, "stations vertices"], Float[Array, "stations vertices"]]:
+    """Vertices (y, z) of each section polygon, counter-clockwise in (y, z): starboard up, deck, port down."""
     y = jnp.concatenate([hull.half_breadths, hull.half_breadths[:, -1:]], axis=1)
     z = jnp.concatenate([hull.waterlines, hull.depth[None]])
     ys = jnp.concatenate([y, -y[:, ::-1]], axis=1)
@@ -330,7 +366,9 @@ class _Integrals(eqx.Module):
     volume: Array  # ∇ [m³]
     moment_x: Array  # ∫ x A dx [m⁴]
     moment_u: Array  # ∫∬ u dA dx [m⁴]
-    moment_vertical: Array  # ∫∬ Z dA dx [m⁴], Z earth-vertical height above the baseline point on the centreline
+    moment_vertical: (
+        Array  # ∫∬ Z dA dx [m⁴], Z earth-vertical height above the baseline point on the centreline
+    )
 
 
 def _integrals(hull: Hull, heel, sinkage, trim, zeta_mid, wavelength) -> _Integrals:
@@ -356,13 +394,13 @@ class Buoyancy(eqx.Module):
     vertical_centre: Float[Array, ""]
 
 
-Buoyancy.__init__.__doc__ = """Fields: `volume` ∇ [m³]; `lcb` [m] from the AP; `horizontal_centre` [m]: horizontal
-distance of B to starboard of the baseline point on the centre plane (= TCB upright, and GZ + KG sin φ when heeled);
-`vertical_centre` [m]: earth-vertical height of B above that point (= KB upright).
+Buoyancy.__init__.__doc__ = """Fields: `volume` ∇ [m³]; `lcb` [m] from the AP; `horizontal_centre` [m]:
+horizontal distance of B to starboard of the baseline point on the centre plane (= TCB upright, and GZ + KG
+sin φ when heeled); `vertical_centre` [m]: earth-vertical height of B above that point (= KB upright).
 """
 
 
-@eqx.filter_jit
+@_entry_point
 def buoyancy(
     hull: Hull,
     sinkage: ArrayLike,
@@ -372,7 +410,8 @@ def buoyancy(
     zeta_mid: ArrayLike = 0.0,
     wavelength: ArrayLike | None = None,
 ) -> Buoyancy:
-    """Immersed volume and centre of buoyancy at a prescribed waterline (sinkage, trim, heel held, no balance).
+    """Immersed volume and centre of buoyancy at a prescribed waterline (sinkage, trim, heel held, no
+    balance).
 
     **Arguments:**
 
@@ -394,9 +433,9 @@ def buoyancy(
     )
 
 
-# ----------------------------------------------------------------------------------------------------------------
+# ------------------------------------------------------------------------------------------------------------
 # Loading condition
-# ----------------------------------------------------------------------------------------------------------------
+# ------------------------------------------------------------------------------------------------------------
 
 
 class Loading(eqx.Module):
@@ -436,7 +475,7 @@ def _even_keel_volume_residual(draught, args):
 
 
 def _even_keel_draught(hull: Hull, volume) -> tuple[Array, Array]:
-    """Even-keel calm-water draught [m] displacing `volume` (bisection between the lowest waterline and the deck)."""
+    """Even-keel draught [m] displacing `volume` (bisection between the lowest waterline and the deck)."""
     lo, hi = hull.waterlines[0], hull.depth
     sol = optx.root_find(
         _even_keel_volume_residual,
@@ -463,8 +502,13 @@ def _loading_arrays(hull, kg, draught, displacement, lcg, rho, from_draught: boo
     ints = _integrals(hull, zero, d, zero, zero, None)
     lcb = ints.moment_x / ints.volume
     lcg_out = lcb if lcg is None else lcg
-    max_vol = _integrals(hull, zero, hull.depth, zero, zero, None).volume
-    return vol * rho, kg, lcg_out, rho, d, ok, max_vol
+    return vol * rho, kg, lcg_out, rho, d, ok
+
+
+@eqx.filter_jit
+def _max_displaced_volume(hull):
+    zero = jnp.zeros(())
+    return _integrals(hull, zero, hull.depth, zero, zero, None).volume
 
 
 def loading_condition(
@@ -490,17 +534,23 @@ def loading_condition(
 
     **Returns:** a [`Loading`][].
 
-    **Raises:** `ValueError` when the values are not finite, when both or neither of `draught` and `displacement`
-    are given, when the draught is not between the lowest waterline and the deck, or when the displacement is more
-    than the hull displaces with its deck at the water (concrete inputs only: under `jax.grad` the checks are
-    skipped).
+    **Raises:** `ValueError` when the values are not finite, when both or neither of `draught` and
+    `displacement` are given, when the draught is not between the lowest waterline and the deck, or when the
+    displacement is more than the hull displaces with its deck at the water (concrete inputs only: under
+    `jax.grad` the checks are skipped).
     """
     if (draught is None) == (displacement is None):
         raise ValueError(
             "Give exactly one of `draught` [m] and `displacement` [kg] to define the loading condition; "
             f"got draught={draught!r}, displacement={displacement!r}."
         )
-    checks = {"kg": kg, "water_density": water_density, "draught": draught, "displacement": displacement, "lcg": lcg}
+    checks = {
+        "kg": kg,
+        "water_density": water_density,
+        "draught": draught,
+        "displacement": displacement,
+        "lcg": lcg,
+    }
     for key, value in checks.items():
         if value is None:
             continue
@@ -518,38 +568,52 @@ def loading_condition(
         d = float(_concrete(draught))
         if d >= float(hv[1]):
             raise ValueError(
-                f"draught d = {d} m is at or above the depth D = {float(hv[1])} m: the deck would be under water. "
+                f"draught d = {d} m is at or above the depth D = {float(hv[1])} m: the deck would be under "
+                "water. "
                 "Give a draught below the deck (or check that the hull's depth is right)."
             )
         if d <= float(hv[0][0]):
             raise ValueError(
-                f"draught d = {d} m is at or below the lowest waterline of the offsets, z = {float(hv[0][0])} m: "
+                f"draught d = {d} m is at or below the lowest waterline of the offsets, z = "
+                f"{float(hv[0][0])} m: "
                 "the hull would not float. Give a draught above the keel."
             )
     f = lambda v: None if v is None else jnp.asarray(v, dtype=float)
-    disp, kg_, lcg_, rho, d, ok, max_vol = _loading_arrays(
+    if displacement is not None:
+        cd, cr = _concrete(displacement), _concrete(water_density)
+        if cd is not None and cr is not None:
+            max_mass = _max_displaced_volume(hull)
+            cm = _concrete(max_mass)
+            if cm is not None and cd >= cm * cr:
+                raise ValueError(
+                    f"displacement {float(cd):.6g} kg is more than the hull can float: with its deck at the "
+                    "water "
+                    f"it displaces {float(cm * cr):.6g} kg (ρ = {float(cr)} kg/m³). Check the units (kg, not "
+                    "tonnes) and the offsets, or give a smaller displacement."
+                )
+    disp, kg_, lcg_, rho, d, ok = _loading_arrays(
         hull, f(kg), f(draught), f(displacement), f(lcg), f(water_density), draught is not None
     )
-    if displacement is not None:
-        cd, cm, cr = _concrete(displacement), _concrete(max_vol), _concrete(water_density)
-        if cd is not None and cm is not None and cr is not None and cd >= cm * cr:
-            raise ValueError(
-                f"displacement {float(cd):.6g} kg is more than the hull can float: with its deck at the water it "
-                f"displaces {float(cm * cr):.6g} kg (ρ = {float(cr)} kg/m³). Check the units (kg, not tonnes) "
-                "and the offsets, or give a smaller displacement."
-            )
+    c_ok = _concrete(ok)
+    if c_ok is not None and not c_ok:
+        raise ValueError(
+            f"no even-keel draught between the keel and the deck displaces {float(_concrete(disp))} kg; "
+            "check the "
+            "displacement (kg) and the water density (kg/m³)."
+        )
     c_lcg, c_st = _concrete(lcg_), _concrete(hull.stations)
     if lcg is not None and c_lcg is not None and c_st is not None and not c_st[0] <= c_lcg <= c_st[-1]:
         raise ValueError(
-            f"LCG = {float(c_lcg)} m is outside the hull (stations span x = {c_st[0]} .. {c_st[-1]} m from the "
+            f"LCG = {float(c_lcg)} m is outside the hull (stations span x = {c_st[0]} .. {c_st[-1]} m from "
+            "the "
             "AP). LCG is measured from the aft perpendicular, positive forward."
         )
     return Loading(displacement=disp, kg=kg_, lcg=lcg_, water_density=rho, draught=d)
 
 
-# ----------------------------------------------------------------------------------------------------------------
+# ------------------------------------------------------------------------------------------------------------
 # Equilibrium
-# ----------------------------------------------------------------------------------------------------------------
+# ------------------------------------------------------------------------------------------------------------
 
 
 class Equilibrium(eqx.Module):
@@ -572,9 +636,9 @@ class Equilibrium(eqx.Module):
         return self.result == optx.RESULTS.successful
 
 
-Equilibrium.__init__.__doc__ = """Fields (all [m] unless stated): `sinkage` (draught amidships, earth-vertical),
-`trim` (d_FP − d_AP, positive by the head), `heel` [rad], `zeta_mid` (wave amplitude, > 0 trough amidships),
-`volume` [m³], `lcb` (from the AP), `gz` (righting lever about G, > 0 rights the ship),
+Equilibrium.__init__.__doc__ = """Fields (all [m] unless stated): `sinkage` (draught amidships,
+earth-vertical), `trim` (d_FP − d_AP, positive by the head), `heel` [rad], `zeta_mid` (wave amplitude, > 0
+trough amidships), `volume` [m³], `lcb` (from the AP), `gz` (righting lever about G, > 0 rights the ship),
 `vertical_centre_of_buoyancy` (earth-vertical height of B above the baseline point on the centreline; KB when
 upright), `result` (`optimistix.RESULTS`), `num_steps` (Newton steps).
 """
@@ -622,9 +686,12 @@ def _check_result(result, throw: bool, what: str):
     return eqx.error_if(
         result,
         failed,
-        f"The quasi-static balance (sinkage and trim) did not converge for {what}. This happens when the hull "
-        "cannot float at that heel or wave (deck or keel far out of the water), or the offsets are inconsistent. "
-        "Reduce the wave amplitude or heel range, check the loading condition, or pass throw=False and inspect "
+        f"The quasi-static balance (sinkage and trim) did not converge for {what}. This happens when the "
+        "hull "
+        "cannot float at that heel or wave (deck or keel far out of the water), or the offsets are "
+        "inconsistent. "
+        "Reduce the wave amplitude or heel range, check the loading condition, or pass throw=False and "
+        "inspect "
         "`result`/`converged`.",
     )
 
@@ -636,7 +703,7 @@ def _equilibrium_batch(hull, loading, heel, zeta_mid, wavelength) -> Equilibrium
     return jax.vmap(fn)(heel, zeta_mid)
 
 
-@eqx.filter_jit
+@_entry_point
 def equilibrium(
     hull: Hull,
     loading: Loading,
@@ -652,7 +719,8 @@ def equilibrium(
 
     - `hull`: the hull; `loading`: its [`Loading`][].
     - `heel`: heel φ [rad] (positive to starboard), held fixed; scalar or any array shape.
-    - `zeta_mid`: amplitude of a wave of length λ at amidships [m] (> 0 trough, < 0 crest); broadcast with `heel`.
+    - `zeta_mid`: amplitude of a wave of length λ at amidships [m] (> 0 trough, < 0 crest); broadcast with
+        `heel`.
     - `wavelength`: λ [m]; defaults to Lpp.
     - `throw`: raise (`EquinoxRuntimeError`) if any balance fails; otherwise report it in `result`.
 
@@ -676,7 +744,7 @@ def _gm_at(hull, loading, sinkage, trim, zeta_mid, wavelength):
     return dlever - loading.kg
 
 
-@eqx.filter_jit
+@_entry_point
 def metacentric_height(
     hull: Hull,
     loading: Loading,
@@ -685,10 +753,11 @@ def metacentric_height(
     wavelength: ArrayLike | None = None,
     throw: bool = True,
 ) -> Float[Array, "*zeta"]:
-    r"""Transverse metacentric height GM [m] upright, in calm water or in a wave, with sinkage and trim balanced.
+    r"""Transverse metacentric height GM [m] upright, in calm water or in a wave, with sinkage and trim
+    balanced.
 
-    GM is the initial slope dGZ/dφ at φ = 0 of the free-trim GZ curve; in a wave it includes the local waterline
-    breadths and the shift of the centre of buoyancy (the paper's Froude–Krylov GM).
+    GM is the initial slope dGZ/dφ at φ = 0 of the free-trim GZ curve; in a wave it includes the local
+    waterline breadths and the shift of the centre of buoyancy (the paper's Froude–Krylov GM).
 
     **Arguments:**
 
@@ -700,12 +769,14 @@ def metacentric_height(
     **Returns:** GM [m] with the shape of `zeta_mid`. Differentiable in the hull, KG and ζ.
     """
     zeta = jnp.asarray(zeta_mid, dtype=float)
-    eq = equilibrium(hull, loading, heel=jnp.zeros_like(zeta), zeta_mid=zeta, wavelength=wavelength, throw=throw)
+    eq = equilibrium(
+        hull, loading, heel=jnp.zeros_like(zeta), zeta_mid=zeta, wavelength=wavelength, throw=throw
+    )
     fn = lambda s, t, z: _gm_at(hull, loading, s, t, z, wavelength)
     return jax.vmap(fn)(eq.sinkage.ravel(), eq.trim.ravel(), zeta.ravel()).reshape(zeta.shape)
 
 
-@eqx.filter_jit
+@_entry_point
 def gz_curve(
     hull: Hull,
     loading: Loading,
@@ -729,9 +800,9 @@ def gz_curve(
     return equilibrium(hull, loading, heel=heels, zeta_mid=zeta_mid, wavelength=wavelength, throw=throw).gz
 
 
-# ----------------------------------------------------------------------------------------------------------------
+# ------------------------------------------------------------------------------------------------------------
 # Calm-water particulars
-# ----------------------------------------------------------------------------------------------------------------
+# ------------------------------------------------------------------------------------------------------------
 
 
 class Particulars(eqx.Module):
@@ -764,8 +835,13 @@ class Particulars(eqx.Module):
     def as_dict(self) -> dict[str, float]:
         """Plain floats keyed `<name>_<unit>` (for JSON)."""
         units = dict(
-            displacement="kg", volume="m3", waterplane_area="m2", block_coefficient="", midship_coefficient="",
-            prismatic_coefficient="", waterplane_coefficient="",
+            displacement="kg",
+            volume="m3",
+            waterplane_area="m2",
+            block_coefficient="",
+            midship_coefficient="",
+            prismatic_coefficient="",
+            waterplane_coefficient="",
         )
         out = {}
         for k in self.__dataclass_fields__:
@@ -776,16 +852,16 @@ class Particulars(eqx.Module):
         return out
 
 
-Particulars.__init__.__doc__ = """Fields: `displacement` Δ [kg]; `volume` ∇ [m³]; `draught` amidships, `draught_ap`,
-`draught_fp` [m]; `trim` = d_FP − d_AP [m]; `lcb`, `lcg`, `lcf` [m] from the AP; `kb`, `bm`, `km`, `kg`, `gm`
-[m] (transverse); `bm_longitudinal`, `gm_longitudinal` [m] (trim moment of the waterplane about the LCF);
-`waterplane_area` [m²]; `waterline_breadth` B_WL [m]; `block_coefficient` ∇/(Lpp B_WL d),
+Particulars.__init__.__doc__ = """Fields: `displacement` Δ [kg]; `volume` ∇ [m³]; `draught` amidships,
+`draught_ap`, `draught_fp` [m]; `trim` = d_FP − d_AP [m]; `lcb`, `lcg`, `lcf` [m] from the AP; `kb`, `bm`,
+`km`, `kg`, `gm` [m] (transverse); `bm_longitudinal`, `gm_longitudinal` [m] (trim moment of the waterplane
+about the LCF); `waterplane_area` [m²]; `waterline_breadth` B_WL [m]; `block_coefficient` ∇/(Lpp B_WL d),
 `midship_coefficient` A_M/(B_WL d), `prismatic_coefficient` C_B/C_M, `waterplane_coefficient` A_WP/(Lpp B_WL);
 `result` of the balance.
 """
 
 
-@eqx.filter_jit
+@_entry_point
 def hydrostatic_particulars(
     hull: Hull,
     loading: Loading,
@@ -831,7 +907,9 @@ def _particulars(hull, loading, eq: Equilibrium, gm, zeta, wavelength) -> Partic
 
     ys, zs = _section_polygons(hull)
     h = s + t * (hull.stations - xm) / lpp + wave_elevation(hull, zeta, wavelength)
-    area, breadth = jax.jvp(lambda hh: _immersed_section_moments(ys, zs, zero, hh)[0], (h,), (jnp.ones_like(h),))
+    area, breadth = jax.jvp(
+        lambda hh: _immersed_section_moments(ys, zs, zero, hh)[0], (h,), (jnp.ones_like(h),)
+    )
     b_wl = jnp.max(breadth)
     a_mid = jnp.interp(xm, hull.stations, area)
     cb = eq.volume / (lpp * b_wl * s)
@@ -877,9 +955,9 @@ def kg_for_gm(hull: Hull, gm: ArrayLike, **loading_kwargs) -> Float[Array, ""]:
     return metacentric_height(hull, probe) - jnp.asarray(gm, dtype=float)
 
 
-# ----------------------------------------------------------------------------------------------------------------
+# ------------------------------------------------------------------------------------------------------------
 # Polynomial fits
-# ----------------------------------------------------------------------------------------------------------------
+# ------------------------------------------------------------------------------------------------------------
 
 
 def fit_gz_polynomial(
@@ -892,8 +970,8 @@ def fit_gz_polynomial(
     - `heels`: φ [rad] (at least 4 distinct non-zero values); `gz`: GZ [m] at those heels.
     - `gm0`: the initial slope GM0 [m], held fixed so the fitted curve has the computed GM.
 
-    **Returns:** `(g, rms)`: g = (g3, g5, g7, g9) [m] and the root-mean-square residual [m]. Convert to the ship
-    file's a3..a9 with `jaxroll._ship.restoring_fields_from_gz(g, gm0, roll_period)`.
+    **Returns:** `(g, rms)`: g = (g3, g5, g7, g9) [m] and the root-mean-square residual [m]. Convert to the
+    ship file's a3..a9 with `jaxroll._ship.restoring_fields_from_gz(g, gm0, roll_period)`.
     """
     phi = jnp.asarray(heels, dtype=float)
     gz = jnp.asarray(gz, dtype=float)
@@ -933,13 +1011,13 @@ def fit_delta_gm_polynomial(
     return c, rms
 
 
-# ----------------------------------------------------------------------------------------------------------------
+# ------------------------------------------------------------------------------------------------------------
 # The full table: GZ(ζ_mid, φ), GM(ζ_mid), fits
-# ----------------------------------------------------------------------------------------------------------------
+# ------------------------------------------------------------------------------------------------------------
 
 
 class HydrostaticsSolution(eqx.Module):
-    """GZ and GM of a hull in calm water and in waves of length λ, with the polynomial fits the roll model uses."""
+    """GZ and GM of a hull in calm water and in waves of length λ, with the roll model's polynomial fits."""
 
     particulars: Particulars
     zeta_mid: Float[Array, " zeta"]
@@ -971,12 +1049,12 @@ class HydrostaticsSolution(eqx.Module):
         return self.gz - self.gz_calm[None, :]
 
 
-HydrostaticsSolution.__init__.__doc__ = """Fields: `particulars` (calm water, [`Particulars`][]); the grids `zeta_mid`
-[m] (> 0 trough amidships) and `heels` [rad]; `wavelength` λ [m]; tables `gz`, `sinkage`, `trim` [m] of shape
-(zeta, heels) at free trim; `gz_calm` [m]; `gm`, `delta_gm` = GM(ζ) − GM(calm) [m] (upright); the fits
-`gz_coefficients` (g3, g5, g7, g9) [m] of the calm GZ with GM0 held and `delta_gm_coefficients` C0..C6 [m^(1−k)],
-with their RMS residuals [m]; `max_volume_error` (largest |∇/∇0 − 1| over all balances) and `max_lcb_error` [m];
-`converged` and `result`.
+HydrostaticsSolution.__init__.__doc__ = """Fields: `particulars` (calm water, [`Particulars`][]); the grids
+`zeta_mid` [m] (> 0 trough amidships) and `heels` [rad]; `wavelength` λ [m]; tables `gz`, `sinkage`, `trim`
+[m] of shape (zeta, heels) at free trim; `gz_calm` [m]; `gm`, `delta_gm` = GM(ζ) − GM(calm) [m] (upright); the
+fits `gz_coefficients` (g3, g5, g7, g9) [m] of the calm GZ with GM0 held and `delta_gm_coefficients` C0..C6
+[m^(1−k)], with their RMS residuals [m]; `max_volume_error` (largest |∇/∇0 − 1| over all balances) and
+`max_lcb_error` [m]; `converged` and `result`.
 """
 
 
@@ -1021,7 +1099,9 @@ def _hydrostatics_core(hull, loading, zeta, heels, wavelength, throw):
     g, g_rms = fit_gz_polynomial(heels, calm.gz, gm0)
     c, c_rms = fit_delta_gm_polynomial(zeta, delta_gm)
     converged = table.converged & calm.converged[None, :] & jnp.all(upright.converged)
-    result = optx.RESULTS.where(jnp.all(converged), optx.RESULTS.successful, optx.RESULTS.nonlinear_divergence)
+    result = optx.RESULTS.where(
+        jnp.all(converged), optx.RESULTS.successful, optx.RESULTS.nonlinear_divergence
+    )
     result = _check_result(result, throw, "at least one (ζ_mid, φ) of the table")
     vol_err = jnp.max(jnp.abs(eqs.volume / loading.volume - 1))
     lcb_err = jnp.max(jnp.abs(eqs.lcb - loading.lcg))
@@ -1058,10 +1138,10 @@ def hull_hydrostatics(
 ) -> HydrostaticsSolution:
     r"""GZ(ζ_mid, φ), GM(ζ_mid) and ΔGM(ζ_mid) of a hull, with the polynomial fits of the roll model.
 
-    For each wave amplitude ζ_mid (a wave of length λ with its trough, ζ_mid > 0, or crest, ζ_mid < 0, amidships)
-    and heel φ, sinkage and trim are balanced quasi-statically (Froude–Krylov: hydrostatic pressure under the
-    wave profile) and the righting lever GZ is computed; GM(ζ_mid) is the upright slope. The calm GZ is fitted by
-    GM0 φ + g3 φ³ + … + g9 φ⁹ and ΔGM by C1 ζ + … + C6 ζ⁶ (Katsumura et al., appendix A).
+    For each wave amplitude ζ_mid (a wave of length λ with its trough, ζ_mid > 0, or crest, ζ_mid < 0,
+    amidships) and heel φ, sinkage and trim are balanced quasi-statically (Froude–Krylov: hydrostatic pressure
+    under the wave profile) and the righting lever GZ is computed; GM(ζ_mid) is the upright slope. The calm GZ
+    is fitted by GM0 φ + g3 φ³ + … + g9 φ⁹ and ΔGM by C1 ζ + … + C6 ζ⁶ (Katsumura et al., appendix A).
 
     **Arguments:**
 
@@ -1076,24 +1156,31 @@ def hull_hydrostatics(
     zeta = jnp.asarray(default_zeta_grid() if zeta_mid is None else zeta_mid, dtype=float)
     phi = jnp.asarray(default_heel_grid() if heels is None else heels, dtype=float)
     if zeta.ndim != 1 or phi.ndim != 1:
-        raise ValueError(f"`zeta_mid` and `heels` must be 1-D grids; got shapes {zeta.shape} and {phi.shape}.")
+        raise ValueError(
+            f"`zeta_mid` and `heels` must be 1-D grids; got shapes {zeta.shape} and {phi.shape}."
+        )
     cz = _concrete(zeta)
     if cz is not None and np.count_nonzero(np.unique(cz)) < 6:
         raise ValueError(
-            f"the ΔGM fit has 6 coefficients: give at least 6 distinct non-zero amplitudes; got zeta_mid = {cz}."
+            "the ΔGM fit has 6 coefficients: give at least 6 distinct non-zero amplitudes; got zeta_mid = "
+            f"{cz}."
         )
     cp = _concrete(phi)
     if cp is not None and np.count_nonzero(np.unique(cp)) < 4:
-        raise ValueError(f"the GZ fit has 4 free coefficients: give at least 4 distinct non-zero heels; got {cp}.")
+        raise ValueError(
+            f"the GZ fit has 4 free coefficients: give at least 4 distinct non-zero heels; got {cp}."
+        )
     if cp is not None and not np.all(np.abs(cp) <= math.pi / 2):
-        raise ValueError(f"`heels` must be in radians within [−π/2, π/2]; got max |φ| = {np.max(np.abs(cp))}.")
+        raise ValueError(
+            f"`heels` must be in radians within [−π/2, π/2]; got max |φ| = {np.max(np.abs(cp))}."
+        )
     lam = None if wavelength is None else jnp.asarray(wavelength, dtype=float)
     return _hydrostatics_core(hull, loading, zeta, phi, lam, throw)
 
 
-# ----------------------------------------------------------------------------------------------------------------
+# ------------------------------------------------------------------------------------------------------------
 # From hydrostatics to a Ship
-# ----------------------------------------------------------------------------------------------------------------
+# ------------------------------------------------------------------------------------------------------------
 
 
 def roll_period_from_gyradius(
@@ -1107,8 +1194,12 @@ def roll_period_from_gyradius(
     - `added_inertia`: added roll inertia as a fraction a of the dry inertia [-] (often 0.1–0.25).
     """
     gm = jnp.asarray(gm, dtype=float)
-    return 2 * jnp.pi * jnp.asarray(gyradius, dtype=float) * jnp.sqrt(1 + jnp.asarray(added_inertia)) / jnp.sqrt(
-        gravity * gm
+    return (
+        2
+        * jnp.pi
+        * jnp.asarray(gyradius, dtype=float)
+        * jnp.sqrt(1 + jnp.asarray(added_inertia))
+        / jnp.sqrt(gravity * gm)
     )
 
 
@@ -1138,7 +1229,8 @@ def ship_from_hydrostatics(
     """
     if (roll_period is None) == (roll_gyradius is None):
         raise ValueError(
-            "The roll period is not hydrostatic: give exactly one of `roll_period` [s] and `roll_gyradius` [m] "
+            "The roll period is not hydrostatic: give exactly one of `roll_period` [s] and `roll_gyradius` "
+            "[m] "
             f"(with `added_inertia`); got roll_period={roll_period!r}, roll_gyradius={roll_gyradius!r}."
         )
     p = solution.particulars
@@ -1172,7 +1264,8 @@ def ship_from_hydrostatics(
         provenance=provenance
         if provenance is not None
         else (
-            f"jaxroll hydrostatics of hull {hull.name!r} (KG {float(p.kg):.4f} m, Δ {float(p.displacement):.6g} kg, "
+            f"jaxroll hydrostatics of hull {hull.name!r} (KG {float(p.kg):.4f} m, Δ "
+            f"{float(p.displacement):.6g} kg, "
             f"λ = {float(solution.wavelength):.4g} m, ζ_mid in [{float(solution.zeta_mid.min()):.3g}, "
             f"{float(solution.zeta_mid.max()):.3g}] m); roll period and damping are inputs, not hydrostatics."
             + (f" {hull.provenance}" if hull.provenance else "")
@@ -1213,9 +1306,9 @@ def ship_from_hull(
     )
 
 
-# ----------------------------------------------------------------------------------------------------------------
+# ------------------------------------------------------------------------------------------------------------
 # Hull files (TOML)
-# ----------------------------------------------------------------------------------------------------------------
+# ------------------------------------------------------------------------------------------------------------
 
 _HULL_KEYS = {"lpp_m", "depth_m", "stations_m", "waterlines_m", "half_breadths_m", "station_origin"}
 _LOADING_KEYS = {"kg_m", "draught_m", "displacement_kg", "lcg_m", "water_density_kg_m3"}
@@ -1249,7 +1342,9 @@ def hull_from_dict(data: Mapping[str, Any], *, source: str = "<dict>") -> tuple[
         )
     table = data.get("hull")
     if not isinstance(table, Mapping):
-        raise ValueError(f"{source}: missing [hull] table (lpp_m, depth_m, stations_m, waterlines_m, half_breadths_m).")
+        raise ValueError(
+            f"{source}: missing [hull] table (lpp_m, depth_m, stations_m, waterlines_m, half_breadths_m)."
+        )
     extra = sorted(set(table) - _HULL_KEYS)
     if extra:
         raise ValueError(f"{source}: unknown field(s) {extra} in [hull]; allowed: {sorted(_HULL_KEYS)}.")
@@ -1276,7 +1371,8 @@ def hull_from_dict(data: Mapping[str, Any], *, source: str = "<dict>") -> tuple[
     for i, row in enumerate(rows):
         if len(row) != waterlines.size:
             raise ValueError(
-                f"{source}: [hull] half_breadths_m is ragged: row {i} (station x = {stations[i]} m) has {len(row)} "
+                f"{source}: [hull] half_breadths_m is ragged: row {i} (station x = {stations[i]} m) has "
+                f"{len(row)} "
                 f"values but there are {waterlines.size} waterlines; give one half-breadth per waterline "
                 "(0.0 where the hull has no breadth)."
             )
@@ -1286,12 +1382,14 @@ def hull_from_dict(data: Mapping[str, Any], *, source: str = "<dict>") -> tuple[
     origin = table.get("station_origin", "ap")
     if origin not in ("ap", "amidships"):
         raise ValueError(
-            f"{source}: [hull] station_origin must be \"ap\" (x from the aft perpendicular, the default) or "
-            f"\"amidships\"; got {origin!r}."
+            f'{source}: [hull] station_origin must be "ap" (x from the aft perpendicular, the default) or '
+            f'"amidships"; got {origin!r}.'
         )
     if origin == "amidships":
         stations = stations + lpp / 2
-    _validate_offsets(stations, waterlines, half_breadths, np.asarray(lpp), np.asarray(float(table["depth_m"])), source)
+    _validate_offsets(
+        stations, waterlines, half_breadths, np.asarray(lpp), np.asarray(float(table["depth_m"])), source
+    )
     hull = Hull(
         stations=stations,
         waterlines=waterlines,
@@ -1306,7 +1404,9 @@ def hull_from_dict(data: Mapping[str, Any], *, source: str = "<dict>") -> tuple[
         raise ValueError(f"{source}: [loading] must be a table; got {type(loading).__name__}.")
     extra = sorted(set(loading) - _LOADING_KEYS)
     if extra:
-        raise ValueError(f"{source}: unknown field(s) {extra} in [loading]; allowed: {sorted(_LOADING_KEYS)}.")
+        raise ValueError(
+            f"{source}: unknown field(s) {extra} in [loading]; allowed: {sorted(_LOADING_KEYS)}."
+        )
     for key, v in loading.items():
         if isinstance(v, bool) or not isinstance(v, int | float):
             raise ValueError(f"{source}: [loading] {key} must be a number (SI units); got {v!r}.")
@@ -1316,7 +1416,7 @@ def hull_from_dict(data: Mapping[str, Any], *, source: str = "<dict>") -> tuple[
 
 
 def read_hull_file(path: str | Path) -> tuple[Hull, dict[str, float]]:
-    """Read a hull file (TOML, format in `docs/hydrostatics.md`): the hull and its optional `[loading]` table."""
+    """Read a hull file (TOML, format in `docs/hydrostatics.md`): the hull and its `[loading]` table."""
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"Hull file {str(path)!r} does not exist.")
@@ -1338,8 +1438,13 @@ def loading_from_dict(hull: Hull, loading: Mapping[str, float], **overrides) -> 
     Overrides given as not-None replace the file's values; a `draught` override drops the file's displacement
     and vice versa.
     """
-    keys = dict(kg="kg_m", draught="draught_m", displacement="displacement_kg", lcg="lcg_m",
-                water_density="water_density_kg_m3")
+    keys = dict(
+        kg="kg_m",
+        draught="draught_m",
+        displacement="displacement_kg",
+        lcg="lcg_m",
+        water_density="water_density_kg_m3",
+    )
     values = {arg: loading[key] for arg, key in keys.items() if key in loading}
     overrides = {k: v for k, v in overrides.items() if v is not None}
     if "draught" in overrides:
@@ -1403,13 +1508,19 @@ def hull_to_toml(
     return "\n".join(lines) + "\n"
 
 
-# ----------------------------------------------------------------------------------------------------------------
+# ------------------------------------------------------------------------------------------------------------
 # Analytic test hulls and the representative C11-like hull
-# ----------------------------------------------------------------------------------------------------------------
+# ------------------------------------------------------------------------------------------------------------
 
 
 def box_hull(
-    length: float, breadth: float, depth: float, *, n_stations: int = 11, n_waterlines: int = 3, name: str = "box"
+    length: float,
+    breadth: float,
+    depth: float,
+    *,
+    n_stations: int = 11,
+    n_waterlines: int = 3,
+    name: str = "box",
 ) -> Hull:
     """A rectangular barge L × B × D (stations from 0 to L, so Lpp = L).
 
@@ -1441,8 +1552,8 @@ def wigley_hull(
 
     Closed forms at the design draught T: ∇ = (4/9) L B T, KB = 5T/8, BM = (3/35) B²/T.
 
-    **Arguments:** `length` L, `breadth` B, `draught` T, `depth` D > T [m]; `n_stations` (uniform over [0, L]),
-    `n_waterlines` (uniform over [0, T]; the deck is added at D).
+    **Arguments:** `length` L, `breadth` B, `draught` T, `depth` D > T [m]; `n_stations` (uniform over [0,
+    L]), `n_waterlines` (uniform over [0, T]; the deck is added at D).
     """
     x = np.linspace(0.0, length, n_stations)
     z = np.linspace(0.0, draught, n_waterlines)
@@ -1450,7 +1561,12 @@ def wigley_hull(
     zz = (draught - z) / draught
     y = breadth / 2 * (1 - xi[:, None] ** 2) * (1 - zz[None, :] ** 2)
     return Hull(
-        stations=x, waterlines=z, half_breadths=np.clip(y, 0.0, None), lpp=length, depth=depth, name=name,
+        stations=x,
+        waterlines=z,
+        half_breadths=np.clip(y, 0.0, None),
+        lpp=length,
+        depth=depth,
+        name=name,
         provenance=f"Wigley hull L={length}, B={breadth}, T={draught}, D={depth} m",
     )
 
@@ -1460,7 +1576,7 @@ C11_PARTICULARS = dict(lpp=262.0, breadth=40.0, depth=24.45, draught=11.5)
 
 
 def _c11_half_breadth(xi: np.ndarray, z: np.ndarray, p: Mapping[str, float]) -> np.ndarray:
-    """Half-breadth y(ξ, z) [m] of the parametric C11-like hull; ξ = x/Lpp from the AP, z [m] above baseline."""
+    """Half-breadth y(ξ, z) [m] of the C11-like hull; ξ = x/Lpp from the AP, z [m] above the baseline."""
     b2, d, depth = p["breadth"] / 2, p["draught"], p["depth"]
     xi = xi[:, None]
     z = z[None, :]
@@ -1476,13 +1592,13 @@ def _c11_half_breadth(xi: np.ndarray, z: np.ndarray, p: Mapping[str, float]) -> 
     pf = p["pf_keel"] + (p["pf_wl"] - p["pf_keel"]) * rise + (p["pf_deck"] - p["pf_wl"]) * above
     sf = np.clip((xi - xi_f) / (stem - xi_f), 0.0, 1.0)
     fwd = 1.0 - sf**pf
-    # Afterbody waterlines end at the transom (ξ = ξT) above its lower edge zT with breadth ratio τ(z); below zT
-    # they close further forward (the run), at ξe(z).
+    # Afterbody waterlines end at the transom (ξ = ξT) above its lower edge zT with breadth ratio τ(z); below
+    # zT they close further forward (the run), at ξe(z).
     xi_a, xi_t, z_t = p["xi_aft"], p["xi_transom"], p["z_transom"]
     s_t = np.clip((z - z_t) / (depth - z_t), 0.0, 1.0)
     tau = p["transom_ratio"] * np.sqrt(s_t)
     low = np.clip(z / z_t, 0.0, 1.0)
-    xi_end = np.where(z >= z_t, xi_t, p["xi_run_keel"] + (xi_t - p["xi_run_keel"]) * low**p["run_shape"])
+    xi_end = np.where(z >= z_t, xi_t, p["xi_run_keel"] + (xi_t - p["xi_run_keel"]) * low ** p["run_shape"])
     pa = p["pa_keel"] + (p["pa_wl"] - p["pa_keel"]) * rise + (p["pa_deck"] - p["pa_wl"]) * above
     sa = np.clip((xi_a - xi) / (xi_a - xi_end), 0.0, None)
     aft = np.where(sa <= 1.0, tau + (1 - tau) * (1 - np.clip(sa, 0.0, 1.0) ** pa), 0.0)
@@ -1521,19 +1637,22 @@ def c11_like_offsets(**shape: float) -> tuple[np.ndarray, np.ndarray, np.ndarray
     - y_mid is the midship section: flat bottom, round bilge of radius R, vertical sides;
     - forward of ξ_f, S = 1 − ((ξ − ξ_f)/(ξ_stem(z) − ξ_f))^{p_f(z)}, with p_f rising from the keel to the
       waterline and again to the deck (bow flare) and a stem raked forward above the waterline;
-    - aft of ξ_a, S = τ(z) + (1 − τ(z))(1 − ((ξ_a − ξ)/(ξ_a − ξ_e(z)))^{p_a(z)}): above the transom's lower edge z_T
+    - aft of ξ_a, S = τ(z) + (1 − τ(z))(1 − ((ξ_a − ξ)/(ξ_a − ξ_e(z)))^{p_a(z)}): above the transom's lower
+        edge z_T
       the waterlines end at the transom ξ_T < 0 with breadth ratio τ(z) = τ_max √((z − z_T)/(D − z_T)) (a wide
       transom), below it they close at ξ_e(z), moving aft from ξ_run at the keel.
 
-    The parameters (`C11_SHAPE`, overridable by keyword) were tuned so that at d = 11.5 m, ρ = 1025 kg/m³ the hull
-    displaces about 6.82e7 kg (Table 1: 6.7247e7) with C_B ≈ 0.55 (Table 1: 0.56), which are not consistent with
-    each other at ρ = 1025 kg/m³ (see docs/hydrostatics.md); both are met within 2 %.
+    The parameters (`C11_SHAPE`, overridable by keyword) were tuned so that at d = 11.5 m, ρ = 1025 kg/m³ the
+    hull displaces about 6.82e7 kg (Table 1: 6.7247e7) with C_B ≈ 0.55 (Table 1: 0.56), which are not
+    consistent with each other at ρ = 1025 kg/m³ (see docs/hydrostatics.md); both are met within 2 %.
 
     **Returns:** `(stations, waterlines, half_breadths)` [m].
     """
     p = {**C11_PARTICULARS, **C11_SHAPE, **shape}
     lpp, d, depth = p["lpp"], p["draught"], p["depth"]
-    xi = np.concatenate([[p["xi_transom"], -0.01], np.linspace(0.0, 1.0, 41), [1.01, 1.02, p["stem_rake"] + 1.0]])
+    xi = np.concatenate(
+        [[p["xi_transom"], -0.01], np.linspace(0.0, 1.0, 41), [1.01, 1.02, p["stem_rake"] + 1.0]]
+    )
     z = np.concatenate([[0.0, 0.25, 0.5, 1.0, 1.5, 2.0, 2.5], np.arange(3.0, 24.0, 1.0), [d], [24.0, depth]])
     z = np.unique(z)
     y = _c11_half_breadth(xi, z, p)
@@ -1574,8 +1693,10 @@ def write_c11_hull_file(path: str | Path | None = None) -> Path:
         "REPRESENTATIVE C11-like hull, NOT the real C11 lines (which are unpublished).\n"
         "Generated by jaxroll._hydrostatics.write_c11_hull_file() from the parametric formula of\n"
         "jaxroll._hydrostatics.c11_like_offsets (see docs/hydrostatics.md): Lpp 262 m, B 40 m, D 24.45 m,\n"
-        "d 11.5 m (paper's Table 1), flat bottom with 5 m bilge radius, flared bow with raked stem, wide transom\n"
-        "aft of the AP. At d = 11.5 m, rho = 1025 kg/m3: displacement ~6.82e7 kg, Cb ~0.552 (Table 1: 6.7247e7 kg,\n"
+        "d 11.5 m (paper's Table 1), flat bottom with 5 m bilge radius, flared bow with raked stem, wide "
+        "transom\n"
+        "aft of the AP. At d = 11.5 m, rho = 1025 kg/m3: displacement ~6.82e7 kg, Cb ~0.552 (Table 1: "
+        "6.7247e7 kg,\n"
         "0.56, which are mutually consistent only at rho = 1000). KG below gives GM0 = 1.9299 m."
     )
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -1584,7 +1705,7 @@ def write_c11_hull_file(path: str | Path | None = None) -> Path:
 
 
 def c11_hull() -> Hull:
-    """The representative C11-like hull shipped as `jaxroll/data/c11_hull.toml` (REPRESENTATIVE, not the real C11)."""
+    """The C11-like hull shipped as `jaxroll/data/c11_hull.toml` (REPRESENTATIVE, not the real C11 lines)."""
     return load_hull(_c11_hull_path())
 
 
@@ -1593,7 +1714,7 @@ def _c11_hull_path() -> Path:
 
 
 def c11_hull_loading() -> Loading:
-    """The loading of the shipped C11-like hull: d = 11.5 m at even keel, KG giving GM0 ≈ 1.93 m (file's [loading])."""
+    """Loading of the shipped C11-like hull (its file's [loading]): d = 11.5 m, KG giving GM0 ≈ 1.93 m."""
     hull, loading = read_hull_file(_c11_hull_path())
     return loading_from_dict(hull, loading)
 

@@ -1,4 +1,5 @@
-"""Figures of hull hydrostatics: body plan, GZ curves (calm, crest, trough), ΔGM(ζ_mid) and its polynomial fit.
+"""Figures of hull hydrostatics: body plan, GZ curves (calm, crest, trough), ΔGM(ζ_mid) and its polynomial
+fit.
 
 The only hydrostatics module that imports matplotlib. Functions take `ax=None` (a new figure is made with
 `pyplot.subplots`) and return the `Axes`; they never call `plt.show()`. Angles are plotted in degrees.

@@ -15,7 +15,8 @@ def add_sea_options(p: argparse.ArgumentParser) -> None:
     g.add_argument("--t01", type=float, default=10.0, help="mean wave period T01 [s] (default 10)")
     g.add_argument("--speed", type=float, default=0.0, help="ship speed [m/s] (default 0)")
     g.add_argument("--heading", choices=("head", "following"), default="head", help="long-crested waves from")
-    g.add_argument("--ship", metavar="FILE", default=None, help="ship file (TOML); default: C11 (representative)")
+    g.add_argument("--ship", metavar="FILE", default=None, help="ship file (TOML), or `c11-hull` for GZ and ΔGM computed from the shipped representative hull; "
+        "default: C11 (representative)")
     n = p.add_argument_group("numerics")
     n.add_argument("--dt", type=float, default=0.5, help="time step [s] (default 0.5)")
     n.add_argument(

@@ -1,0 +1,83 @@
+"""Benchmark: the full GZ(ζ_mid, φ) / ΔGM(ζ_mid) table of the shipped C11-like hull.
+
+Measures `jaxroll._hydrostatics.hull_hydrostatics` on the representative C11-like hull (46 stations × 31
+waterlines) for 13 amplitudes × 15 heels: 195 free-trim balances for the table, plus the calm GZ curve, the 13
+upright balances and GM slopes, the calm particulars and both polynomial fits. Compile time (first call) and
+run time (best of repeats) are reported separately, plus the gradient of the fitted ΔGM coefficient C1 with
+respect to a breadth scale factor. Target: seconds on a laptop CPU. Wall and CPU (process) times are both
+printed: on a shared machine the wall time of the compilation mostly measures the other users.
+
+Run: `python benchmarks/hydrostatics.py [--n-zeta 13] [--n-heel 15] [--repeat 10]`. Output: `name=value`
+lines.
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+import timeit
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+import jaxroll  # noqa: F401  (float64)
+from jaxroll import _hydrostatics as hs
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--n-zeta", type=int, default=13)
+    parser.add_argument("--n-heel", type=int, default=15)
+    parser.add_argument("--repeat", type=int, default=10)
+    args = parser.parse_args()
+
+    hull = hs.c11_hull()
+    loading = hs.c11_hull_loading()
+    zeta = jnp.asarray(hs.default_zeta_grid(6.0, args.n_zeta))
+    heels = jnp.asarray(hs.default_heel_grid(np.radians(70.0), args.n_heel))
+    run = lambda: jax.block_until_ready(hs.hull_hydrostatics(hull, loading, zeta_mid=zeta, heels=heels))
+
+    t0, c0 = time.perf_counter(), time.process_time()
+    sol = run()
+    first, first_cpu = time.perf_counter() - t0, time.process_time() - c0
+    best = min(timeit.repeat(run, number=1, repeat=args.repeat))
+    balances = args.n_zeta * args.n_heel + args.n_heel + args.n_zeta + 1
+
+    def c1(breadth):
+        h = hs.scale_hull(hull, breadth=breadth)
+        ld = hs.loading_condition(h, kg=loading.kg, draught=11.5)
+        return hs.hull_hydrostatics(h, ld, zeta_mid=zeta, heels=heels).delta_gm_coefficients[1]
+
+    grad = jax.jit(jax.grad(c1))
+    t0, c0 = time.perf_counter(), time.process_time()
+    g = jax.block_until_ready(grad(jnp.asarray(1.0)))
+    grad_first, grad_first_cpu = time.perf_counter() - t0, time.process_time() - c0
+    grad_best = min(timeit.repeat(lambda: jax.block_until_ready(grad(jnp.asarray(1.0))), number=1, repeat=3))
+
+    print(f"device={jax.devices()[0].platform}:{jax.devices()[0].device_kind}")
+    print(f"dtype={sol.gz.dtype}")
+    print(f"hull_stations={hull.stations.shape[0]}")
+    print(f"hull_waterlines={hull.waterlines.shape[0]}")
+    print(f"n_zeta={args.n_zeta}")
+    print(f"n_heel={args.n_heel}")
+    print(f"balances_per_call={balances}")
+    print(f"table_compile_plus_first_run_s={first:.3f}")
+    print(f"table_compile_plus_first_run_cpu_s={first_cpu:.3f}")
+    print(f"table_run_s={best:.4f}")
+    print(f"balances_per_s={balances / best:.0f}")
+    print(f"all_converged={bool(jnp.all(sol.converged))}")
+    print(f"max_relative_volume_error={float(sol.max_volume_error):.3e}")
+    print(f"max_lcb_minus_lcg_m={float(sol.max_lcb_error):.3e}")
+    print(f"gm0_m={float(sol.gm0):.5f}")
+    for k, c in enumerate(np.asarray(sol.delta_gm_coefficients)):
+        print(f"delta_gm_c{k}={c:.6g}")
+    print(f"delta_gm_fit_rms_m={float(sol.delta_gm_fit_rms):.3e}")
+    print(f"grad_c1_wrt_breadth={float(g):.6g}")
+    print(f"grad_compile_plus_first_run_s={grad_first:.3f}")
+    print(f"grad_compile_plus_first_run_cpu_s={grad_first_cpu:.3f}")
+    print(f"grad_run_s={grad_best:.4f}")
+
+
+if __name__ == "__main__":
+    main()

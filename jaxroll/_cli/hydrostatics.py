@@ -1,0 +1,265 @@
+"""`jaxroll hydrostatics HULL`: GZ and ΔGM(ζ_mid) of a hull from its offsets, and a ship file using them."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+from ._common import CLIError, atomic_write_text, save_figure, write_json
+
+DEFAULT_OUT = Path("jaxroll-out") / "hydrostatics"
+
+
+def register(subparsers) -> None:
+    p = subparsers.add_parser(
+        "hydrostatics",
+        help="GZ(φ) and ΔGM(ζ_mid) from hull offsets (Froude–Krylov, quasi-static balance) → ship.toml",
+        description=(
+            "Compute calm-water particulars, GZ curves and the GM variation ΔGM(ζ_mid) of a hull in a "
+            "wave of length L with its crest or trough amidships (sinkage and trim balanced), fit the roll "
+            "model's polynomials and write a ship file for `jaxroll pdf --ship FILE`. HULL is a hull "
+            "file (TOML, docs/hydrostatics.md) or the word `c11` for the shipped REPRESENTATIVE "
+            "C11-like hull."
+        ),
+    )
+    add = p.add_argument
+    add("hull", metavar="HULL", help="hull file (TOML) or `c11`")
+    g = p.add_mutually_exclusive_group()
+    g.add_argument(
+        "--kg", type=float, metavar="M", help="KG [m] above the baseline (default: the file's [loading])"
+    )
+    g.add_argument("--gm", type=float, metavar="M", help="choose KG so that the calm-water GM is M [m]")
+    m = p.add_mutually_exclusive_group()
+    m.add_argument("--displacement", type=float, metavar="KG", help="displacement mass [kg]")
+    m.add_argument("--draught", type=float, metavar="M", help="even-keel draught [m]")
+    add("--lcg", type=float, metavar="M", help="LCG [m] from the AP (default: floats at even keel)")
+    add("--water-density", type=float, metavar="RHO", help="water density [kg/m³] (default: 1025)")
+    r = p.add_mutually_exclusive_group()
+    r.add_argument("--roll-period", type=float, metavar="S", help="natural roll period Tφ [s] (c11: 24.4)")
+    r.add_argument("--roll-gyradius", type=float, metavar="M", help="roll radius of gyration k_xx [m]")
+    add("--added-inertia", type=float, default=0.0, metavar="A", help="added / dry roll inertia (default: 0)")
+    add(
+        "--damping",
+        type=float,
+        nargs=3,
+        metavar=("B1", "B2", "B3"),
+        help="roll damping b1 [1/s], b2 [1/rad], b3 [s/rad²] (default: the default ship's)",
+    )
+    add("--zeta-max", type=float, default=6.0, metavar="M", help="largest amplitude ζ_mid [m] (default: 6)")
+    add("--n-zeta", type=int, default=13, metavar="N", help="amplitudes in [−ζmax, ζmax] (default: 13)")
+    add(
+        "--heel-max-deg",
+        type=float,
+        default=70.0,
+        metavar="DEG",
+        help="largest heel of the GZ table and fit [deg] (default: 70)",
+    )
+    add("--n-heel", type=int, default=15, metavar="N", help="heels in [0, heel-max] (default: 15)")
+    add("--wavelength", type=float, metavar="M", help="wave length λ [m] (default: Lpp)")
+    add("--name", help="name of the ship in ship.toml")
+    add(
+        "--out",
+        type=Path,
+        default=DEFAULT_OUT,
+        metavar="DIR",
+        help="output folder (default: jaxroll-out/hydrostatics)",
+    )
+    p.set_defaults(func=run)
+
+
+def run(args) -> int:
+    import jax.numpy as jnp
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import numpy as np
+
+    from .. import _hydrostatics as hs
+    from .._hydrostatics_plots import plot_body_plan, plot_delta_gm, plot_gz_curves
+    from .._ship import c11_representative, restoring_fields_from_gz, ship_to_dict, ship_to_toml
+
+    is_c11 = args.hull.lower() == "c11"
+    path = hs._c11_hull_path() if is_c11 else Path(args.hull)
+    if not is_c11 and not path.is_file():
+        raise CLIError(f"hull file {str(path)!r} does not exist (give a TOML hull file, or `c11`).")
+    hull, file_loading = hs.read_hull_file(path)
+
+    for flag, value in (("--zeta-max", args.zeta_max), ("--heel-max-deg", args.heel_max_deg)):
+        if not (math.isfinite(value) and value > 0):
+            raise CLIError(f"{flag} must be a finite number > 0; got {value}.")
+    if args.heel_max_deg > 90:
+        raise CLIError(f"--heel-max-deg must be at most 90; got {args.heel_max_deg}.")
+    zeta = hs.default_zeta_grid(args.zeta_max, args.n_zeta)
+    heels = hs.default_heel_grid(math.radians(args.heel_max_deg), args.n_heel)
+
+    overrides = dict(
+        draught=args.draught, displacement=args.displacement, lcg=args.lcg, water_density=args.water_density
+    )
+    if args.gm is not None:
+        probe = hs.loading_from_dict(hull, file_loading, kg=0.0, **overrides)
+        kg = float(hs.metacentric_height(hull, probe)) - args.gm
+    else:
+        kg = args.kg
+    loading = hs.loading_from_dict(hull, file_loading, kg=kg, **overrides)
+
+    roll_period, gyradius = args.roll_period, args.roll_gyradius
+    if roll_period is None and gyradius is None:
+        if not is_c11:
+            raise CLIError(
+                "the roll period is not a hydrostatic quantity: give --roll-period S, or --roll-gyradius M "
+                "(with --added-inertia)."
+            )
+        roll_period = 24.4
+
+    sol = hs.hull_hydrostatics(hull, loading, zeta_mid=zeta, heels=heels, wavelength=args.wavelength)
+    ship = hs.ship_from_hydrostatics(
+        sol,
+        hull,
+        roll_period=roll_period,
+        roll_gyradius=gyradius,
+        added_inertia=args.added_inertia,
+        damping=args.damping,
+        name=args.name,
+    )
+    # Smooth GZ curves for the figure: calm, crest and trough of the largest amplitude, 0–90°.
+    fine = jnp.radians(jnp.linspace(0.0, 90.0, 37))
+    zfig = jnp.array([0.0, -args.zeta_max, args.zeta_max])[:, None]
+    curves = hs.equilibrium(
+        hull, loading, heel=fine[None, :], zeta_mid=zfig, wavelength=args.wavelength, throw=False
+    )
+
+    out: Path = args.out
+    out.mkdir(parents=True, exist_ok=True)
+    p = sol.particulars
+    gz_labels = [
+        "calm water",
+        f"crest amidships, ζ_mid = −{args.zeta_max:g} m",
+        f"trough amidships, ζ_mid = +{args.zeta_max:g} m",
+    ]
+    ax = plot_gz_curves(
+        np.asarray(fine),
+        {
+            lab: np.where(np.asarray(curves.converged[i]), np.asarray(curves.gz[i]), np.nan)
+            for i, lab in enumerate(gz_labels)
+        },
+        fit=(float(p.gm), np.asarray(sol.gz_coefficients)),
+        fit_heel_max=float(heels[-1]),
+    )
+    ax.set_title(
+        f"{hull.name}: GZ, free sinkage and trim, λ = {float(sol.wavelength):g} m", fontsize="medium"
+    )
+    save_figure(ax.figure, out / "gz_curves.png")
+    default = c11_representative()
+    ax = plot_delta_gm(
+        np.asarray(sol.zeta_mid),
+        np.asarray(sol.delta_gm),
+        np.asarray(sol.delta_gm_coefficients),
+        reference=np.asarray(default.delta_gm),
+    )
+    ax.set_title(f"{hull.name}: ΔGM(ζ_mid), GM0 = {float(p.gm):.4f} m", fontsize="medium")
+    save_figure(ax.figure, out / "delta_gm.png")
+    ax = plot_body_plan(hull, draught=float(p.draught))
+    save_figure(ax.figure, out / "body_plan.png")
+
+    notes = [hs.C11_HULL_NOTE] if is_c11 else []
+    notes.append(
+        "Roll period and damping are inputs, not hydrostatics; damping defaults to the default ship's."
+    )
+    payload = {
+        "command": "hydrostatics",
+        "notes": notes,
+        "config": {
+            "hull": "c11" if is_c11 else str(path),
+            "kg_m": float(loading.kg),
+            "gm_requested_m": args.gm,
+            "displacement_kg": float(loading.displacement),
+            "lcg_m": float(loading.lcg),
+            "water_density_kg_m3": float(loading.water_density),
+            "roll_period_s": float(ship.roll_period),
+            "roll_gyradius_m": gyradius,
+            "added_inertia": args.added_inertia,
+            "wavelength_m": float(sol.wavelength),
+            "zeta_max_m": args.zeta_max,
+            "n_zeta": args.n_zeta,
+            "heel_max_deg": args.heel_max_deg,
+            "n_heel": args.n_heel,
+            "method": "sectional polygon clipping (exact for the offsets polygons), trapezoid rule along x, "
+            "sinkage and trim balanced by optimistix Newton at every heel and wave (Froude–Krylov)",
+            "wave_profile": "eta(x) = -zeta_mid cos(2 pi (x - Lpp/2) / wavelength); zeta_mid > 0: trough "
+            "amidships",
+        },
+        "hull": {
+            "name": hull.name,
+            "provenance": hull.provenance,
+            "lpp_m": float(hull.lpp),
+            "depth_m": float(hull.depth),
+            "n_stations": int(hull.stations.shape[0]),
+            "n_waterlines": int(hull.waterlines.shape[0]),
+        },
+        "calm_water": p.as_dict(),
+        "tables": {
+            "zeta_mid_m": sol.zeta_mid,
+            "heel_deg": np.degrees(np.asarray(sol.heels)),
+            "gz_m": sol.gz,
+            "sinkage_m": sol.sinkage,
+            "trim_m": sol.trim,
+            "gz_calm_m": sol.gz_calm,
+            "gm_m": sol.gm,
+            "delta_gm_m": sol.delta_gm,
+        },
+        "gz_curves_figure": {
+            "heel_deg": np.degrees(np.asarray(fine)),
+            "zeta_mid_m": np.asarray(zfig[:, 0]),
+            "gz_m": np.where(np.asarray(curves.converged), np.asarray(curves.gz), np.nan),
+        },
+        "fits": {
+            "gm0_m": float(p.gm),
+            "gz_coefficients_m": dict(
+                zip(("g3", "g5", "g7", "g9"), np.asarray(sol.gz_coefficients).tolist())
+            ),
+            "restoring": dict(
+                zip(
+                    ("a3", "a5", "a7", "a9"),
+                    restoring_fields_from_gz(
+                        np.asarray(sol.gz_coefficients), float(p.gm), float(ship.roll_period)
+                    ).tolist(),
+                )
+            ),
+            "gz_fit_rms_m": float(sol.gz_fit_rms),
+            "gz_fit_heel_max_deg": args.heel_max_deg,
+            "delta_gm_coefficients": {
+                f"c{k}": float(c) for k, c in enumerate(np.asarray(sol.delta_gm_coefficients))
+            },
+            "delta_gm_fit_rms_m": float(sol.delta_gm_fit_rms),
+        },
+        "balance_check": {
+            "max_relative_volume_error": float(sol.max_volume_error),
+            "max_lcb_minus_lcg_m": float(sol.max_lcb_error),
+            "all_converged": bool(np.all(np.asarray(sol.converged))),
+        },
+        "ship": ship_to_dict(ship),
+    }
+    write_json(out / "hydrostatics.json", payload)
+    atomic_write_text(out / "ship.toml", ship_to_toml(ship))
+
+    c = np.asarray(sol.delta_gm_coefficients)
+    print(
+        f"{hull.name}: Δ = {float(p.displacement):.6g} kg, d = {float(p.draught):.4g} m, "
+        f"Cb = {float(p.block_coefficient):.4f}, KB = {float(p.kb):.4f} m, BM = {float(p.bm):.4f} m, "
+        f"KG = {float(p.kg):.4f} m, GM0 = {float(p.gm):.4f} m"
+    )
+    print(
+        f"ΔGM(ζ_mid) fit: C1..C6 = {', '.join(f'{v:.4g}' for v in c[1:])} (rms "
+        f"{float(sol.delta_gm_fit_rms):.2g} m)"
+    )
+    print(
+        f"GZ fit (0–{args.heel_max_deg:g}°): g3..g9 = "
+        f"{', '.join(f'{v:.4g}' for v in np.asarray(sol.gz_coefficients))} (rms {float(sol.gz_fit_rms):.2g} "
+        "m)"
+    )
+    if is_c11:
+        print("Note: the c11 hull is REPRESENTATIVE (parametric), not the real C11 lines.")
+    print(
+        f"wrote {out / 'hydrostatics.json'}, {out / 'ship.toml'}, gz_curves.png, delta_gm.png, body_plan.png"
+    )
+    return 0
