@@ -25,6 +25,20 @@ from ._dynamics import (
     roll_time_series as roll_time_series,
     roll_vector_field as roll_vector_field,
 )
+from ._extremes import (
+    AmplitudeDistribution as AmplitudeDistribution,
+    ExposureRisk as ExposureRisk,
+    RayleighAmplitudes as RayleighAmplitudes,
+    RobertsAmplitudes as RobertsAmplitudes,
+    empirical_maxima as empirical_maxima,
+    expected_maximum as expected_maximum,
+    exposure_risk as exposure_risk,
+    max_cdf as max_cdf,
+    max_pdf as max_pdf,
+    max_pdf_asymptotic as max_pdf_asymptotic,
+    max_quantile as max_quantile,
+    most_probable_maximum as most_probable_maximum,
+)
 from ._filters import FilterFit as FilterFit, ShapingFilter as ShapingFilter, fit_filter as fit_filter
 from ._grim import EffectiveWave as EffectiveWave, grim_transfer as grim_transfer, superpose as superpose
 from ._hydrostatics import (
