@@ -87,6 +87,8 @@ from ._spectra import (
     spectral_moment as spectral_moment,
 )
 
+from . import theory as theory
+
 try:
     __version__ = importlib.metadata.version("jaxroll")
 except importlib.metadata.PackageNotFoundError:  # pragma: no cover - running from a source tree

@@ -1,0 +1,30 @@
+"""Theories of the stationary roll-amplitude distribution: stochastic averaging and moment equations.
+
+Re-exports only. Stochastic averaging (Roberts' SAM, energy-based ESAM) and the parametric-excitation spectrum
+live in `_averaging.py` and `_excitation.py`; the moment method in `_moments.py`.
+"""
+
+# --- excitation spectrum S_P and stochastic averaging (Roberts' SAM, ESAM) ---
+from ._averaging import (
+    AmplitudePDF as AmplitudePDF,
+    Orbits as Orbits,
+    RobertsCoefficients as RobertsCoefficients,
+    additive_energy_diffusion as additive_energy_diffusion,
+    energy_averaged_pdf as energy_averaged_pdf,
+    esam_additive_pdf as esam_additive_pdf,
+    esam_pdf as esam_pdf,
+    parametric_energy_diffusion as parametric_energy_diffusion,
+    roberts_coefficients as roberts_coefficients,
+    roberts_log_normaliser as roberts_log_normaliser,
+    roberts_pdf as roberts_pdf,
+    undamped_orbits as undamped_orbits,
+)
+from ._excitation import (
+    ParametricSpectrum as ParametricSpectrum,
+    hermite_coefficients as hermite_coefficients,
+    hermite_covariance as hermite_covariance,
+    parametric_spectrum as parametric_spectrum,
+    welch_parametric_spectrum as welch_parametric_spectrum,
+)
+
+# --- moment equations ---
