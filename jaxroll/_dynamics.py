@@ -12,6 +12,7 @@ the device count or the number of steps simulated after it.
 from __future__ import annotations
 
 import abc
+import math
 
 import equinox as eqx
 import jax
@@ -186,7 +187,7 @@ class RollProblem(eqx.Module):
         self,
         ship: Ship,
         excitation: AbstractExcitation,
-        phi0=jnp.deg2rad(5.0),
+        phi0=math.radians(5.0),
         dphi0=0.0,
         *,
         moment_excitation: AbstractExcitation | None = None,

@@ -7,7 +7,6 @@ from jaxtyping import Array, Float
 
 from ._ship import Ship
 
-_ODD_POWERS = jnp.array([1, 3, 5, 7, 9])
 
 
 def restoring_moment(ship: Ship, phi) -> Float[Array, "..."]:

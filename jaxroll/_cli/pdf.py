@@ -32,6 +32,7 @@ def register(sub) -> None:
         default="",
         help=f"comma-separated theories to overlay: {','.join(THEORIES)} (default: none)",
     )
+    m.add_argument("--checkpoint", metavar="DIR", default=None, help="save progress in DIR; a rerun resumes")
     p.add_argument("--out", default="jaxroll-out/pdf", help="output folder (default ./jaxroll-out/pdf)")
     p.add_argument("--quiet", action="store_true", help="no progress display")
     p.set_defaults(func=run)
@@ -91,6 +92,7 @@ def run(args) -> int:
         discard=args.discard,
         chunk_size=args.chunk_size,
         progress=progress,
+        checkpoint=args.checkpoint,
     )
     elapsed = time.time() - t0
     summary = stats.summary(bins)

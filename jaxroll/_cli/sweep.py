@@ -1,0 +1,331 @@
+"""`jaxroll sweep`: capsize and angle-exceedance probability maps over H1/3 × T01 × speed × heading."""
+
+from __future__ import annotations
+
+import math
+import time
+from pathlib import Path
+
+from ._common import CLIError, Progress, load_ship_arg, save_figure, write_json
+
+
+def register(sub) -> None:
+    p = sub.add_parser(
+        "sweep",
+        help="capsize / angle-exceedance probability maps over sea states (H1/3 × T01 × speed × heading)",
+        description="For every sea state of the grid, runs a Monte Carlo of --realizations trials of "
+        "--duration s "
+        "and estimates P(capsize) and P(max |φ| > --angle within the duration), with Wilson confidence "
+        "intervals. Writes sweep.png and sweep.json into --out.",
+    )
+    g = p.add_argument_group("grid (comma-separated lists; full scale)")
+    g.add_argument("--hs", default="3,5,7", help="significant wave heights H1/3 [m] (default 3,5,7)")
+    g.add_argument("--t01", default="8,10,12", help="mean wave periods T01 [s] (default 8,10,12)")
+    g.add_argument("--speed", default="0", help="ship speeds [m/s] (default 0)")
+    g.add_argument("--heading", default="head", help="head, following or head,following (default head)")
+    g.add_argument(
+        "--ship", metavar="FILE", default=None, help="ship file (TOML); default: C11 (representative)"
+    )
+    m = p.add_argument_group("Monte Carlo")
+    m.add_argument(
+        "--angle", type=float, default=30.0, help="roll angle whose exceedance is counted [deg] (30)"
+    )
+    m.add_argument("--confidence", type=float, default=0.95, help="level of the Wilson intervals (0.95)")
+    m.add_argument("--realizations", type=int, default=200, help="trials per sea state (default 200)")
+    m.add_argument("--duration", type=float, default=1800.0, help="simulated time per trial [s] (1800)")
+    m.add_argument("--discard", type=float, default=0.0, help="initial time left out of the maximum [s] (0)")
+    m.add_argument("--phi0-deg", type=float, default=5.0, help="initial roll angle [deg] (5)")
+    m.add_argument("--dt", type=float, default=0.5, help="time step [s] (default 0.5)")
+    m.add_argument(
+        "--method", choices=("filter", "superposition"), default="filter", help="effective wave method"
+    )
+    m.add_argument("--filter-order", type=int, default=4, help="order of the Method-2 filter (default 4)")
+    m.add_argument(
+        "--seed", type=int, default=0, help="random seed (default 0; the same trials at every point)"
+    )
+    s = p.add_argument_group("scale-out")
+    s.add_argument(
+        "--chunk-size", type=int, default=1000, help="realizations per compiled batch (memory bound)"
+    )
+    s.add_argument("--devices", type=int, default=None, help="use the first N devices (default: all)")
+    s.add_argument("--checkpoint", metavar="DIR", default=None, help="save progress in DIR; a rerun resumes")
+    s.add_argument(
+        "--distributed",
+        action="store_true",
+        help="call jax.distributed.initialize() first (one process per host; see docs/scaling.md)",
+    )
+    p.add_argument("--out", default="jaxroll-out/sweep", help="output folder (default ./jaxroll-out/sweep)")
+    p.add_argument("--quiet", action="store_true", help="no progress display")
+    p.set_defaults(func=run)
+
+
+def parse_list(text: str, option: str, *, minimum: float, strict: bool = True) -> list[float]:
+    """Sorted distinct floats from 'a,b,c'; each finite and > minimum (>= when not `strict`)."""
+    try:
+        values = [float(v) for v in text.split(",") if v.strip()]
+    except ValueError:
+        raise CLIError(f"{option} must be a comma-separated list of numbers; got {text!r}.") from None
+    if not values:
+        raise CLIError(f"{option} needs at least one value; got {text!r}.")
+    for v in values:
+        if not math.isfinite(v) or (v <= minimum if strict else v < minimum):
+            raise CLIError(
+                f"{option} values must be finite and {'>' if strict else '>='} {minimum:g}; got {v:g}."
+            )
+    return sorted(set(values))
+
+
+def parse_headings(text: str) -> list[str]:
+    names = [h.strip().lower() for h in text.split(",") if h.strip()]
+    bad = sorted(set(names) - {"head", "following"})
+    if not names or bad:
+        raise CLIError(f"--heading must be head, following or head,following; got {text!r}.")
+    return sorted(set(names), key=names.index)
+
+
+def sweep_figure(payload: dict):
+    """Maps of P(capsize) and P(max |φ| > angle) on (T01, H1/3), one column per (heading, speed)."""
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    grid = payload["grid"]
+    hs, t01 = np.asarray(grid["hs_m"]), np.asarray(grid["t01_s"])
+    cases = [(h, u) for h in grid["heading"] for u in grid["speed_m_s"]]
+    angle = payload["config"]["angle_deg"]
+    rows = (("capsize_probability", "P(capsize)"), ("exceedance_probability", f"P(max |φ| > {angle:g}°)"))
+    fig, axes = plt.subplots(
+        2, len(cases), figsize=(3.6 * len(cases) + 1.2, 6.4), squeeze=False, layout="constrained"
+    )
+
+    def edges(x):
+        if x.size == 1:
+            return np.array([x[0] - 0.5, x[0] + 0.5])
+        mid = (x[1:] + x[:-1]) / 2
+        return np.concatenate([[2 * x[0] - mid[0]], mid, [2 * x[-1] - mid[-1]]])
+
+    mesh = None
+    for r, (name, label) in enumerate(rows):
+        values = np.asarray(payload[name], float)
+        for c, (h, u) in enumerate(cases):
+            ax = axes[r, c]
+            z = values[grid["heading"].index(h), grid["speed_m_s"].index(u)]
+            mesh = ax.pcolormesh(edges(t01), edges(hs), z, cmap="magma_r", vmin=0, vmax=1, shading="flat")
+            if hs.size > 1 and t01.size > 1 and np.ptp(z) > 0:
+                cs = ax.contour(t01, hs, z, levels=[0.01, 0.1, 0.5], colors="tab:cyan", linewidths=1)
+                ax.clabel(cs, fontsize=7, fmt="%g")
+            for i, height in enumerate(hs):
+                for j, period in enumerate(t01):
+                    ax.text(
+                        period,
+                        height,
+                        f"{z[i, j]:.2f}",
+                        ha="center",
+                        va="center",
+                        fontsize=7,
+                        color="w" if z[i, j] > 0.5 else "k",
+                    )
+            ax.set_title(f"{label}\n{h} seas, U = {u:g} m/s", fontsize=9)
+            ax.set_xlabel("T01 [s]")
+            ax.set_ylabel("H1/3 [m]")
+    fig.colorbar(mesh, ax=axes, label="probability per trial", shrink=0.8)
+    cfg = payload["config"]
+    fig.suptitle(
+        f"{cfg['ship']['name']}: N = {cfg['realizations']} trials × {cfg['duration_s']:g} s per sea state",
+        fontsize=10,
+    )
+    return fig
+
+
+_BOOT = """import os, sys, jax
+os.environ["JAXROLL_DISTRIBUTED_BOOT"] = "1"
+kwargs = {}
+for var, name in (("JAXROLL_NUM_PROCESSES", "num_processes"), ("JAXROLL_PROCESS_ID", "process_id")):
+    if os.environ.get(var):
+        kwargs[name] = int(os.environ[var])
+jax.distributed.initialize(**kwargs)
+from jaxroll._cli import main
+sys.exit(main(sys.argv[1:]))
+"""
+
+
+def initialize_distributed() -> None:
+    """`jax.distributed.initialize()`: SLURM, Open MPI and Kubernetes are detected by JAX; elsewhere set
+    JAX_COORDINATOR_ADDRESS (host:port of process 0), JAXROLL_NUM_PROCESSES and JAXROLL_PROCESS_ID.
+
+    It must run before JAX initialises its backend, which importing jaxroll already does (module-level
+    arrays). So the command restarts itself (`os.execv`, same process id) as a Python that initialises the
+    distributed runtime first, then imports jaxroll and runs the same command line.
+    """
+    import os
+    import sys
+
+    import jax
+
+    if jax.distributed.is_initialized() or os.environ.get("JAXROLL_DISTRIBUTED_BOOT"):
+        return
+    for var in ("JAXROLL_NUM_PROCESSES", "JAXROLL_PROCESS_ID"):
+        if os.environ.get(var) and not os.environ[var].isdigit():
+            raise CLIError(f"{var} must be a non-negative integer; got {os.environ[var]!r}.")
+    argv = sys.argv[1:]
+    if "sweep" not in argv or "--distributed" not in argv:
+        raise CLIError(
+            "--distributed needs the command line (`jaxroll sweep --distributed ...`); from Python, call "
+            "jax.distributed.initialize() before importing jaxroll instead."
+        )
+    sys.stdout.flush()
+    sys.stderr.flush()
+    os.execv(sys.executable, [sys.executable, "-c", _BOOT, *argv])
+
+
+def run(args) -> int:
+    import jax
+
+    if args.distributed:
+        initialize_distributed()
+
+    import jax.numpy as jnp
+    import numpy as np
+
+    from .. import ITTC, EffectiveWave, check_time_step, ship_to_dict, vanishing_angle
+    from .._sweep import sweep_sea_states
+
+    hs = parse_list(args.hs, "--hs", minimum=0)
+    t01 = parse_list(args.t01, "--t01", minimum=0)
+    speed = parse_list(args.speed, "--speed", minimum=0, strict=False)
+    heading = parse_headings(args.heading)
+    for name in ("realizations", "chunk_size"):
+        if getattr(args, name) < 1:
+            raise CLIError(f"--{name.replace('_', '-')} must be >= 1; got {getattr(args, name)}.")
+    for name in ("duration", "angle", "dt"):
+        value = getattr(args, name)
+        if not (math.isfinite(value) and value > 0):
+            raise CLIError(f"--{name} must be a finite number > 0; got {value}.")
+    if not 0 <= args.discard < args.duration:
+        raise CLIError(
+            f"--discard must be in [0, --duration) = [0, {args.duration:g}) s; got {args.discard}."
+        )
+    if not 0 < args.confidence < 1:
+        raise CLIError(f"--confidence must be in (0, 1); got {args.confidence}.")
+    if args.method == "filter" and args.filter_order < 3:
+        raise CLIError(f"--filter-order must be >= 3 (4 recommended); got {args.filter_order}.")
+    if args.devices is not None and not 1 <= args.devices <= jax.device_count():
+        raise CLIError(
+            f"--devices must be between 1 and {jax.device_count()} (the devices JAX sees); "
+            f"got {args.devices}."
+        )
+    ship = load_ship_arg(args.ship)
+    capsize_deg = float(jnp.rad2deg(vanishing_angle(ship)))
+    if args.angle >= capsize_deg:
+        raise CLIError(
+            f"--angle must be below the angle of vanishing stability, {capsize_deg:.1f}°; got {args.angle}."
+        )
+    # The time step against every sea state of the grid, before any simulation (the filter fits come later).
+    for h in heading:
+        for u in speed:
+            for height in hs:
+                for period in t01:
+                    check_time_step(args.dt, ship, EffectiveWave(ITTC(height, period), ship.lpp, u, h))
+    main = jax.process_index() == 0
+    n_points = len(hs) * len(t01) * len(speed) * len(heading)
+    total = n_points * args.realizations
+    if main:
+        if args.ship is None:
+            print("Ship: C11 (representative) — Table-1 particulars, representative coefficients.")
+        print(
+            f"Sweep: {n_points} sea states × {args.realizations} trials × {args.duration:g} s on "
+            f"{args.devices or jax.device_count()} device(s) ({jax.default_backend()}), "
+            f"{jax.process_count()} process(es)"
+        )
+    progress = Progress(total, "realizations", enabled=False if args.quiet or not main else None)
+    t0 = time.time()
+    result = sweep_sea_states(
+        ship,
+        jax.random.key(args.seed),
+        hs=hs,
+        t01=t01,
+        speed=speed,
+        heading=heading,
+        angle_deg=args.angle,
+        confidence=args.confidence,
+        num_realizations=args.realizations,
+        duration=args.duration,
+        discard=args.discard,
+        method=args.method,
+        dt=args.dt,
+        filter_order=args.filter_order,
+        phi0_deg=args.phi0_deg,
+        chunk_size=args.chunk_size,
+        devices=args.devices,
+        checkpoint=args.checkpoint,
+        progress=progress,
+    )
+    elapsed = time.time() - t0
+    config = {
+        "sea": {"spectrum": "ITTC"},
+        "ship": ship_to_dict(ship),
+        "ship_file": args.ship,
+        "angle_deg": args.angle,
+        "confidence": args.confidence,
+        "realizations": args.realizations,
+        "duration_s": args.duration,
+        "discard_s": args.discard,
+        "phi0_deg": args.phi0_deg,
+        "dt_s": args.dt,
+        "method": args.method,
+        "filter_order": args.filter_order,
+        "seed": args.seed,
+        "common_random_numbers": True,
+        "chunk_size": args.chunk_size,
+        "devices": args.devices or jax.device_count(),
+        "processes": jax.process_count(),
+        "capsize_angle_deg": capsize_deg,
+    }
+    if args.ship is None:
+        from .._ship import DEFAULT_SHIP_NOTE
+
+        config["ship_note"] = DEFAULT_SHIP_NOTE
+    cap_ci, exc_ci = result.capsize_interval(), result.exceedance_interval()
+    points = []
+    for index in np.ndindex(*result.n_capsized.shape):
+        h, u, height, period = (v[i] for v, i in zip(result.grid.values(), index, strict=True))
+        points.append(
+            {
+                "heading": h,
+                "speed_m_s": u,
+                "hs_m": height,
+                "t01_s": period,
+                "n_capsized": int(result.n_capsized[index]),
+                "n_exceeded": int(result.n_exceeded[index]),
+                "capsize_probability": float(result.capsize_probability[index]),
+                "capsize_ci": cap_ci[index].tolist(),
+                "exceedance_probability": float(result.exceedance_probability[index]),
+                "exceedance_ci": exc_ci[index].tolist(),
+            }
+        )
+    payload = {
+        "config": config,
+        "grid": {"axes": list(result.grid), **result.grid},
+        "n_realizations": result.n_realizations,
+        "n_capsized": result.n_capsized,
+        "n_exceeded": result.n_exceeded,
+        "capsize_probability": result.capsize_probability,
+        "capsize_ci": cap_ci,
+        "exceedance_probability": result.exceedance_probability,
+        "exceedance_ci": exc_ci,
+        "exceedance_definition": f"per trial: max |φ| > {args.angle:g}° after the discard within the "
+        "duration, or a capsize",
+        "points": points,
+        "run_time_s": elapsed,
+    }
+    if not main:
+        return 0
+    out = Path(args.out)
+    save_figure(sweep_figure(payload), out / "sweep.png")
+    write_json(out / "sweep.json", payload)
+    w = points[int(np.argmax(result.capsize_probability))]
+    print(
+        f"done in {elapsed:.1f} s: largest P(capsize) {w['capsize_probability']:.3f} at {w['heading']} seas, "
+        f"U {w['speed_m_s']:g} m/s, H1/3 {w['hs_m']:g} m, T01 {w['t01_s']:g} s"
+    )
+    print(f"wrote {out / 'sweep.png'}, {out / 'sweep.json'}")
+    return 0

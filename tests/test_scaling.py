@@ -1,0 +1,419 @@
+"""Scale-out: sharding over devices and processes, checkpoint/resume, and the `jaxroll sweep` map.
+
+Multi-device runs happen in child processes: `--xla_force_host_platform_device_count` must be set before JAX
+initialises, and this process already has one CPU device. The problem is built once here and pickled to them.
+"""
+
+import json
+import os
+import pickle
+import socket
+import subprocess
+import sys
+import textwrap
+
+import jax
+import numpy as np
+import pytest
+
+import jaxroll
+from jaxroll._cli import main
+from jaxroll._monte_carlo import CHECKPOINT_FILE, realization_mesh
+from jaxroll._sweep import monte_carlo_max_roll, wilson_interval
+
+N = 7  # odd: divides neither 2 nor 4 devices, so every sharded run pads its last chunk
+DURATION = 300.0
+# Per-realization float sums (zero-crossing, φ², envelope) whose value depends on the exact trajectory.
+FLOAT_FIELDS = ("sum_zc", "sumsq_zc", "sum_env", "sumsq_env", "sum_phi2", "sum_phi4")
+
+CHILD = textwrap.dedent(
+    """
+    import pickle, sys
+    import jax
+    nproc, pid = int(sys.argv[1]), int(sys.argv[2])
+    port, problem_file, out = sys.argv[3:6]
+    if nproc > 1:
+        jax.distributed.initialize(f"localhost:{port}", num_processes=nproc, process_id=pid)
+    import numpy as np
+    import jaxroll
+    from jaxroll._sweep import monte_carlo_max_roll
+
+    problem = pickle.load(open(problem_file, "rb"))
+    key = jax.random.key(11)
+    results = {"device_count": jax.device_count()}
+    for devices, chunk in [(1, 2), (2, 4), (4, 5)] if nproc == 1 else []:
+        s = jaxroll.monte_carlo_amplitudes(problem, key, num_realizations=7, duration=300.0, chunk_size=chunk,
+                                           devices=devices)
+        tag = f"amp_{devices}_{chunk}"
+        results[f"{tag}_counts_zero_crossing"] = s.counts_zero_crossing
+        results[f"{tag}_counts_envelope"] = s.counts_envelope
+        results[f"{tag}_capsized"] = s.capsized
+        results[f"{tag}_capsize_time"] = s.capsize_time
+        for k, v in s.per_realization.items():
+            results[f"{tag}_{k}"] = v
+    for devices, chunk in [(1, 2), (4, 8), (4, 4)] if nproc == 1 else [(None, 8)]:
+        m = monte_carlo_max_roll(problem, key, angle_deg=12.0, num_realizations=7, duration=300.0,
+                                 chunk_size=chunk, devices=devices)
+        tag = f"max_{devices}_{chunk}"
+        results[f"{tag}_phi"] = m.max_abs_phi_deg
+        results[f"{tag}_n_exceeded"] = m.n_exceeded
+        results[f"{tag}_capsized"] = m.capsized
+    np.savez(f"{out}/results_{pid}.npz", **results)
+    """
+)
+
+
+def _child_env(devices_per_process: int) -> dict:
+    env = dict(os.environ)
+    env["XLA_FLAGS"] = (
+        f"{env.get('XLA_FLAGS', '')} --xla_force_host_platform_device_count={devices_per_process}"
+    )
+    env["JAX_PLATFORMS"] = "cpu"
+    return env
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("localhost", 0))
+        return s.getsockname()[1]
+
+
+@pytest.fixture(scope="module")
+def problem():
+    return jaxroll.make_problem(jaxroll.c11_representative(), jaxroll.ITTC(7.0, 10.0))[0]
+
+
+@pytest.fixture(scope="module")
+def child_files(problem, tmp_path_factory):
+    folder = tmp_path_factory.mktemp("children")
+    (folder / "child.py").write_text(CHILD)
+    with open(folder / "problem.pkl", "wb") as f:
+        pickle.dump(problem, f)
+    return folder
+
+
+@pytest.fixture(scope="module")
+def four_devices(child_files):
+    """Results of one process with 4 CPU devices: the same Monte Carlo on 1, 2 and 4 of them."""
+    out = child_files / "single"
+    out.mkdir()
+    cmd = [
+        sys.executable,
+        str(child_files / "child.py"),
+        "1",
+        "0",
+        "0",
+        str(child_files / "problem.pkl"),
+        str(out),
+    ]
+    proc = subprocess.run(cmd, env=_child_env(4), capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    with np.load(out / "results_0.npz") as data:
+        return dict(data)
+
+
+def _assert_same(results, tag, ref="amp_1_2", float_rtol=0.0):
+    """Integer-valued outputs bit for bit; per-realization float sums to `float_rtol`."""
+    for name in (
+        "counts_zero_crossing",
+        "counts_envelope",
+        "capsized",
+        "capsize_time",
+        "n_zc",
+        "n_env",
+        "n_samples",
+    ):
+        np.testing.assert_array_equal(results[f"{tag}_{name}"], results[f"{ref}_{name}"], err_msg=name)
+    for name in FLOAT_FIELDS:
+        np.testing.assert_allclose(
+            results[f"{tag}_{name}"], results[f"{ref}_{name}"], rtol=float_rtol, atol=0, err_msg=name
+        )
+
+
+def test_sharded_equals_single_device(four_devices):
+    r = four_devices
+    assert r["device_count"] == 4
+    assert r["amp_1_2_counts_zero_crossing"].sum() > 0 and r["amp_1_2_counts_envelope"].sum() > 0
+    # Two realizations per device per chunk, as in the 1-device run with chunks of 2: bit for bit, except the
+    # envelope sums, whose batched FFT XLA lays out differently once partitioned (measured: 4e-16).
+    for tag in ("amp_2_4", "amp_4_5"):  # chunk 5 on 4 devices is rounded up to 8, one padded realization
+        _assert_same(r, tag, float_rtol=1e-13)
+        for name in ("sum_zc", "sumsq_zc", "sum_phi2", "sum_phi4"):
+            np.testing.assert_array_equal(r[f"{tag}_{name}"], r[f"amp_1_2_{name}"], err_msg=name)
+    # The dedicated max-|φ| Monte Carlo (integer counts summed on device): bit for bit.
+    np.testing.assert_array_equal(r["max_4_8_phi"], r["max_1_2_phi"])
+    np.testing.assert_array_equal(r["max_4_8_capsized"], r["max_1_2_capsized"])
+    assert r["max_4_8_n_exceeded"] == r["max_1_2_n_exceeded"] > 0
+    # One realization per device: XLA on CPU compiles the filter's vmapped 4×4 matrix product differently for
+    # another batch size, so φ differs by ~1e-15 (the same happens on one device with another chunk size);
+    # the counts are still identical.
+    np.testing.assert_allclose(r["max_4_4_phi"], r["max_1_2_phi"], rtol=1e-13, atol=0)
+    np.testing.assert_array_equal(r["max_4_4_capsized"], r["max_1_2_capsized"])
+    assert r["max_4_4_n_exceeded"] == r["max_1_2_n_exceeded"]
+
+
+def test_two_processes_equal_one(four_devices, child_files):
+    """Two processes × two CPU devices joined by jax.distributed give the 4-device results exactly."""
+    out = child_files / "multi"
+    out.mkdir()
+    port = str(_free_port())
+    procs = [
+        subprocess.Popen(
+            [
+                sys.executable,
+                str(child_files / "child.py"),
+                "2",
+                str(pid),
+                port,
+                str(child_files / "problem.pkl"),
+                str(out),
+            ],
+            env=_child_env(2),
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
+        for pid in (0, 1)
+    ]
+    for p in procs:
+        _, err = p.communicate(timeout=300)
+        assert p.returncode == 0, err[-3000:]
+    for pid in (0, 1):  # every process gets the whole per-realization array and the global counts
+        with np.load(out / f"results_{pid}.npz") as r:
+            assert r["device_count"] == 4
+            np.testing.assert_array_equal(r["max_None_8_phi"], four_devices["max_4_8_phi"])
+            np.testing.assert_array_equal(r["max_None_8_capsized"], four_devices["max_4_8_capsized"])
+            assert r["max_None_8_n_exceeded"] == four_devices["max_4_8_n_exceeded"]
+
+
+# ----------------------------------------------------------------------------------------------------------
+# Checkpoints (one device, in this process)
+# ----------------------------------------------------------------------------------------------------------
+
+
+class Interrupt(Exception):
+    pass
+
+
+def _amplitudes(problem, seed=5, **kwargs):
+    return jaxroll.monte_carlo_amplitudes(
+        problem, jax.random.key(seed), num_realizations=5, duration=DURATION, chunk_size=2, **kwargs
+    )
+
+
+def _assert_identical(a, b):
+    np.testing.assert_array_equal(a.counts_zero_crossing, b.counts_zero_crossing)
+    np.testing.assert_array_equal(a.counts_envelope, b.counts_envelope)
+    np.testing.assert_array_equal(a.capsized, b.capsized)
+    np.testing.assert_array_equal(a.capsize_time, b.capsize_time)
+    assert a.per_realization.keys() == b.per_realization.keys()
+    for k in a.per_realization:
+        np.testing.assert_array_equal(a.per_realization[k], b.per_realization[k], err_msg=k)
+
+
+@pytest.fixture(scope="module")
+def uninterrupted(problem):
+    return _amplitudes(problem)
+
+
+@pytest.fixture(scope="module")
+def finished_checkpoint(problem, uninterrupted, tmp_path_factory):
+    """A checkpoint directory left by a run interrupted after 2 chunks and then resumed to the end."""
+    folder = tmp_path_factory.mktemp("checkpoint")
+
+    def stop_after_two_chunks(done):
+        if done >= 4:
+            raise Interrupt
+
+    with pytest.raises(Interrupt):
+        _amplitudes(problem, checkpoint=folder, checkpoint_every=1, progress=stop_after_two_chunks)
+    with np.load(folder / CHECKPOINT_FILE) as data:
+        assert int(data["next_start"]) == 4 and data["per/sum_zc"].shape == (4,)
+    calls = []
+    resumed = _amplitudes(problem, checkpoint=folder, checkpoint_every=1, progress=calls.append)
+    assert calls == [5]  # only the last chunk ran
+    return folder, resumed
+
+
+def test_resume_equals_uninterrupted_run(problem, uninterrupted, finished_checkpoint):
+    folder, resumed = finished_checkpoint
+    _assert_identical(resumed, uninterrupted)
+    # A finished run returns its result at once from the checkpoint (no chunk runs, same answer).
+    calls = []
+    again = _amplitudes(problem, checkpoint=folder, progress=calls.append)
+    assert calls == []
+    _assert_identical(again, uninterrupted)
+
+
+def test_truncated_checkpoint_is_refused(problem, finished_checkpoint, tmp_path):
+    data = (finished_checkpoint[0] / CHECKPOINT_FILE).read_bytes()
+    (tmp_path / CHECKPOINT_FILE).write_bytes(data[: len(data) // 2])
+    with pytest.raises(
+        ValueError, match=r"is unreadable \(truncated or corrupted.*Delete .* another checkpoint"
+    ):
+        _amplitudes(problem, checkpoint=tmp_path)
+
+
+@pytest.mark.parametrize(
+    "change, message",
+    [
+        ("seed", r"belongs to a different run: the random key \(seed\)"),
+        ("hs", r"belongs to a different run: the problem \(ship, sea state"),
+        ("duration", r"belongs to a different run: the run settings"),
+    ],
+)
+def test_foreign_checkpoint_is_refused(problem, finished_checkpoint, tmp_path, change, message):
+    (tmp_path / CHECKPOINT_FILE).write_bytes((finished_checkpoint[0] / CHECKPOINT_FILE).read_bytes())
+    kwargs = {}
+    if change == "seed":
+        kwargs["seed"] = 6
+    elif change == "hs":
+        problem = jaxroll.make_problem(jaxroll.c11_representative(), jaxroll.ITTC(5.0, 10.0))[0]
+    with pytest.raises(ValueError, match=message + r".*Delete .* or pass another checkpoint directory"):
+        if change == "duration":
+            jaxroll.monte_carlo_amplitudes(
+                problem,
+                jax.random.key(5),
+                num_realizations=5,
+                duration=400.0,
+                chunk_size=2,
+                checkpoint=tmp_path,
+            )
+        else:
+            _amplitudes(problem, checkpoint=tmp_path, **kwargs)
+
+
+def test_pdf_cli_checkpoint(tmp_path, capsys):
+    argv = [
+        "pdf",
+        "--realizations",
+        "5",
+        "--duration",
+        "300",
+        "--chunk-size",
+        "2",
+        "--seed",
+        "5",
+        "--quiet",
+        "--checkpoint",
+        str(tmp_path / "ck"),
+    ]
+    assert main([*argv, "--out", str(tmp_path / "a")]) == 0
+    assert (tmp_path / "ck" / CHECKPOINT_FILE).is_file()
+    assert main([*argv, "--out", str(tmp_path / "b")]) == 0
+    a, b = (json.loads((tmp_path / d / "pdf.json").read_text()) for d in "ab")
+    for key in ("pdf_zero_crossing", "pdf_envelope", "mean_amplitude_deg", "n_capsized", "roll_moments"):
+        assert a[key] == b[key]
+    assert (
+        main([*argv[:-2], "--seed", "6", "--checkpoint", str(tmp_path / "ck"), "--out", str(tmp_path)]) == 2
+    )
+    assert "belongs to a different run" in capsys.readouterr().err
+
+
+def test_devices_argument():
+    assert realization_mesh().devices.size == jax.device_count()
+    assert realization_mesh(1).devices.size == 1
+    with pytest.raises(ValueError, match="`devices` = 2 must be between 1 and the number of devices, 1"):
+        realization_mesh(2)
+    with pytest.raises(ValueError, match="distinct devices from jax.devices"):
+        realization_mesh([])
+
+
+# ----------------------------------------------------------------------------------------------------------
+# Sweep
+# ----------------------------------------------------------------------------------------------------------
+
+
+def test_wilson_interval_matches_scipy():
+    stats = pytest.importorskip("scipy.stats")
+    for k, n in ((0, 10), (3, 10), (10, 10), (17, 200)):
+        ci = stats.binomtest(k, n).proportion_ci(confidence_level=0.95, method="wilson")
+        lo, hi = wilson_interval(k, n)
+        np.testing.assert_allclose([lo, hi], [ci.low, ci.high], rtol=1e-12, atol=1e-15)
+    with pytest.raises(ValueError, match="`confidence` must be in"):
+        wilson_interval(1, 2, confidence=1.0)
+
+
+def test_max_roll_exceedance(problem):
+    stats = monte_carlo_max_roll(
+        problem, jax.random.key(1), angle_deg=15.0, num_realizations=5, duration=DURATION, chunk_size=4
+    )
+    assert stats.n_realizations == 5 and stats.max_abs_phi_deg.shape == (5,)
+    assert stats.exceedances(15.0) == stats.n_exceeded  # host recount = on-device count
+    assert stats.exceedances(1.0) == 5 and stats.exceedances(89.0) == stats.n_capsized
+    lo, hi = stats.exceedance_interval()
+    assert lo <= stats.exceedance_probability() <= hi
+    with pytest.raises(ValueError, match="`angle_deg` must be in"):
+        monte_carlo_max_roll(problem, jax.random.key(1), angle_deg=80.0)
+
+
+def test_sweep_cli_writes_map_and_json(tmp_path, capsys):
+    out = tmp_path / "sweep"
+    argv = [
+        "sweep",
+        "--hs",
+        "7,5",
+        "--t01",
+        "10,12",
+        "--realizations",
+        "5",
+        "--duration",
+        "300",
+        "--angle",
+        "15",
+        "--chunk-size",
+        "4",
+        "--seed",
+        "1",
+        "--quiet",
+        "--out",
+        str(out),
+    ]
+    assert main(argv) == 0
+    assert (out / "sweep.png").stat().st_size > 0
+    d = json.loads((out / "sweep.json").read_text())
+    assert d["jaxroll_version"] == jaxroll.__version__
+    assert d["grid"] == {
+        "axes": ["heading", "speed_m_s", "hs_m", "t01_s"],
+        "heading": ["head"],
+        "speed_m_s": [0.0],
+        "hs_m": [5.0, 7.0],
+        "t01_s": [10.0, 12.0],
+    }
+    assert d["config"]["angle_deg"] == 15.0 and d["config"]["realizations"] == 5
+    assert "representative" in d["config"]["ship_note"]
+    for name in ("capsize", "exceedance"):
+        p = np.array(d[f"{name}_probability"])
+        ci = np.array(d[f"{name}_ci"])
+        assert p.shape == (1, 1, 2, 2) and ci.shape == (1, 1, 2, 2, 2)
+        assert np.all((ci[..., 0] <= p) & (p <= ci[..., 1]))
+    counts = np.array(d["n_exceeded"])
+    np.testing.assert_array_equal(np.array(d["exceedance_probability"]), counts / 5)
+    assert np.all(counts >= np.array(d["n_capsized"]))
+    assert len(d["points"]) == 4 and d["points"][0]["hs_m"] == 5.0
+    # The 7 m, T01 = 10 s point equals the stand-alone Monte Carlo with the same seed (common random numbers).
+    problem = jaxroll.make_problem(jaxroll.c11_representative(), jaxroll.ITTC(7.0, 10.0))[0]
+    stats = monte_carlo_max_roll(
+        problem, jax.random.key(1), angle_deg=15.0, num_realizations=5, duration=300.0, chunk_size=4
+    )
+    assert counts[0, 0, 1, 0] == stats.n_exceeded
+
+
+@pytest.mark.parametrize(
+    "extra, message",
+    [
+        (["--hs", "5,x"], "--hs must be a comma-separated list of numbers"),
+        (["--t01", "0"], "--t01 values must be finite and > 0"),
+        (["--speed", "-1"], "--speed values must be finite and >= 0"),
+        (["--heading", "beam"], "--heading must be head, following or head,following"),
+        (["--angle", "80"], "--angle must be below the angle of vanishing stability"),
+        (["--devices", "9"], "--devices must be between 1 and 1"),
+        (["--discard", "400"], r"--discard must be in \[0, --duration\)"),
+        (["--dt", "5"], "dt = 5.0 s is too large"),
+    ],
+)
+def test_sweep_cli_errors(extra, message, tmp_path, capsys):
+    import re
+
+    assert main(["sweep", "--duration", "300", "--out", str(tmp_path), *extra]) == 2
+    assert re.search(message, capsys.readouterr().err)
