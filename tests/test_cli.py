@@ -95,3 +95,46 @@ def test_ship_show(capsys, tmp_path):
     main(["ship", "show"])
     path.write_text(capsys.readouterr().out)
     assert jaxroll.load_ship(path).name == "C11 (representative)"
+
+
+def test_maxima_command(tmp_path):
+    code = main(["maxima", "--n0", "10,30", "--realizations", "6", "--out", str(tmp_path), "--quiet",
+                 "--chunk-size", "6"])
+    assert code == 0
+    d = json.loads((tmp_path / "maxima.json").read_text())
+    assert set(d["per_n0"]) == {"10", "30"}
+    for k, v in d["per_n0"].items():
+        assert v["n_valid"] + v["n_capsized_before"] + v["n_incomplete"] == 6
+        assert 0 < v["quantiles_deg"]["50"] <= v["quantiles_deg"]["99"]
+        exact = np.array(v["curves"]["mcs_amplitudes"]["exact"])
+        np.testing.assert_allclose(np.trapezoid(exact, d["grid_deg"]), 1.0, atol=0.02)  # P* is a density
+    # The maximum over 30 amplitudes is never below the maximum over the first 10 (same trials).
+    assert d["per_n0"]["30"]["mean_deg"] >= d["per_n0"]["10"]["mean_deg"]
+    for name in ("maxima_linear.png", "maxima_log.png", "maxima_N0_10.png", "maxima_N0_30.png"):
+        assert (tmp_path / name).stat().st_size > 0
+
+
+def test_risk_command(tmp_path, capsys):
+    code = main(["risk", "--angle", "20", "--hours", "3", "--realizations", "8", "--duration", "1200",
+                 "--out", str(tmp_path), "--quiet"])
+    assert code == 0
+    d = json.loads((tmp_path / "risk.json").read_text())
+    m = d["monte_carlo"]
+    assert 0 <= m["probability_ci95"][0] <= m["probability"] <= m["probability_ci95"][1] <= 1
+    assert m["n_amplitudes"] > 0 and m["rate_per_s"] > 0
+    assert "P(roll > 20° within 3 h)" in capsys.readouterr().out
+    assert main(["risk", "--angle", "95", "--out", str(tmp_path)]) == 2
+    assert "--angle must be in (0, 90)" in capsys.readouterr().err
+
+
+def test_theory_command(tmp_path, capsys):
+    code = main(["theory", "--theory", "roberts,esam", "--hs", "5", "--out", str(tmp_path)])
+    assert code == 0
+    d = json.loads((tmp_path / "theory.json").read_text())
+    edges = np.array(d["bins_deg"])
+    for name in ("roberts", "esam"):
+        t = d["theory"][name]
+        assert t["estimator"] == "envelope"
+        np.testing.assert_allclose(np.sum(np.array(t["pdf"]) * np.diff(edges)), 1.0, atol=1e-3)
+        assert 0 < t["quantiles_deg"]["50"] < t["quantiles_deg"]["99"]
+    assert (tmp_path / "theory_log.png").stat().st_size > 0
