@@ -1023,8 +1023,12 @@ def wilson_interval(
 
     **Returns:** `(lower, upper)` [-].
     """
+    if not 0 < confidence < 1:
+        raise ValueError(f"`confidence` must be in (0, 1); got {confidence!r}.")
     k = jnp.asarray(n_exceed, dtype=float)
     n = jnp.asarray(n_total, dtype=float)
+    k = _require(k, (n < 1) | (k < 0) | (k > n),
+                 f"need 0 <= successes <= trials and trials >= 1; got {n_exceed!r} of {n_total!r}.")
     z = jsp.ndtri(1.0 - 0.5 * (1.0 - confidence))
     p = k / n
     denom = 1.0 + z**2 / n

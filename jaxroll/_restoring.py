@@ -8,7 +8,6 @@ from jaxtyping import Array, Float
 from ._ship import Ship
 
 
-
 def restoring_moment(ship: Ship, phi) -> Float[Array, "..."]:
     """Calm-water restoring per unit roll inertia a1φ + a3φ³ + … + a9φ⁹ [1/s²] at roll angle φ [rad]."""
     phi = jnp.asarray(phi, dtype=float)

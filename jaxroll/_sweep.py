@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import math
 import os
-import statistics
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -21,6 +20,7 @@ import jax.numpy as jnp
 import jax.random as jr
 import numpy as np
 
+from . import _extremes
 from ._dynamics import RollProblem, simulate
 from ._monte_carlo import make_problem, run_chunks
 from ._ship import Ship
@@ -30,22 +30,9 @@ HEADINGS = ("head", "following")
 
 
 def wilson_interval(successes, trials, confidence: float = 0.95) -> tuple[np.ndarray, np.ndarray]:
-    """Wilson score interval of a binomial proportion (Wilson 1927): `(lower, upper)`, elementwise.
-
-    **Arguments:** `successes`, `trials`: counts (arrays broadcast; `trials` ≥ 1); `confidence`: in (0, 1).
-    """
-    if not 0 < confidence < 1:
-        raise ValueError(f"`confidence` must be in (0, 1); got {confidence!r}.")
-    k = np.asarray(successes, dtype=float)
-    n = np.asarray(trials, dtype=float)
-    if np.any(n < 1) or np.any(k < 0) or np.any(k > n):
-        raise ValueError(f"need 0 <= successes <= trials and trials >= 1; got {successes!r} of {trials!r}.")
-    z = statistics.NormalDist().inv_cdf(0.5 + confidence / 2)
-    p = k / n
-    denom = 1 + z**2 / n
-    centre = (p + z**2 / (2 * n)) / denom
-    half = z / denom * np.sqrt(p * (1 - p) / n + z**2 / (4 * n**2))
-    return np.clip(centre - half, 0.0, 1.0), np.clip(centre + half, 0.0, 1.0)
+    """`jaxroll._extremes.wilson_interval` as numpy arrays: `(lower, upper)` of a binomial proportion."""
+    lo, hi = _extremes.wilson_interval(successes, trials, confidence)
+    return np.asarray(lo), np.asarray(hi)
 
 
 def _chunk_max_roll(problem, key, indices, valid, num_steps, discard_steps, angle):
