@@ -122,6 +122,10 @@ def test_risk_command(tmp_path, capsys):
     m = d["monte_carlo"]
     assert 0 <= m["probability_ci95"][0] <= m["probability"] <= m["probability_ci95"][1] <= 1
     assert m["n_amplitudes"] > 0 and m["rate_per_s"] > 0
+    direct = d["direct"]
+    assert direct["n_realizations"] == 8
+    assert 0 <= direct["probability_ci95"][0] <= direct["probability"] <= direct["probability_ci95"][1] <= 1
+    assert direct["largest_roll_quantiles_deg"]["50"] <= direct["largest_roll_quantiles_deg"]["99"]
     assert "P(roll > 20° within 3 h)" in capsys.readouterr().out
     assert main(["risk", "--angle", "95", "--out", str(tmp_path)]) == 2
     assert "--angle must be in (0, 90)" in capsys.readouterr().err

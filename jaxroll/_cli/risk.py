@@ -52,7 +52,8 @@ def run(args) -> int:
     import numpy as np
 
     from .. import monte_carlo_amplitudes
-    from .._extremes import AmplitudeDistribution, exposure_risk, wilson_interval
+    from .._extremes import AmplitudeDistribution, exposure_risk
+    from .._sweep import monte_carlo_max_roll
     from .pdf import parse_theories
 
     theories = parse_theories(args.theory)
@@ -83,21 +84,25 @@ def run(args) -> int:
     dist = AmplitudeDistribution.from_pdf(centres, counts / n_amp / np.diff(np.deg2rad(edges)))
     mc = exposure_risk(dist, jnp.deg2rad(angle_used), rate=rate, duration=exposure, n_amplitudes=n_amp,
                        n_exceed=n_exceed)
-    # Capsize within the exposure from a constant hazard λ = capsizes / time at risk (after the transient).
-    at_risk = float(np.sum(np.minimum(stats.capsize_time, args.duration)))
-    lam = stats.n_capsized / at_risk
-    lo, hi = (np.asarray(v) for v in wilson_interval(stats.n_capsized, stats.n_realizations))
-    capsize = {
-        "n_capsized": stats.n_capsized,
-        "n_realizations": stats.n_realizations,
-        "probability_within_trial": stats.capsize_probability,
-        "probability_within_trial_ci95": [float(lo), float(hi)],
-        "hazard_per_hour": lam * 3600,
-        "probability_within_exposure": 1 - math.exp(-lam * exposure),
+    # Direct estimate: trials as long as the exposure, no independence assumption between amplitudes.
+    direct_stats = monte_carlo_max_roll(problem, jax.random.key(args.seed + 1), angle_deg=angle_used,
+                                        num_realizations=args.realizations, duration=args.discard + exposure,
+                                        discard=args.discard, chunk_size=args.chunk_size)
+    largest = direct_stats.max_abs_phi_deg[~direct_stats.capsized]
+    direct = {
+        "probability": direct_stats.exceedance_probability(),
+        "probability_ci95": list(direct_stats.exceedance_interval()),
+        "capsize_probability": direct_stats.capsize_probability,
+        "capsize_probability_ci95": list(direct_stats.capsize_interval()),
+        "largest_roll_quantiles_deg": {k: float(np.quantile(largest, q)) if largest.size else float("nan")
+                                       for k, q in (("50", 0.5), ("90", 0.9), ("99", 0.99))},
+        "n_realizations": direct_stats.n_realizations,
+        "method": "trials of the exposure's length after the discard; exceedance = max |φ| > angle or capsize",
     }
-    result = {"monte_carlo": {"angle_deg": angle_used, "rate_per_s": rate, "n_amplitudes": n_amp,
-                              "n_exceed": n_exceed, **_risk_dict(mc)},
-              "capsize": capsize}
+    result = {"direct": direct,
+              "monte_carlo": {"angle_deg": angle_used, "rate_per_s": rate, "n_amplitudes": n_amp,
+                              "n_exceed": n_exceed, **_risk_dict(mc),
+                              "method": "per-cycle amplitude distribution, amplitudes assumed independent"}}
     if theories:
         from ._theory import theory_distributions
 
@@ -109,17 +114,19 @@ def run(args) -> int:
                           "amplitudes": "zero-crossing, per half cycle; amplitudes assumed independent"},
                **result, "run_time_s": time.time() - t0}
     write_json(Path(args.out) / "risk.json", payload)
-    m = result["monte_carlo"]
+    m, d = result["monte_carlo"], result["direct"]
     print(f"Sea: H1/3 {args.hs} m, T01 {args.t01} s, {args.heading} seas, U {args.speed} m/s; ship {ship.name}")
-    print(f"Monte Carlo ({args.realizations} × {args.duration:g} s): {n_amp} amplitudes, {rate * 3600:.0f} per hour")
-    print(f"P(roll > {angle_used:g}° within {args.hours:g} h) = {m['probability']:.4f} "
-          f"(95 % CI {m['probability_ci95'][0]:.4f}–{m['probability_ci95'][1]:.4f})")
-    print(f"most probable largest roll in {args.hours:g} h: {m['most_probable_largest_deg']:.1f}°; "
-          f"characteristic largest {m['characteristic_largest_deg']:.1f}° "
-          f"(95 % CI {m['characteristic_largest_ci95_deg'][0]:.1f}–{m['characteristic_largest_ci95_deg'][1]:.1f}°); "
-          f"expected largest {m['expected_largest_deg']:.1f}°")
-    print(f"capsize: {stats.n_capsized}/{stats.n_realizations} trials; P(capsize within {args.hours:g} h) ≈ "
-          f"{capsize['probability_within_exposure']:.4f} (constant hazard {capsize['hazard_per_hour']:.2e}/h)")
+    print(f"Direct ({args.realizations} trials of {args.hours:g} h after {args.discard:g} s): "
+          f"P(roll > {angle_used:g}° within {args.hours:g} h) = {d['probability']:.4f} "
+          f"(95 % CI {d['probability_ci95'][0]:.4f}–{d['probability_ci95'][1]:.4f}); "
+          f"median largest roll {d['largest_roll_quantiles_deg']['50']:.1f}°, "
+          f"90 % {d['largest_roll_quantiles_deg']['90']:.1f}°; "
+          f"P(capsize) = {d['capsize_probability']:.4f} "
+          f"(95 % CI {d['capsize_probability_ci95'][0]:.4f}–{d['capsize_probability_ci95'][1]:.4f})")
+    print(f"Independent amplitudes ({n_amp} amplitudes, {rate * 3600:.0f} per hour): "
+          f"P = {m['probability']:.4f} (95 % CI {m['probability_ci95'][0]:.4f}–{m['probability_ci95'][1]:.4f}); "
+          f"characteristic largest {m['characteristic_largest_deg']:.1f}°, expected largest "
+          f"{m['expected_largest_deg']:.1f}° (assumes independent amplitudes)")
     for name in theories:
         t = result[name]
         print(f"{name}: P = {t['probability']:.4f}, most probable largest {t['most_probable_largest_deg']:.1f}°")
