@@ -98,7 +98,9 @@ class FilterExcitation(AbstractExcitation):
         return z, self.c @ z, self.c_a @ z
 
     def block(self, key, state, index):
-        eps = jr.normal(jr.fold_in(key, index), (BLOCK, self.c.size))
+        # float32 normals (cast to float64) are ~25 % faster to draw; their ±5.4σ tail limit does not matter
+        # after the filter sums many innovations (its output is Gaussian to that precision).
+        eps = jr.normal(jr.fold_in(key, index), (BLOCK, self.c.size), jnp.float32).astype(float)
 
         def step(z, e):
             z = self.phi @ z + self.chol @ e

@@ -31,9 +31,14 @@ def run_moments(problem, key, n, duration, discard):
     stats = jaxroll.monte_carlo_amplitudes(problem, key, num_realizations=n, duration=duration, discard=discard,
                                           chunk_size=n)
     pr = stats.per_realization
-    e2 = pr["sum_phi2"] / pr["n_samples"]
-    e4 = pr["sum_phi4"] / pr["n_samples"]
-    return stats, (e2.mean(), e2.std(ddof=1) / np.sqrt(n)), (e4.mean(), e4.std(ddof=1) / np.sqrt(n))
+    # Parametric white noise gives heavy (power-law) tails: a rare trial passes |φ| = π and is counted as
+    # capsized (excluded); more than 2 % would bias E[φ²] beyond the tolerance, so it fails the test.
+    assert stats.n_capsized <= 0.02 * n, stats.n_capsized
+    ok = ~stats.capsized
+    e2 = pr["sum_phi2"][ok] / pr["n_samples"][ok]
+    e4 = pr["sum_phi4"][ok] / pr["n_samples"][ok]
+    m = ok.sum()
+    return stats, (e2.mean(), e2.std(ddof=1) / np.sqrt(m)), (e4.mean(), e4.std(ddof=1) / np.sqrt(m))
 
 
 def test_caughey_exact_stationary_law_nonlinear_restoring(getkey):
