@@ -28,3 +28,17 @@ from ._excitation import (
 )
 
 # --- moment equations ---
+from ._moments import (
+    AmplitudeFamily as AmplitudeFamily,
+    MomentEquations as MomentEquations,
+    MomentSolution as MomentSolution,
+    PolynomialSDE as PolynomialSDE,
+    StationaryMoments as StationaryMoments,
+    envelope_moments as envelope_moments,
+    fit_amplitude_family as fit_amplitude_family,
+    moment_equations as moment_equations,
+    moment_pdf as moment_pdf,
+    roll_moments as roll_moments,
+    roll_sde as roll_sde,
+    stationary_moments as stationary_moments,
+)
