@@ -26,7 +26,7 @@ def compute(ship, sea, args, name: str, *, estimator: str = "envelope"):
         if name == "esam":
             return theory.esam_pdf(ship, wave, estimator=estimator)
         if name == "moment":
-            return theory.moment_pdf(ship, wave, filter_order=args.filter_order, closure_order=6)
+            return theory.moment_pdf_first_stable(ship, wave, filter_order=args.filter_order)
     except (ValueError, RuntimeError) as e:
         raise CLIError(f"{name}: {e}".split("\n")[0]) from None
     raise CLIError(f"unknown theory {name!r}")

@@ -38,6 +38,7 @@ from ._moments import (
     fit_amplitude_family as fit_amplitude_family,
     moment_equations as moment_equations,
     moment_pdf as moment_pdf,
+    moment_pdf_first_stable as moment_pdf_first_stable,
     roll_moments as roll_moments,
     roll_sde as roll_sde,
     stationary_moments as stationary_moments,
