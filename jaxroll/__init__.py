@@ -19,6 +19,21 @@ from ._amplitudes import (
 from ._amplitudes import (
     zero_crossing_amplitudes as zero_crossing_amplitudes,
 )
+from ._calibration import (
+    calibrated_ship as calibrated_ship,
+)
+from ._calibration import (
+    fit_captive as fit_captive,
+)
+from ._calibration import (
+    fit_decay_ode as fit_decay_ode,
+)
+from ._calibration import (
+    fit_extinction as fit_extinction,
+)
+from ._calibration import (
+    fit_roll_pdf as fit_roll_pdf,
+)
 from ._dynamics import (
     FilterExcitation as FilterExcitation,
 )
@@ -135,6 +150,21 @@ from ._monte_carlo import (
 from ._monte_carlo import (
     monte_carlo_amplitudes as monte_carlo_amplitudes,
 )
+from ._records import (
+    Record as Record,
+)
+from ._records import (
+    RecordError as RecordError,
+)
+from ._records import (
+    load_record as load_record,
+)
+from ._records import (
+    load_records as load_records,
+)
+from ._records import (
+    save_record as save_record,
+)
 from ._restoring import (
     delta_gm as delta_gm,
 )
@@ -186,6 +216,8 @@ from ._spectra import (
 from ._spectra import (
     spectral_moment as spectral_moment,
 )
+from ._sweep import monte_carlo_max_roll as monte_carlo_max_roll
+from ._sweep import sweep_sea_states as sweep_sea_states
 
 try:
     __version__ = importlib.metadata.version("jaxroll")

@@ -15,13 +15,14 @@ A record is a CSV file at **model scale** with a `#`-comment header of metadata 
     0.0000,5.0000,-12.345
     ...
 
-Three kinds, with their columns: `decay` (time, roll), `captive` (time, wave, delta_gm) and `roll` (time, roll,
-wave). `time` counts seconds from the release of the model (decay) or from the start of the wave maker (captive,
-roll), so the paper's analysis window 70–340 s is in these model-scale seconds.
+Three kinds, with their columns: `decay` (time, roll), `captive` (time, wave, delta_gm) and `roll` (time,
+roll, wave). `time` counts seconds from the release of the model (decay) or from the start of the wave maker
+(captive, roll), so the paper's analysis window 70–340 s is in these model-scale seconds.
 
-Loaders convert to **full scale, SI** (Froude, scale λ: length ×λ, time ×√λ, angles unchanged) and refuse a bad
-record with a `RecordError` (a `ValueError`) that names the file, the line and the problem. Nothing is dropped or
-repaired silently: irregular sampling is resampled only when asked (`resample=True`), and never across a gap.
+Loaders convert to **full scale, SI** (Froude, scale λ: length ×λ, time ×√λ, angles unchanged) and refuse a
+bad record with a `RecordError` (a `ValueError`) that names the file, the line and the problem. Nothing is
+dropped or repaired silently: irregular sampling is resampled only when asked (`resample=True`), and never
+across a gap.
 """
 
 from __future__ import annotations
@@ -33,7 +34,16 @@ from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import jax.random as jr
 import numpy as np
+
+from ._dynamics import BLOCK, AbstractExcitation, RollProblem, roll_time_series
+from ._grim import grim_transfer, superposition_length
+from ._restoring import delta_gm
+from ._spectra import GRAVITY, wave_frequencies_from_encounter
 
 FORMAT_VERSION = 1
 
@@ -100,8 +110,8 @@ class Record:
     - `time` [s, full scale]: from the release (decay) or the start of the wave maker (captive, roll).
     - `channels`: full-scale SI arrays: `roll` [rad], `wave` [m] (elevation at the probe), `delta_gm` [m].
     - `scale`: λ (model = full / λ); `meta`: the header as parsed (model-scale values where the key says
-      `_model_`, full scale where it says `_full_`); `source`: the file, for messages; `lines`: the file line of
-      each sample (for messages; None for records built in memory).
+      `_model_`, full scale where it says `_full_`); `source`: the file, for messages; `lines`: the file line
+      of each sample (for messages; None for records built in memory).
     """
 
     kind: str
@@ -181,13 +191,13 @@ class Record:
     def window(self, start_model_s: float, stop_model_s: float) -> Record:
         """The samples with start ≤ t ≤ stop, the bounds in **model-scale seconds** (the paper's 70–340 s).
 
-        **Raises:** `RecordError` if the record does not cover the window (it names the last line).
-        """
+        **Raises:** `RecordError` if the record does not cover the window (it names the last line)."""
         t_model = self.model_time
         tol = 0.5 / float(self.meta["sampling_hz"])
         if not stop_model_s > start_model_s:
             raise RecordError(
-                f"{self.source}: analysis window {start_model_s}–{stop_model_s} s is empty (stop must be > start)."
+                f"{self.source}: analysis window {start_model_s}–{stop_model_s} s is empty "
+                "(stop must be > start)."
             )
         if t_model[0] > start_model_s + tol or t_model[-1] < stop_model_s - tol:
             last = f"line {int(self.lines[-1])}" if self.lines is not None else "the last sample"
@@ -208,9 +218,9 @@ class Record:
         )
 
 
-# ----------------------------------------------------------------------------------------------------------------
+# ------------------------------------------------------------------------------------------------------------
 # Building and writing
-# ----------------------------------------------------------------------------------------------------------------
+# ------------------------------------------------------------------------------------------------------------
 
 
 def make_record(
@@ -224,7 +234,8 @@ def make_record(
     source: str = "<memory>",
     **meta: Any,
 ) -> Record:
-    """Build a `Record` in memory from **full-scale SI** arrays (time [s], roll [rad], wave [m], delta_gm [m]).
+    """Build a `Record` in memory from **full-scale SI** arrays (time [s], roll [rad], wave [m], delta_gm
+    [m]).
 
     `sampling_hz` is the model-scale sampling rate (the full-scale interval is √λ/`sampling_hz`); `units` are
     the units the file will use when saved (default: s, deg for roll, mm for wave and ΔGM); the other keyword
@@ -242,8 +253,13 @@ def make_record(
     for k, v in chans.items():
         if v.shape != time.shape:
             raise ValueError(f"channel `{k}` has shape {v.shape}; `time` has {time.shape}.")
-    header = {"format_version": FORMAT_VERSION, "scale": float(scale), "sampling_hz": float(sampling_hz),
-              "units": list(units), **meta}
+    header = {
+        "format_version": FORMAT_VERSION,
+        "scale": float(scale),
+        "sampling_hz": float(sampling_hz),
+        "units": list(units),
+        **meta,
+    }
     missing = [k for k in REQUIRED_KEYS[kind] if k not in header]
     if missing:
         raise ValueError(f"a {kind} record needs header entries {missing}.")
@@ -258,21 +274,19 @@ def _format_number(value: float, decimals: int) -> str:
 def record_to_text(record: Record, *, decimals: Mapping[str, int] | None = None) -> str:
     """The record as file text (model scale, the units in `record.meta["units"]`).
 
-    `decimals`: digits after the point per column (defaults: time 4, roll 4 (deg) / 6 (rad), wave and ΔGM 4 (mm)
-    / 7 (m)).
-    """
+    `decimals`: digits after the point per column name (defaults by unit: s 4, deg 4, rad 6, mm 3, m 6)."""
     columns = RECORD_COLUMNS[record.kind]
     units = list(record.meta["units"])
     lam = record.scale
-    default_dec = {"s": 4, "deg": 4, "rad": 6, "mm": 4, "m": 7}
+    default_dec = {"s": 4, "deg": 4, "rad": 6, "mm": 3, "m": 6}
     lines = [f"# jaxroll-record: {record.kind}"]
     order = ["format_version", "scale", "sampling_hz", "units"]
     for key in order + [k for k in record.meta if k not in order]:
         value = record.meta[key]
         if key == "units":
             value = ", ".join(units)
-        elif isinstance(value, float) and value.is_integer() and key != "scale":
-            value = repr(value)
+        elif isinstance(value, float) and value.is_integer():
+            value = int(value)
         lines.append(f"# {key}: {value}")
     lines.append(",".join(columns))
     cols = []
@@ -286,7 +300,8 @@ def record_to_text(record: Record, *, decimals: Mapping[str, int] | None = None)
 
 
 def save_record(record: Record, path: str | Path, **kwargs) -> Path:
-    """Write `record` to `path` (model scale; gzip-compressed when the name ends in `.gz`). Returns the path."""
+    """Write `record` to `path` (model scale; gzip-compressed when the name ends in `.gz`). Returns the
+    path."""
     path = Path(path)
     text = record_to_text(record, **kwargs)
     data = gzip.compress(text.encode(), mtime=0) if path.suffix == ".gz" else text.encode()
@@ -295,9 +310,9 @@ def save_record(record: Record, path: str | Path, **kwargs) -> Path:
     return path
 
 
-# ----------------------------------------------------------------------------------------------------------------
+# ------------------------------------------------------------------------------------------------------------
 # Loading and validation
-# ----------------------------------------------------------------------------------------------------------------
+# ------------------------------------------------------------------------------------------------------------
 
 
 def _read_text(path: Path) -> str:
@@ -316,15 +331,24 @@ def _read_text(path: Path) -> str:
 
 
 def _parse_header(lines: list[str], source: str) -> tuple[str, dict[str, Any], dict[str, int], int]:
-    """Parse the comment header. Returns (kind, meta, line number of each key, index of the first data line)."""
+    """Parse the comment header. Returns (kind, meta, line number of each key, index of the first data
+    line)."""
     if not lines or not lines[0].startswith("#"):
-        raise _err(source, 1, "not a jaxroll record: the first line must be '# jaxroll-record: KIND' "
-                   f"with KIND one of {', '.join(RECORD_COLUMNS)}.")
+        raise _err(
+            source,
+            1,
+            "not a jaxroll record: the first line must be '# jaxroll-record: KIND' "
+            f"with KIND one of {', '.join(RECORD_COLUMNS)}.",
+        )
     first = lines[0].lstrip("#").strip()
     key, sep, value = first.partition(":")
     if key.strip() != "jaxroll-record" or not sep:
-        raise _err(source, 1, "not a jaxroll record: the first line must be '# jaxroll-record: KIND' "
-                   f"with KIND one of {', '.join(RECORD_COLUMNS)}; got {lines[0].strip()!r}.")
+        raise _err(
+            source,
+            1,
+            "not a jaxroll record: the first line must be '# jaxroll-record: KIND' "
+            f"with KIND one of {', '.join(RECORD_COLUMNS)}; got {lines[0].strip()!r}.",
+        )
     kind = value.strip()
     if kind not in RECORD_COLUMNS:
         raise _err(source, 1, f"unknown record kind {kind!r}; expected one of {', '.join(RECORD_COLUMNS)}.")
@@ -340,7 +364,9 @@ def _parse_header(lines: list[str], source: str) -> tuple[str, dict[str, Any], d
         key, sep, value = body.partition(":")
         key, value = key.strip(), value.strip()
         if not sep or not key:
-            raise _err(source, lineno, f"header line must be '# key: value'; got {lines[lineno - 1].strip()!r}.")
+            raise _err(
+                source, lineno, f"header line must be '# key: value'; got {lines[lineno - 1].strip()!r}."
+            )
         if key in meta:
             raise _err(source, lineno, f"duplicate header key `{key}` (first on line {where[key]}).")
         where[key] = lineno
@@ -362,11 +388,18 @@ def _parse_header(lines: list[str], source: str) -> tuple[str, dict[str, Any], d
 def _check_header(kind: str, meta: dict[str, Any], where: dict[str, int], source: str, header_end: int):
     missing = [k for k in REQUIRED_KEYS[kind] if k not in meta]
     if missing:
-        raise _err(source, header_end, f"missing header key(s) {', '.join(missing)} for a {kind} record "
-                   "(see docs/records.md).")
+        raise _err(
+            source,
+            header_end,
+            f"missing header key(s) {', '.join(missing)} for a {kind} record (see docs/records.md).",
+        )
     if meta["format_version"] != FORMAT_VERSION:
-        raise _err(source, where["format_version"],
-                   f"format_version {meta['format_version']:g} is not supported (this jaxroll reads {FORMAT_VERSION}).")
+        raise _err(
+            source,
+            where["format_version"],
+            f"format_version {meta['format_version']:g} is not supported "
+            f"(this jaxroll reads {FORMAT_VERSION}).",
+        )
     checks = {
         "scale": (lambda v: v >= 1, "must be >= 1 (λ: model = full/λ; use 1 for full-scale records)"),
         "sampling_hz": (lambda v: v > 0, "must be > 0 [Hz, model scale]"),
@@ -380,18 +413,28 @@ def _check_header(kind: str, meta: dict[str, Any], where: dict[str, int], source
             raise _err(source, where[key], f"header key `{key}` = {meta[key]:g} {why}.")
     for key, allowed in _KNOWN_STRING_VALUES.items():
         if key in meta and meta[key] not in allowed:
-            raise _err(source, where[key], f"header key `{key}` = {meta[key]!r} is not supported; "
-                       f"jaxroll handles {', '.join(allowed)}.")
+            raise _err(
+                source,
+                where[key],
+                f"header key `{key}` = {meta[key]!r} is not supported; jaxroll handles {', '.join(allowed)}.",
+            )
     columns = RECORD_COLUMNS[kind]
     units = meta["units"]
     lineno = where["units"]
     if len(units) != len(columns) or any(not u for u in units):
-        raise _err(source, lineno, f"`units` must list one unit per column ({', '.join(columns)}); "
-                   f"got {', '.join(units) or 'nothing'}.")
+        raise _err(
+            source,
+            lineno,
+            f"`units` must list one unit per column ({', '.join(columns)}); "
+            f"got {', '.join(units) or 'nothing'}.",
+        )
     for name, unit in zip(columns, units):
         if unit not in COLUMN_UNITS[name]:
-            raise _err(source, lineno, f"wrong unit {unit!r} for column `{name}`; "
-                       f"expected one of {', '.join(COLUMN_UNITS[name])}.")
+            raise _err(
+                source,
+                lineno,
+                f"wrong unit {unit!r} for column `{name}`; expected one of {', '.join(COLUMN_UNITS[name])}.",
+            )
 
 
 def _parse_data(lines: list[str], start: int, ncol: int, columns, source: str):
@@ -405,12 +448,18 @@ def _parse_data(lines: list[str], start: int, ncol: int, columns, source: str):
         if not text:
             raise _err(source, lineno, "blank line inside the data (gaps are not allowed).")
         if text.startswith("#"):
-            raise _err(source, lineno, "comment line inside the data; the header must come before the column names.")
+            raise _err(
+                source, lineno, "comment line inside the data; the header must come before the column names."
+            )
         fields = [f.strip() for f in text.split(",")]
         if len(fields) != ncol:
             if i == n_lines - 1 and len(fields) < ncol:
-                raise _err(source, lineno, f"truncated file: the last line has {len(fields)} of {ncol} columns "
-                           f"({', '.join(columns)}).")
+                raise _err(
+                    source,
+                    lineno,
+                    f"truncated file: the last line has {len(fields)} of {ncol} columns "
+                    f"({', '.join(columns)}).",
+                )
             raise _err(source, lineno, f"expected {ncol} columns ({', '.join(columns)}); got {len(fields)}.")
         row = []
         for name, field in zip(columns, fields):
@@ -421,7 +470,9 @@ def _parse_data(lines: list[str], start: int, ncol: int, columns, source: str):
             except ValueError:
                 raise _err(source, lineno, f"column `{name}`: cannot read {field!r} as a number.") from None
             if math.isnan(v):
-                raise _err(source, lineno, f"column `{name}` is NaN (gaps and missing values are not allowed).")
+                raise _err(
+                    source, lineno, f"column `{name}` is NaN (gaps and missing values are not allowed)."
+                )
             if not math.isfinite(v):
                 raise _err(source, lineno, f"column `{name}` is not finite ({field}).")
             row.append(v)
@@ -436,25 +487,38 @@ def _check_time(t, linenos, sampling_hz: float, source: str, resample: bool):
     bad = np.nonzero(steps <= 0)[0]
     if bad.size:
         j = bad[0] + 1
-        raise _err(source, int(linenos[j]), f"time {t[j]:g} s does not increase (previous sample: {t[j - 1]:g} s); "
-                   "time must be strictly increasing.")
+        raise _err(
+            source,
+            int(linenos[j]),
+            f"time {t[j]:g} s does not increase (previous sample: {t[j - 1]:g} s); "
+            "time must be strictly increasing.",
+        )
     gaps = np.nonzero(steps > GAP_FACTOR * dt)[0]
     if gaps.size:
         j = gaps[0] + 1
-        raise _err(source, int(linenos[j]), f"gap in the record: time jumps from {t[j - 1]:g} s to {t[j]:g} s "
-                   f"({steps[j - 1]:g} s; the sampling interval is 1/sampling_hz = {dt:g} s). Gaps are never "
-                   "filled; cut the record or supply the missing samples.")
+        raise _err(
+            source,
+            int(linenos[j]),
+            f"gap in the record: time jumps from {t[j - 1]:g} s to {t[j]:g} s "
+            f"({steps[j - 1]:g} s; the sampling interval is 1/sampling_hz = {dt:g} s). Gaps are never "
+            "filled; cut the record or supply the missing samples.",
+        )
     irregular = np.nonzero(np.abs(steps - dt) > SAMPLING_RTOL * dt)[0]
     if irregular.size and not resample:
         j = irregular[0] + 1
-        raise _err(source, int(linenos[j]), f"irregular time step {steps[j - 1]:g} s (1/sampling_hz = {dt:g} s, "
-                   f"tolerance {SAMPLING_RTOL:.0%}); pass resample=True (CLI: --resample) to interpolate onto "
-                   "a uniform grid.")
+        raise _err(
+            source,
+            int(linenos[j]),
+            f"irregular time step {steps[j - 1]:g} s (1/sampling_hz = {dt:g} s, "
+            f"tolerance {SAMPLING_RTOL:.0%}); pass resample=True (CLI: --resample) to interpolate onto "
+            "a uniform grid.",
+        )
     return irregular.size > 0
 
 
-def load_record(path: str | Path, *, kind: str | None = None, resample: bool = False,
-                min_samples: int = 16) -> Record:
+def load_record(
+    path: str | Path, *, kind: str | None = None, resample: bool = False, min_samples: int = 16
+) -> Record:
     """Read and validate one tank record (format: docs/records.md); returns it at full scale, SI.
 
     **Arguments:**
@@ -466,8 +530,8 @@ def load_record(path: str | Path, *, kind: str | None = None, resample: bool = F
     - `min_samples`: fewer data rows than this is an error.
 
     **Raises:** `RecordError` (a `ValueError`) naming the file, the line and the problem: a missing or unknown
-    header key value, missing/wrong units, non-numeric, empty or NaN values, a truncated last line, time that does
-    not increase, gaps, irregular sampling (without `resample`), too few samples; `FileNotFoundError`.
+    header key value, missing/wrong units, non-numeric, empty or NaN values, a truncated last line, time that
+    does not increase, gaps, irregular sampling (without `resample`), too few samples; `FileNotFoundError`.
     """
     path = Path(path)
     source = str(path)
@@ -481,12 +545,18 @@ def load_record(path: str | Path, *, kind: str | None = None, resample: bool = F
         raise _err(source, i + 1, f"missing column-name line '{','.join(columns)}' after the header.")
     names = [c.strip() for c in lines[i].split(",")]
     if names != list(columns):
-        raise _err(source, i + 1, f"column names must be '{','.join(columns)}' for a {got} record; "
-                   f"got '{lines[i].strip()}'.")
+        raise _err(
+            source,
+            i + 1,
+            f"column names must be '{','.join(columns)}' for a {got} record; got '{lines[i].strip()}'.",
+        )
     data, linenos = _parse_data(lines, i + 1, len(columns), columns, source)
     if data.shape[0] < min_samples:
-        raise _err(source, int(linenos[-1]) if linenos.size else i + 1,
-                   f"too few samples: {data.shape[0]} data rows (at least {min_samples} needed).")
+        raise _err(
+            source,
+            int(linenos[-1]) if linenos.size else i + 1,
+            f"too few samples: {data.shape[0]} data rows (at least {min_samples} needed).",
+        )
     t = data[:, 0]
     irregular = _check_time(t, linenos, meta["sampling_hz"], source, resample)
     if irregular:
@@ -518,8 +588,9 @@ def _expand(paths: Iterable[str | Path]) -> list[Path]:
     return out
 
 
-def load_records(paths: Iterable[str | Path] | str | Path, *, kind: str | None = None,
-                 resample: bool = False) -> list[Record]:
+def load_records(
+    paths: Iterable[str | Path] | str | Path, *, kind: str | None = None, resample: bool = False
+) -> list[Record]:
     """Load several records (files, or folders whose `*.csv`/`*.csv.gz` are read in name order).
 
     All must be of the same kind (`kind`, or the first file's) and the same scale.
@@ -535,8 +606,10 @@ def load_records(paths: Iterable[str | Path] | str | Path, *, kind: str | None =
         if kind is None:
             kind = rec.kind
         if records and rec.scale != records[0].scale:
-            raise RecordError(f"{rec.source}: scale {rec.scale:g} differs from {records[0].source} "
-                              f"({records[0].scale:g}); load records of one model at a time.")
+            raise RecordError(
+                f"{rec.source}: scale {rec.scale:g} differs from {records[0].source} "
+                f"({records[0].scale:g}); load records of one model at a time."
+            )
         records.append(rec)
     return records
 
@@ -547,3 +620,258 @@ def group_by_sea_state(records: Sequence[Record]) -> dict[tuple[float, float], l
     for r in records:
         groups.setdefault(r.sea_state, []).append(r)
     return groups
+
+
+# ------------------------------------------------------------------------------------------------------------
+# Virtual tank: synthetic records with known truth (the CLI's `jaxroll tank`)
+# ------------------------------------------------------------------------------------------------------------
+
+
+class GivenExcitation(AbstractExcitation):
+    """ζ_G [m] and dζ_G/dt [m/s] given as arrays on t_k = k·dt (length ≥ blocks·BLOCK + 1): a recorded or
+    synthesised effective wave fed to the project's integrator (`jaxroll.RollProblem`)."""
+
+    zeta: Any
+    dzeta: Any
+    dt: float = eqx.field(static=True)
+
+    def init(self, key, num_steps):
+        return (self.zeta, self.dzeta), self.zeta[0], self.dzeta[0]
+
+    def block(self, key, state, index):
+        start = index * BLOCK + 1
+        return (
+            state,
+            jax.lax.dynamic_slice_in_dim(self.zeta, start, BLOCK),
+            jax.lax.dynamic_slice_in_dim(self.dzeta, start, BLOCK),
+        )
+
+
+def virtual_sea(
+    sea,
+    key,
+    num_samples: int,
+    dt: float,
+    *,
+    length: float,
+    probes: Sequence[float] = (0.0,),
+    speed: float = 0.0,
+):
+    """One realization of a long-crested head sea seen from the ship: wave elevations and Grim's effective
+    wave.
+
+    Components at encounter frequencies ω_j = 2πj/(M·dt), M ≥ `num_samples` (the record never repeats), with
+    complex Gaussian amplitudes A_j of variance S_e(ω_j)Δω (one-sided encounter spectrum). In the ship frame
+    (x forward from amidships, waves from the bow) a component is Re[A_j e^{i(ω_j t + k_j x)}], k_j = ω_j²/g
+    at the absolute wave frequency; the probe at x sees A_j e^{ik_j x}, and Grim's effective wave is
+    ζ_G = Σ F(k_j) A_j e^{iω_j t} (crest amidships positive), the same as `jaxroll.superpose` in distribution.
+
+    **Arguments:** `sea`: one-sided spectrum; `key`; `num_samples`; `dt` [s]; `length`: L [m]; `probes`: probe
+    positions x [m] relative to amidships, positive forward; `speed`: U [m/s] ≥ 0 (head seas).
+
+    **Returns:** `(elevations [m] of shape (len(probes), num_samples), zeta_g [m], dzeta_g [m/s])`."""
+
+    m = superposition_length(num_samples)
+    domega = 2 * jnp.pi / (m * dt)
+    omega_e = jnp.arange(m // 2 + 1) * domega
+    omegas, weights = wave_frequencies_from_encounter(omega_e, speed, "head")
+    omega, jac = omegas[:, 0], weights[:, 0]
+    s = sea(omega) * jac
+    s = s.at[0].set(0.0).at[-1].set(0.0)
+    k = omega**2 / GRAVITY
+    xy = jr.normal(key, (2, m // 2 + 1))
+    coef = jnp.sqrt(s * domega) * (xy[0] + 1j * xy[1]) * (m / 2)
+    f = grim_transfer(k, length)
+    zeta_g = jnp.fft.irfft(f * coef, n=m)[:num_samples]
+    dzeta_g = jnp.fft.irfft(1j * omega_e * f * coef, n=m)[:num_samples]
+    elev = jnp.stack([jnp.fft.irfft(coef * jnp.exp(1j * k * x), n=m)[:num_samples] for x in probes])
+    return elev, zeta_g, dzeta_g
+
+
+_roll_time_series_jit = eqx.filter_jit(roll_time_series)
+
+
+def _integration_grid(record_dt: float, max_dt: float) -> tuple[int, float]:
+    sub = max(1, math.ceil(record_dt / max_dt - 1e-9))
+    return sub, record_dt / sub
+
+
+def _simulate_roll(ship, zeta_g, dzeta_g, dt: float, num_steps: int, phi0: float, dphi0: float = 0.0):
+    """Roll (φ, φ̇) on t_k = k·dt, k ≤ num_steps, from the project's RK4 integrator driven by the given
+    ζ_G."""
+
+    num_blocks = -(-num_steps // BLOCK)
+    need = num_blocks * BLOCK + 1
+    pad = need - zeta_g.shape[0]
+    if pad > 0:
+        zeta_g = jnp.concatenate([zeta_g, jnp.zeros(pad)])
+        dzeta_g = jnp.concatenate([dzeta_g, jnp.zeros(pad)])
+    exc = GivenExcitation(zeta=zeta_g, dzeta=dzeta_g, dt=float(dt))
+    problem = RollProblem(ship, exc, phi0, dphi0)
+    phi, dphi, end = _roll_time_series_jit(problem, jr.key(0), num_steps * dt)
+    return np.asarray(phi), np.asarray(dphi), bool(end.capsized)
+
+
+def _noise(rng: np.random.Generator, sigma: float, n: int) -> np.ndarray:
+    return rng.normal(0.0, sigma, n) if sigma > 0 else np.zeros(n)
+
+
+def virtual_decay_record(
+    ship,
+    *,
+    initial_roll_deg: float = 20.0,
+    duration_model_s: float = 60.0,
+    scale: float = 100.0,
+    sampling_hz: float = 20.0,
+    roll_noise_deg: float = 0.0,
+    seed: int = 0,
+    max_dt: float = 0.25,
+    realization: int | None = None,
+) -> Record:
+    """A free-decay record from the ship's own roll equation (P = 0), released from rest at
+    `initial_roll_deg`.
+
+    Integrated with the project's RK4 (`jaxroll.roll_time_series`) at ≤ `max_dt` [s, full scale]; sampled at
+    `sampling_hz` (model scale); Gaussian sensor noise of std `roll_noise_deg` [deg] added (numpy `seed`)."""
+    record_dt = math.sqrt(scale) / sampling_hz
+    n = int(round(duration_model_s * sampling_hz)) + 1
+    sub, dt = _integration_grid(record_dt, max_dt)
+    steps = (n - 1) * sub
+    zeros = jnp.zeros(steps + 1)
+    phi, _, capsized = _simulate_roll(ship, zeros, zeros, dt, steps, math.radians(initial_roll_deg))
+    if capsized:
+        raise ValueError(f"the decay from {initial_roll_deg}° capsizes the ship; start from a smaller angle.")
+    rng = np.random.default_rng(seed)
+    roll = phi[::sub][:n] + np.radians(_noise(rng, roll_noise_deg, n))
+    meta: dict[str, Any] = {"initial_roll_deg": float(initial_roll_deg)}
+    if realization is not None:
+        meta["realization"] = realization
+    meta["generator"] = f"jaxroll virtual tank (ship {ship.name!r})"
+    return make_record(
+        "decay", np.arange(n) * record_dt, {"roll": roll}, scale=scale, sampling_hz=sampling_hz, **meta
+    )
+
+
+def _sea_meta(sea, scale, probe_x_model_m, speed_model_m_s, realization):
+    meta = {
+        "wave_height_full_m": float(sea.hs),
+        "wave_period_full_s": float(sea.t01),
+        "probe_x_model_m": float(probe_x_model_m),
+        "speed_model_m_s": float(speed_model_m_s),
+        "spectrum": "ITTC",
+        "heading": "head",
+    }
+    if realization is not None:
+        meta["realization"] = realization
+    return meta
+
+
+def virtual_captive_record(
+    ship,
+    sea,
+    *,
+    heel_deg: float,
+    seed: int = 0,
+    duration_model_s: float = 360.0,
+    scale: float = 100.0,
+    sampling_hz: float = 20.0,
+    probe_x_model_m: float = 2.0,
+    speed_model_m_s: float = 0.0,
+    wave_noise_mm: float = 0.0,
+    gm_noise_mm: float = 0.0,
+    realization: int | None = None,
+) -> Record:
+    """A captive test at fixed heel: wave at the probe and the measured ΔGM, from a sea with known truth.
+
+    Truth: ΔGM_obs(t) = r · Σ C_k ζ_mid(t)^k + noise with r = `ship.gm_correction` (σ_obs/σ_thr) and ζ_mid =
+    −ζ_G of the same realization; the virtual tank's ΔGM does not depend on the heel. Noise: Gaussian, std
+    `wave_noise_mm` / `gm_noise_mm` [mm, model scale]. `sea` must be `jaxroll.ITTC` (the header records H1/3,
+    T01).
+    """
+
+    record_dt = math.sqrt(scale) / sampling_hz
+    n = int(round(duration_model_s * sampling_hz)) + 1
+    speed = speed_model_m_s * math.sqrt(scale)
+    elev, zeta_g, _ = virtual_sea(
+        sea,
+        jr.key(seed),
+        n,
+        record_dt,
+        length=float(ship.lpp),
+        probes=(probe_x_model_m * scale,),
+        speed=speed,
+    )
+    dgm = np.asarray(ship.gm_correction * delta_gm(ship, -zeta_g))
+    rng = np.random.default_rng([seed, 1])
+    wave = np.asarray(elev[0]) + _noise(rng, wave_noise_mm * 1e-3 * scale, n)
+    dgm = dgm + _noise(rng, gm_noise_mm * 1e-3 * scale, n)
+    meta = _sea_meta(sea, scale, probe_x_model_m, speed_model_m_s, realization)
+    meta = {**meta, "heel_deg": float(heel_deg), "generator": f"jaxroll virtual tank (ship {ship.name!r})"}
+    return make_record(
+        "captive",
+        np.arange(n) * record_dt,
+        {"wave": wave, "delta_gm": dgm},
+        scale=scale,
+        sampling_hz=sampling_hz,
+        **meta,
+    )
+
+
+def virtual_roll_record(
+    ship,
+    sea,
+    *,
+    seed: int = 0,
+    duration_model_s: float = 360.0,
+    scale: float = 100.0,
+    sampling_hz: float = 20.0,
+    probe_x_model_m: float = 0.0,
+    initial_roll_deg: float = 5.0,
+    roll_noise_deg: float = 0.0,
+    wave_noise_mm: float = 0.0,
+    max_dt: float = 0.25,
+    max_attempts: int = 20,
+    realization: int | None = None,
+) -> tuple[Record, int]:
+    """A free-running roll record in irregular head seas from the project's integrator, and its capsize count.
+
+    Roll from `jaxroll.roll_time_series` driven by Grim's effective wave of the same realization as the wave
+    column (the elevation at `probe_x_model_m`, amidships by default); φ(0) = `initial_roll_deg`, φ̇(0) = 0
+    (the paper's MCS start). A realization that capsizes is not a record: the tank draws the next one (seed
+    sub-streams) and returns how many it discarded.
+
+    **Returns:** `(record, n_capsized_attempts)`.
+    """
+
+    record_dt = math.sqrt(scale) / sampling_hz
+    n = int(round(duration_model_s * sampling_hz)) + 1
+    sub, dt = _integration_grid(record_dt, max_dt)
+    steps = (n - 1) * sub
+    for attempt in range(max_attempts):
+        key = jr.fold_in(jr.key(seed), attempt)
+        elev, zeta_g, dzeta_g = virtual_sea(
+            sea, key, steps + 1, dt, length=float(ship.lpp), probes=(probe_x_model_m * scale,)
+        )
+        phi, _, capsized = _simulate_roll(ship, zeta_g, dzeta_g, dt, steps, math.radians(initial_roll_deg))
+        if not capsized:
+            break
+    else:
+        raise ValueError(f"all {max_attempts} realizations capsized; the sea is too severe for this ship.")
+    rng = np.random.default_rng([seed, 2])
+    roll = phi[::sub][:n] + np.radians(_noise(rng, roll_noise_deg, n))
+    wave = np.asarray(elev[0])[::sub][:n] + _noise(rng, wave_noise_mm * 1e-3 * scale, n)
+    meta = _sea_meta(sea, scale, probe_x_model_m, 0.0, realization)
+    meta = {
+        **meta,
+        "initial_roll_deg": float(initial_roll_deg),
+        "generator": f"jaxroll virtual tank (ship {ship.name!r})",
+    }
+    rec = make_record(
+        "roll",
+        np.arange(n) * record_dt,
+        {"roll": roll, "wave": wave},
+        scale=scale,
+        sampling_hz=sampling_hz,
+        **meta,
+    )
+    return rec, attempt

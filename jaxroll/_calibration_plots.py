@@ -1,0 +1,204 @@
+"""Figures of the calibration (matplotlib only here and in the CLI; never `plt.show()`).
+
+Every function draws on `ax` (a new figure when None) and returns the `Axes` (or the `Figure` for multi-panel
+figures). Angles are shown in degrees, times at full scale.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+from ._calibration import CaptiveFit, DecayFit, RollFit, SeaStateComparison
+
+
+def _axes(ax, figsize=(6.0, 4.0)):
+    if ax is not None:
+        return ax
+    import matplotlib.pyplot as plt
+
+    _, ax = plt.subplots(figsize=figsize)
+    return ax
+
+
+def plot_extinction(fits: DecayFit | Sequence[DecayFit], *, ax=None):
+    """Extinction curve: decrement per half swing Δφ against the mean amplitude φ_m [deg], the measured points
+    (from the first fit that has them) and the curve aφ_m + bφ_m² + cφ_m³ of every fit."""
+    fits = [fits] if isinstance(fits, DecayFit) else list(fits)
+    ax = _axes(ax)
+    x_max = 0.0
+    for f in fits:
+        if "mean_amplitude" in f.curves:
+            pm, dec = np.degrees(f.curves["mean_amplitude"]), np.degrees(f.curves["decrement"])
+            ax.plot(pm, dec, "ko", ms=4, mfc="none", label="measured half swings")
+            x_max = max(x_max, pm.max())
+            break
+    x_max = x_max or 20.0
+    phi = np.radians(np.linspace(0, x_max * 1.05, 200))
+    styles = {"extinction": ("C0", "-"), "ode": ("C3", "--")}
+    for f in fits:
+        a, b, c = (f.extinction[k].value for k in ("a", "b", "c"))
+        color, ls = styles.get(f.method, ("C2", ":"))
+        label = {"extinction": "extinction-curve fit", "ode": "implied by the ODE fit"}.get(
+            f.method, f.method
+        )
+        ax.plot(
+            np.degrees(phi), np.degrees(a * phi + b * phi**2 + c * phi**3), color=color, ls=ls, label=label
+        )
+    ax.set_xlabel("mean amplitude φ_m [deg]")
+    ax.set_ylabel("decrement per half swing Δφ [deg]")
+    ax.set_xlim(0, None)
+    ax.set_ylim(0, None)
+    ax.legend()
+    ax.set_title("Free-roll decay: extinction curve")
+    return ax
+
+
+def plot_decay_fit(fit: DecayFit, *, index: int = 0, ax=None):
+    """Measured decay (dots) and the fitted roll equation (line) of record `index` of an ODE fit, with
+    residuals."""
+    if fit.method != "ode":
+        raise ValueError("plot_decay_fit needs a fit from `fit_decay_ode` (it draws the fitted time series).")
+    ax = _axes(ax, (8.0, 4.0))
+    t = fit.curves["time"][index]
+    meas = np.degrees(fit.curves["measured"][index])
+    model = np.degrees(fit.curves["fitted"][index])
+    ax.plot(t, meas, ".", color="0.4", ms=2, label="measured")
+    ax.plot(t, model, "C3-", lw=1, label="fitted roll equation")
+    ax.plot(t, meas - model, "C0-", lw=0.6, label="residual")
+    ax.set_xlabel("time since the first extreme [s, full scale]")
+    ax.set_ylabel("roll [deg]")
+    b = fit.damping
+    ax.set_title(
+        f"b1 = {b['b1'].value:.4g} ± {b['b1'].std_error:.2g} 1/s, b2 = {b['b2'].value:.3g} ± "
+        f"{b['b2'].std_error:.2g} 1/rad, b3 = {b['b3'].value:.3g} ± {b['b3'].std_error:.2g} s/rad²",
+        fontsize=9,
+    )
+    ax.legend(loc="upper right")
+    return ax
+
+
+def plot_captive(fit: CaptiveFit, *, ax=None):
+    """σ_obs/σ_thr and the least-squares scale per sea state and heel, with 95 % intervals and the pooled
+    values."""
+    ax = _axes(ax, (7.0, 4.0))
+    x = np.arange(len(fit.groups))
+    for off, attr, color, label in (
+        (-0.12, "std_ratio", "k", "σ_obs/σ_thr"),
+        (0.12, "ls_scale", "C3", "LS scale"),
+    ):
+        est = [getattr(g, attr) for g in fit.groups]
+        ax.errorbar(
+            x + off,
+            [e.value for e in est],
+            yerr=[1.96 * e.std_error for e in est],
+            fmt="o",
+            color=color,
+            capsize=3,
+            label=label,
+        )
+        pooled = getattr(fit, attr)
+        ax.axhline(pooled.value, color=color, lw=0.8, ls="--")
+    ax.set_xticks(
+        x, [f"{g.wave_height:g} m, {g.wave_period:g} s\n{g.heel_deg:g}°" for g in fit.groups], fontsize=7
+    )
+    ax.set_ylabel("GM correction [-]")
+    ax.set_title(
+        "Captive tests: observed vs Grim + non-memory ΔGM (95 % intervals; dashed: pooled)", fontsize=9
+    )
+    ax.legend()
+    return ax
+
+
+def plot_captive_series(fit: CaptiveFit, *, index: int = 0, duration_s: float = 600.0, ax=None):
+    """ΔGM measured and from theory (Grim + polynomial, uncorrected) over the first `duration_s` [s, full
+    scale]
+    of record `index`'s analysis window."""
+    ax = _axes(ax, (8.0, 3.5))
+    s = fit.series[index]
+    t = s["time"] - s["time"][0]
+    keep = t <= duration_s
+    ax.plot(t[keep], s["observed"][keep], "k-", lw=1, label="measured ΔGM")
+    ax.plot(t[keep], s["theory"][keep], "C0-", lw=1, label="Grim + polynomial (σ_thr)")
+    ax.plot(
+        t[keep],
+        fit.std_ratio.value * (s["theory"][keep] - s["theory"].mean()) + s["observed"].mean(),
+        "C3--",
+        lw=1,
+        label=f"× σ_obs/σ_thr = {fit.std_ratio.value:.3f}",
+    )
+    ax.set_xlabel("time in the analysis window [s, full scale]")
+    ax.set_ylabel("ΔGM [m, full scale]")
+    ax.legend(fontsize=8)
+    return ax
+
+
+def _density(samples, bins):
+    x = np.concatenate([np.ravel(s) for s in samples]) if len(samples) else np.zeros(0)
+    h, _ = np.histogram(np.degrees(x), bins=bins)
+    return h / max(h.sum(), 1) / np.diff(bins)
+
+
+def plot_roll_pdfs(
+    comparison: SeaStateComparison,
+    *,
+    ax=None,
+    log: bool = False,
+    bin_width_deg: float = 1.0,
+    max_deg: float | None = None,
+):
+    """The paper's Figs. 10–11 analogue for one sea state: experimental amplitude PDFs (zero-crossing: black
+    dots;
+    envelope: red dots) and the model's (lines; dashed before, solid after the calibration)."""
+    ax = _axes(ax)
+    exp = comparison.samples["experiment"]
+    top = max(np.degrees(np.max(np.concatenate(exp["envelope"]))), 1.0)
+    max_deg = max_deg or float(np.ceil(top * 1.1))
+    bins = np.arange(0.0, max_deg + bin_width_deg, bin_width_deg)
+    mid = (bins[1:] + bins[:-1]) / 2
+    colors = {"zero_crossing": "k", "envelope": "r"}
+    names = {"zero_crossing": "zero-crossing (per half cycle)", "envelope": "envelope (per sample)"}
+    for est in ("zero_crossing", "envelope"):
+        d = _density(exp[est], bins)
+        shown = d > 0
+        ax.plot(mid[shown], d[shown], "o", color=colors[est], ms=4, label=f"experiment, {names[est]}")
+        for which, ls in (("before", "--"), ("after", "-")):
+            model = comparison.samples.get(which)
+            if model is None:
+                continue
+            dm = _density(model[est], bins)
+            ax.plot(
+                mid,
+                np.where(dm > 0, dm, np.nan) if log else dm,
+                ls=ls,
+                color=colors[est],
+                lw=1,
+                label=f"model {which} calibration, {est.replace('_', '-')}",
+            )
+    if log:
+        ax.set_yscale("log")
+    ax.set_xlabel("roll amplitude [deg]")
+    ax.set_ylabel("PDF [1/deg]")
+    ax.set_title(
+        f"H1/3 = {comparison.wave_height:g} m, T01 = {comparison.wave_period:g} s "
+        f"({comparison.n_records} records)",
+        fontsize=9,
+    )
+    ax.legend(fontsize=6)
+    return ax
+
+
+def plot_roll_calibration(fit: RollFit):
+    """All sea states of a roll-PDF fit: PDFs on linear (top) and log (bottom) axes. Returns the `Figure`."""
+    import matplotlib.pyplot as plt
+
+    n = len(fit.comparisons)
+    fig, axes = plt.subplots(2, n, figsize=(5.5 * n, 7.5), squeeze=False)
+    for k, comp in enumerate(fit.comparisons):
+        plot_roll_pdfs(comp, ax=axes[0, k])
+        plot_roll_pdfs(comp, ax=axes[1, k], log=True)
+    est = ", ".join(f"{k} = {v.value:.4g} ± {v.std_error:.2g}" for k, v in fit.estimates.items())
+    fig.suptitle(f"Free-running roll: model vs experiment; fitted {est}", fontsize=10)
+    fig.tight_layout()
+    return fig

@@ -1,0 +1,429 @@
+"""Calibration round trips through the virtual tank: decay (extinction curve and ODE fit), captive tests
+(σ_obs/σ_thr),
+free-running roll PDFs; standard errors against repeated synthetic experiments; the CLI; the notebook.
+
+Tolerances are derived from each fit's own standard error (k = 4, as for statistical tests elsewhere), and the
+standard errors themselves are checked against the spread of repeated synthetic experiments.
+"""
+
+import dataclasses
+import json
+import math
+import os
+from pathlib import Path
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+import jaxroll as jxr
+from jaxroll._calibration import (
+    DEFAULT_BANDS,
+    _np_band_means,
+    band_means,
+    calibrated_ship,
+    damping_to_extinction,
+    decay_agreement,
+    decay_solution,
+    effective_wave_from_probe,
+    extinction_to_damping,
+    fit_captive,
+    fit_decay_ode,
+    fit_extinction,
+    fit_roll_pdf,
+    zero_crossing_hysteresis,
+)
+from jaxroll._records import (
+    virtual_captive_record,
+    virtual_decay_record,
+    virtual_roll_record,
+    virtual_sea,
+)
+
+K = 4.0  # tolerance in standard errors
+BASE = jxr.c11_representative()
+B_TRUE = np.array([0.0077252, 0.5, 2.0])  # b3 ≠ 0 so that all three are exercised
+DECAY_SHIP = eqx.tree_at(lambda s: s.damping, BASE, jnp.asarray(B_TRUE))
+NAMES = ("b1", "b2", "b3")
+
+
+def _with_noise(rec, sigma_deg, seed):
+    rng = np.random.default_rng(seed)
+    return dataclasses.replace(
+        rec, channels={"roll": rec.roll + np.radians(sigma_deg) * rng.normal(size=rec.roll.size)}
+    )
+
+
+@pytest.fixture(scope="module")
+def clean_decay():
+    return virtual_decay_record(DECAY_SHIP, initial_roll_deg=20.0, duration_model_s=60.0)
+
+
+# ------------------------------------------------------------------------------------------------------------
+# Decay
+# ------------------------------------------------------------------------------------------------------------
+
+
+def test_extinction_conversion_is_energy_balance():
+    """THEORY.md §3: a = πb1/(2ω0), b = 4b2/3, c = 3πω0b3/8 — checked by the energy lost over one half swing
+    of φ = A cos ω0 t, by quadrature."""
+    omega0 = float(BASE.omega0)
+    b = B_TRUE
+    a_, b_, c_ = damping_to_extinction(*b, omega0)
+    np.testing.assert_allclose(extinction_to_damping(a_, b_, c_, omega0), b, rtol=1e-13, atol=0)
+    for amp in (0.05, 0.2, 0.4):
+        t = np.linspace(0, math.pi / omega0, 200_001)
+        v = -amp * omega0 * np.sin(omega0 * t)
+        power = v * (b[0] * v + b[1] * v * np.abs(v) + b[2] * v**3)
+        energy = np.sum((power[1:] + power[:-1]) / 2 * np.diff(t))
+        decrement = energy / (omega0**2 * amp)  # dE = ω0² A dA
+        np.testing.assert_allclose(decrement, a_ * amp + b_ * amp**2 + c_ * amp**3, rtol=1e-9, atol=0)
+
+
+def test_first_order_conversion_bias_is_small_and_corrected(clean_decay):
+    """Noise-free decay: the plain conversion is off by O(damping) (documented), the bias correction removes
+    it."""
+    raw = fit_extinction(clean_decay, BASE, correct_bias=False)
+    corrected = fit_extinction(clean_decay, BASE)
+    rel = (raw.b - B_TRUE) / B_TRUE
+    assert abs(rel[0]) < 0.02 and abs(rel[1]) < 0.03 and abs(rel[2]) < 0.1  # first-order theory, 20° release
+    np.testing.assert_allclose(corrected.b, B_TRUE, rtol=2e-3, atol=0)
+
+
+def test_decay_methods_recover_truth_and_agree(clean_decay):
+    rec = _with_noise(clean_decay, 0.05, seed=7)
+    ext = fit_extinction(rec, BASE)
+    ode = fit_decay_ode(rec, BASE)
+    assert ode.info.converged and ext.info.converged
+    for fit in (ext, ode):
+        for name, truth in zip(NAMES, B_TRUE):
+            e = fit.damping[name]
+            assert abs(e.value - truth) < K * e.std_error, (fit.method, name, e, truth)
+    assert abs(ode.roll_period.value - 24.4) < K * ode.roll_period.std_error + 1e-4
+    z = decay_agreement(ext, ode)
+    assert all(abs(v) < 3.0 for v in z.values()), z
+    # the ODE fit uses every sample: it is far more precise than the extremes alone
+    assert all(ode.damping[n].std_error < 0.5 * ext.damping[n].std_error for n in NAMES)
+
+
+def test_extinction_standard_errors_match_repeated_experiments(clean_decay):
+    est, se = [], []
+    for seed in range(12):
+        fit = fit_extinction(_with_noise(clean_decay, 0.1, seed), BASE, correct_bias=False)  # same SE, faster
+        est.append(fit.b)
+        se.append([fit.damping[n].std_error for n in NAMES])
+    ratio = np.std(est, axis=0, ddof=1) / np.mean(se, axis=0)
+    # 12 repeats estimate a std within about ±25 %; decrements share extremes (MA(1) errors), so the
+    # independent-residual SE is somewhat conservative: accept a factor of 3 either way.
+    assert np.all((ratio > 1 / 3) & (ratio < 3)), ratio
+
+
+def test_decay_recovery_degrades_gracefully_with_noise(clean_decay):
+    errors, ses = [], []
+    for sigma in (0.02, 0.1, 0.5):
+        ode = fit_decay_ode(_with_noise(clean_decay, sigma, seed=3), BASE)
+        ext = fit_extinction(_with_noise(clean_decay, sigma, seed=3), BASE)
+        assert np.all(np.isfinite(ode.b)) and np.all(np.isfinite(ext.b))
+        errors.append(abs(ode.b[0] - B_TRUE[0]))
+        ses.append([ode.damping["b1"].std_error, ext.damping["b1"].std_error])
+        assert abs(ode.b[0] - B_TRUE[0]) < K * ode.damping["b1"].std_error
+    ses = np.array(ses)
+    assert np.all(np.diff(ses, axis=0) > 0), ses  # the uncertainty grows with the noise
+    assert errors[-1] > errors[0]
+
+
+@pytest.mark.slow
+def test_ode_standard_errors_match_repeated_experiments(clean_decay):
+    est, se = [], []
+    for seed in range(12):
+        fit = fit_decay_ode(_with_noise(clean_decay, 0.1, seed), BASE)
+        est.append(fit.b)
+        se.append([fit.damping[n].std_error for n in NAMES])
+    ratio = np.std(est, axis=0, ddof=1) / np.mean(se, axis=0)
+    assert np.all((ratio > 0.5) & (ratio < 2.0)), ratio
+
+
+def test_decay_solution_matches_project_integrator():
+    """The diffrax decay used for fitting agrees with the RK4 integrator that writes the virtual records."""
+    rec = virtual_decay_record(DECAY_SHIP, initial_roll_deg=20.0, duration_model_s=20.0)
+    phi = decay_solution(DECAY_SHIP, math.radians(20.0), 0.0, jnp.asarray(rec.time))
+    np.testing.assert_allclose(np.asarray(phi), rec.roll, rtol=0, atol=1e-6)
+
+
+# ------------------------------------------------------------------------------------------------------------
+# Captive
+# ------------------------------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("probe_x, speed", [(200.0, 0.0), (0.0, 0.0), (-150.0, 0.0), (200.0, 3.0)])
+def test_effective_wave_from_one_probe(probe_x, speed):
+    """ζ_G rebuilt from a single probe by FFT + dispersion equals the synthesis, away from the record ends."""
+    n, dt = 7201, 0.5
+    elev, zg, _ = virtual_sea(
+        jxr.ITTC(5.0, 10.0), jax.random.key(3), n, dt, length=262.0, probes=(probe_x,), speed=speed
+    )
+    rebuilt = np.asarray(effective_wave_from_probe(elev[0], dt, length=262.0, probe_x=probe_x, speed=speed))
+    inner = slice(1400, 6800)  # the paper's 70–340 s model-scale window
+    err = rebuilt[inner] - np.asarray(zg)[inner]
+    assert np.sqrt(np.mean(err**2)) < 1e-4 * np.std(np.asarray(zg))
+
+
+CAPTIVE_SEAS = [(5.0, 10.0), (5.0, 12.37), (7.0, 10.0)]
+
+
+def _captive_records(ratio, wave_mm, gm_mm, n=3, heels=(0.0, 10.0)):
+    ship = eqx.tree_at(lambda s: s.gm_correction, BASE, jnp.asarray(ratio))
+    return [
+        virtual_captive_record(
+            ship,
+            jxr.ITTC(hs, t),
+            heel_deg=h,
+            seed=1000 * i + 100 * int(h) + k,
+            wave_noise_mm=wave_mm,
+            gm_noise_mm=gm_mm,
+        )
+        for i, (hs, t) in enumerate(CAPTIVE_SEAS)
+        for h in heels
+        for k in range(n)
+    ]
+
+
+def test_captive_recovers_gm_ratio_and_degrades_gracefully():
+    truth = 0.8
+    errors = []
+    for wave_mm, gm_mm in ((0.1, 0.1), (0.5, 0.5), (2.0, 2.0)):
+        fit = fit_captive(_captive_records(truth, wave_mm, gm_mm), BASE, fit_polynomial=True)
+        assert fit.info.converged
+        ls = fit.ls_scale
+        assert abs(ls.value - truth) < K * ls.std_error, (wave_mm, ls)
+        # σ_obs/σ_thr is inflated by ΔGM noise: σ_obs² = r²σ_thr² + σ_n² (σ_n in full-scale metres)
+        sigma_n = gm_mm * 1e-3 * 100
+        x2 = np.mean(np.concatenate([(s["theory"] - s["theory"].mean()) ** 2 for s in fit.series]))
+        expected = math.sqrt(truth**2 + sigma_n**2 / x2)
+        assert abs(fit.std_ratio.value - expected) < K * fit.std_ratio.std_error + 2e-3, (
+            fit.std_ratio,
+            expected,
+        )
+        # the observed polynomial: C1 = r·0.55
+        assert abs(fit.polynomial["c1"].value - truth * 0.55) < K * fit.polynomial["c1"].std_error
+        # standard error of a group against the spread of its realizations
+        for g in fit.groups:
+            spread = np.std(g.per_record_ratio, ddof=1) / math.sqrt(g.n_records)
+            assert 0.2 < g.std_ratio.std_error / spread < 5.0, (g, spread)
+        errors.append(abs(ls.value - truth))
+        ses = fit.ls_scale.std_error
+    assert ses > 0 and errors[-1] > errors[0]
+
+
+# ------------------------------------------------------------------------------------------------------------
+# Free-running roll
+# ------------------------------------------------------------------------------------------------------------
+
+
+def test_band_means_and_hysteresis_helpers():
+    rng = np.random.default_rng(0)
+    x = rng.exponential(size=2001)
+    mask = np.ones(x.size, bool)
+    mask[::5] = False
+    got = np.asarray(band_means(jnp.asarray(x), jnp.asarray(mask), DEFAULT_BANDS))
+    np.testing.assert_allclose(got, _np_band_means(x[mask], DEFAULT_BANDS), rtol=1e-12, atol=0)
+    s = np.sort(x[mask])
+    n = s.size
+    np.testing.assert_allclose(got[4], s[int(0.4 * n) : int(0.5 * n)].mean(), rtol=5e-3, atol=0)
+    # band means are smooth in the samples: their gradient spreads over the band
+    g = jax.grad(lambda v: band_means(v, jnp.asarray(mask), DEFAULT_BANDS)[4])(jnp.asarray(x))
+    assert int(jnp.sum(g > 0)) > 0.09 * n
+    phi = jnp.asarray(np.sin(np.linspace(0.5, 40, 4001)) * np.linspace(1, 2, 4001))
+    np.testing.assert_allclose(
+        np.asarray(zero_crossing_hysteresis(phi, 0.0)),
+        np.asarray(jxr.zero_crossing_amplitudes(phi)),
+        rtol=0,
+        atol=1e-15,
+    )
+    noisy = phi + 0.02 * jnp.asarray(rng.normal(size=phi.size))
+    amps = np.asarray(zero_crossing_hysteresis(noisy, 0.1))
+    assert np.sum(amps > 0) == np.sum(np.asarray(jxr.zero_crossing_amplitudes(phi)) > 0)
+
+
+@pytest.fixture(scope="module")
+def roll_records():
+    ship = eqx.tree_at(lambda s: s.gm_correction, BASE, jnp.asarray(0.8))
+    return [
+        virtual_roll_record(
+            ship,
+            jxr.ITTC(7.0, 10.0),
+            seed=700 + k,
+            sampling_hz=10.0,
+            duration_model_s=345.0,
+            roll_noise_deg=0.05,
+        )[0]
+        for k in range(10)
+    ]
+
+
+def test_roll_pdf_fit_recovers_gm_correction(roll_records):
+    fit = fit_roll_pdf(roll_records, BASE, num_realizations=32)
+    r = fit.estimates["gm_correction"]
+    assert fit.info.converged, fit.info
+    assert abs(r.value - 0.8) < K * r.std_error, r
+    assert 0.005 < r.std_error < 0.1
+    comp = fit.comparisons[0]
+    err_before = np.abs(comp.model_band_means_before - comp.experiment_band_means)
+    err_after = np.abs(comp.model_band_means_after - comp.experiment_band_means)
+    assert err_after.mean() < 0.3 * err_before.mean()
+    ship = calibrated_ship(BASE, roll=fit)
+    np.testing.assert_allclose(float(ship.gm_correction), r.value, rtol=1e-12, atol=0)
+    json.dumps(fit.to_dict())
+
+
+def roberts_envelope_pdf(ship, sea, a):
+    """Roberts' SAM stationary amplitude PDF (THEORY.md §4, linear ΔGM term), unnormalised, in JAX."""
+    omega0 = ship.omega0
+    s_g = jxr.EffectiveWave(sea, ship.lpp).spectrum(2 * omega0)  # one-sided
+    s_xi = (ship.gm_correction * ship.delta_gm[1] / ship.gm0) ** 2 * s_g
+    k = jnp.pi / 8 * omega0**2 * s_xi
+    nu = 1 - ship.damping[0] / k
+    c2 = 8 * ship.damping[1] * omega0 / (3 * jnp.pi * k)
+    safe = jnp.where(a > 0, a, 1.0)
+    return jnp.where(a > 0, jnp.exp(nu * jnp.log(safe) - c2 * safe), 0.0)
+
+
+def test_roll_pdf_fit_with_a_theory_pdf(roll_records):
+    fit = fit_roll_pdf(roll_records, BASE, theory=roberts_envelope_pdf, estimators=("envelope",))
+    comp = fit.comparisons[0]
+    assert fit.info.converged and np.isfinite(fit.estimates["gm_correction"].std_error)
+    err_before = np.abs(comp.model_band_means_before - comp.experiment_band_means).mean()
+    err_after = np.abs(comp.model_band_means_after - comp.experiment_band_means).mean()
+    assert err_after < err_before
+
+
+def test_roll_pdf_fit_input_errors(roll_records):
+    with pytest.raises(ValueError, match="unknown parameter 'gm'"):
+        fit_roll_pdf(roll_records, BASE, params=("gm",))
+    with pytest.raises(ValueError, match="needs at least 3 per sea state"):
+        fit_roll_pdf(roll_records[:2], BASE)
+    with pytest.raises(ValueError, match="name the one estimator"):
+        fit_roll_pdf(roll_records, BASE, theory=roberts_envelope_pdf)
+    with pytest.raises(ValueError, match="a roll record is needed here; this is a decay record"):
+        fit_roll_pdf([virtual_decay_record(BASE, duration_model_s=5.0)], BASE)
+
+
+@pytest.mark.slow
+def test_roll_pdf_fit_paper_protocol_two_sea_states():
+    """24 realizations per sea state (5 m and 7 m), the paper's window, sensor noise: r within 4 SE."""
+    ship = eqx.tree_at(lambda s: s.gm_correction, BASE, jnp.asarray(0.8))
+    recs = [
+        virtual_roll_record(ship, jxr.ITTC(hs, 10.0), seed=100 * int(hs) + k, roll_noise_deg=0.05)[0]
+        for hs in (5.0, 7.0)
+        for k in range(24)
+    ]
+    fit = fit_roll_pdf(recs, BASE, num_realizations=96)
+    r = fit.estimates["gm_correction"]
+    assert abs(r.value - 0.8) < K * r.std_error, r
+
+
+@pytest.mark.slow
+def test_roll_pdf_standard_error_matches_repeated_experiments():
+    """Six independent tanks of 10 records: the spread of r̂ agrees with the reported SE, and r̂ is unbiased."""
+    ship = eqx.tree_at(lambda s: s.gm_correction, BASE, jnp.asarray(0.8))
+    est, se = [], []
+    for d in range(6):
+        recs = [
+            virtual_roll_record(
+                ship,
+                jxr.ITTC(7.0, 10.0),
+                seed=5000 * d + k,
+                sampling_hz=10.0,
+                duration_model_s=345.0,
+                roll_noise_deg=0.05,
+            )[0]
+            for k in range(10)
+        ]
+        e = fit_roll_pdf(recs, BASE, num_realizations=32, seed=d).estimates["gm_correction"]
+        est.append(e.value)
+        se.append(e.std_error)
+    ratio = np.std(est, ddof=1) / np.mean(se)
+    assert 0.4 < ratio < 2.5, (est, se)  # 6 repeats: the std is known to about ±30 %
+    assert abs(np.mean(est) - 0.8) < K * np.mean(se) / math.sqrt(len(est))
+
+
+# ------------------------------------------------------------------------------------------------------------
+# Plots, CLI, notebook
+# ------------------------------------------------------------------------------------------------------------
+
+
+def test_plots_return_axes(clean_decay):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from jaxroll._calibration_plots import plot_captive, plot_captive_series, plot_decay_fit, plot_extinction
+
+    ext = fit_extinction(clean_decay, BASE)
+    ode = fit_decay_ode(clean_decay, BASE)
+    cap = fit_captive(_captive_records(0.8, 0.3, 0.3, n=2, heels=(0.0,)), BASE)
+    for ax in (plot_extinction([ext, ode]), plot_decay_fit(ode), plot_captive(cap), plot_captive_series(cap)):
+        assert isinstance(ax, matplotlib.axes.Axes)
+    with pytest.raises(ValueError, match="needs a fit from `fit_decay_ode`"):
+        plot_decay_fit(ext)
+    plt.close("all")
+
+
+def test_cli_tank_then_calibrate_decay(tmp_path, capsys):
+    from jaxroll._cli import main
+
+    tank = tmp_path / "tank"
+    assert (
+        main(["tank", "--out", str(tank), "--tests", "decay", "--damping", *map(str, B_TRUE), "--quiet"]) == 0
+    )
+    truth = json.loads((tank / "truth.json").read_text())
+    assert truth["truth"]["damping"]["b3_s_rad2"] == B_TRUE[2]
+    out = tmp_path / "cal"
+    assert main(["calibrate", "decay", str(tank / "decay"), "--out", str(out)]) == 0
+    ship = jxr.load_ship(out / "ship.toml")
+    cal = json.loads((out / "calibration.json").read_text())
+    assert cal["jaxroll_version"] == jxr.__version__
+    for name, truth_b in zip(NAMES, B_TRUE):
+        e = cal["estimates"]["ode"]["damping"][name]
+        assert abs(e["value"] - truth_b) < K * e["std_error"]
+        assert getattr(ship, "damping")[NAMES.index(name)] == pytest.approx(max(e["value"], 0.0), rel=1e-12)
+    assert (out / "extinction.png").stat().st_size > 0 and (out / "decay_fit.png").stat().st_size > 0
+    assert main(["calibrate", "decay", str(tmp_path / "missing.csv"), "--out", str(out)]) == 2
+    assert "does not exist" in capsys.readouterr().err
+
+
+def test_cli_calibrate_captive_on_example_records(tmp_path):
+    from importlib.resources import files
+
+    from jaxroll._cli import main
+
+    records = Path(str(files("jaxroll") / "data" / "records" / "captive"))
+    out = tmp_path / "cal"
+    assert main(["calibrate", "captive", str(records), "--out", str(out), "--estimator", "ls"]) == 0
+    ship = jxr.load_ship(out / "ship.toml")
+    cal = json.loads((out / "calibration.json").read_text())
+    ls = cal["estimates"]["ls_scale"]
+    assert abs(float(ship.gm_correction) - ls["value"]) < 1e-12
+    assert abs(ls["value"] - 0.8) < K * ls["std_error"] + 1e-3  # the examples' truth is 0.8
+
+
+@pytest.mark.slow
+def test_notebook_04_runs_in_smoke_mode(tmp_path, monkeypatch):
+    import nbformat
+    from nbclient import NotebookClient
+
+    path = Path(__file__).resolve().parent.parent / "notebooks" / "04_calibration.ipynb"
+    nb = nbformat.read(path, as_version=4)
+    assert all(not c.get("outputs") for c in nb.cells if c.cell_type == "code"), (
+        "store notebooks without outputs"
+    )
+    monkeypatch.setenv("JAXROLL_SMOKE", "1")
+    monkeypatch.setenv("MPLBACKEND", "Agg")
+    monkeypatch.chdir(tmp_path)
+    NotebookClient(
+        nb, timeout=600, kernel_name="python3", resources={"metadata": {"path": str(tmp_path)}}
+    ).execute()
+    assert os.environ["JAXROLL_SMOKE"] == "1"
