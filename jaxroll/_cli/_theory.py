@@ -28,7 +28,9 @@ def compute(ship, sea, args, name: str, *, estimator: str = "envelope"):
         if name == "moment":
             return theory.moment_pdf_first_stable(ship, wave, filter_order=args.filter_order)
     except (ValueError, RuntimeError) as e:
-        raise CLIError(f"{name}: {e}".split("\n")[0]) from None
+        from ..theory._moments import _first_message
+
+        raise CLIError(f"{name}: {_first_message(e)}") from None
     raise CLIError(f"unknown theory {name!r}")
 
 

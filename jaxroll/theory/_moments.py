@@ -1355,9 +1355,18 @@ def moment_pdf_first_stable(ship: Ship, wave, *, filter_order: int = 4, closure_
         if i > 0:
             warnings.warn(
                 f"moment method: closure order {closure_orders[0]} has no stable solution here "
-                f"({str(error).splitlines()[0]}); using order {order}. This warning appears because the "
+                f"({_first_message(error)}); using order {order}. This warning appears because the "
                 "higher-order cumulant closure lost its stable non-trivial fixed point in this sea state.",
                 stacklevel=2,
             )
         return out
     raise error
+
+
+def _first_message(error: Exception) -> str:
+    """The user-facing line of an error (the `EquinoxRuntimeError:` text under jit, else the first line)."""
+    text = str(error)
+    marker = "EquinoxRuntimeError: "
+    if marker in text:
+        text = text.split(marker, 1)[1]
+    return text.strip().splitlines()[0] if text.strip() else type(error).__name__
