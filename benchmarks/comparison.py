@@ -23,7 +23,6 @@ def main() -> None:
     parser.add_argument("--realizations", type=int, default=10_000)
     args = parser.parse_args()
     ship = jaxroll.c11_representative()
-    bins = np.arange(0.0, 72.0, 0.05)
     print("| H1/3 | method | mean [deg] | 99 % [deg] | P(A > 20°) | P(A > 30°) |")
     print("|---|---|---|---|---|---|")
     for hs in (5.0, 7.0):

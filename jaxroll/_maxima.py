@@ -20,7 +20,7 @@ import numpy as np
 
 from ._amplitudes import ZeroCrossingState, zero_crossing_init, zero_crossing_update
 from ._dynamics import RollProblem, simulate
-from ._monte_carlo import run_chunks
+from ._monte_carlo import CapsizeCounts, run_chunks
 
 
 class _MaximaObserver(eqx.Module):
@@ -63,7 +63,7 @@ def _chunk_maxima(problem, key, indices, valid, num_steps, discard_steps, n0):
 
 
 @dataclass
-class MaximaStatistics:
+class MaximaStatistics(CapsizeCounts):
     """Monte Carlo maxima of the first N0 zero-crossing amplitudes per trial (angles in degrees).
 
     `maxima_deg[i, j]` is trial i's maximum over its first `n0[j]` amplitudes after the discard, NaN where the

@@ -122,8 +122,27 @@ def make_problem(
 # ----------------------------------------------------------------------------------------------------------------
 
 
+class CapsizeCounts:
+    """Capsize counts of a Monte Carlo result with a per-realization boolean array `capsized`."""
+
+    capsized: np.ndarray
+
+    @property
+    def n_realizations(self) -> int:
+        return int(self.capsized.size)
+
+    @property
+    def n_capsized(self) -> int:
+        return int(self.capsized.sum())
+
+    @property
+    def capsize_probability(self) -> float:
+        """Fraction of realizations that capsized [-]."""
+        return self.n_capsized / max(self.n_realizations, 1)
+
+
 @dataclass
-class AmplitudeStatistics:
+class AmplitudeStatistics(CapsizeCounts):
     """Reduced Monte Carlo statistics of roll amplitudes (host numpy arrays; angles in degrees).
 
     `counts_*` are histograms on the fine grid `edges_deg`; per-realization arrays are in realization order.
@@ -137,18 +156,6 @@ class AmplitudeStatistics:
     capsize_time: np.ndarray
     per_realization: dict[str, np.ndarray] = field(default_factory=dict)
     config: dict = field(default_factory=dict)
-
-    @property
-    def n_realizations(self) -> int:
-        return int(self.capsized.size)
-
-    @property
-    def n_capsized(self) -> int:
-        return int(self.capsized.sum())
-
-    @property
-    def capsize_probability(self) -> float:
-        return self.n_capsized / max(self.n_realizations, 1)
 
     def n_amplitudes(self, method: str) -> int:
         return int(self._counts(method).sum())

@@ -22,7 +22,7 @@ import numpy as np
 
 from . import _extremes
 from ._dynamics import RollProblem, simulate
-from ._monte_carlo import make_problem, run_chunks
+from ._monte_carlo import CapsizeCounts, make_problem, run_chunks
 from ._ship import Ship
 from ._spectra import ITTC
 
@@ -58,7 +58,7 @@ def _chunk_max_roll(problem, key, indices, valid, num_steps, discard_steps, angl
 
 
 @dataclass
-class MaxRollStatistics:
+class MaxRollStatistics(CapsizeCounts):
     """Per-trial largest roll and capsizes (host numpy arrays; realization order).
 
     `max_abs_phi_deg` is the largest |φ| after the discard (for a capsized trial, up to its capsize). A trial
@@ -71,18 +71,6 @@ class MaxRollStatistics:
     angle_deg: float
     n_exceeded: int
     config: dict = field(default_factory=dict)
-
-    @property
-    def n_realizations(self) -> int:
-        return int(self.capsized.size)
-
-    @property
-    def n_capsized(self) -> int:
-        return int(self.capsized.sum())
-
-    @property
-    def capsize_probability(self) -> float:
-        return self.n_capsized / self.n_realizations
 
     def exceedances(self, angle_deg: float | None = None) -> int:
         """Trials with max |φ| > `angle_deg` [deg] (default: the run's angle) or capsized."""
