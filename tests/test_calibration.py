@@ -410,7 +410,6 @@ def test_cli_calibrate_captive_on_example_records(tmp_path):
     assert abs(ls["value"] - 0.8) < K * ls["std_error"] + 1e-3  # the examples' truth is 0.8
 
 
-@pytest.mark.slow
 def test_notebook_04_runs_in_smoke_mode(tmp_path, monkeypatch):
     import nbformat
     from nbclient import NotebookClient
