@@ -12,7 +12,6 @@ import argparse
 import time
 
 import jax
-import numpy as np
 
 import jaxroll
 from jaxroll import theory
@@ -54,7 +53,6 @@ def main() -> None:
     mc = time.perf_counter() - t0
     print(f"monte_carlo_run_s={mc:.2f} ({n} x {duration:g} s), mean envelope amplitude "
           f"{stats.mean('envelope'):.2f} deg, E[phi^2] {stats.phi_moments()['E_phi2']:.4f} rad^2")
-    np.testing.assert_(mc > 0)
 
 
 if __name__ == "__main__":
