@@ -106,6 +106,9 @@ def monte_carlo_maxima(
     duration: float | None = None,
     chunk_size: int = 1000,
     progress: Callable[[int], None] | None = None,
+    devices=None,
+    checkpoint=None,
+    checkpoint_every: int | None = None,
 ) -> MaximaStatistics:
     """The paper's maxima protocol: per trial, the largest of the first N0 zero-crossing amplitudes after `discard`.
 
@@ -118,6 +121,8 @@ def monte_carlo_maxima(
     - `discard`: initial time left out [s] (500).
     - `duration`: simulated time per trial [s]; default `default_duration` (1.6 × max(n0) half roll periods).
     - `chunk_size`: trials per compiled batch (memory is bounded by it, not by N0 or N).
+    - `progress`, `devices`, `checkpoint`, `checkpoint_every`: as in `jaxroll._monte_carlo.run_chunks` (sharding
+      over devices and hosts; interruptible runs that resume from a checkpoint directory).
 
     **Returns:** `MaximaStatistics`.
     """
@@ -142,6 +147,9 @@ def monte_carlo_maxima(
         chunk_size,
         (num_steps, int(round(discard / dt)), n0),
         progress,
+        devices=devices,
+        checkpoint=checkpoint,
+        checkpoint_every=checkpoint_every,
     )
     maxima = np.where(per["maxima"] >= 0, np.rad2deg(per["maxima"]), np.nan)
     count = per["count"]

@@ -55,3 +55,18 @@ def test_maxima_errors(problem):
         jaxroll.monte_carlo_maxima(problem, jr.key(0), n0=(5,), duration=100.0, discard=500.0)
     with pytest.raises(ValueError, match="`num_realizations` must be a positive integer"):
         jaxroll.monte_carlo_maxima(problem, jr.key(0), n0=(5,), num_realizations=0)
+
+
+def test_maxima_checkpoint_resume_equals_uninterrupted(problem, tmp_path):
+    kw = dict(n0=(5, 15), num_realizations=5, discard=100.0, chunk_size=2)
+    ref = jaxroll.monte_carlo_maxima(problem, jr.key(4), **kw)
+
+    def interrupt(done):
+        if done >= 2:
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        jaxroll.monte_carlo_maxima(problem, jr.key(4), checkpoint=tmp_path, checkpoint_every=1, progress=interrupt,
+                                   **kw)
+    resumed = jaxroll.monte_carlo_maxima(problem, jr.key(4), checkpoint=tmp_path, **kw)
+    np.testing.assert_array_equal(resumed.maxima_deg, ref.maxima_deg)

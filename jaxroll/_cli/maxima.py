@@ -25,6 +25,8 @@ def register(sub) -> None:
     m.add_argument("--duration", type=float, default=None, help="simulated time per trial [s] (default: enough)")
     m.add_argument("--chunk-size", type=int, default=1000, help="trials per compiled batch")
     m.add_argument("--theory", default="", help="comma-separated amplitude PDFs for P*: roberts,esam,moment")
+    m.add_argument("--checkpoint", metavar="DIR", default=None,
+                   help="save progress in DIR (one subfolder per trial group); a rerun resumes from it")
     p.add_argument("--out", default="jaxroll-out/maxima", help="output folder (default ./jaxroll-out/maxima)")
     p.add_argument("--quiet", action="store_true", help="no progress display")
     p.set_defaults(func=run)
@@ -78,7 +80,9 @@ def run(args) -> int:
         progress = Progress(n_trials, f"trials (N0 ≤ {max(n0s)})", enabled=None if not args.quiet else False)
         stats = monte_carlo_maxima(problem, jax.random.key(args.seed), n0=n0s, num_realizations=n_trials,
                                    discard=args.discard, duration=args.duration, chunk_size=args.chunk_size,
-                                   progress=progress)
+                                   progress=progress,
+                                   checkpoint=None if args.checkpoint is None
+                                   else Path(args.checkpoint) / f"n0_{'_'.join(map(str, n0s))}")
         amplitude_summaries.append({"n0": n0s, "n_trials": n_trials})
         for j, n0 in enumerate(stats.n0):
             x = stats.maxima_deg[stats.valid(j), j]
