@@ -50,6 +50,9 @@ def _enable_compilation_cache() -> None:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the `jaxroll` command. Returns the process exit code."""
+    import matplotlib
+
+    matplotlib.use("Agg")  # the CLI only writes files; never needs a display
     parser = build_parser()
     args = parser.parse_args(argv)
     _enable_compilation_cache()

@@ -69,9 +69,6 @@ def register(subparsers) -> None:
 
 def run(args) -> int:
     import jax.numpy as jnp
-    import matplotlib
-
-    matplotlib.use("Agg")
     import numpy as np
 
     from .. import _hydrostatics as hs
