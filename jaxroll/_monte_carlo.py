@@ -218,6 +218,22 @@ class AmplitudeStatistics(CapsizeCounts):
         out["roll_moments"] = self.phi_moments()
         return out
 
+    def distribution(self, method: str = "zero_crossing", *, pool: int = 1):
+        """The amplitude law as a `jaxroll.AmplitudeDistribution` (radians): the histogram PDF on bin centres.
+
+        `pool` merges that many fine bins (0.05° each; e.g. 20 → 1° bins): the maximum-value formulas amplify
+        histogram noise. Zero-crossing amplitudes give the per-cycle law the maxima and risk formulas need.
+        """
+        from ._extremes import AmplitudeDistribution
+
+        counts = self._counts(method)
+        if counts.size % pool:
+            raise ValueError(f"`pool` must divide the {counts.size} fine bins; got {pool}.")
+        counts = counts.reshape(-1, pool).sum(1)
+        edges = np.deg2rad(self.edges_deg[::pool])
+        pdf = counts / max(counts.sum(), 1) / np.diff(edges)
+        return AmplitudeDistribution.from_pdf((edges[1:] + edges[:-1]) / 2, pdf)
+
     def phi_moments(self) -> dict[str, float]:
         """Time-sampled E[φ²] [rad²] and E[φ⁴] [rad⁴] over surviving realizations (after the discard)."""
         pr = self.per_realization

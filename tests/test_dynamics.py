@@ -161,6 +161,12 @@ def test_results_independent_of_chunk_size(getkey):
     for k in runs[0].per_realization:
         np.testing.assert_allclose(runs[0].per_realization[k], runs[1].per_realization[k], rtol=1e-13, atol=0)
     assert runs[0].mean("envelope") == pytest.approx(runs[1].mean("envelope"), rel=1e-13)
+    # The histogram as a distribution: its mean is the exact mean to within the bin width.
+    for pool, width in ((1, 0.05), (20, 1.0)):
+        dist = runs[0].distribution("zero_crossing", pool=pool)
+        assert abs(np.rad2deg(float(dist.mean())) - runs[0].mean("zero_crossing")) < width / 2
+    with pytest.raises(ValueError, match="`pool` must divide"):
+        runs[0].distribution("zero_crossing", pool=7)
 
 
 def test_rk4_order_on_free_decay():

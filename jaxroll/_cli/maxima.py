@@ -47,7 +47,7 @@ def run(args) -> int:
     import numpy as np
 
     from .. import monte_carlo_amplitudes
-    from .._extremes import AmplitudeDistribution, max_pdf, max_pdf_asymptotic
+    from .._extremes import max_pdf, max_pdf_asymptotic
     from .._maxima import monte_carlo_maxima
     from ..plotting import maxima_comparison_figure, maxima_figures
     from .pdf import parse_theories
@@ -71,10 +71,7 @@ def run(args) -> int:
     # The per-cycle amplitude PDF of the same sea (zero-crossing, after the discard), for P*(A_M).
     amp = monte_carlo_amplitudes(problem, jax.random.key(args.seed), num_realizations=min(args.realizations, 2000),
                                  duration=3600.0, discard=min(args.discard, 3000.0), chunk_size=args.chunk_size)
-    counts = amp.counts_zero_crossing.reshape(-1, 20).sum(1)  # 1° bins: P* amplifies histogram noise
-    edges = np.deg2rad(amp.edges_deg[::20])
-    mc_dist = AmplitudeDistribution.from_pdf((edges[1:] + edges[:-1]) / 2,
-                                             counts / max(counts.sum(), 1) / np.diff(edges))
+    mc_dist = amp.distribution("zero_crossing", pool=20)  # 1° bins: P* amplifies histogram noise
     for n0s, n_trials in groups:
         print(f"maxima: N0 = {n0s}, {n_trials} trials, discard {args.discard} s")
         progress = Progress(n_trials, f"trials (N0 ≤ {max(n0s)})", enabled=None if not args.quiet else False)

@@ -52,7 +52,7 @@ def run(args) -> int:
     import numpy as np
 
     from .. import monte_carlo_amplitudes
-    from .._extremes import AmplitudeDistribution, exposure_risk
+    from .._extremes import exposure_risk
     from .._sweep import monte_carlo_max_roll
     from .pdf import parse_theories
 
@@ -80,9 +80,8 @@ def run(args) -> int:
     angle_used = float(edges[k])
     survivors = stats.n_realizations - stats.n_capsized
     rate = n_amp / (survivors * (args.duration - args.discard))
-    centres = np.deg2rad((edges[1:] + edges[:-1]) / 2)
-    dist = AmplitudeDistribution.from_pdf(centres, counts / n_amp / np.diff(np.deg2rad(edges)))
-    mc = exposure_risk(dist, jnp.deg2rad(angle_used), rate=rate, duration=exposure, n_amplitudes=n_amp,
+    mc = exposure_risk(stats.distribution("zero_crossing"), jnp.deg2rad(angle_used), rate=rate, duration=exposure,
+                       n_amplitudes=n_amp,
                        n_exceed=n_exceed)
     # Direct estimate: trials as long as the exposure, no independence assumption between amplitudes.
     direct_stats = monte_carlo_max_roll(problem, jax.random.key(args.seed + 1), angle_deg=angle_used,
