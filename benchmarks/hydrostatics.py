@@ -1,6 +1,6 @@
 """Benchmark: the full GZ(ζ_mid, φ) / ΔGM(ζ_mid) table of the shipped C11-like hull.
 
-Measures `jaxroll._hydrostatics.hull_hydrostatics` on the representative C11-like hull (46 stations × 31
+Measures `jaxroll.ship._hydrostatics.hull_hydrostatics` on the representative C11-like hull (46 stations × 31
 waterlines) for 13 amplitudes × 15 heels: 195 free-trim balances for the table, plus the calm GZ curve, the 13
 upright balances and GM slopes, the calm particulars and both polynomial fits. Compile time (first call) and
 run time (best of repeats) are reported separately, plus the gradient of the fitted ΔGM coefficient C1 with

@@ -16,7 +16,7 @@ import jax
 import numpy as np
 
 import jaxroll
-from jaxroll._maxima import default_duration, monte_carlo_maxima
+from jaxroll.roll._maxima import default_duration, monte_carlo_maxima
 
 
 def main() -> None:

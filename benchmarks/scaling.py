@@ -22,7 +22,7 @@ import jax
 import numpy as np
 
 import jaxroll
-from jaxroll._sweep import monte_carlo_max_roll
+from jaxroll.roll._sweep import monte_carlo_max_roll
 
 
 def main() -> None:

@@ -13,18 +13,18 @@ import jax
 jax.config.update("jax_enable_x64", True)
 
 from . import theory as theory
-from ._amplitudes import (
+from .roll._amplitudes import (
     hilbert_envelope as hilbert_envelope,
     zero_crossing_amplitudes as zero_crossing_amplitudes,
 )
-from ._calibration import (
+from .calibration._calibration import (
     calibrated_ship as calibrated_ship,
     fit_captive as fit_captive,
     fit_decay_ode as fit_decay_ode,
     fit_extinction as fit_extinction,
     fit_roll_pdf as fit_roll_pdf,
 )
-from ._dynamics import (
+from .roll._equation import (
     FilterExcitation as FilterExcitation,
     RollProblem as RollProblem,
     SampledExcitation as SampledExcitation,
@@ -33,7 +33,7 @@ from ._dynamics import (
     roll_time_series as roll_time_series,
     roll_vector_field as roll_vector_field,
 )
-from ._extremes import (
+from .extremes._maxima import (
     AmplitudeDistribution as AmplitudeDistribution,
     ExposureRisk as ExposureRisk,
     RayleighAmplitudes as RayleighAmplitudes,
@@ -47,9 +47,9 @@ from ._extremes import (
     max_quantile as max_quantile,
     most_probable_maximum as most_probable_maximum,
 )
-from ._filters import FilterFit as FilterFit, ShapingFilter as ShapingFilter, fit_filter as fit_filter
-from ._grim import EffectiveWave as EffectiveWave, grim_transfer as grim_transfer, superpose as superpose
-from ._hydrostatics import (
+from .sea._filters import FilterFit as FilterFit, ShapingFilter as ShapingFilter, fit_filter as fit_filter
+from .sea._grim import EffectiveWave as EffectiveWave, grim_transfer as grim_transfer, superpose as superpose
+from .ship._hydrostatics import (
     Hull as Hull,
     box_hull as box_hull,
     c11_hull as c11_hull,
@@ -64,28 +64,28 @@ from ._hydrostatics import (
     ship_from_hull as ship_from_hull,
     wigley_hull as wigley_hull,
 )
-from ._maxima import MaximaStatistics as MaximaStatistics, monte_carlo_maxima as monte_carlo_maxima
-from ._monte_carlo import (
+from .roll._maxima import MaximaStatistics as MaximaStatistics, monte_carlo_maxima as monte_carlo_maxima
+from .roll._monte_carlo import (
     AmplitudeStatistics as AmplitudeStatistics,
     check_time_step as check_time_step,
     make_problem as make_problem,
     monte_carlo_amplitudes as monte_carlo_amplitudes,
 )
-from ._records import (
+from .io._records import (
     Record as Record,
     RecordError as RecordError,
     load_record as load_record,
     load_records as load_records,
     save_record as save_record,
 )
-from ._restoring import (
+from .ship._restoring import (
     delta_gm as delta_gm,
     parametric_excitation as parametric_excitation,
     restoring_moment as restoring_moment,
     righting_lever as righting_lever,
     vanishing_angle as vanishing_angle,
 )
-from ._ship import (
+from .ship._ship import (
     Ship as Ship,
     c11_representative as c11_representative,
     load_ship as load_ship,
@@ -93,7 +93,7 @@ from ._ship import (
     ship_to_dict as ship_to_dict,
     ship_to_toml as ship_to_toml,
 )
-from ._spectra import (
+from .sea._spectra import (
     ITTC as ITTC,
     JONSWAP as JONSWAP,
     AbstractWaveSpectrum as AbstractWaveSpectrum,
@@ -101,7 +101,7 @@ from ._spectra import (
     encounter_spectrum as encounter_spectrum,
     spectral_moment as spectral_moment,
 )
-from ._sweep import monte_carlo_max_roll as monte_carlo_max_roll, sweep_sea_states as sweep_sea_states
+from .roll._sweep import monte_carlo_max_roll as monte_carlo_max_roll, sweep_sea_states as sweep_sea_states
 
 try:
     __version__ = importlib.metadata.version("jaxroll")

@@ -8,7 +8,7 @@ import scipy.signal
 import scipy.stats
 
 import jaxroll
-from jaxroll._amplitudes import histogram_counts, pdf_from_counts
+from jaxroll.roll._amplitudes import histogram_counts, pdf_from_counts
 
 
 def test_hilbert_envelope_matches_scipy(getkey):

@@ -19,7 +19,7 @@ import numpy as np
 import pytest
 
 import jaxroll as jxr
-from jaxroll._calibration import (
+from jaxroll.calibration._calibration import (
     DEFAULT_BANDS,
     _np_band_means,
     band_means,
@@ -35,7 +35,7 @@ from jaxroll._calibration import (
     fit_roll_pdf,
     zero_crossing_hysteresis,
 )
-from jaxroll._records import (
+from jaxroll.io._records import (
     virtual_captive_record,
     virtual_decay_record,
     virtual_roll_record,
@@ -360,7 +360,7 @@ def test_plots_return_axes(clean_decay):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from jaxroll._calibration_plots import plot_captive, plot_captive_series, plot_decay_fit, plot_extinction
+    from jaxroll.plotting._calibration import plot_captive, plot_captive_series, plot_decay_fit, plot_extinction
 
     ext = fit_extinction(clean_decay, BASE)
     ode = fit_decay_ode(clean_decay, BASE)

@@ -10,7 +10,7 @@ import pytest
 from scipy import integrate
 
 import jaxroll
-from jaxroll._dynamics import BLOCK
+from jaxroll.roll._equation import BLOCK
 
 
 def white_noise_filter(intensity, omega_f=8.0, zeta_f=0.7):

@@ -9,7 +9,7 @@ import scipy.linalg
 import scipy.signal
 
 import jaxroll
-from jaxroll._filters import filter_from_parameters
+from jaxroll.sea._filters import filter_from_parameters
 
 L = 262.0
 
@@ -62,7 +62,7 @@ def test_superposition_variance_and_derivative(getkey):
     err = jnp.sqrt(jnp.mean((fd - dzs[:, 1:-1]) ** 2) / jnp.mean(dzs**2))
     assert float(err) < 0.05  # central difference error (ωdt)²/6 at ω ≈ 0.6 rad/s
     # Does not repeat within the trial: the FFT period exceeds the record length.
-    assert jaxroll._grim.superposition_length(n) >= n
+    assert jaxroll.sea._grim.superposition_length(n) >= n
 
 
 def test_filter_spectrum_matches_scipy_freqs():

@@ -1,4 +1,4 @@
-"""Tests of jaxroll._extremes: maximum-value distributions and exposure-time risk measures.
+"""Tests of jaxroll.extremes._maxima: maximum-value distributions and exposure-time risk measures.
 
 References are computed independently here (scipy.integrate.quad, scipy.special, numpy closed forms, and
 mpmath where float64 is not enough). Statistical tolerances are k standard errors computed in the test.

@@ -14,7 +14,7 @@ import pytest
 
 import jaxroll  # noqa: F401  (enables float64)
 from jaxroll import _hydrostatics as hs
-from jaxroll._ship import load_ship, restoring_fields_from_gz, validate_ship
+from jaxroll.ship._ship import load_ship, restoring_fields_from_gz, validate_ship
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -560,7 +560,7 @@ def test_plots_return_axes(box, box_loading):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from jaxroll._hydrostatics_plots import plot_body_plan, plot_delta_gm, plot_gz_curves
+    from jaxroll.plotting._hydrostatics import plot_body_plan, plot_delta_gm, plot_gz_curves
 
     phi = np.radians(np.arange(0.0, 31.0, 10.0))
     z = np.linspace(-1.0, 1.0, 7)

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 import jaxroll as jxr
-from jaxroll._records import (
+from jaxroll.io._records import (
     RecordError,
     load_record,
     load_records,

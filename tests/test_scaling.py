@@ -18,8 +18,8 @@ import pytest
 
 import jaxroll
 from jaxroll._cli import main
-from jaxroll._monte_carlo import CHECKPOINT_FILE, realization_mesh
-from jaxroll._sweep import monte_carlo_max_roll, wilson_interval
+from jaxroll.roll._monte_carlo import CHECKPOINT_FILE, realization_mesh
+from jaxroll.roll._sweep import monte_carlo_max_roll, wilson_interval
 
 N = 7  # odd: divides neither 2 nor 4 devices, so every sharded run pads its last chunk
 DURATION = 300.0
@@ -36,7 +36,7 @@ CHILD = textwrap.dedent(
         jax.distributed.initialize(f"localhost:{port}", num_processes=nproc, process_id=pid)
     import numpy as np
     import jaxroll
-    from jaxroll._sweep import monte_carlo_max_roll
+    from jaxroll.roll._sweep import monte_carlo_max_roll
 
     problem = pickle.load(open(problem_file, "rb"))
     key = jax.random.key(11)

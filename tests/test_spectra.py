@@ -5,7 +5,7 @@ import pytest
 from scipy import integrate
 
 import jaxroll
-from jaxroll._spectra import GRAVITY, wave_frequencies_from_encounter
+from jaxroll.sea._spectra import GRAVITY, wave_frequencies_from_encounter
 
 
 @pytest.mark.parametrize("hs, t01", [(7.0, 10.0), (5.0, 10.0), (5.0, 12.37), (2.0, 6.0)])

@@ -55,8 +55,8 @@ def theory_summaries(ship, sea, args, names, bins_deg) -> dict:
 
 
 def theory_distributions(ship, sea, args, names) -> dict:
-    """Per-cycle amplitude distributions (`jaxroll._extremes.AmplitudeDistribution`) of each theory, for maxima."""
-    from .._extremes import AmplitudeDistribution
+    """Per-cycle amplitude distributions (`jaxroll.extremes._maxima.AmplitudeDistribution`) of each theory, for maxima."""
+    from ..extremes._maxima import AmplitudeDistribution
 
     out = {}
     for name in names:

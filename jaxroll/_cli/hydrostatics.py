@@ -71,9 +71,9 @@ def run(args) -> int:
     import jax.numpy as jnp
     import numpy as np
 
-    from .. import _hydrostatics as hs
-    from .._hydrostatics_plots import plot_body_plan, plot_delta_gm, plot_gz_curves
-    from .._ship import c11_representative, restoring_fields_from_gz, ship_to_dict, ship_to_toml
+    from ..ship import _hydrostatics as hs
+    from ..plotting._hydrostatics import plot_body_plan, plot_delta_gm, plot_gz_curves
+    from ..ship._ship import c11_representative, restoring_fields_from_gz, ship_to_dict, ship_to_toml
 
     is_c11 = args.hull.lower() == "c11"
     path = hs._c11_hull_path() if is_c11 else Path(args.hull)

@@ -47,9 +47,9 @@ def run(args) -> int:
     import numpy as np
 
     from .. import monte_carlo_amplitudes
-    from .._extremes import max_pdf, max_pdf_asymptotic
-    from .._maxima import monte_carlo_maxima
-    from ..plotting import maxima_comparison_figure, maxima_figures
+    from ..extremes._maxima import max_pdf, max_pdf_asymptotic
+    from ..roll._maxima import monte_carlo_maxima
+    from ..plotting._pdf import maxima_comparison_figure, maxima_figures
     from .pdf import parse_theories
 
     n0_all = parse_n0(args.n0)

@@ -63,7 +63,7 @@ def run(args) -> int:
     import jax.numpy as jnp
 
     from .. import monte_carlo_amplitudes
-    from ..plotting import amplitude_pdf_figures
+    from ..plotting._pdf import amplitude_pdf_figures
 
     theories = parse_theories(args.theory)
     check_positive(args, "duration", "bin_width_deg")

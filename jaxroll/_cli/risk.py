@@ -52,8 +52,8 @@ def run(args) -> int:
     import numpy as np
 
     from .. import monte_carlo_amplitudes
-    from .._extremes import exposure_risk
-    from .._sweep import monte_carlo_max_roll
+    from ..extremes._maxima import exposure_risk
+    from ..roll._sweep import monte_carlo_max_roll
     from .pdf import parse_theories
 
     theories = parse_theories(args.theory)

@@ -187,7 +187,7 @@ def run(args) -> int:
     import numpy as np
 
     from .. import ITTC, EffectiveWave, check_time_step, ship_to_dict, vanishing_angle
-    from .._sweep import sweep_sea_states
+    from ..roll._sweep import sweep_sea_states
 
     hs = parse_list(args.hs, "--hs", minimum=0)
     t01 = parse_list(args.t01, "--t01", minimum=0)
@@ -281,7 +281,7 @@ def run(args) -> int:
         "capsize_angle_deg": capsize_deg,
     }
     if args.ship is None:
-        from .._ship import DEFAULT_SHIP_NOTE
+        from ..ship._ship import DEFAULT_SHIP_NOTE
 
         config["ship_note"] = DEFAULT_SHIP_NOTE
     cap_ci, exc_ci = result.capsize_interval(), result.exceedance_interval()

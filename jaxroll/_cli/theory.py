@@ -23,7 +23,7 @@ def run(args) -> int:
     import jax.numpy as jnp
 
     from .. import ITTC, vanishing_angle
-    from ..plotting import amplitude_pdf_figures
+    from ..plotting._pdf import amplitude_pdf_figures
     from ._theory import theory_summaries
     from .pdf import parse_theories, pdf_bins
 

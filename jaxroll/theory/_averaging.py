@@ -29,8 +29,8 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Bool, Float
 
-from .._grim import EffectiveWave
-from .._ship import Ship
+from ..sea._grim import EffectiveWave
+from ..ship._ship import Ship
 from ._excitation import ParametricSpectrum, parametric_spectrum
 
 _ESTIMATORS = ("envelope", "zero_crossing")

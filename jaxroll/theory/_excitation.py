@@ -25,9 +25,9 @@ import jax.numpy as jnp
 import jax.random as jr
 from jaxtyping import Array, ArrayLike, Float, PRNGKeyArray
 
-from .._grim import EffectiveWave, superpose
-from .._restoring import parametric_excitation
-from .._ship import Ship
+from ..sea._grim import EffectiveWave, superpose
+from ..ship._restoring import parametric_excitation
+from ..ship._ship import Ship
 
 _NUM_COEFFS = 7  # C0 … C6
 

@@ -53,10 +53,10 @@ import numpy as np
 import optimistix as optx
 from jaxtyping import Array, ArrayLike, Float
 
-from .._filters import ShapingFilter, fit_filter, lyapunov
-from .._grim import EffectiveWave
-from .._ship import Ship
-from .._spectra import AbstractWaveSpectrum
+from ..sea._filters import ShapingFilter, fit_filter, lyapunov
+from ..sea._grim import EffectiveWave
+from ..ship._ship import Ship
+from ..sea._spectra import AbstractWaveSpectrum
 
 Monomial = tuple[int, ...]
 

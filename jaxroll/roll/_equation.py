@@ -20,10 +20,10 @@ import jax.numpy as jnp
 import jax.random as jr
 from jaxtyping import Array, Float, PRNGKeyArray
 
-from ._filters import ShapingFilter
-from ._grim import EffectiveWave, superpose, superposition_length
-from ._restoring import parametric_excitation, restoring_moment, vanishing_angle
-from ._ship import Ship
+from ..sea._filters import ShapingFilter
+from ..sea._grim import EffectiveWave, superpose, superposition_length
+from ..ship._restoring import parametric_excitation, restoring_moment, vanishing_angle
+from ..ship._ship import Ship
 
 BLOCK = 256  # time steps per noise block
 
@@ -85,7 +85,7 @@ class FilterExcitation(AbstractExcitation):
 
     def __init__(self, shaping_filter: ShapingFilter, dt: float):
         """**Arguments:** `shaping_filter` (e.g. `fit_filter(...).filter`); `dt`: time step [s]."""
-        from ._filters import psd_sqrt
+        from ..sea._filters import psd_sqrt
 
         self.dt = float(dt)
         self.phi, self.chol = shaping_filter.discretise(self.dt)

@@ -40,10 +40,10 @@ import jax.numpy as jnp
 import jax.random as jr
 import numpy as np
 
-from ._dynamics import BLOCK, AbstractExcitation, RollProblem, roll_time_series
-from ._grim import grim_transfer, superposition_length
-from ._restoring import delta_gm
-from ._spectra import GRAVITY, wave_frequencies_from_encounter
+from ..roll._equation import BLOCK, AbstractExcitation, RollProblem, roll_time_series
+from ..sea._grim import grim_transfer, superposition_length
+from ..ship._restoring import delta_gm
+from ..sea._spectra import GRAVITY, wave_frequencies_from_encounter
 
 FORMAT_VERSION = 1
 

@@ -32,12 +32,12 @@ import jax.random as jr
 import numpy as np
 import optimistix as optx
 
-from ._amplitudes import hilbert_envelope
-from ._grim import grim_transfer
-from ._records import Record, RecordError, group_by_sea_state
-from ._restoring import delta_gm, restoring_moment
-from ._ship import Ship
-from ._spectra import GRAVITY, ITTC, wave_frequencies_from_encounter
+from ..roll._amplitudes import hilbert_envelope
+from ..sea._grim import grim_transfer
+from ..io._records import Record, RecordError, group_by_sea_state
+from ..ship._restoring import delta_gm, restoring_moment
+from ..ship._ship import Ship
+from ..sea._spectra import GRAVITY, ITTC, wave_frequencies_from_encounter
 
 #: The paper's analysis window of the irregular-wave tank tests [s, model scale, from the wave maker's start].
 PAPER_WINDOW_MODEL_S = (70.0, 340.0)
@@ -614,7 +614,7 @@ def effective_wave_from_probe(
 
     **Returns:** ζ_G [m], same length as `wave`.
     """
-    from ._grim import _fft_length
+    from ..sea._grim import _fft_length
 
     wave = jnp.asarray(wave, dtype=float)
     n = wave.shape[-1]
@@ -931,7 +931,7 @@ def _model_band_means(ship, problem, keys, num_steps, sub, start, bands, estimat
     """Model band means of the amplitude estimators from a Monte Carlo with fixed keys (common random
     numbers),
     with the records' sensor noise `noise` [rad] added (fixed keys too) before estimation."""
-    from ._dynamics import roll_time_series
+    from ..roll._equation import roll_time_series
 
     problem = eqx.tree_at(lambda p: p.ship, problem, ship)
 
@@ -1191,7 +1191,7 @@ def fit_roll_pdf(
 
     **Returns:** `RollFit`.
     """
-    from ._monte_carlo import make_problem
+    from ..roll._monte_carlo import make_problem
 
     records = _as_list(records)
     _check_kind(records, "roll")

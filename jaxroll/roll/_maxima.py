@@ -19,7 +19,7 @@ import jax.random as jr
 import numpy as np
 
 from ._amplitudes import ZeroCrossingState, zero_crossing_init, zero_crossing_update
-from ._dynamics import RollProblem, simulate
+from ._equation import RollProblem, simulate
 from ._monte_carlo import CapsizeCounts, run_chunks
 
 
@@ -121,7 +121,7 @@ def monte_carlo_maxima(
     - `discard`: initial time left out [s] (500).
     - `duration`: simulated time per trial [s]; default `default_duration` (1.6 × max(n0) half roll periods).
     - `chunk_size`: trials per compiled batch (memory is bounded by it, not by N0 or N).
-    - `progress`, `devices`, `checkpoint`, `checkpoint_every`: as in `jaxroll._monte_carlo.run_chunks` (sharding
+    - `progress`, `devices`, `checkpoint`, `checkpoint_every`: as in `jaxroll.roll._monte_carlo.run_chunks` (sharding
       over devices and hosts; interruptible runs that resume from a checkpoint directory).
 
     **Returns:** `MaximaStatistics`.

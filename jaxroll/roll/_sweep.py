@@ -20,17 +20,17 @@ import jax.numpy as jnp
 import jax.random as jr
 import numpy as np
 
-from . import _extremes
-from ._dynamics import RollProblem, simulate
+from ..extremes import _maxima as _extremes
+from ._equation import RollProblem, simulate
 from ._monte_carlo import CapsizeCounts, make_problem, run_chunks
-from ._ship import Ship
-from ._spectra import ITTC
+from ..ship._ship import Ship
+from ..sea._spectra import ITTC
 
 HEADINGS = ("head", "following")
 
 
 def wilson_interval(successes, trials, confidence: float = 0.95) -> tuple[np.ndarray, np.ndarray]:
-    """`jaxroll._extremes.wilson_interval` as numpy arrays: `(lower, upper)` of a binomial proportion."""
+    """`jaxroll.extremes._maxima.wilson_interval` as numpy arrays: `(lower, upper)` of a binomial proportion."""
     lo, hi = _extremes.wilson_interval(successes, trials, confidence)
     return np.asarray(lo), np.asarray(hi)
 

@@ -32,11 +32,11 @@ from ._amplitudes import (
     zero_crossing_init,
     zero_crossing_update,
 )
-from ._dynamics import FilterExcitation, RollProblem, SuperpositionExcitation, simulate
-from ._filters import FilterFit, fit_filter
-from ._grim import EffectiveWave
-from ._ship import Ship
-from ._spectra import AbstractWaveSpectrum
+from ._equation import FilterExcitation, RollProblem, SuperpositionExcitation, simulate
+from ..sea._filters import FilterFit, fit_filter
+from ..sea._grim import EffectiveWave
+from ..ship._ship import Ship
+from ..sea._spectra import AbstractWaveSpectrum
 
 QUANTILE_LEVELS = (0.5, 0.9, 0.99)
 
@@ -224,7 +224,7 @@ class AmplitudeStatistics(CapsizeCounts):
         `pool` merges that many fine bins (0.05° each; e.g. 20 → 1° bins): the maximum-value formulas amplify
         histogram noise. Zero-crossing amplitudes give the per-cycle law the maxima and risk formulas need.
         """
-        from ._extremes import AmplitudeDistribution
+        from ..extremes._maxima import AmplitudeDistribution
 
         counts = self._counts(method)
         if counts.size % pool:
@@ -344,7 +344,7 @@ def _to_host(tree):
 
 def _run_fingerprint(chunk_fn, problem, key, num_realizations, chunk_size, static) -> dict[str, str]:
     """What identifies a run, item by item (hashes for the arrays), so a mismatch can say what differs."""
-    from . import __version__
+    from .. import __version__
 
     def digest(leaves) -> str:
         h = hashlib.sha256()
