@@ -1,6 +1,6 @@
 """Benchmark: the full GZ(ζ_mid, φ) / ΔGM(ζ_mid) table of the shipped C11-like hull.
 
-Measures `jaxroll.ship._hydrostatics.hull_hydrostatics` on the representative C11-like hull (46 stations × 31
+Measures `jaxroll.hull_hydrostatics` on the representative C11-like hull (46 stations × 31
 waterlines) for 13 amplitudes × 15 heels: 195 free-trim balances for the table, plus the calm GZ curve, the 13
 upright balances and GM slopes, the calm particulars and both polynomial fits. Compile time (first call) and
 run time (best of repeats) are reported separately, plus the gradient of the fitted ΔGM coefficient C1 with
@@ -22,7 +22,10 @@ import jax.numpy as jnp
 import numpy as np
 
 import jaxroll  # noqa: F401  (float64)
-from jaxroll import _hydrostatics as hs
+from jaxroll import c11_hull, hull_hydrostatics, loading_condition
+from jaxroll.ship._fits import default_heel_grid, default_zeta_grid
+from jaxroll.ship._hull import scale_hull
+from jaxroll.ship._hydrostatics import c11_hull_loading
 
 
 def main() -> None:
@@ -32,11 +35,11 @@ def main() -> None:
     parser.add_argument("--repeat", type=int, default=10)
     args = parser.parse_args()
 
-    hull = hs.c11_hull()
-    loading = hs.c11_hull_loading()
-    zeta = jnp.asarray(hs.default_zeta_grid(6.0, args.n_zeta))
-    heels = jnp.asarray(hs.default_heel_grid(np.radians(70.0), args.n_heel))
-    run = lambda: jax.block_until_ready(hs.hull_hydrostatics(hull, loading, zeta_mid=zeta, heels=heels))
+    hull = c11_hull()
+    loading = c11_hull_loading()
+    zeta = jnp.asarray(default_zeta_grid(6.0, args.n_zeta))
+    heels = jnp.asarray(default_heel_grid(np.radians(70.0), args.n_heel))
+    run = lambda: jax.block_until_ready(hull_hydrostatics(hull, loading, zeta_mid=zeta, heels=heels))
 
     t0, c0 = time.perf_counter(), time.process_time()
     sol = run()
@@ -45,9 +48,9 @@ def main() -> None:
     balances = args.n_zeta * args.n_heel + args.n_heel + args.n_zeta + 1
 
     def c1(breadth):
-        h = hs.scale_hull(hull, breadth=breadth)
-        ld = hs.loading_condition(h, kg=loading.kg, draught=11.5)
-        return hs.hull_hydrostatics(h, ld, zeta_mid=zeta, heels=heels).delta_gm_coefficients[1]
+        h = scale_hull(hull, breadth=breadth)
+        ld = loading_condition(h, kg=loading.kg, draught=11.5)
+        return hull_hydrostatics(h, ld, zeta_mid=zeta, heels=heels).delta_gm_coefficients[1]
 
     grad = jax.jit(jax.grad(c1))
     t0, c0 = time.perf_counter(), time.process_time()

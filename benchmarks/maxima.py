@@ -16,7 +16,7 @@ import jax
 import numpy as np
 
 import jaxroll
-from jaxroll.roll._maxima import default_duration, monte_carlo_maxima
+from jaxroll import default_duration, monte_carlo_maxima
 
 
 def main() -> None:
@@ -25,7 +25,7 @@ def main() -> None:
     args = parser.parse_args()
     n0, n_trials = ((1000,), 500) if args.quick else ((10_000,), 5000)
     ship = jaxroll.c11_representative()
-    problem, _ = jaxroll.make_problem(ship, jaxroll.ITTC(7.0, 10.0), dt=0.5)
+    problem = jaxroll.RollProblem.from_sea(ship, jaxroll.ITTC(7.0, 10.0), dt=0.5)
     duration = default_duration(problem, n0, 500.0)
     steps = n_trials * duration / problem.dt
     print(f"device={jax.devices()[0].device_kind}, N0={n0[0]}, trials={n_trials}, duration_s={duration:.0f}, "

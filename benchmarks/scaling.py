@@ -3,7 +3,7 @@
 Runs the amplitude Monte Carlo (`--kind amplitudes`, the `jaxroll pdf` work) or the per-trial maximum
 (`--kind max`, the `jaxroll sweep` work) of the default ship in the paper's 7 m sea (ITTC, T01 = 10 s)
 for N = 1e3, 3e3, 1e4, ... up to `--max-n`, then for durations 600 ... 3600 s at fixed N, on every device
-JAX sees (sharded over them by `run_chunks`). Compile time (first call of each shape) is reported apart from
+JAX sees (sharded over them by `jaxroll.roll._sharding.run_chunks`). Compile time (first call of each shape) is reported apart from
 run time. The N scan stops before a run whose predicted time would overrun `--budget-s`.
 
 Prints `name=value` lines, ending with the fitted exponents b of time ~ N^b and time ~ duration^b
@@ -22,7 +22,7 @@ import jax
 import numpy as np
 
 import jaxroll
-from jaxroll.roll._sweep import monte_carlo_max_roll
+from jaxroll import monte_carlo_max_roll
 
 
 def main() -> None:
@@ -43,7 +43,7 @@ def main() -> None:
     args = parser.parse_args()
     t_start = time.perf_counter()
 
-    problem, _ = jaxroll.make_problem(jaxroll.c11_representative(), jaxroll.ITTC(7.0, 10.0), dt=0.5)
+    problem = jaxroll.RollProblem.from_sea(jaxroll.c11_representative(), jaxroll.ITTC(7.0, 10.0), dt=0.5)
     key = jax.random.key(0)
     dt = problem.dt
 

@@ -12,6 +12,7 @@ import argparse
 import time
 
 import jax
+import numpy as np
 
 import jaxroll
 from jaxroll import theory
@@ -46,13 +47,13 @@ def main() -> None:
         _, first, run = timed(fn, repeat=1 if name == "moment" else 3)
         print(f"{name}_first_call_s={first:.2f} {name}_run_s={run:.3f}")
     n, duration = (1000, 1800.0) if args.quick else (10_000, 3600.0)
-    problem, _ = jaxroll.make_problem(ship, sea, dt=0.5)
+    problem = jaxroll.RollProblem.from_sea(ship, sea, dt=0.5)
     jaxroll.monte_carlo_amplitudes(problem, jax.random.key(0), num_realizations=min(n, 1000), duration=duration)
     t0 = time.perf_counter()
     stats = jaxroll.monte_carlo_amplitudes(problem, jax.random.key(0), num_realizations=n, duration=duration)
     mc = time.perf_counter() - t0
     print(f"monte_carlo_run_s={mc:.2f} ({n} x {duration:g} s), mean envelope amplitude "
-          f"{stats.mean('envelope'):.2f} deg, E[phi^2] {stats.phi_moments()['E_phi2']:.4f} rad^2")
+          f"{np.rad2deg(stats.mean('envelope')):.2f} deg, E[phi^2] {stats.phi_moments()['E_phi2']:.4f} rad^2")
 
 
 if __name__ == "__main__":

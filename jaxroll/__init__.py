@@ -13,95 +13,133 @@ import jax
 jax.config.update("jax_enable_x64", True)
 
 from . import theory as theory
-from .roll._amplitudes import (
-    hilbert_envelope as hilbert_envelope,
-    zero_crossing_amplitudes as zero_crossing_amplitudes,
-)
-from .calibration._calibration import (
+from .calibration import (
+    CaptiveFit as CaptiveFit,
+    CaptiveGroup as CaptiveGroup,
+    DecayFit as DecayFit,
+    Estimate as Estimate,
+    LeastSquaresInfo as LeastSquaresInfo,
+    RollFit as RollFit,
+    SeaStateComparison as SeaStateComparison,
     calibrated_ship as calibrated_ship,
+    decay_agreement as decay_agreement,
     fit_captive as fit_captive,
     fit_decay_ode as fit_decay_ode,
     fit_extinction as fit_extinction,
     fit_roll_pdf as fit_roll_pdf,
+    virtual_captive_record as virtual_captive_record,
+    virtual_decay_record as virtual_decay_record,
+    virtual_roll_record as virtual_roll_record,
+    virtual_sea as virtual_sea,
 )
-from .roll._equation import (
-    FilterExcitation as FilterExcitation,
-    RollProblem as RollProblem,
-    SampledExcitation as SampledExcitation,
-    SuperpositionExcitation as SuperpositionExcitation,
-    roll_acceleration as roll_acceleration,
-    roll_time_series as roll_time_series,
-    roll_vector_field as roll_vector_field,
-)
-from .extremes._maxima import (
-    AmplitudeDistribution as AmplitudeDistribution,
+from .extremes import (
+    EmpiricalMaxima as EmpiricalMaxima,
     ExposureRisk as ExposureRisk,
-    RayleighAmplitudes as RayleighAmplitudes,
-    RobertsAmplitudes as RobertsAmplitudes,
+    count_exceedances as count_exceedances,
     empirical_maxima as empirical_maxima,
+    exceedance_probability as exceedance_probability,
     expected_maximum as expected_maximum,
     exposure_risk as exposure_risk,
     max_cdf as max_cdf,
+    max_logcdf as max_logcdf,
+    max_logpdf as max_logpdf,
     max_pdf as max_pdf,
     max_pdf_asymptotic as max_pdf_asymptotic,
     max_quantile as max_quantile,
+    max_sf as max_sf,
+    maxima_of_first as maxima_of_first,
     most_probable_maximum as most_probable_maximum,
+    wilson_interval as wilson_interval,
 )
-from .sea._filters import FilterFit as FilterFit, ShapingFilter as ShapingFilter, fit_filter as fit_filter
-from .sea._grim import EffectiveWave as EffectiveWave, grim_transfer as grim_transfer, superpose as superpose
-from .ship._hydrostatics import (
-    Hull as Hull,
-    box_hull as box_hull,
-    c11_hull as c11_hull,
-    c11_hull_ship as c11_hull_ship,
-    equilibrium as equilibrium,
-    gz_curve as gz_curve,
-    hull_hydrostatics as hull_hydrostatics,
-    hydrostatic_particulars as hydrostatic_particulars,
-    load_hull as load_hull,
-    loading_condition as loading_condition,
-    metacentric_height as metacentric_height,
-    ship_from_hull as ship_from_hull,
-    wigley_hull as wigley_hull,
+from .laws import (
+    AbstractAmplitudeLaw as AbstractAmplitudeLaw,
+    RayleighLaw as RayleighLaw,
+    RobertsLaw as RobertsLaw,
+    TabulatedAmplitudeLaw as TabulatedAmplitudeLaw,
+    roberts_logpdf as roberts_logpdf,
 )
-from .roll._maxima import MaximaStatistics as MaximaStatistics, monte_carlo_maxima as monte_carlo_maxima
-from .roll._monte_carlo import (
-    AmplitudeStatistics as AmplitudeStatistics,
-    check_time_step as check_time_step,
-    make_problem as make_problem,
-    monte_carlo_amplitudes as monte_carlo_amplitudes,
-)
-from .io._records import (
+from .io import (
     Record as Record,
     RecordError as RecordError,
+    group_by_sea_state as group_by_sea_state,
+    load_hull as load_hull,
     load_record as load_record,
     load_records as load_records,
-    save_record as save_record,
-)
-from .ship._restoring import (
-    delta_gm as delta_gm,
-    parametric_excitation as parametric_excitation,
-    restoring_moment as restoring_moment,
-    righting_lever as righting_lever,
-    vanishing_angle as vanishing_angle,
-)
-from .ship._ship import (
-    Ship as Ship,
-    c11_representative as c11_representative,
     load_ship as load_ship,
+    make_record as make_record,
+    record_to_text as record_to_text,
+    save_record as save_record,
     ship_from_dict as ship_from_dict,
     ship_to_dict as ship_to_dict,
     ship_to_toml as ship_to_toml,
 )
-from .sea._spectra import (
+from .roll import (
+    AbstractExcitation as AbstractExcitation,
+    AbstractObserver as AbstractObserver,
+    AmplitudeHistogram as AmplitudeHistogram,
+    AmplitudeStatistics as AmplitudeStatistics,
+    CapsizeCounts as CapsizeCounts,
+    check_time_step as check_time_step,
+    default_duration as default_duration,
+    FilterExcitation as FilterExcitation,
+    FirstMaxima as FirstMaxima,
+    hilbert_envelope as hilbert_envelope,
+    MaximaStatistics as MaximaStatistics,
+    MaxRoll as MaxRoll,
+    MaxRollStatistics as MaxRollStatistics,
+    monte_carlo as monte_carlo,
+    monte_carlo_amplitudes as monte_carlo_amplitudes,
+    monte_carlo_max_roll as monte_carlo_max_roll,
+    monte_carlo_maxima as monte_carlo_maxima,
+    realization_mesh as realization_mesh,
+    RealizationEnd as RealizationEnd,
+    roll_acceleration as roll_acceleration,
+    roll_time_series as roll_time_series,
+    roll_vector_field as roll_vector_field,
+    RollProblem as RollProblem,
+    SampledExcitation as SampledExcitation,
+    simulate as simulate,
+    simulate_chunk as simulate_chunk,
+    SuperpositionExcitation as SuperpositionExcitation,
+    sweep_sea_states as sweep_sea_states,
+    SweepResult as SweepResult,
+    zero_crossing_amplitudes as zero_crossing_amplitudes,
+)
+from .sea import (
     ITTC as ITTC,
     JONSWAP as JONSWAP,
     AbstractWaveSpectrum as AbstractWaveSpectrum,
+    EffectiveWave as EffectiveWave,
+    FilterFit as FilterFit,
+    ShapingFilter as ShapingFilter,
     encounter_frequency as encounter_frequency,
     encounter_spectrum as encounter_spectrum,
+    fit_filter as fit_filter,
+    grim_transfer as grim_transfer,
     spectral_moment as spectral_moment,
+    superpose as superpose,
 )
-from .roll._sweep import monte_carlo_max_roll as monte_carlo_max_roll, sweep_sea_states as sweep_sea_states
+from .ship import (
+    Hull as Hull,
+    Ship as Ship,
+    box_hull as box_hull,
+    c11_hull as c11_hull,
+    c11_hull_ship as c11_hull_ship,
+    c11_representative as c11_representative,
+    delta_gm as delta_gm,
+    equilibrium as equilibrium,
+    gz_curve as gz_curve,
+    hull_hydrostatics as hull_hydrostatics,
+    hydrostatic_particulars as hydrostatic_particulars,
+    loading_condition as loading_condition,
+    metacentric_height as metacentric_height,
+    parametric_excitation as parametric_excitation,
+    restoring_moment as restoring_moment,
+    righting_lever as righting_lever,
+    ship_from_hull as ship_from_hull,
+    vanishing_angle as vanishing_angle,
+    wigley_hull as wigley_hull,
+)
 
 try:
     __version__ = importlib.metadata.version("jaxroll")

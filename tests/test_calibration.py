@@ -19,9 +19,8 @@ import numpy as np
 import pytest
 
 import jaxroll as jxr
-from jaxroll.calibration._calibration import (
+from jaxroll.calibration import (
     DEFAULT_BANDS,
-    _np_band_means,
     band_means,
     calibrated_ship,
     damping_to_extinction,
@@ -33,14 +32,13 @@ from jaxroll.calibration._calibration import (
     fit_decay_ode,
     fit_extinction,
     fit_roll_pdf,
-    zero_crossing_hysteresis,
-)
-from jaxroll.io._records import (
     virtual_captive_record,
     virtual_decay_record,
     virtual_roll_record,
     virtual_sea,
+    zero_crossing_hysteresis,
 )
+from jaxroll.calibration._roll_pdf import _np_band_means
 
 K = 4.0  # tolerance in standard errors
 BASE = jxr.c11_representative()
@@ -360,7 +358,12 @@ def test_plots_return_axes(clean_decay):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from jaxroll.plotting._calibration import plot_captive, plot_captive_series, plot_decay_fit, plot_extinction
+    from jaxroll.plotting._calibration import (
+        plot_captive,
+        plot_captive_series,
+        plot_decay_fit,
+        plot_extinction,
+    )
 
     ext = fit_extinction(clean_decay, BASE)
     ode = fit_decay_ode(clean_decay, BASE)

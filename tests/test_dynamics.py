@@ -1,5 +1,6 @@
 """The roll integrator and the Monte Carlo against exact stochastic results (THEORY.md §8)."""
 
+import math
 import warnings
 
 import jax
@@ -10,7 +11,7 @@ import pytest
 from scipy import integrate
 
 import jaxroll
-from jaxroll.roll._equation import BLOCK
+from jaxroll.roll._excitation import BLOCK
 
 
 def white_noise_filter(intensity, omega_f=8.0, zeta_f=0.7):
@@ -138,7 +139,7 @@ def test_time_step_convergence_with_common_random_numbers(getkey):
 
 def test_capsize_counted_and_never_poisons_statistics(getkey):
     ship = jaxroll.c11_representative()
-    problem, _ = jaxroll.make_problem(ship, jaxroll.ITTC(12.0, 10.0), dt=0.5)
+    problem = jaxroll.RollProblem.from_sea(ship, jaxroll.ITTC(12.0, 10.0), dt=0.5)
     stats = jaxroll.monte_carlo_amplitudes(problem, getkey(), num_realizations=40, duration=1200.0, chunk_size=20)
     assert 0 < stats.n_capsized < 40
     assert np.all(np.isfinite(stats.counts_zero_crossing)) and np.all(np.isfinite(stats.counts_envelope))
@@ -148,11 +149,11 @@ def test_capsize_counted_and_never_poisons_statistics(getkey):
     assert np.all(pr["n_zc"][stats.capsized] == 0)  # excluded from amplitude statistics
     assert stats.n_amplitudes("zero_crossing") == pr["n_zc"].sum()
     assert np.isfinite(stats.mean("zero_crossing"))
-    assert stats.quantiles("envelope")[-1] < np.rad2deg(float(problem.capsize_angle))
+    assert stats.quantiles("envelope")[-1] < float(problem.capsize_angle)
 
 
 def test_results_independent_of_chunk_size(getkey):
-    problem, _ = jaxroll.make_problem(jaxroll.c11_representative(), jaxroll.ITTC(7.0, 10.0), dt=0.5)
+    problem = jaxroll.RollProblem.from_sea(jaxroll.c11_representative(), jaxroll.ITTC(7.0, 10.0), dt=0.5)
     key = getkey()
     runs = [jaxroll.monte_carlo_amplitudes(problem, key, num_realizations=7, duration=600.0, chunk_size=c)
             for c in (3, 7)]
@@ -163,10 +164,10 @@ def test_results_independent_of_chunk_size(getkey):
     assert runs[0].mean("envelope") == pytest.approx(runs[1].mean("envelope"), rel=1e-13)
     # The histogram as a distribution: its mean is the exact mean to within the bin width.
     for pool, width in ((1, 0.05), (20, 1.0)):
-        dist = runs[0].distribution("zero_crossing", pool=pool)
-        assert abs(np.rad2deg(float(dist.mean())) - runs[0].mean("zero_crossing")) < width / 2
+        law = runs[0].law("zero_crossing", pool=pool)
+        assert abs(np.rad2deg(float(law.mean())) - np.rad2deg(runs[0].mean("zero_crossing"))) < width / 2
     with pytest.raises(ValueError, match="`pool` must divide"):
-        runs[0].distribution("zero_crossing", pool=7)
+        runs[0].law("zero_crossing", pool=7)
 
 
 def test_rk4_order_on_free_decay():
@@ -191,16 +192,16 @@ def test_problem_errors():
     ship = jaxroll.c11_representative()
     sea = jaxroll.ITTC(7.0, 10.0)
     with pytest.raises(ValueError, match="dt = 3.0 s is too large"):
-        jaxroll.make_problem(ship, sea, dt=3.0)
+        jaxroll.RollProblem.from_sea(ship, sea, dt=3.0)
     with pytest.warns(UserWarning, match="This warning appears because dt"):
-        jaxroll.make_problem(ship, sea, dt=0.9)
+        jaxroll.RollProblem.from_sea(ship, sea, dt=0.9)
     with pytest.raises(ValueError, match="`dt` must be a finite number > 0"):
-        jaxroll.make_problem(ship, sea, dt=-1.0)
-    with pytest.raises(ValueError, match="`method` must be 'filter' or 'superposition'"):
-        jaxroll.make_problem(ship, sea, method="magic")
+        jaxroll.RollProblem.from_sea(ship, sea, dt=-1.0)
+    with pytest.raises(ValueError, match="`excitation` must be 'filter' or 'superposition'"):
+        jaxroll.RollProblem.from_sea(ship, sea, excitation="magic")
     with pytest.raises(ValueError, match="beyond the angle of vanishing stability"):
-        jaxroll.make_problem(ship, sea, phi0_deg=80.0)
-    problem, _ = jaxroll.make_problem(ship, sea)
+        jaxroll.RollProblem.from_sea(ship, sea, phi0=math.radians(80.0))
+    problem = jaxroll.RollProblem.from_sea(ship, sea)
     with pytest.raises(ValueError, match="`num_realizations` must be a positive integer"):
         jaxroll.monte_carlo_amplitudes(problem, jr.key(0), num_realizations=0)
     with pytest.raises(ValueError, match="`discard` must be in"):

@@ -1,4 +1,4 @@
-"""Tests of jaxroll.extremes._maxima: maximum-value distributions and exposure-time risk measures.
+"""Tests of jaxroll.extremes: maximum-value distributions and exposure-time risk measures.
 
 References are computed independently here (scipy.integrate.quad, scipy.special, numpy closed forms, and
 mpmath where float64 is not enough). Statistical tolerances are k standard errors computed in the test.
@@ -14,7 +14,7 @@ import pytest
 from scipy import integrate, special, stats
 
 import jaxroll  # noqa: F401  (enables float64)
-from jaxroll import _extremes as ex
+import jaxroll as ex
 
 EULER_GAMMA = 0.5772156649015329
 
@@ -37,7 +37,7 @@ def _rayleigh_exact_emax(n):
     )
 
 
-RAYLEIGH = ex.RayleighAmplitudes(1.0)
+RAYLEIGH = ex.RayleighLaw(1.0)
 
 
 # ------------------------------------------------------------------------------------------------------------
@@ -57,7 +57,7 @@ def test_expected_maximum_rayleigh_matches_quadrature_and_theory_table():
             np.testing.assert_allclose(got, THEORY_TABLE[n], rtol=0.0, atol=5e-5, err_msg=f"table, N = {n}")
     # Scale invariance: E[max] is proportional to σ.
     np.testing.assert_allclose(
-        float(ex.expected_maximum(ex.RayleighAmplitudes(0.2), 100)),
+        float(ex.expected_maximum(ex.RayleighLaw(0.2), 100)),
         0.2 * _rayleigh_exact_emax(100),
         rtol=1e-8,
         atol=0,
@@ -104,9 +104,9 @@ def test_monte_carlo_maxima_match_exact_distribution():
 # ------------------------------------------------------------------------------------------------------------
 
 DISTS = {
-    "rayleigh": ex.RayleighAmplitudes(0.3),
-    "roberts_nu_negative": ex.RobertsAmplitudes(-0.5, 2.0),
-    "roberts_nu_positive": ex.RobertsAmplitudes(2.5, 0.8),
+    "rayleigh": ex.RayleighLaw(0.3),
+    "roberts_nu_negative": ex.RobertsLaw(-0.5, 2.0),
+    "roberts_nu_positive": ex.RobertsLaw(2.5, 0.8),
 }
 
 
@@ -151,7 +151,7 @@ def test_max_pdf_log_space_matches_naive_where_accurate_and_stays_finite_where_n
 
 
 def test_asymptotic_form_of_theory_md():
-    dist = ex.RayleighAmplitudes(1.0)
+    dist = ex.RayleighLaw(1.0)
     n0 = 10**4
     a = np.linspace(3.0, 6.0, 601)
     xi = n0 * np.exp(-0.5 * a**2)
@@ -174,10 +174,10 @@ def test_asymptotic_form_of_theory_md():
 def test_roberts_survival_is_regularised_incomplete_gamma(nu):
     c3 = 0.7
     k = 0.5 * (nu + 1)
-    dist = ex.RobertsAmplitudes(nu, c3)
+    dist = ex.RobertsLaw(nu, c3)
     a = np.concatenate([np.linspace(0.01, 5.0, 200), [8.0, 12.0, 12.5, 20.0, 30.0]])  # c3 a² up to 630
     x = c3 * a**2
-    np.testing.assert_allclose(np.asarray(dist.survival(a)), special.gammaincc(k, x), rtol=1e-12, atol=0)
+    np.testing.assert_allclose(np.asarray(dist.sf(a)), special.gammaincc(k, x), rtol=1e-12, atol=0)
     p, q = special.gammainc(k, x), special.gammaincc(k, x)
     # References in log space use log1p of the small one: log(1 − 1e-11) in float64 is only good to ~1e-5.
     with np.errstate(divide="ignore"):  # the branch np.where discards may be log(0)
@@ -194,8 +194,8 @@ def test_roberts_survival_is_regularised_incomplete_gamma(nu):
 
 def test_roberts_with_nu_one_is_rayleigh():
     sigma = 0.4
-    rob = ex.RobertsAmplitudes(1.0, 1.0 / (2 * sigma**2))
-    ray = ex.RayleighAmplitudes(sigma)
+    rob = ex.RobertsLaw(1.0, 1.0 / (2 * sigma**2))
+    ray = ex.RayleighLaw(sigma)
     a = np.linspace(0.05, 3.0, 50)
     for f in ("logpdf", "logsf", "logcdf"):
         np.testing.assert_allclose(getattr(rob, f)(a), getattr(ray, f)(a), rtol=1e-12, atol=1e-14)
@@ -209,7 +209,7 @@ def test_tabulated_max_cdf_converges_to_closed_form():
     errors = []
     for n in (801, 1601):
         grid = np.linspace(0.0, 8.0, n)
-        dist = ex.AmplitudeDistribution.from_pdf(grid, grid**nu * np.exp(-c3 * grid**2))
+        dist = ex.TabulatedAmplitudeLaw.from_pdf(grid, grid**nu * np.exp(-c3 * grid**2))
         errors.append(np.max(np.abs(np.asarray(ex.max_cdf(dist, a, n0)) - exact)))
     # Trapezoidal rule: second order. The error is 2.3e-5 at h = 0.01 and drops by 4.00.
     assert errors[1] < 1e-5
@@ -220,17 +220,17 @@ def test_tabulated_far_tail_from_logpdf():
     # A Rayleigh log-PDF down to -800: from_pdf underflows there, from_logpdf keeps the tail.
     grid = np.linspace(0.0, 40.0, 4001)
     log_pdf = np.log(np.maximum(grid, 1e-300)) - 0.5 * grid**2
-    dist = ex.AmplitudeDistribution.from_logpdf(grid, log_pdf)
+    dist = ex.TabulatedAmplitudeLaw.from_logpdf(grid, log_pdf)
     a = np.array([5.0, 20.0, 30.0, 38.0])
     got = np.asarray(dist.logsf(a))
     assert np.all(np.isfinite(got))
     # Linear interpolation of an exponentially decaying PDF: relative error (a h)²/12 per segment in F̄, i.e.
     # an error in log F̄ of ~1e-2 at a = 38 (h = 0.01), ~2e-5 relative to log F̄ = −722.
     np.testing.assert_allclose(got, -0.5 * a**2, rtol=3e-5, atol=0)
-    assert np.isneginf(np.asarray(ex.AmplitudeDistribution.from_pdf(grid, np.exp(log_pdf)).logsf(a))[-1])
+    assert np.isneginf(np.asarray(ex.TabulatedAmplitudeLaw.from_pdf(grid, np.exp(log_pdf)).logsf(a))[-1])
     # cdf + sf = 1 and quantile inverts cdf
     b = np.linspace(0.1, 6.0, 37)
-    np.testing.assert_allclose(np.asarray(dist.cdf(b) + dist.survival(b)), 1.0, rtol=0, atol=1e-14)
+    np.testing.assert_allclose(np.asarray(dist.cdf(b) + dist.sf(b)), 1.0, rtol=0, atol=1e-14)
     np.testing.assert_allclose(
         np.asarray(dist.cdf(dist.quantile(jnp.asarray([0.01, 0.5, 0.99])))),
         [0.01, 0.5, 0.99],
@@ -238,17 +238,17 @@ def test_tabulated_far_tail_from_logpdf():
         atol=0,
     )
     levels = jnp.asarray([1e-3, 1e-8, 1e-12])
-    np.testing.assert_allclose(np.asarray(dist.survival(dist.isf(levels))), levels, rtol=1e-10, atol=0)
+    np.testing.assert_allclose(np.asarray(dist.sf(dist.isf(levels))), levels, rtol=1e-10, atol=0)
 
 
 def test_from_samples_has_exact_empirical_survival_and_histogram_pdf():
     rng = np.random.default_rng(7)
     x = rng.rayleigh(size=5000)
-    dist = ex.AmplitudeDistribution.from_samples(x, bins=40)
+    dist = ex.TabulatedAmplitudeLaw.from_samples(x, bins=40)
     assert dist.n_samples == 5000
     nodes = np.asarray(dist.grid)
     np.testing.assert_allclose(
-        np.asarray(dist.survival(nodes[1:-1])),
+        np.asarray(dist.sf(nodes[1:-1])),
         (x[None, :] > nodes[1:-1, None]).mean(1),
         rtol=1e-12,
         atol=1e-15,
@@ -269,7 +269,7 @@ def test_from_samples_has_exact_empirical_survival_and_histogram_pdf():
 
 def test_max_quantile_and_mode_rayleigh_closed_forms():
     sigma = 0.2
-    dist = ex.RayleighAmplitudes(sigma)
+    dist = ex.RayleighLaw(sigma)
     q = np.array([1e-6, 0.5, 0.9, 0.99, 1 - 1e-9])
     for n0 in [1, 20, 10**7]:
         # (1 − e^{−a²/2σ²})^N0 = q  ⇔  a²/2σ² = −log(1 − q^{1/N0}), with log(1 − e^y) evaluated accurately.
@@ -295,7 +295,7 @@ def test_max_quantile_and_mode_rayleigh_closed_forms():
 def test_exceedance_probability_rayleigh_closed_form():
     sigma, rate, duration = 0.15, 2.0 / 12.0, 3 * 3600.0  # σ [rad], two amplitudes per 12 s cycle, 3 h
     n = rate * duration
-    dist = ex.RayleighAmplitudes(sigma)
+    dist = ex.RayleighLaw(sigma)
     angles = np.deg2rad([20.0, 30.0, 60.0])
     sf = np.exp(-0.5 * angles**2 / sigma**2)
     exact = -np.expm1(n * np.log1p(-sf))  # 60°: 4.7e-8, where 1 − (1 − F̄)^n in float64 keeps ~8 digits only
@@ -347,7 +347,7 @@ def test_confidence_intervals_cover_the_truth():
 
     @jax.jit  # one compilation for the 200 experiments (jit of the public path, validation included)
     def experiment(x):
-        dist = ex.AmplitudeDistribution.from_samples(x, bins=200)
+        dist = ex.TabulatedAmplitudeLaw.from_samples(x, bins=200)
         k, _ = ex.count_exceedances(x, angle)
         risk = ex.exposure_risk(dist, angle, rate=rate, duration=duration, n_exceed=k)
         return jnp.stack(
@@ -376,7 +376,7 @@ def test_gradients_match_central_differences():
     angle, rate, duration = 0.5, 0.2, 3600.0
 
     def prob(sigma):
-        return ex.exceedance_probability(ex.RayleighAmplitudes(sigma), angle, rate=rate, duration=duration)
+        return ex.exceedance_probability(ex.RayleighLaw(sigma), angle, rate=rate, duration=duration)
 
     sigma, h = 0.15, 1e-6
     fd = (float(prob(sigma + h)) - float(prob(sigma - h))) / (2 * h)
@@ -385,7 +385,7 @@ def test_gradients_match_central_differences():
 
     # E[max], a quantile and the mode of the maximum scale with σ: each derivative is the value at σ = 1.
     def scaled(s):
-        d = ex.RayleighAmplitudes(s)
+        d = ex.RayleighLaw(s)
         return jnp.stack(
             [ex.expected_maximum(d, 100), ex.max_quantile(d, 0.9, 100), ex.most_probable_maximum(d, 100)]
         )
@@ -436,63 +436,63 @@ PDF = GRID * np.exp(-(GRID**2))
 @pytest.mark.parametrize(
     "make, match",
     [
-        (lambda: ex.RayleighAmplitudes(-1.0), r"`sigma` must be > 0 \[rad\]; got -1.0"),
-        (lambda: ex.RayleighAmplitudes([1.0, 2.0]), r"`sigma` must be a scalar; got shape \(2,\)"),
-        (lambda: ex.RobertsAmplitudes(-1.0, 1.0), r"`nu` must be > -1 .*got -1.0"),
-        (lambda: ex.RobertsAmplitudes(1.0, 0.0), r"`c3` must be > 0"),
+        (lambda: ex.RayleighLaw(-1.0), r"`sigma` must be > 0 \[rad\]; got -1.0"),
+        (lambda: ex.RayleighLaw([1.0, 2.0]), r"`sigma` must be a scalar; got shape \(2,\)"),
+        (lambda: ex.RobertsLaw(-1.0, 1.0), r"`nu` must be > -1 .*got -1.0"),
+        (lambda: ex.RobertsLaw(1.0, 0.0), r"`c3` must be > 0"),
         (
-            lambda: ex.AmplitudeDistribution.from_pdf(GRID, PDF[:-1]),
+            lambda: ex.TabulatedAmplitudeLaw.from_pdf(GRID, PDF[:-1]),
             r"same length; got shapes \(11,\) and \(10,\)",
         ),
-        (lambda: ex.AmplitudeDistribution.from_pdf(GRID[:2], PDF[:2]), r"at least 3 grid points; got 2"),
+        (lambda: ex.TabulatedAmplitudeLaw.from_pdf(GRID[:2], PDF[:2]), r"at least 3 grid points; got 2"),
         (
-            lambda: ex.AmplitudeDistribution.from_pdf(GRID, np.where(GRID == 0.5, np.nan, PDF)),
+            lambda: ex.TabulatedAmplitudeLaw.from_pdf(GRID, np.where(GRID == 0.5, np.nan, PDF)),
             r"`pdf` must be finite .*pdf\[5\] = nan",
         ),
         (
-            lambda: ex.AmplitudeDistribution.from_pdf(np.where(GRID == 1.0, np.inf, GRID), PDF),
+            lambda: ex.TabulatedAmplitudeLaw.from_pdf(np.where(GRID == 1.0, np.inf, GRID), PDF),
             r"`grid` must be finite; grid\[10\] = inf",
         ),
         (
-            lambda: ex.AmplitudeDistribution.from_pdf(GRID[::-1], PDF),
+            lambda: ex.TabulatedAmplitudeLaw.from_pdf(GRID[::-1], PDF),
             r"diff\(grid\)` must be > 0.*strictly increasing",
         ),
         (
-            lambda: ex.AmplitudeDistribution.from_pdf(np.r_[0.0, 0.1, 0.1, 0.2], np.ones(4)),
+            lambda: ex.TabulatedAmplitudeLaw.from_pdf(np.r_[0.0, 0.1, 0.1, 0.2], np.ones(4)),
             r"diff\(grid\)\[1\] = 0.0",
         ),
-        (lambda: ex.AmplitudeDistribution.from_pdf(GRID - 0.5, PDF), r"non-negative, but grid\[0\] = -0.5"),
+        (lambda: ex.TabulatedAmplitudeLaw.from_pdf(GRID - 0.5, PDF), r"non-negative, but grid\[0\] = -0.5"),
         (
-            lambda: ex.AmplitudeDistribution.from_pdf(GRID, PDF - 0.1),
+            lambda: ex.TabulatedAmplitudeLaw.from_pdf(GRID, PDF - 0.1),
             r"`pdf` must be >= 0; pdf\[0\] = -0.1.*clip",
         ),
-        (lambda: ex.AmplitudeDistribution.from_pdf(GRID, 0 * PDF), r"integrates to 0"),
+        (lambda: ex.TabulatedAmplitudeLaw.from_pdf(GRID, 0 * PDF), r"integrates to 0"),
         (
-            lambda: ex.AmplitudeDistribution.from_logpdf(GRID, np.where(GRID == 0.2, np.inf, 0.0)),
+            lambda: ex.TabulatedAmplitudeLaw.from_logpdf(GRID, np.where(GRID == 0.2, np.inf, 0.0)),
             r"`log_pdf` must not be NaN or \+inf; log_pdf\[2\] = inf",
         ),
-        (lambda: ex.AmplitudeDistribution(GRID, PDF, PDF), r"`log_mass` of length n − 1"),
-        (lambda: ex.AmplitudeDistribution.from_samples([1.0]), r"at least 2 samples .*; got 1"),
+        (lambda: ex.TabulatedAmplitudeLaw(GRID, PDF, PDF), r"`log_mass` of length n − 1"),
+        (lambda: ex.TabulatedAmplitudeLaw.from_samples([1.0]), r"at least 2 samples .*; got 1"),
         (
-            lambda: ex.AmplitudeDistribution.from_samples([1.0, np.nan, np.inf]),
+            lambda: ex.TabulatedAmplitudeLaw.from_samples([1.0, np.nan, np.inf]),
             r"contains 2 non-finite .*capsize",
         ),
         (
-            lambda: ex.AmplitudeDistribution.from_samples([1.0, -0.5]),
+            lambda: ex.TabulatedAmplitudeLaw.from_samples([1.0, -0.5]),
             r"`amplitudes` must be >= 0; amplitudes\[1\]",
         ),
         (
-            lambda: ex.AmplitudeDistribution.from_samples([1.0, 2.0], bins=0),
+            lambda: ex.TabulatedAmplitudeLaw.from_samples([1.0, 2.0], bins=0),
             r"`bins` must be a positive number",
         ),
-        (lambda: ex.AmplitudeDistribution.from_samples([0.0, 0.0]), r"All amplitudes are 0"),
-        (lambda: ex.AmplitudeDistribution.from_samples([1.0, 2.0], bins=[[0.0, 3.0]]), r"edges must be 1-D"),
+        (lambda: ex.TabulatedAmplitudeLaw.from_samples([0.0, 0.0]), r"All amplitudes are 0"),
+        (lambda: ex.TabulatedAmplitudeLaw.from_samples([1.0, 2.0], bins=[[0.0, 3.0]]), r"edges must be 1-D"),
         (
-            lambda: ex.AmplitudeDistribution.from_samples([1.0, 2.0], bins=[0.0, 3.0, 2.0]),
+            lambda: ex.TabulatedAmplitudeLaw.from_samples([1.0, 2.0], bins=[0.0, 3.0, 2.0]),
             r"strictly increasing",
         ),
         (
-            lambda: ex.AmplitudeDistribution.from_samples([1.0, 2.0], bins=[0.0, 1.5]),
+            lambda: ex.TabulatedAmplitudeLaw.from_samples([1.0, 2.0], bins=[0.0, 1.5]),
             r"outside the bin edges",
         ),
         (lambda: ex.expected_maximum(RAYLEIGH, 0), r"`n0` .* must be >= 1; got 0.0"),
@@ -548,7 +548,7 @@ def test_validation_errors(make, match):
 def test_validation_under_jit_raises_runtime_error():
     @eqx.filter_jit
     def build(sigma):
-        return ex.RayleighAmplitudes(sigma).sigma
+        return ex.RayleighLaw(sigma).sigma
 
     with pytest.raises(RuntimeError, match=r"`sigma` must be > 0"):
         build(jnp.asarray(-1.0))

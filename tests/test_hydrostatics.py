@@ -13,8 +13,36 @@ import numpy as np
 import pytest
 
 import jaxroll  # noqa: F401  (enables float64)
-from jaxroll import _hydrostatics as hs
-from jaxroll.ship._ship import load_ship, restoring_fields_from_gz, validate_ship
+from jaxroll import (
+    Hull,
+    box_hull,
+    c11_hull,
+    c11_hull_ship,
+    equilibrium,
+    gz_curve,
+    hull_hydrostatics,
+    hydrostatic_particulars,
+    load_hull,
+    load_ship,
+    loading_condition,
+    metacentric_height,
+    wigley_hull,
+)
+from jaxroll.io._hull_file import hull_from_dict, hull_to_toml, loading_from_dict
+from jaxroll.ship._fits import (
+    default_heel_grid,
+    default_zeta_grid,
+    fit_delta_gm_polynomial,
+    ship_from_hydrostatics,
+)
+from jaxroll.ship._hull import C11_GM0, c11_like_hull, scale_hull
+from jaxroll.ship._hydrostatics import (
+    GRAVITY,
+    SEAWATER_DENSITY,
+    buoyancy,
+    c11_hull_loading,
+)
+from jaxroll.ship._ship import restoring_fields_from_gz, validate_ship
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -26,28 +54,28 @@ GM = BM + d / 2 - KG
 
 @pytest.fixture(scope="module")
 def box():
-    return hs.box_hull(L, B, D)
+    return box_hull(L, B, D)
 
 
 @pytest.fixture(scope="module")
 def box_loading(box):
-    return hs.loading_condition(box, kg=KG, draught=d)
+    return loading_condition(box, kg=KG, draught=d)
 
 
 @pytest.fixture(scope="module")
 def c11():
-    return hs.c11_hull()
+    return c11_hull()
 
 
 @pytest.fixture(scope="module")
 def c11_loading():
-    return hs.c11_hull_loading()
+    return c11_hull_loading()
 
 
 @pytest.fixture(scope="module")
 def c11_solution(c11, c11_loading):
     # Default grids: the CLI test below reuses this compilation.
-    return hs.hull_hydrostatics(c11, c11_loading)
+    return hull_hydrostatics(c11, c11_loading)
 
 
 def close(actual, expected, *, rtol, atol):
@@ -60,9 +88,9 @@ def close(actual, expected, *, rtol, atol):
 
 
 def test_box_calm_particulars(box, box_loading):
-    p = hs.hydrostatic_particulars(box, box_loading)
+    p = hydrostatic_particulars(box, box_loading)
     close(p.volume, L * B * d, rtol=1e-12, atol=0)
-    close(p.displacement, L * B * d * hs.SEAWATER_DENSITY, rtol=1e-12, atol=0)
+    close(p.displacement, L * B * d * SEAWATER_DENSITY, rtol=1e-12, atol=0)
     close(p.kb, d / 2, rtol=0, atol=1e-12)
     close(p.bm, BM, rtol=0, atol=1e-12)
     close(p.gm, GM, rtol=0, atol=1e-12)
@@ -79,7 +107,7 @@ def test_box_calm_particulars(box, box_loading):
 def test_box_gz_wall_sided(box, box_loading):
     # Wall-sided formula holds until the bilge emerges: tan φ < d / (B/2), φ < 26.57°; beyond, GZ is below it.
     phi = jnp.radians(jnp.array([-20.0, -5.0, 0.0, 2.0, 5.0, 10.0, 15.0, 20.0, 25.0, 26.0, 35.0, 50.0]))
-    gz = hs.gz_curve(box, box_loading, phi)
+    gz = gz_curve(box, box_loading, phi)
     wall_sided = jnp.sin(phi) * (GM + 0.5 * BM * jnp.tan(phi) ** 2)
     close(gz[:10], wall_sided[:10], rtol=0, atol=1e-11)
     assert np.all(np.asarray(gz[10:]) < np.asarray(wall_sided[10:]))
@@ -94,7 +122,7 @@ def test_box_in_wave_against_sectional_closed_form(box, box_loading, zeta):
     # gives GZ = sin φ [BM + (d² + ζ²/(2cos²φ))/(2d) − KG + ½ BM tan²φ], valid while no deck edge or bilge
     # crosses.
     phi = jnp.radians(jnp.array([0.0, 5.0, 10.0, 15.0]))
-    eq = hs.equilibrium(box, box_loading, heel=phi, zeta_mid=zeta)
+    eq = equilibrium(box, box_loading, heel=phi, zeta_mid=zeta)
     close(eq.sinkage, d * jnp.cos(phi), rtol=0, atol=1e-9)
     close(eq.trim, 0.0, rtol=0, atol=1e-9)
     close(eq.volume, L * B * d, rtol=1e-12, atol=0)
@@ -109,13 +137,13 @@ def test_box_in_wave_against_sectional_closed_form(box, box_loading, zeta):
 def test_box_delta_gm_even_in_zeta(box, box_loading, zeta):
     # Upright box in a wave of length L: no sinkage or trim, KB rises by ζ²/(4d) and BM is unchanged, so
     # ΔGM = ζ²/(4d) for crest and trough alike.
-    p = hs.hydrostatic_particulars(box, box_loading, zeta_mid=zeta)
+    p = hydrostatic_particulars(box, box_loading, zeta_mid=zeta)
     close(p.draught, d, rtol=0, atol=1e-10)
     close(p.trim, 0.0, rtol=0, atol=1e-10)
     close(p.kb, (d**2 + zeta**2 / 2) / (2 * d), rtol=0, atol=1e-11)
     close(p.bm, BM, rtol=0, atol=1e-11)
     close(p.gm - GM, zeta**2 / (4 * d), rtol=0, atol=1e-11)
-    close(hs.metacentric_height(box, box_loading, zeta_mid=zeta), p.gm, rtol=0, atol=1e-12)
+    close(metacentric_height(box, box_loading, zeta_mid=zeta), p.gm, rtol=0, atol=1e-12)
 
 
 # ------------------------------------------------------------------------------------------------------------
@@ -126,12 +154,12 @@ WL, WB, WT, WD = 100.0, 10.0, 6.25, 10.0
 
 
 def test_wigley_closed_forms():
-    hull = hs.wigley_hull(WL, WB, WT, WD, n_stations=65, n_waterlines=33)
-    b = hs.buoyancy(hull, WT)
+    hull = wigley_hull(WL, WB, WT, WD, n_stations=65, n_waterlines=33)
+    b = buoyancy(hull, WT)
     # BM = d(horizontal centre of buoyancy)/dφ − KB at fixed waterline (the volume is stationary in φ at φ =
     # 0).
     h = 1e-6
-    bp, bn = hs.buoyancy(hull, WT, heel=h), hs.buoyancy(hull, WT, heel=-h)
+    bp, bn = buoyancy(hull, WT, heel=h), buoyancy(hull, WT, heel=-h)
     bm = (bp.horizontal_centre - bn.horizontal_centre) / (2 * h) - b.vertical_centre
     # Discretisation error O(Δx², Δz²): 5e-4 of the volume at this resolution (see the convergence test).
     close(b.volume, 4 / 9 * WL * WB * WT, rtol=1e-3, atol=0)
@@ -148,7 +176,7 @@ def test_wigley_second_order_convergence(refine):
     for n in (9, 17, 33):
         ns = 2 * n - 1 if refine in ("both", "stations") else 33
         nw = n if refine in ("both", "waterlines") else 33
-        b = hs.buoyancy(hs.wigley_hull(WL, WB, WT, WD, n_stations=ns, n_waterlines=nw), WT)
+        b = buoyancy(wigley_hull(WL, WB, WT, WD, n_stations=ns, n_waterlines=nw), WT)
         vols.append(float(b.volume))
         kbs.append(float(b.vertical_centre))
     # Every Wigley section has the same shape, so KB does not depend on the stations at all.
@@ -177,17 +205,17 @@ def test_c11_hull_matches_table_1(c11, c11_solution):
     # Table 1's Δ = 6.7247e7 kg and Cb = 0.56 are consistent only at ρ = 1000; at ρ = 1025 both within 2 %.
     close(p.displacement, 6.7247e7, rtol=0.02, atol=0)
     close(p.block_coefficient, 0.56, rtol=0.02, atol=0)
-    close(p.gm, hs.C11_GM0, rtol=0, atol=1e-3)
+    close(p.gm, C11_GM0, rtol=0, atol=1e-3)
     close(p.trim, 0.0, rtol=0, atol=1e-8)
     assert 0.96 < float(p.midship_coefficient) < 0.99
 
 
 def test_c11_file_is_the_formula():
-    formula = hs.c11_like_hull()
-    text = hs.hull_to_toml(formula, {"kg_m": 15.0, "draught_m": 11.5})
-    again, loading = hs.hull_from_dict(tomllib.loads(text))
+    formula = c11_like_hull()
+    text = hull_to_toml(formula, {"kg_m": 15.0, "draught_m": 11.5})
+    again, loading = hull_from_dict(tomllib.loads(text))
     assert loading == {"kg_m": 15.0, "draught_m": 11.5}
-    shipped = hs.c11_hull()
+    shipped = c11_hull()
     for h in (again, shipped):
         close(h.stations, formula.stations, rtol=0, atol=5.1e-5)
         close(h.waterlines, formula.waterlines, rtol=0, atol=5.1e-5)
@@ -201,7 +229,7 @@ def test_balance_conserved_everywhere(c11, c11_loading, c11_solution):
     assert float(sol.max_lcb_error) < 1e-8
     # Independent check: the balanced waterlines, fed back without balance, displace the mass with LCB = LCG.
     zz, pp = jnp.meshgrid(sol.zeta_mid, sol.heels, indexing="ij")
-    b = jax.vmap(lambda s, t, p, z: hs.buoyancy(c11, s, trim=t, heel=p, zeta_mid=z))(
+    b = jax.vmap(lambda s, t, p, z: buoyancy(c11, s, trim=t, heel=p, zeta_mid=z))(
         sol.sinkage.ravel(), sol.trim.ravel(), pp.ravel(), zz.ravel()
     )
     close(b.volume, c11_loading.volume, rtol=1e-10, atol=0)
@@ -241,17 +269,17 @@ def test_gm_is_the_slope_of_the_free_trim_gz(c11, c11_loading, c11_solution):
     gm = jnp.concatenate([sol.gm0[None], sol.gm[idx]])
     # Same shapes and options as the CLI's figure curves (heels (1, 37), amplitudes (3, 1)): one compilation.
     heel = jnp.concatenate([jnp.array([-h, h]), jnp.radians(jnp.linspace(5.0, 90.0, 35))])[None, :]
-    eq = hs.equilibrium(c11, c11_loading, heel=heel, zeta_mid=zeta[:, None], throw=False)
+    eq = equilibrium(c11, c11_loading, heel=heel, zeta_mid=zeta[:, None], throw=False)
     assert bool(jnp.all(eq.converged))
     slope = (eq.gz[:, 1] - eq.gz[:, 0]) / (2 * h)
     close(gm, slope, rtol=0, atol=1e-5)
 
 
 def test_ship_from_hull(c11, c11_solution):
-    ship = hs.c11_hull_ship()
+    ship = c11_hull_ship()
     validate_ship(ship)
     sol = c11_solution
-    close(ship.gm0, hs.C11_GM0, rtol=0, atol=1e-3)
+    close(ship.gm0, C11_GM0, rtol=0, atol=1e-3)
     close(ship.roll_period, 24.4, rtol=0, atol=0)
     close(ship.delta_gm, sol.delta_gm_coefficients, rtol=1e-12, atol=1e-15)
     close(
@@ -263,10 +291,10 @@ def test_ship_from_hull(c11, c11_solution):
     close(ship.displacement, sol.particulars.displacement, rtol=1e-12, atol=0)
     close(ship.damping, jaxroll.c11_representative().damping, rtol=0, atol=0)
     assert "REPRESENTATIVE" in ship.provenance
-    gy = hs.ship_from_hydrostatics(sol, c11, roll_gyradius=16.0, added_inertia=0.2)
+    gy = ship_from_hydrostatics(sol, c11, roll_gyradius=16.0, added_inertia=0.2)
     close(
         gy.roll_period,
-        2 * math.pi * 16.0 * math.sqrt(1.2) / math.sqrt(hs.GRAVITY * float(sol.gm0)),
+        2 * math.pi * 16.0 * math.sqrt(1.2) / math.sqrt(GRAVITY * float(sol.gm0)),
         rtol=1e-12,
         atol=0,
     )
@@ -284,10 +312,10 @@ def test_grad_matches_finite_difference(c11):
     zeta = jnp.array([-3.0, -2.0, -1.0, 0.0, 1.0, 2.0, 3.0])
 
     def fitted_gm_3m(breadth, kg):
-        hull = hs.scale_hull(c11, breadth=breadth)
-        loading = hs.loading_condition(hull, kg=kg, draught=11.5)
-        gm = hs.metacentric_height(hull, loading, zeta_mid=zeta)
-        c, _ = hs.fit_delta_gm_polynomial(zeta, gm - gm[3], degree=3)
+        hull = scale_hull(c11, breadth=breadth)
+        loading = loading_condition(hull, kg=kg, draught=11.5)
+        gm = metacentric_height(hull, loading, zeta_mid=zeta)
+        c, _ = fit_delta_gm_polynomial(zeta, gm - gm[3], degree=3)
         return gm[3] + jnp.sum(c * 3.0 ** jnp.arange(7))
 
     x0 = (jnp.asarray(1.0), jnp.asarray(15.5))
@@ -353,7 +381,7 @@ def _offsets(**changes):
 )
 def test_hull_validation_messages(changes, match):
     with pytest.raises(ValueError, match=match):
-        hs.Hull(**_offsets(**changes))
+        Hull(**_offsets(**changes))
 
 
 def _hull_dict(**hull_changes):
@@ -405,18 +433,18 @@ def _hull_dict(**hull_changes):
 )
 def test_hull_file_messages(data, match):
     with pytest.raises(ValueError, match=match):
-        hs.hull_from_dict(data, source="test.toml")
+        hull_from_dict(data, source="test.toml")
 
 
 def test_hull_file_amidships_origin_and_io_errors(tmp_path):
-    hull, _ = hs.hull_from_dict(_hull_dict(stations_m=[-50.0, 0.0, 50.0], station_origin="amidships"))
+    hull, _ = hull_from_dict(_hull_dict(stations_m=[-50.0, 0.0, 50.0], station_origin="amidships"))
     close(hull.stations, [0.0, 50.0, 100.0], rtol=0, atol=0)
     with pytest.raises(FileNotFoundError, match=r"Hull file '.*nope.toml' does not exist"):
-        hs.load_hull(tmp_path / "nope.toml")
+        load_hull(tmp_path / "nope.toml")
     bad = tmp_path / "bad.toml"
     bad.write_text("[hull\nlpp_m = 3")
     with pytest.raises(ValueError, match=r"bad.toml: not valid TOML"):
-        hs.load_hull(bad)
+        load_hull(bad)
     nan = tmp_path / "nan.toml"
     nan.write_text(
         "[hull]\nlpp_m = 100.0\ndepth_m = 10.0\nstations_m = [0.0, 50.0, 100.0]\nwaterlines_m = [0.0, 5.0]\n"
@@ -425,7 +453,7 @@ def test_hull_file_amidships_origin_and_io_errors(tmp_path):
     with pytest.raises(
         ValueError, match=r"nan.toml: `half_breadths` contains a non-finite value \(nan\) at index \(0, 1\)"
     ):
-        hs.load_hull(nan)
+        load_hull(nan)
 
 
 @pytest.mark.parametrize(
@@ -453,49 +481,49 @@ def test_hull_file_amidships_origin_and_io_errors(tmp_path):
     ],
 )
 def test_loading_messages(kwargs, match):
-    hull = hs.Hull(**_offsets())
+    hull = Hull(**_offsets())
     with pytest.raises(ValueError, match=match):
-        hs.loading_condition(hull, **kwargs)
+        loading_condition(hull, **kwargs)
 
 
 def test_other_messages(box, box_loading, c11_solution, c11):
     with pytest.raises(
         ValueError, match=r"KG is required: give `kg` \[m\] \(CLI: --kg\) or set \[loading\] kg_m"
     ):
-        hs.loading_from_dict(box, {"draught_m": 3.0})
+        loading_from_dict(box, {"draught_m": 3.0})
     with pytest.raises(ValueError, match=r"`zeta_max` must be a finite amplitude > 0 \[m\]; got -1.0"):
-        hs.default_zeta_grid(-1.0)
+        default_zeta_grid(-1.0)
     with pytest.raises(ValueError, match=r"give at least 7 amplitudes; got n_zeta = 5"):
-        hs.default_zeta_grid(3.0, 5)
+        default_zeta_grid(3.0, 5)
     with pytest.raises(ValueError, match=r"`heel_max` must be in \(0, π/2\] rad \(0–90°\); got 70.0 rad"):
-        hs.default_heel_grid(70.0)
+        default_heel_grid(70.0)
     with pytest.raises(ValueError, match=r"give at least 5 heels; got n_heel = 3"):
-        hs.default_heel_grid(1.0, 3)
+        default_heel_grid(1.0, 3)
     with pytest.raises(ValueError, match=r"at least 6 distinct non-zero amplitudes"):
-        hs.hull_hydrostatics(box, box_loading, zeta_mid=[-1.0, 0.0, 1.0])
+        hull_hydrostatics(box, box_loading, zeta_mid=[-1.0, 0.0, 1.0])
     with pytest.raises(ValueError, match=r"at least 4 distinct non-zero heels"):
-        hs.hull_hydrostatics(box, box_loading, heels=[0.0, 0.1])
+        hull_hydrostatics(box, box_loading, heels=[0.0, 0.1])
     with pytest.raises(
         ValueError, match=r"`heels` must be in radians within \[−π/2, π/2\]; got max \|φ\| = 60.0"
     ):
-        hs.hull_hydrostatics(box, box_loading, heels=[0.0, 15.0, 30.0, 45.0, 60.0])
+        hull_hydrostatics(box, box_loading, heels=[0.0, 15.0, 30.0, 45.0, 60.0])
     with pytest.raises(ValueError, match=r"`zeta_mid` and `heels` must be 1-D grids"):
-        hs.hull_hydrostatics(box, box_loading, zeta_mid=np.ones((2, 7)))
+        hull_hydrostatics(box, box_loading, zeta_mid=np.ones((2, 7)))
     with pytest.raises(ValueError, match=r"`degree` must be between 1 and 6"):
-        hs.fit_delta_gm_polynomial(jnp.ones(8), jnp.ones(8), degree=7)
+        fit_delta_gm_polynomial(jnp.ones(8), jnp.ones(8), degree=7)
     with pytest.raises(
         ValueError, match=r"give exactly one of `roll_period` \[s\] and `roll_gyradius` \[m\]"
     ):
-        hs.ship_from_hydrostatics(c11_solution, c11)
+        ship_from_hydrostatics(c11_solution, c11)
     with pytest.raises(ValueError, match=r"`roll_period` must be a finite period > 0 \[s\]; got -3.0"):
-        hs.ship_from_hydrostatics(c11_solution, c11, roll_period=-3.0)
+        ship_from_hydrostatics(c11_solution, c11, roll_period=-3.0)
 
 
 def test_unbalanceable_loading_raises(box):
     # LCG at the bow: no trim can bring the LCB there before the deck dips, so the balance cannot converge.
-    loading = hs.loading_condition(box, kg=KG, draught=d, lcg=L)
+    loading = loading_condition(box, kg=KG, draught=d, lcg=L)
     with pytest.raises(RuntimeError, match=r"quasi-static balance \(sinkage and trim\) did not converge"):
-        hs.equilibrium(box, loading, heel=jnp.zeros(4), zeta_mid=0.0)  # shapes of the wave test: no recompile
+        equilibrium(box, loading, heel=jnp.zeros(4), zeta_mid=0.0)  # shapes of the wave test: no recompile
 
 
 # ------------------------------------------------------------------------------------------------------------
@@ -542,7 +570,7 @@ def test_cli_errors(tmp_path, box, capsys):
     from jaxroll._cli import main
 
     hull_file = tmp_path / "box.toml"
-    hull_file.write_text(hs.hull_to_toml(box, {"kg_m": KG, "draught_m": d}))
+    hull_file.write_text(hull_to_toml(box, {"kg_m": KG, "draught_m": d}))
     assert main(["hydrostatics", str(hull_file), "--out", str(tmp_path / "o")]) == 2
     assert "roll period is not a hydrostatic quantity: give --roll-period S" in capsys.readouterr().err
     assert main(["hydrostatics", str(tmp_path / "missing.toml")]) == 2

@@ -9,7 +9,7 @@ import jaxroll
 
 @pytest.fixture(scope="module")
 def problem():
-    return jaxroll.make_problem(jaxroll.c11_representative(), jaxroll.ITTC(7.0, 10.0), dt=0.5)[0]
+    return jaxroll.RollProblem.from_sea(jaxroll.c11_representative(), jaxroll.ITTC(7.0, 10.0), dt=0.5)
 
 
 def test_maxima_nested_reproducible_and_chunk_invariant(problem):

@@ -1,4 +1,4 @@
-"""Moment method (jaxroll.theory._moments): generated moment equations, closure, stationary solve, PDF.
+"""Moment method (jaxroll.theory.moment_pdf and its parts): generated moment equations, closure, stationary solve, PDF.
 
 Exact anchors: the filter-only moment equations vs the Lyapunov covariance and Isserlis; white parametric
 noise (THEORY §8.2: exact second moments and the mean-square stability threshold); Duffing with additive white
@@ -21,7 +21,8 @@ import scipy.linalg
 import scipy.special
 
 import jaxroll as jxr
-from jaxroll.theory._moments import (
+from jaxroll.theory import (
+    AmplitudeFamily,
     PolynomialSDE,
     fit_amplitude_family,
     moment_equations,
@@ -34,9 +35,13 @@ SHIP = jxr.c11_representative()
 T_ROLL = float(SHIP.roll_period)
 
 
+def _wave(hs=7.0):
+    """Grim's effective wave of the ITTC sea (T01 = 10 s), head seas at zero speed."""
+    return jxr.EffectiveWave(jxr.ITTC(hs, 10.0), SHIP.lpp)
+
+
 def _filter(hs=7.0):
-    wave = jxr.EffectiveWave(jxr.ITTC(hs, 10.0), SHIP.lpp)
-    return jxr.fit_filter(wave, order=4, match_frequency=2 * SHIP.omega0).filter
+    return jxr.fit_filter(_wave(hs), order=4, match_frequency=2 * SHIP.omega0).filter
 
 
 def _affine_fixed_point(eqs, sde):
@@ -198,7 +203,7 @@ def test_roll_system_structure_and_symmetry():
     with pytest.raises(ValueError, match="damping"):
         roll_sde(SHIP, _filter(), damping="quadratic")
     with pytest.raises(ValueError, match="envelope"):
-        moment_pdf(SHIP, jxr.ITTC(7.0, 10.0), envelope="hilbert")
+        moment_pdf(SHIP, _wave(), envelope="hilbert")
 
 
 # ------------------------------------------------------------------------------------------------------------
@@ -208,8 +213,6 @@ def test_roll_system_structure_and_symmetry():
 
 @pytest.mark.parametrize("nu, c2, c3", [(1.5, 4.0, 6.0), (-0.6, 2.0, 9.0), (0.3, -1.0, 20.0)])
 def test_amplitude_family_normalisation_vs_parabolic_cylinder(nu, c2, c3):
-    from jaxroll.theory._moments import AmplitudeFamily
-
     fam = AmplitudeFamily(jnp.asarray(nu), jnp.asarray(c2), jnp.asarray(c3), jnp.asarray(0.2))
 
     def inv_norm(mu):  # THEORY §4: Γ(μ+1)(2c3)^{−(μ+1)/2} e^{c2²/(8c3)} D_{−(μ+1)}(c2/√(2c3))
@@ -246,13 +249,13 @@ def test_amplitude_family_fit_reproduces_its_moments():
 
 @pytest.fixture(scope="module")
 def ship_solutions():
-    sea = jxr.ITTC(7.0, 10.0)
-    return {n: moment_pdf(SHIP, sea, closure_order=n) for n in (4, 6)}
+    wave = _wave(7.0)
+    return {n: moment_pdf(SHIP, wave, closure_order=n) for n in (4, 6)}
 
 
 @pytest.fixture(scope="module")
 def monte_carlo_7m():
-    problem, _ = jxr.make_problem(SHIP, jxr.ITTC(7.0, 10.0), method="filter", dt=0.5, filter_order=4)
+    problem = jxr.RollProblem.from_sea(SHIP, jxr.ITTC(7.0, 10.0), excitation="filter", dt=0.5, filter_order=4)
     return jxr.monte_carlo_amplitudes(
         problem, jax.random.key(0), num_realizations=400, duration=2400.0, discard=600.0, chunk_size=200
     )
@@ -280,21 +283,23 @@ def test_default_ship_order4_order6_vs_monte_carlo(ship_solutions, monte_carlo_7
     """
     mc = monte_carlo_7m
     pm = mc.phi_moments()
-    q_mc = mc.quantiles("envelope")
+    q_mc = np.rad2deg(mc.quantiles("envelope"))
+    mean_mc = np.rad2deg(mc.mean("envelope"))
+    levels = jnp.array([0.5, 0.9, 0.99])
     rel = lambda a, b: float(a) / float(b) - 1
     s4, s6 = ship_solutions[4], ship_solutions[6]
     assert 0.03 < rel(s6.e_phi2, pm["E_phi2"]) < 0.25
     assert abs(rel(s6.e_phi4, pm["E_phi4"])) < 0.12
-    assert 0.03 < rel(s6.mean_amplitude_deg, mc.mean("envelope")) < 0.25
-    assert abs(rel(s6.quantiles_deg()[2], q_mc[2])) < 0.10
+    assert 0.03 < rel(np.rad2deg(s6.mean()), mean_mc) < 0.25
+    assert abs(rel(np.rad2deg(s6.quantile(levels))[2], q_mc[2])) < 0.10
     assert 0.35 < rel(s4.e_phi2, pm["E_phi2"]) < 0.60
-    assert 0.20 < rel(s4.mean_amplitude_deg, mc.mean("envelope")) < 0.45
-    assert abs(rel(s4.quantiles_deg()[2], q_mc[2])) < 0.10
+    assert 0.20 < rel(np.rad2deg(s4.mean()), mean_mc) < 0.45
+    assert abs(rel(np.rad2deg(s4.quantile(levels))[2], q_mc[2])) < 0.10
     # the family is not the bottleneck: fitted to the MC's own envelope moments it reproduces the MC
     mid = np.deg2rad((mc.edges_deg[1:] + mc.edges_deg[:-1]) / 2)
     w = mc.counts_envelope / mc.counts_envelope.sum()
     fam, _, _ = fit_amplitude_family(jnp.asarray([np.sum(w * mid**k) for k in (2, 4, 6)]))
-    np.testing.assert_allclose(np.rad2deg(float(fam.mean())), mc.mean("envelope"), rtol=0.02, atol=0)
+    np.testing.assert_allclose(np.rad2deg(float(fam.mean())), mean_mc, rtol=0.02, atol=0)
     np.testing.assert_allclose(
         np.rad2deg(fam.quantile(jnp.array([0.5, 0.99]))), q_mc[[0, 2]], rtol=0.02, atol=0
     )
@@ -302,23 +307,26 @@ def test_default_ship_order4_order6_vs_monte_carlo(ship_solutions, monte_carlo_7
 
 def test_moment_pdf_outputs(ship_solutions):
     s = ship_solutions[6]
-    assert np.all(np.asarray(s.pdf) >= 0) and np.all(np.isfinite(np.asarray(s.pdf)))
+    # the PDF on a uniform grid (0, 6 r.m.s. envelopes]
+    grid = np.linspace(0.0, 6.0 * np.sqrt(float(s.amplitude_moments[0])), 401)[1:]
+    pdf = np.asarray(s.pdf(grid))
+    assert np.all(pdf >= 0) and np.all(np.isfinite(pdf))
     bins = np.arange(0.0, 91.0, 1.0)
     per_deg = np.asarray(s.pdf_per_degree(bins))
     assert np.all(per_deg >= 0)
     np.testing.assert_allclose(per_deg.sum(), 1.0, rtol=0, atol=1e-7)  # 1° bins up to 90°
     # the grid (6 r.m.s. envelopes) holds all the mass; the trapezoid rule on it is accurate to O(h² p'(0))
-    grid = np.concatenate([[0.0], np.asarray(s.grid)])
+    grid = np.concatenate([[0.0], grid])
     np.testing.assert_allclose(s.family.cdf(grid[-1]), 1.0, rtol=0, atol=1e-6)
-    np.testing.assert_allclose(np.trapezoid(np.concatenate([[0.0], np.asarray(s.pdf)]), grid), 1.0, atol=1e-3)
+    np.testing.assert_allclose(np.trapezoid(np.concatenate([[0.0], pdf]), grid), 1.0, atol=1e-3)
     # the fitted family reproduces the envelope moments it was fitted to
     np.testing.assert_allclose(
         s.family.moment(jnp.array([2.0, 4.0, 6.0])), s.amplitude_moments, rtol=1e-9, atol=0
     )
     np.testing.assert_allclose(s.amplitude_moments[0], 2 * s.e_phi2, rtol=1e-12, atol=0)  # E[A²] = 2E[φ²]
-    q = np.asarray(s.quantiles_deg())
+    q = np.rad2deg(np.asarray(s.quantile(jnp.array([0.5, 0.9, 0.99]))))
     assert q[0] < q[1] < q[2]
-    summary = s.summary()
+    summary = {**s.summary(), **s.details()}
     json.dumps(summary)
     assert summary["converged"] and summary["closure_order"] == 6
     np.testing.assert_allclose(summary["quantiles_deg"]["99"], q[2], rtol=1e-12, atol=0)
@@ -327,10 +335,10 @@ def test_moment_pdf_outputs(ship_solutions):
 def test_failures_are_reported_clearly():
     # order 6 has no stable fixed point at 5 m for this ship (the branch folds near H1/3 ≈ 6.27 m)
     with pytest.raises(eqx.EquinoxRuntimeError, match="closure failed"):
-        moment_pdf(SHIP, jxr.ITTC(5.0, 10.0), closure_order=6)
+        moment_pdf(SHIP, _wave(5.0), closure_order=6)
     # below the parametric-roll threshold the roll dies out: E[φ²] = 0 is the only (stable) fixed point
-    sol = moment_pdf(SHIP, jxr.ITTC(2.0, 10.0), closure_order=4, throw=False)
-    assert not sol.summary()["converged"] and "roll dies out" in sol.summary()["message"]
+    sol = moment_pdf(SHIP, _wave(2.0), closure_order=4, throw=False)
+    assert not sol.details()["converged"] and "roll dies out" in sol.details()["message"]
     assert int(sol.moments.relax_steps) < 10_000  # stopped by the decay event, not by max_steps
 
 
@@ -341,11 +349,11 @@ def test_failures_are_reported_clearly():
 
 def _tail_vs_b1(b1):
     ship = eqx.tree_at(lambda s: s.damping, SHIP, SHIP.damping.at[0].set(b1))
-    return moment_pdf(ship, jxr.ITTC(7.0, 10.0), closure_order=4).tail_probability(20.0)
+    return moment_pdf(ship, _wave(7.0), closure_order=4).sf(np.deg2rad(20.0))
 
 
 def _tail_vs_hs(hs):
-    return moment_pdf(SHIP, jxr.ITTC(hs, 10.0), closure_order=4).tail_probability(20.0)
+    return moment_pdf(SHIP, _wave(hs), closure_order=4).sf(np.deg2rad(20.0))
 
 
 @pytest.mark.parametrize(
@@ -366,22 +374,24 @@ def test_grad_tail_probability_vs_central_difference(fn, x0, h):
 @pytest.mark.slow
 @pytest.mark.parametrize("hs", [5.0, 7.0])
 def test_default_ship_vs_large_monte_carlo(hs):
-    problem, _ = jxr.make_problem(SHIP, jxr.ITTC(hs, 10.0), method="filter", dt=0.5, filter_order=4)
+    problem = jxr.RollProblem.from_sea(SHIP, jxr.ITTC(hs, 10.0), excitation="filter", dt=0.5, filter_order=4)
     mc = jxr.monte_carlo_amplitudes(
         problem, jax.random.key(1), num_realizations=4000, duration=3600.0, discard=600.0, chunk_size=500
     )
     pm = mc.phi_moments()
-    s4 = moment_pdf(SHIP, jxr.ITTC(hs, 10.0), closure_order=4)
+    mean_mc, q99_mc = np.rad2deg(mc.mean("envelope")), np.rad2deg(mc.quantiles("envelope")[2])
+    q99 = lambda sol: np.rad2deg(float(sol.quantile(0.99)))
+    s4 = moment_pdf(SHIP, _wave(hs), closure_order=4)
     rel = lambda a, b: float(a) / float(b) - 1
     if hs == 7.0:
-        s6 = moment_pdf(SHIP, jxr.ITTC(hs, 10.0), closure_order=6)
+        s6 = moment_pdf(SHIP, _wave(hs), closure_order=6)
         assert 0.10 < rel(s6.e_phi2, pm["E_phi2"]) < 0.17  # THEORY §6: +12…16 %
         assert abs(rel(s6.e_phi4, pm["E_phi4"])) < 0.04
-        assert 0.08 < rel(s6.mean_amplitude_deg, mc.mean("envelope")) < 0.18
-        assert -0.08 < rel(s6.quantiles_deg()[2], mc.quantiles("envelope")[2]) < 0.0
+        assert 0.08 < rel(np.rad2deg(s6.mean()), mean_mc) < 0.18
+        assert -0.08 < rel(q99(s6), q99_mc) < 0.0
         assert 0.40 < rel(s4.e_phi2, pm["E_phi2"]) < 0.55  # THEORY §6: +45 %
-        assert 0.28 < rel(s4.mean_amplitude_deg, mc.mean("envelope")) < 0.38
-        assert abs(rel(s4.quantiles_deg()[2], mc.quantiles("envelope")[2])) < 0.05
+        assert 0.28 < rel(np.rad2deg(s4.mean()), mean_mc) < 0.38
+        assert abs(rel(q99(s4), q99_mc)) < 0.05
     else:  # 5 m: order 4 only (order 6 folds); MC kurtosis ≈ 7.6, far from Gaussian: order 4 over-predicts
         assert 0.6 < rel(s4.e_phi2, pm["E_phi2"]) < 1.1
-        assert abs(rel(s4.quantiles_deg()[2], mc.quantiles("envelope")[2])) < 0.08
+        assert abs(rel(q99(s4), q99_mc)) < 0.08

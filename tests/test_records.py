@@ -10,14 +10,14 @@ import numpy as np
 import pytest
 
 import jaxroll as jxr
-from jaxroll.io._records import (
+from jaxroll.calibration import virtual_decay_record
+from jaxroll.io import (
     RecordError,
     load_record,
     load_records,
     make_record,
     record_to_text,
     save_record,
-    virtual_decay_record,
 )
 
 EXAMPLES = Path(str(files("jaxroll") / "data" / "records"))

@@ -17,9 +17,9 @@ import numpy as np
 import pytest
 
 import jaxroll
+from jaxroll import monte_carlo_max_roll, realization_mesh, wilson_interval
 from jaxroll._cli import main
-from jaxroll.roll._monte_carlo import CHECKPOINT_FILE, realization_mesh
-from jaxroll.roll._sweep import monte_carlo_max_roll, wilson_interval
+from jaxroll.roll._sharding import CHECKPOINT_FILE
 
 N = 7  # odd: divides neither 2 nor 4 devices, so every sharded run pads its last chunk
 DURATION = 300.0
@@ -36,7 +36,7 @@ CHILD = textwrap.dedent(
         jax.distributed.initialize(f"localhost:{port}", num_processes=nproc, process_id=pid)
     import numpy as np
     import jaxroll
-    from jaxroll.roll._sweep import monte_carlo_max_roll
+    from jaxroll import monte_carlo_max_roll
 
     problem = pickle.load(open(problem_file, "rb"))
     key = jax.random.key(11)
@@ -80,7 +80,7 @@ def _free_port() -> int:
 
 @pytest.fixture(scope="module")
 def problem():
-    return jaxroll.make_problem(jaxroll.c11_representative(), jaxroll.ITTC(7.0, 10.0))[0]
+    return jaxroll.RollProblem.from_sea(jaxroll.c11_representative(), jaxroll.ITTC(7.0, 10.0))
 
 
 @pytest.fixture(scope="module")
@@ -268,7 +268,7 @@ def test_foreign_checkpoint_is_refused(problem, finished_checkpoint, tmp_path, c
     if change == "seed":
         kwargs["seed"] = 6
     elif change == "hs":
-        problem = jaxroll.make_problem(jaxroll.c11_representative(), jaxroll.ITTC(5.0, 10.0))[0]
+        problem = jaxroll.RollProblem.from_sea(jaxroll.c11_representative(), jaxroll.ITTC(5.0, 10.0))
     with pytest.raises(ValueError, match=message + r".*Delete .* or pass another checkpoint directory"):
         if change == "duration":
             jaxroll.monte_carlo_amplitudes(
@@ -392,7 +392,7 @@ def test_sweep_cli_writes_map_and_json(tmp_path, capsys):
     assert np.all(counts >= np.array(d["n_capsized"]))
     assert len(d["points"]) == 4 and d["points"][0]["hs_m"] == 5.0
     # The 7 m, T01 = 10 s point equals the stand-alone Monte Carlo with the same seed (common random numbers).
-    problem = jaxroll.make_problem(jaxroll.c11_representative(), jaxroll.ITTC(7.0, 10.0))[0]
+    problem = jaxroll.RollProblem.from_sea(jaxroll.c11_representative(), jaxroll.ITTC(7.0, 10.0))
     stats = monte_carlo_max_roll(
         problem, jax.random.key(1), angle_deg=15.0, num_realizations=5, duration=300.0, chunk_size=4
     )

@@ -59,8 +59,8 @@ def sea_config(args, ship) -> dict:
 
 
 def build_problem(args, ship, *, phi0_deg: float = 5.0):
-    """make_problem from the parsed options. **Returns:** `(problem, filter_fit, sea)`."""
-    from .. import ITTC, make_problem
+    """`RollProblem.from_sea` from the parsed options. **Returns:** `(problem, filter_fit, sea)`."""
+    from .. import ITTC, RollProblem
 
     check_positive(args, "hs", "t01", "dt")
     if not (math.isfinite(args.speed) and args.speed >= 0):
@@ -68,14 +68,16 @@ def build_problem(args, ship, *, phi0_deg: float = 5.0):
     if args.method == "filter" and args.filter_order < 3:
         raise CLIError(f"--filter-order must be >= 3 (4 recommended); got {args.filter_order}.")
     sea = ITTC(args.hs, args.t01)
-    problem, fit = make_problem(
+    if not math.isfinite(phi0_deg):
+        raise CLIError(f"--phi0-deg must be finite; got {phi0_deg}.")
+    problem = RollProblem.from_sea(
         ship,
         sea,
         speed=args.speed,
         heading=args.heading,
-        method=args.method,
+        excitation=args.method,
         dt=args.dt,
         filter_order=args.filter_order,
-        phi0_deg=phi0_deg,
+        phi0=math.radians(phi0_deg),
     )
-    return problem, fit, sea
+    return problem, problem.filter_fit, sea

@@ -1,4 +1,4 @@
-"""Theoretical amplitude PDFs for the CLI: one place that calls jaxroll.theory with the CLI's options."""
+"""Theoretical amplitude laws for the CLI: one place that calls jaxroll.theory with the CLI's options."""
 
 from __future__ import annotations
 
@@ -9,59 +9,49 @@ import numpy as np
 from ._common import CLIError
 
 
-def _wave(ship, sea, args):
-    from .. import EffectiveWave
+def first_line(error: Exception) -> str:
+    """The user-facing line of an error (the `EquinoxRuntimeError:` text under jit, else the first line)."""
+    text = str(error)
+    marker = "EquinoxRuntimeError: "
+    if marker in text:
+        text = text.split(marker, 1)[1]
+    return text.strip().splitlines()[0] if text.strip() else type(error).__name__
 
-    return EffectiveWave(sea, ship.lpp, args.speed, args.heading)
 
-
-def compute(ship, sea, args, name: str, *, estimator: str = "envelope"):
-    """One theory's result object: Roberts (nonlinear restoring), ESAM, or the moment method (order-6 closure)."""
+def compute(problem, args, name: str, *, estimator: str = "envelope"):
+    """One theory's amplitude law for the Monte Carlo's own problem (same effective wave, same filter fit):
+    Roberts (nonlinear restoring), ESAM, or the moment method (order-6 closure, order 4 where 6 has no stable
+    fixed point — the closure used is recorded in the law's `details()`)."""
     from .. import theory
 
-    wave = _wave(ship, sea, args)
+    ship, wave = problem.ship, problem.wave
     try:
         if name == "roberts":
             return theory.roberts_pdf(ship, wave, restoring="nonlinear", estimator=estimator)
         if name == "esam":
             return theory.esam_pdf(ship, wave, estimator=estimator)
         if name == "moment":
-            return theory.moment_pdf_first_stable(ship, wave, filter_order=args.filter_order)
+            return theory.moment_pdf_first_stable(
+                ship, wave, shaping_filter=problem.filter_fit, filter_order=args.filter_order, estimator=estimator
+            )
     except (ValueError, RuntimeError) as e:
-        from ..theory._moments import _first_message
-
-        raise CLIError(f"{name}: {_first_message(e)}") from None
+        raise CLIError(f"{name}: {first_line(e)}") from None
     raise CLIError(f"unknown theory {name!r}")
 
 
-def _normalise_quantiles(q: dict) -> dict:
-    return {k.rstrip("%"): v for k, v in q.items()}
-
-
-def theory_summaries(ship, sea, args, names, bins_deg) -> dict:
-    """Per theory: `pdf` per degree on `bins_deg`, `mean_amplitude_deg`, `quantiles_deg`, parameters, timing."""
+def theory_summaries(problem, args, names, bins_deg) -> dict:
+    """Per theory (envelope law): `pdf` per degree on `bins_deg`, the law's summary, its details, timing."""
     out = {}
     for name in names:
         t0 = time.time()
-        result = compute(ship, sea, args, name)
-        pdf = np.asarray(result.pdf_per_degree(bins_deg), dtype=float)
-        summary = result.summary()
+        law = compute(problem, args, name)
+        summary = {**law.summary(bins_deg), **law.details()}
+        summary["pdf"] = np.asarray(summary.pop("pdf_per_degree"), dtype=float)
         summary.pop("bins_deg", None)
-        summary.pop("pdf_per_degree", None)
-        summary["quantiles_deg"] = _normalise_quantiles(summary["quantiles_deg"])
-        summary.setdefault("estimator", "envelope")
-        out[name] = {"pdf": pdf, **summary, "time_s": time.time() - t0}
+        out[name] = {**summary, "time_s": time.time() - t0}
     return out
 
 
-def theory_distributions(ship, sea, args, names) -> dict:
-    """Per-cycle amplitude distributions (`jaxroll.extremes._maxima.AmplitudeDistribution`) of each theory, for maxima."""
-    from ..extremes._maxima import AmplitudeDistribution
-
-    out = {}
-    for name in names:
-        estimator = "zero_crossing" if name in ("roberts", "esam") else "envelope"
-        result = compute(ship, sea, args, name, estimator=estimator)
-        a = np.linspace(1e-4, np.deg2rad(89.0), 4000)
-        out[name] = AmplitudeDistribution.from_pdf(a, np.asarray(result.pdf(a), dtype=float))
-    return out
+def theory_laws(problem, args, names) -> dict:
+    """Per theory, its per-half-cycle (zero-crossing) amplitude law: what the maxima and risk formulas need."""
+    return {name: compute(problem, args, name, estimator="zero_crossing") for name in names}

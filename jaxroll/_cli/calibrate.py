@@ -119,14 +119,14 @@ def register(sub) -> None:
 
 
 def _load(args, kind):
-    from ..io._records import load_records
+    from ..io import load_records
 
     return load_records(args.records, kind=kind, resample=args.resample)
 
 
 def _finish(args, kind, ship, fitted, payload, figures) -> int:
     from .. import ship_to_toml
-    from ..ship._ship import load_ship
+    from ..io._ship_file import load_ship
 
     out = Path(args.out or f"jaxroll-out/calibrate-{kind}")
     atomic_write_text(out / "ship.toml", ship_to_toml(fitted))
@@ -159,7 +159,7 @@ def _fmt(e) -> str:
 def run_decay(args) -> int:
     import matplotlib.pyplot as plt
 
-    from ..calibration._calibration import calibrated_ship, decay_agreement, fit_decay_ode, fit_extinction
+    from ..calibration import calibrated_ship, decay_agreement, fit_decay_ode, fit_extinction
     from ..plotting._calibration import plot_decay_fit, plot_extinction
 
     ship = load_ship_arg(args.ship)
@@ -199,7 +199,7 @@ def run_decay(args) -> int:
 def run_captive(args) -> int:
     import matplotlib.pyplot as plt
 
-    from ..calibration._calibration import calibrated_ship, fit_captive
+    from ..calibration import calibrated_ship, fit_captive
     from ..plotting._calibration import plot_captive, plot_captive_series
 
     if not args.block > 0:
@@ -242,7 +242,7 @@ def run_captive(args) -> int:
 def run_roll(args) -> int:
     import jax
 
-    from ..calibration._calibration import calibrated_ship, fit_roll_pdf
+    from ..calibration import calibrated_ship, fit_roll_pdf
     from ..plotting._calibration import plot_roll_calibration
 
     params = [p.strip() for p in args.params.split(",") if p.strip()]

@@ -71,33 +71,37 @@ def run(args) -> int:
     import jax.numpy as jnp
     import numpy as np
 
-    from ..ship import _hydrostatics as hs
+    from ..io._hull_file import loading_from_dict, read_hull_file
+    from ..io._ship_file import ship_to_dict, ship_to_toml
     from ..plotting._hydrostatics import plot_body_plan, plot_delta_gm, plot_gz_curves
-    from ..ship._ship import c11_representative, restoring_fields_from_gz, ship_to_dict, ship_to_toml
+    from ..ship._fits import default_heel_grid, default_zeta_grid, hull_hydrostatics, ship_from_hydrostatics
+    from ..ship._hull import C11_HULL_NOTE, _c11_hull_path
+    from ..ship._hydrostatics import equilibrium, metacentric_height
+    from ..ship._ship import c11_representative, restoring_fields_from_gz
 
     is_c11 = args.hull.lower() == "c11"
-    path = hs._c11_hull_path() if is_c11 else Path(args.hull)
+    path = _c11_hull_path() if is_c11 else Path(args.hull)
     if not is_c11 and not path.is_file():
         raise CLIError(f"hull file {str(path)!r} does not exist (give a TOML hull file, or `c11`).")
-    hull, file_loading = hs.read_hull_file(path)
+    hull, file_loading = read_hull_file(path)
 
     for flag, value in (("--zeta-max", args.zeta_max), ("--heel-max-deg", args.heel_max_deg)):
         if not (math.isfinite(value) and value > 0):
             raise CLIError(f"{flag} must be a finite number > 0; got {value}.")
     if args.heel_max_deg > 90:
         raise CLIError(f"--heel-max-deg must be at most 90; got {args.heel_max_deg}.")
-    zeta = hs.default_zeta_grid(args.zeta_max, args.n_zeta)
-    heels = hs.default_heel_grid(math.radians(args.heel_max_deg), args.n_heel)
+    zeta = default_zeta_grid(args.zeta_max, args.n_zeta)
+    heels = default_heel_grid(math.radians(args.heel_max_deg), args.n_heel)
 
     overrides = dict(
         draught=args.draught, displacement=args.displacement, lcg=args.lcg, water_density=args.water_density
     )
     if args.gm is not None:
-        probe = hs.loading_from_dict(hull, file_loading, kg=0.0, **overrides)
-        kg = float(hs.metacentric_height(hull, probe)) - args.gm
+        probe = loading_from_dict(hull, file_loading, kg=0.0, **overrides)
+        kg = float(metacentric_height(hull, probe)) - args.gm
     else:
         kg = args.kg
-    loading = hs.loading_from_dict(hull, file_loading, kg=kg, **overrides)
+    loading = loading_from_dict(hull, file_loading, kg=kg, **overrides)
 
     roll_period, gyradius = args.roll_period, args.roll_gyradius
     if roll_period is None and gyradius is None:
@@ -108,8 +112,8 @@ def run(args) -> int:
             )
         roll_period = 24.4
 
-    sol = hs.hull_hydrostatics(hull, loading, zeta_mid=zeta, heels=heels, wavelength=args.wavelength)
-    ship = hs.ship_from_hydrostatics(
+    sol = hull_hydrostatics(hull, loading, zeta_mid=zeta, heels=heels, wavelength=args.wavelength)
+    ship = ship_from_hydrostatics(
         sol,
         hull,
         roll_period=roll_period,
@@ -121,7 +125,7 @@ def run(args) -> int:
     # Smooth GZ curves for the figure: calm, crest and trough of the largest amplitude, 0–90°.
     fine = jnp.radians(jnp.linspace(0.0, 90.0, 37))
     zfig = jnp.array([0.0, -args.zeta_max, args.zeta_max])[:, None]
-    curves = hs.equilibrium(
+    curves = equilibrium(
         hull, loading, heel=fine[None, :], zeta_mid=zfig, wavelength=args.wavelength, throw=False
     )
 
@@ -158,7 +162,7 @@ def run(args) -> int:
     ax = plot_body_plan(hull, draught=float(p.draught))
     save_figure(ax.figure, out / "body_plan.png")
 
-    notes = [hs.C11_HULL_NOTE] if is_c11 else []
+    notes = [C11_HULL_NOTE] if is_c11 else []
     notes.append(
         "Roll period and damping are inputs, not hydrostatics; damping defaults to the default ship's."
     )

@@ -46,10 +46,8 @@ def run(args) -> int:
     import jax
     import numpy as np
 
-    from .. import monte_carlo_amplitudes
-    from ..extremes._maxima import max_pdf, max_pdf_asymptotic
-    from ..roll._maxima import monte_carlo_maxima
-    from ..plotting._pdf import maxima_comparison_figure, maxima_figures
+    from .. import max_pdf, max_pdf_asymptotic, monte_carlo_amplitudes, monte_carlo_maxima
+    from ..plotting import maxima_comparison_figure, maxima_figures
     from .pdf import parse_theories
 
     n0_all = parse_n0(args.n0)
@@ -71,7 +69,7 @@ def run(args) -> int:
     # The per-cycle amplitude PDF of the same sea (zero-crossing, after the discard), for P*(A_M).
     amp = monte_carlo_amplitudes(problem, jax.random.key(args.seed), num_realizations=min(args.realizations, 2000),
                                  duration=3600.0, discard=min(args.discard, 3000.0), chunk_size=args.chunk_size)
-    mc_dist = amp.distribution("zero_crossing", pool=20)  # 1° bins: P* amplifies histogram noise
+    mc_dist = amp.law("zero_crossing", pool=20)  # 1° bins: P* amplifies histogram noise
     for n0s, n_trials in groups:
         print(f"maxima: N0 = {n0s}, {n_trials} trials, discard {args.discard} s")
         progress = Progress(n_trials, f"trials (N0 ≤ {max(n0s)})", enabled=None if not args.quiet else False)
@@ -89,9 +87,9 @@ def run(args) -> int:
                 "exact": np.asarray(max_pdf(mc_dist, a, n0)) * np.pi / 180,
                 "asymptotic": np.asarray(max_pdf_asymptotic(mc_dist, a, n0)) * np.pi / 180}}
             if theories:
-                from ._theory import theory_distributions
+                from ._theory import theory_laws
 
-                for name, dist in theory_distributions(ship, sea, args, theories).items():
+                for name, dist in theory_laws(problem, args, theories).items():
                     curves[name] = {"exact": np.asarray(max_pdf(dist, a, n0)) * np.pi / 180,
                                     "asymptotic": np.asarray(max_pdf_asymptotic(dist, a, n0)) * np.pi / 180}
             per_n0[str(n0)] = {

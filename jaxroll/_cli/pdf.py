@@ -63,7 +63,7 @@ def run(args) -> int:
     import jax.numpy as jnp
 
     from .. import monte_carlo_amplitudes
-    from ..plotting._pdf import amplitude_pdf_figures
+    from ..plotting import amplitude_pdf_figures
 
     theories = parse_theories(args.theory)
     check_positive(args, "duration", "bin_width_deg")
@@ -99,7 +99,7 @@ def run(args) -> int:
     if theories:
         from ._theory import theory_summaries
 
-        summary["theory"] = theory_summaries(ship, sea, args, theories, bins)
+        summary["theory"] = theory_summaries(problem, args, theories, bins)
     config = {
         **sea_config(args, ship),
         "realizations": args.realizations,

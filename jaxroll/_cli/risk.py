@@ -51,9 +51,7 @@ def run(args) -> int:
     import jax.numpy as jnp
     import numpy as np
 
-    from .. import monte_carlo_amplitudes
-    from ..extremes._maxima import exposure_risk
-    from ..roll._sweep import monte_carlo_max_roll
+    from .. import exposure_risk, monte_carlo_amplitudes, monte_carlo_max_roll
     from .pdf import parse_theories
 
     theories = parse_theories(args.theory)
@@ -80,7 +78,7 @@ def run(args) -> int:
     angle_used = float(edges[k])
     survivors = stats.n_realizations - stats.n_capsized
     rate = n_amp / (survivors * (args.duration - args.discard))
-    mc = exposure_risk(stats.distribution("zero_crossing"), jnp.deg2rad(angle_used), rate=rate, duration=exposure,
+    mc = exposure_risk(stats.law("zero_crossing"), jnp.deg2rad(angle_used), rate=rate, duration=exposure,
                        n_amplitudes=n_amp,
                        n_exceed=n_exceed)
     # Direct estimate: trials as long as the exposure, no independence assumption between amplitudes.
@@ -103,9 +101,9 @@ def run(args) -> int:
                               "n_exceed": n_exceed, **_risk_dict(mc),
                               "method": "per-cycle amplitude distribution, amplitudes assumed independent"}}
     if theories:
-        from ._theory import theory_distributions
+        from ._theory import theory_laws
 
-        for name, tdist in theory_distributions(ship, sea, args, theories).items():
+        for name, tdist in theory_laws(problem, args, theories).items():
             result[name] = _risk_dict(exposure_risk(tdist, jnp.deg2rad(angle_used), rate=rate, duration=exposure))
     payload = {"config": {**sea_config(args, ship), "angle_deg": args.angle, "hours": args.hours,
                           "realizations": args.realizations, "duration_s": args.duration,

@@ -17,7 +17,7 @@ def register(sub) -> None:
 
 
 def run_show(args) -> int:
-    from .. import ship_to_dict, ship_to_toml
+    from ..io._ship_file import ship_to_dict, ship_to_toml
     from ..ship._restoring import righting_lever, vanishing_angle
 
     ship = load_ship_arg(args.ship)

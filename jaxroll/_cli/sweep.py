@@ -186,8 +186,7 @@ def run(args) -> int:
     import jax.numpy as jnp
     import numpy as np
 
-    from .. import ITTC, EffectiveWave, check_time_step, ship_to_dict, vanishing_angle
-    from ..roll._sweep import sweep_sea_states
+    from .. import ITTC, EffectiveWave, check_time_step, ship_to_dict, sweep_sea_states, vanishing_angle
 
     hs = parse_list(args.hs, "--hs", minimum=0)
     t01 = parse_list(args.t01, "--t01", minimum=0)
@@ -250,10 +249,10 @@ def run(args) -> int:
         num_realizations=args.realizations,
         duration=args.duration,
         discard=args.discard,
-        method=args.method,
+        excitation=args.method,
         dt=args.dt,
         filter_order=args.filter_order,
-        phi0_deg=args.phi0_deg,
+        phi0=math.radians(args.phi0_deg),
         chunk_size=args.chunk_size,
         devices=args.devices,
         checkpoint=args.checkpoint,

@@ -109,7 +109,7 @@ _COMPACT = {"time": 3, "roll": 3, "wave": 2, "delta_gm": 3}
 
 
 def _write(record, path: Path, compress: bool, compact: bool = False) -> Path:
-    from ..io._records import record_to_text
+    from ..io import record_to_text
 
     text = record_to_text(record, decimals=_COMPACT if compact else None)
     if compress:
@@ -125,7 +125,7 @@ def run(args) -> int:
     import jax.numpy as jnp
 
     from .. import ITTC, ship_to_dict, ship_to_toml
-    from ..io._records import virtual_captive_record, virtual_decay_record, virtual_roll_record
+    from ..calibration import virtual_captive_record, virtual_decay_record, virtual_roll_record
     from ..ship._ship import validate_ship
 
     tests = [t.strip() for t in args.tests.split(",") if t.strip()]

@@ -22,8 +22,8 @@ def register(sub) -> None:
 def run(args) -> int:
     import jax.numpy as jnp
 
-    from .. import ITTC, vanishing_angle
-    from ..plotting._pdf import amplitude_pdf_figures
+    from ..plotting import amplitude_pdf_figures
+    from ._sea import build_problem
     from ._theory import theory_summaries
     from .pdf import parse_theories, pdf_bins
 
@@ -34,10 +34,10 @@ def run(args) -> int:
 
         raise CLIError(f"--speed must be >= 0 [m/s]; got {args.speed}.")
     ship = load_ship_arg(args.ship)
-    sea = ITTC(args.hs, args.t01)
-    bins = pdf_bins(args.bin_width_deg, float(jnp.rad2deg(vanishing_angle(ship))))
     t0 = time.time()
-    theories = theory_summaries(ship, sea, args, names, bins)
+    problem, _, _ = build_problem(args, ship)
+    bins = pdf_bins(args.bin_width_deg, float(jnp.rad2deg(problem.capsize_angle)))
+    theories = theory_summaries(problem, args, names, bins)
     payload = {"config": {**sea_config(args, ship), "theory": names}, "bins_deg": bins, "theory": theories,
                "run_time_s": time.time() - t0}
     out = Path(args.out)

@@ -10,7 +10,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from ..calibration._calibration import CaptiveFit, DecayFit, RollFit, SeaStateComparison
+from ..calibration import CaptiveFit, DecayFit, RollFit, SeaStateComparison
 
 
 def _axes(ax, figsize=(6.0, 4.0)):

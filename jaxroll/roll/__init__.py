@@ -1,1 +1,44 @@
-"""roll."""
+"""The roll equation, its excitation, amplitude estimators, observers and the Monte Carlo."""
+
+from ._amplitudes import (
+    hilbert_envelope as hilbert_envelope,
+    zero_crossing_amplitudes as zero_crossing_amplitudes,
+)
+from ._equation import (
+    RealizationEnd as RealizationEnd,
+    RollProblem as RollProblem,
+    check_time_step as check_time_step,
+    roll_acceleration as roll_acceleration,
+    roll_time_series as roll_time_series,
+    roll_vector_field as roll_vector_field,
+    simulate as simulate,
+)
+from ._excitation import (
+    AbstractExcitation as AbstractExcitation,
+    FilterExcitation as FilterExcitation,
+    SampledExcitation as SampledExcitation,
+    SuperpositionExcitation as SuperpositionExcitation,
+)
+from ._monte_carlo import (
+    default_duration as default_duration,
+    monte_carlo as monte_carlo,
+    monte_carlo_amplitudes as monte_carlo_amplitudes,
+    monte_carlo_max_roll as monte_carlo_max_roll,
+    monte_carlo_maxima as monte_carlo_maxima,
+    simulate_chunk as simulate_chunk,
+)
+from ._observers import (
+    AbstractObserver as AbstractObserver,
+    AmplitudeHistogram as AmplitudeHistogram,
+    FirstMaxima as FirstMaxima,
+    MaxRoll as MaxRoll,
+)
+from ._sharding import realization_mesh as realization_mesh
+from ._statistics import (
+    AmplitudeStatistics as AmplitudeStatistics,
+    CapsizeCounts as CapsizeCounts,
+    MaximaStatistics as MaximaStatistics,
+    MaxRollStatistics as MaxRollStatistics,
+    SweepResult as SweepResult,
+)
+from ._sweep import sweep_sea_states as sweep_sea_states

@@ -11,21 +11,22 @@ the device count or the number of steps simulated after it.
 
 from __future__ import annotations
 
-import abc
 import math
+import warnings
 
 import equinox as eqx
 import jax
 import jax.numpy as jnp
 import jax.random as jr
+import numpy as np
 from jaxtyping import Array, Float, PRNGKeyArray
 
-from ..sea._filters import ShapingFilter
-from ..sea._grim import EffectiveWave, superpose, superposition_length
+from ..sea._filters import FilterFit, fit_filter
+from ..sea._grim import EffectiveWave
+from ..sea._spectra import AbstractWaveSpectrum
 from ..ship._restoring import parametric_excitation, restoring_moment, vanishing_angle
 from ..ship._ship import Ship
-
-BLOCK = 256  # time steps per noise block
+from ._excitation import BLOCK, AbstractExcitation, FilterExcitation, SuperpositionExcitation
 
 
 def roll_acceleration(ship: Ship, phi, dphi, p, m=0.0) -> Float[Array, "..."]:
@@ -54,129 +55,52 @@ def rk4_step(ship: Ship, y, p, m, h):
     return y + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
 
 
-# ----------------------------------------------------------------------------------------------------------------
-# Excitation sources: ζ_G and dζ_G/dt at the step ends, one block of BLOCK steps at a time.
-# ----------------------------------------------------------------------------------------------------------------
-
-
-class AbstractExcitation(eqx.Module):
-    """Source of Grim's effective wave ζ_G [m] and dζ_G/dt [m/s] on the time grid t_k = k·dt."""
-
-    dt: eqx.AbstractVar[float]
-
-    @abc.abstractmethod
-    def init(self, key: PRNGKeyArray, num_steps: int):
-        """State before the first block, and (ζ_G, dζ_G/dt) at t = 0."""
-
-    @abc.abstractmethod
-    def block(self, key: PRNGKeyArray, state, index):
-        """Advance one block: returns (state, ζ_G[BLOCK], dζ_G/dt[BLOCK]) at steps index·BLOCK + 1 … + BLOCK."""
-
-
-class FilterExcitation(AbstractExcitation):
-    """Method 2: exact discretisation of a shaping filter, started from its stationary law (no transient)."""
-
-    phi: Float[Array, "n n"]
-    chol: Float[Array, "n n"]
-    stationary_chol: Float[Array, "n n"]
-    c: Float[Array, " n"]
-    c_a: Float[Array, " n"]
-    dt: float = eqx.field(static=True)
-
-    def __init__(self, shaping_filter: ShapingFilter, dt: float):
-        """**Arguments:** `shaping_filter` (e.g. `fit_filter(...).filter`); `dt`: time step [s]."""
-        from ..sea._filters import psd_sqrt
-
-        self.dt = float(dt)
-        self.phi, self.chol = shaping_filter.discretise(self.dt)
-        self.stationary_chol = psd_sqrt(shaping_filter.stationary_covariance())
-        self.c = shaping_filter.c
-        self.c_a = shaping_filter.c @ shaping_filter.a
-
-    def init(self, key, num_steps):
-        z = self.stationary_chol @ jr.normal(jr.fold_in(key, 0x7FFFFFFF), self.c.shape)
-        return z, self.c @ z, self.c_a @ z
-
-    def block(self, key, state, index):
-        # float32 normals (cast to float64) are ~25 % faster to draw; their ±5.4σ tail limit does not matter
-        # after the filter sums many innovations (its output is Gaussian to that precision).
-        eps = jr.normal(jr.fold_in(key, index), (BLOCK, self.c.size), jnp.float32).astype(float)
-
-        def step(z, e):
-            z = self.phi @ z + self.chol @ e
-            return z, z
-
-        z, zs = jax.lax.scan(step, state, eps)
-        return z, zs @ self.c, zs @ self.c_a
-
-
-def _slice_block(series, index):
-    return jax.lax.dynamic_slice_in_dim(series, index * BLOCK + 1, BLOCK)
-
-
-class SampledExcitation(AbstractExcitation):
-    """A given record of ζ_G [m] and dζ_G/dt [m/s] on t_k = k·dt (e.g. a measured or precomputed wave).
-
-    The record must cover the simulated time: at least `num_steps + 1` samples (padded with zeros to a whole
-    number of blocks).
-    """
-
-    zeta: Float[Array, " n"]
-    dzeta: Float[Array, " n"]
-    dt: float = eqx.field(static=True)
-
-    def __init__(self, zeta, dzeta, dt: float):
-        """**Arguments:** `zeta` [m], `dzeta` [m/s]: 1-D records of equal length; `dt`: their sampling step [s]."""
-        zeta, dzeta = jnp.asarray(zeta, dtype=float), jnp.asarray(dzeta, dtype=float)
-        if zeta.ndim != 1 or zeta.shape != dzeta.shape:
-            raise ValueError(f"`zeta` and `dzeta` must be 1-D of equal length; got {zeta.shape} and {dzeta.shape}.")
-        self.zeta, self.dzeta, self.dt = zeta, dzeta, float(dt)
-
-    def init(self, key, num_steps):
-        if self.zeta.size < num_steps + 1:
-            raise ValueError(
-                f"the excitation record has {self.zeta.size} samples; {num_steps + 1} are needed "
-                f"({num_steps} steps of {self.dt} s)."
-            )
-        pad = -(-num_steps // BLOCK) * BLOCK + 1 - self.zeta.size
-        padded = [jnp.pad(x, (0, max(pad, 0))) for x in (self.zeta, self.dzeta)]
-        return tuple(padded), self.zeta[0], self.dzeta[0]
-
-    def block(self, key, state, index):
-        return state, _slice_block(state[0], index), _slice_block(state[1], index)
-
-
-class SuperpositionExcitation(AbstractExcitation):
-    """Method 1: component superposition synthesised by FFT over the whole trial (see `jaxroll.superpose`)."""
-
-    wave: EffectiveWave
-    dt: float = eqx.field(static=True)
-
-    def __init__(self, wave: EffectiveWave, dt: float):
-        """**Arguments:** `wave`: Grim's effective wave; `dt`: time step [s]."""
-        self.wave = wave
-        self.dt = float(dt)
-
-    def init(self, key, num_steps):
-        n = -(-num_steps // BLOCK) * BLOCK + 1
-        if superposition_length(n) > 2**24:
-            raise ValueError(
-                f"superposition of {n} samples is too long for one FFT; use the filter method for long trials."
-            )
-        zeta, dzeta = superpose(self.wave, key, n, self.dt)
-        return (zeta, dzeta), zeta[0], dzeta[0]
-
-    def block(self, key, state, index):
-        return state, _slice_block(state[0], index), _slice_block(state[1], index)
-
 
 # ----------------------------------------------------------------------------------------------------------------
 # One realization
 # ----------------------------------------------------------------------------------------------------------------
 
 
+def excitation_bandwidth(wave: EffectiveWave, fraction: float = 0.999) -> float:
+    """Encounter frequency [rad/s] below which `fraction` of the effective-wave variance lies."""
+    w = np.linspace(0.0, 6.0, 12001)
+    s = np.asarray(wave.spectrum(w))
+    cum = np.concatenate([[0.0], np.cumsum((s[1:] + s[:-1]) / 2 * np.diff(w))])
+    return float(np.interp(fraction * cum[-1], cum, w))
+
+
+def check_time_step(dt: float, ship: Ship, wave: EffectiveWave) -> None:
+    """Validate the time step [s] against the roll period and the excitation bandwidth.
+
+    Error when dt > Tφ/10 or ω_max·dt > 1 (RK4 loses accuracy and may go unstable); a warning when
+    dt > Tφ/40 or ω_max·dt > 0.6 (halving dt may then change the mean amplitude by more than ~1 %). ω_max is the
+    encounter frequency below which 99.9 % of the effective-wave variance lies.
+    """
+    if not (isinstance(dt, int | float) and math.isfinite(dt) and dt > 0):
+        raise ValueError(f"`dt` must be a finite number > 0 [s]; got {dt!r}.")
+    t_roll = float(ship.roll_period)
+    w_max = excitation_bandwidth(wave)
+    if dt > t_roll / 10 or w_max * dt > 1.0:
+        raise ValueError(
+            f"dt = {dt} s is too large: it must be <= Tφ/10 = {t_roll / 10:.3g} s and <= 1/ω_max = "
+            f"{1 / w_max:.3g} s (ω_max = {w_max:.3g} rad/s holds 99.9 % of the effective-wave variance). "
+            f"Use dt <= {min(t_roll / 40, 0.6 / w_max):.3g} s for ~1 % accuracy."
+        )
+    if dt > t_roll / 40 or w_max * dt > 0.6:
+        warnings.warn(
+            f"dt = {dt} s may bias the amplitudes by more than ~1 %. This warning appears because dt > Tφ/40 = "
+            f"{t_roll / 40:.3g} s or ω_max·dt > 0.6 (ω_max = {w_max:.3g} rad/s); use dt <= "
+            f"{min(t_roll / 40, 0.6 / w_max):.3g} s.",
+            stacklevel=3,
+        )
+
+
 class RollProblem(eqx.Module):
-    """Everything one realization needs: ship, excitation source(s) and initial condition."""
+    """Everything one realization needs: ship, excitation source(s), initial condition — and, when built from a
+    sea state, the effective wave and the filter fit the theories must share with the Monte Carlo.
+
+    Build it from a sea state with `RollProblem.from_sea(ship, sea, ...)`, or from parts with the constructor.
+    """
 
     ship: Ship
     excitation: AbstractExcitation
@@ -184,6 +108,8 @@ class RollProblem(eqx.Module):
     dphi0: Float[Array, ""]
     capsize_angle: Float[Array, ""]
     moment_excitation: AbstractExcitation | None
+    wave: EffectiveWave | None
+    filter_fit: FilterFit | None
 
     def __init__(
         self,
@@ -193,14 +119,19 @@ class RollProblem(eqx.Module):
         dphi0=0.0,
         *,
         moment_excitation: AbstractExcitation | None = None,
+        wave: EffectiveWave | None = None,
+        filter_fit: FilterFit | None = None,
     ):
         """**Arguments:**
 
         - `ship`: the roll model's parameters.
-        - `excitation`: source of Grim's effective wave ζ_G [m] (`FilterExcitation`, `SuperpositionExcitation`).
+        - `excitation`: source of Grim's effective wave ζ_G [m] (`FilterExcitation`, `SuperpositionExcitation`,
+          `SampledExcitation`).
         - `phi0`: initial roll [rad] (5°, the paper's); `dphi0`: initial roll rate [rad/s].
         - `moment_excitation`: optional source of an external roll moment per unit inertia M_w(t) [rad/s²]
           (zero in long-crested head or following seas; used for beam-sea studies and exact test cases).
+        - `wave`, `filter_fit`: the effective wave and the shaping-filter fit behind `excitation`, when known
+          (`from_sea` sets them), so the theories use exactly what the Monte Carlo simulates.
         """
         self.ship = ship
         self.excitation = excitation
@@ -212,9 +143,61 @@ class RollProblem(eqx.Module):
                 f"`moment_excitation.dt` ({moment_excitation.dt}) must equal `excitation.dt` ({excitation.dt})."
             )
         self.moment_excitation = moment_excitation
+        self.wave = wave
+        self.filter_fit = filter_fit
+
+    @classmethod
+    def from_sea(
+        cls,
+        ship: Ship,
+        sea: AbstractWaveSpectrum,
+        *,
+        speed: float = 0.0,
+        heading: str = "head",
+        excitation: str = "filter",
+        dt: float = 0.5,
+        filter_order: int = 4,
+        phi0: float = math.radians(5.0),
+        dphi0: float = 0.0,
+    ) -> "RollProblem":
+        """The roll problem of `ship` in the sea state `sea`: Grim's effective wave, its excitation, initial roll.
+
+        **Arguments:**
+
+        - `ship`: the roll model; `sea`: one-sided sea spectrum (`ITTC`, `JONSWAP`).
+        - `speed` [m/s]; `heading`: "head" | "following".
+        - `excitation`: "filter" (Method 2, the paper's for Monte Carlo: a shaping filter fitted once to S_G
+          with extra weight at 2ω0, kept in `filter_fit` for the moment method) or "superposition" (Method 1).
+        - `dt`: time step [s] (checked against the roll period and the excitation bandwidth).
+        - `filter_order`: order of the shaping filter (Method 2).
+        - `phi0` [rad], `dphi0` [rad/s]: initial condition (the paper's 5°, 0).
+
+        **Raises:** `ValueError` for a bad method, time step or initial roll (beyond the vanishing angle).
+        """
+        if excitation not in ("filter", "superposition"):
+            raise ValueError(f"`excitation` must be 'filter' or 'superposition'; got {excitation!r}.")
+        for name, value in (("phi0", phi0), ("dphi0", dphi0)):
+            if not math.isfinite(value):
+                raise ValueError(f"`{name}` must be finite; got {value!r}.")
+        wave = EffectiveWave(sea, ship.lpp, speed, heading)
+        check_time_step(dt, ship, wave)
+        capsize = float(vanishing_angle(ship))
+        if abs(phi0) >= capsize:
+            raise ValueError(
+                f"the initial roll {math.degrees(phi0):.4g}° is beyond the angle of vanishing stability "
+                f"({math.degrees(capsize):.1f}°)."
+            )
+        if excitation == "filter":
+            fit = fit_filter(wave, order=filter_order, match_frequency=2 * ship.omega0)
+            source = FilterExcitation(fit.filter, dt)
+        else:
+            fit = None
+            source = SuperpositionExcitation(wave, dt)
+        return cls(ship, source, phi0, dphi0, wave=wave, filter_fit=fit)
 
     @property
     def dt(self) -> float:
+        """Time step [s]."""
         return self.excitation.dt
 
 

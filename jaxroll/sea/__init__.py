@@ -1,1 +1,20 @@
-"""sea."""
+"""The sea: wave spectra, Grim's effective wave, the shaping filter (Method 2)."""
+
+from ._filters import (
+    FilterFit as FilterFit,
+    ShapingFilter as ShapingFilter,
+    fit_filter as fit_filter,
+)
+from ._grim import (
+    EffectiveWave as EffectiveWave,
+    grim_transfer as grim_transfer,
+    superpose as superpose,
+)
+from ._spectra import (
+    ITTC as ITTC,
+    JONSWAP as JONSWAP,
+    AbstractWaveSpectrum as AbstractWaveSpectrum,
+    encounter_frequency as encounter_frequency,
+    encounter_spectrum as encounter_spectrum,
+    spectral_moment as spectral_moment,
+)

@@ -1,4 +1,4 @@
-"""Ship parameters: the roll model's coefficients, ship files (TOML) and the default ship.
+"""Ship parameters: the roll model's coefficients, their validation and the default ship.
 
 A `Ship` holds everything the 1-DOF roll equation needs, at full scale and in SI units:
 
@@ -9,8 +9,6 @@ A `Ship` holds everything the 1-DOF roll equation needs, at full scale and in SI
 from __future__ import annotations
 
 import math
-import tomllib
-from pathlib import Path
 from typing import Any
 
 import equinox as eqx
@@ -120,17 +118,18 @@ def c11_representative() -> Ship:
     """The default ship "C11 (representative)".
 
     Table-1 particulars of the paper's C11 post-Panamax container ship (Lpp 262 m, GM0 1.9299 m, Tφ 24.4 s) with
-    *representative* restoring, damping and ΔGM coefficients (CONVENTIONS.md): they reproduce the paper's
+    *representative* restoring, damping and ΔGM coefficients (docs/conventions.md): they reproduce the paper's
     regime but are not the real C11 data, which are unpublished.
     """
     return _default_ship()
 
 
 # ----------------------------------------------------------------------------------------------------------------
-# Ship files
+# The parameters by name and unit
 # ----------------------------------------------------------------------------------------------------------------
 
-# (section, key, Ship attribute or (attribute, index), unit) — the one description of the file format.
+# (section, key, Ship attribute or (attribute, index), unit) — the one description of the ship's parameters, by the
+# names and units of the ship file (docs/ship_file.md, written and read by jaxroll.io._ship_file).
 _FIELDS: tuple[tuple[str, str, Any, str], ...] = (
     ("particulars", "lpp_m", "lpp", "m"),
     ("particulars", "breadth_m", "breadth", "m"),
@@ -159,11 +158,9 @@ def _get(ship: Ship, attr) -> float:
     return float(getattr(ship, attr))
 
 
-def ship_to_dict(ship: Ship) -> dict[str, Any]:
-    """The ship as the nested dictionary of its TOML file (SI units; see docs/ship_file.md)."""
-    out: dict[str, Any] = {"name": ship.name}
-    if ship.provenance:
-        out["provenance"] = ship.provenance
+def _parameter_tables(ship: Ship) -> dict[str, dict[str, float]]:
+    """The ship's parameters as `{section: {key: value}}` in the order of `_FIELDS` (SI units)."""
+    out: dict[str, dict[str, float]] = {}
     for section, key, attr, _ in _FIELDS:
         out.setdefault(section, {})[key] = _get(ship, attr)
     return out
@@ -171,7 +168,7 @@ def ship_to_dict(ship: Ship) -> dict[str, Any]:
 
 def validate_ship(ship: Ship) -> None:
     """Raise `ValueError` if the ship's values are physically invalid (concrete values only)."""
-    d = ship_to_dict(ship)
+    d = _parameter_tables(ship)
     problems = []
     for section, key, _, unit in _FIELDS:
         v = d[section][key]
@@ -194,75 +191,6 @@ def validate_ship(ship: Ship) -> None:
         problems.append(f"[correction] gm_ratio = {d['correction']['gm_ratio']} must be >= 0")
     if problems:
         raise ValueError(f"Invalid ship {ship.name!r}: " + "; ".join(problems) + ".")
-
-
-def ship_from_dict(data: dict[str, Any], *, source: str = "<dict>") -> Ship:
-    """Build a `Ship` from the nested dictionary of a ship file, with errors that name the missing/unknown field."""
-    if not isinstance(data, dict):
-        raise ValueError(f"{source}: a ship file must be a TOML table; got {type(data).__name__}.")
-    known_sections = {s for s, *_ in _FIELDS}
-    unknown = sorted(set(data) - known_sections - {"name", "provenance"})
-    if unknown:
-        raise ValueError(
-            f"{source}: unknown top-level field(s) {unknown}; allowed: name, provenance, "
-            f"{', '.join(f'[{s}]' for s in sorted(known_sections))}. See docs/ship_file.md."
-        )
-    values: dict[str, Any] = {"restoring": [0.0] * 4, "damping": [0.0] * 3, "delta_gm": [0.0] * 7}
-    missing = []
-    for section in known_sections:
-        table = data.get(section)
-        if table is None:
-            continue
-        if not isinstance(table, dict):
-            raise ValueError(f"{source}: [{section}] must be a table; got {type(table).__name__}.")
-        allowed = {k for s, k, *_ in _FIELDS if s == section}
-        extra = sorted(set(table) - allowed)
-        if extra:
-            raise ValueError(
-                f"{source}: unknown field(s) {extra} in [{section}]; allowed: {sorted(allowed)}. "
-                "See docs/ship_file.md."
-            )
-    for section, key, attr, unit in _FIELDS:
-        table = data.get(section, {})
-        if key not in table:
-            missing.append(f"[{section}] {key} ({unit})")
-            continue
-        v = table[key]
-        if isinstance(v, bool) or not isinstance(v, int | float):
-            raise ValueError(f"{source}: [{section}] {key} must be a number ({unit}); got {v!r}.")
-        if isinstance(attr, tuple):
-            values[attr[0]][attr[1]] = float(v)
-        else:
-            values[attr] = float(v)
-    if missing:
-        raise ValueError(f"{source}: missing field(s) {', '.join(missing)}. See docs/ship_file.md.")
-    ship = Ship(
-        **values,
-        name=str(data.get("name", Path(source).stem)),
-        provenance=str(data.get("provenance", f"ship file {source}")),
-    )
-    validate_ship(ship)
-    return ship
-
-
-def load_ship(path: str | Path) -> Ship:
-    """Read a ship file (TOML, SI units at full scale; format in docs/ship_file.md)."""
-    path = Path(path)
-    if not path.is_file():
-        raise FileNotFoundError(f"Ship file {str(path)!r} does not exist.")
-    try:
-        data = tomllib.loads(path.read_text())
-    except tomllib.TOMLDecodeError as e:
-        raise ValueError(f"{path}: not valid TOML ({e}).") from None
-    return ship_from_dict(data, source=str(path))
-
-
-def ship_to_toml(ship: Ship) -> str:
-    """The ship file text (TOML) of `ship`."""
-    import tomli_w
-
-    lines = ["# jaxroll ship file: SI units, full scale, radians. Format: docs/ship_file.md\n"]
-    return "".join(lines) + tomli_w.dumps(ship_to_dict(ship))
 
 
 def restoring_fields_from_gz(gz_coefficients, gm0: float, roll_period: float) -> np.ndarray:

@@ -1,12 +1,13 @@
 """Theories of the stationary roll-amplitude distribution: stochastic averaging and moment equations.
 
-Re-exports only. Stochastic averaging (Roberts' SAM, energy-based ESAM) and the parametric-excitation spectrum
-live in `_averaging.py` and `_excitation.py`; the moment method in `_moments.py`.
+Every theory returns an amplitude law (`jaxroll.AbstractAmplitudeLaw`, radians) of the estimator asked for:
+stochastic averaging (Roberts' SAM, energy-based ESAM) in `_averaging.py` with the parametric-excitation spectrum
+in `_excitation.py`; the moment method in `_moments.py`.
 """
 
 # --- excitation spectrum S_P and stochastic averaging (Roberts' SAM, ESAM) ---
 from ._averaging import (
-    AmplitudePDF as AmplitudePDF,
+    AveragedAmplitudeLaw as AveragedAmplitudeLaw,
     Orbits as Orbits,
     RobertsCoefficients as RobertsCoefficients,
     additive_energy_diffusion as additive_energy_diffusion,
@@ -29,6 +30,7 @@ from ._excitation import (
 
 # --- moment equations ---
 from ._moments import (
+    RESULTS as RESULTS,
     AmplitudeFamily as AmplitudeFamily,
     MomentEquations as MomentEquations,
     MomentSolution as MomentSolution,

@@ -29,12 +29,11 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Bool, Float
 
+from ..laws._abstract import AbstractAmplitudeLaw, check_estimator
 from ..sea._grim import EffectiveWave
 from ..ship._ship import Ship
 from ._excitation import ParametricSpectrum, parametric_spectrum
 
-_ESTIMATORS = ("envelope", "zero_crossing")
-_QUANTILES = (0.5, 0.9, 0.99)
 _TINY = 1e-300
 _DECADES = 6.0  # the amplitude grid spans [A_top·1e-6, A_top] in log space (p ∝ A^ν0 below, analytically)
 _TAIL_EXPONENT = 80.0  # linear Roberts: the grid ends where c2 A + c3 A² = 80 (p below e^-80 of its scale)
@@ -46,7 +45,7 @@ _TAIL_EXPONENT = 80.0  # linear Roberts: the grid ends where c2 A + c3 A² = 80 
 
 
 class _Table(eqx.Module):
-    """The arrays of an `AmplitudePDF` (one pytree structure for every method, so the jitted helpers compile once)."""
+    """The arrays of an `AveragedAmplitudeLaw` (one pytree structure for every method, so the jitted helpers compile once)."""
 
     s: Float[Array, " n"]
     log_p: Float[Array, " n"]
@@ -127,16 +126,17 @@ def _table_bins(t: _Table, bins_deg):
     return jnp.maximum(mass, 0.0) / jnp.diff(bins_deg)
 
 
-class AmplitudePDF(eqx.Module):
-    """Stationary PDF of the roll amplitude A [rad], tabulated on a log-spaced grid, with exact small-A behaviour.
+class AveragedAmplitudeLaw(AbstractAmplitudeLaw):
+    """Stationary law of the roll amplitude A [rad] from stochastic averaging, tabulated on a log-spaced grid with
+    exact small-A behaviour; an amplitude law (`AbstractAmplitudeLaw`): `pdf`, `cdf`, `sf`, `quantile`, `mean`.
 
     `log_density` is ln p(A) (density per radian, normalised over the support [0, `amplitude[-1]`]); below the
     first grid point p ∝ A^`nu0`. Integrals use the trapezoid rule in s = ln A with its Euler–Maclaurin end
     corrections (fourth order; ~1e-9 relative on the default grid).
 
-    `estimator` says which Monte Carlo estimator the PDF is to be compared with: `"envelope"` (time-sampled,
-    the Hilbert envelope at every sample) or `"zero_crossing"` (one amplitude per half cycle).
-    `exists` is False (and the densities NaN) when no stationary PDF exists (only with `throw=False`).
+    `estimator`: `"envelope"` (time-sampled, the Hilbert envelope at every sample) or `"zero_crossing"` (one
+    amplitude per half cycle). `exists` is False (and the densities NaN) when no stationary PDF exists (only
+    with `throw=False`). `method` names the theory; `parameters` holds its coefficients (radians, seconds).
     """
 
     log_amplitude: Float[Array, " n"]
@@ -168,63 +168,36 @@ class AmplitudePDF(eqx.Module):
     def _table(self) -> _Table:
         return _Table(self.log_amplitude, self.log_density, self.cdf_values, self.sf_values, self.nu0)
 
-    def pdf(self, amplitude: ArrayLike) -> Float[Array, "..."]:
-        """p(A) [1/rad] at `amplitude` [rad] (cubic Hermite in (ln A, ln p); ∝ A^ν0 below the grid; 0 above it)."""
-        return _table_pdf(self._table, amplitude)
+    def _logpdf(self, a):
+        return jnp.log(_table_pdf(self._table, a))
 
-    def pdf_deg(self, amplitude_deg: ArrayLike) -> Float[Array, "..."]:
-        """Density per degree at `amplitude_deg` [deg] (for plots and JSON)."""
-        a = jnp.asarray(amplitude_deg, dtype=float)
-        return self.pdf(jnp.deg2rad(a)) * (jnp.pi / 180)
+    def _logsf(self, a):
+        return jnp.log(_table_sf(self._table, a))
 
-    def cdf(self, amplitude: ArrayLike) -> Float[Array, "..."]:
-        """P(A ≤ a) at `amplitude` [rad] (cubic Hermite in ln A with the exact slope p·A)."""
-        return _table_cdf(self._table, amplitude)
+    def _logcdf(self, a):
+        return jnp.log(_table_cdf(self._table, a))
 
-    def sf(self, amplitude: ArrayLike) -> Float[Array, "..."]:
-        """Tail probability P(A > a) at `amplitude` [rad] (accurate deep in the tail: no 1 − cdf cancellation)."""
-        return _table_sf(self._table, amplitude)
+    def support(self):
+        return jnp.zeros(()), self.support_max
 
-    def moment(self, order: float = 1.0) -> Float[Array, ""]:
-        """E[A^order] [rad^order]."""
-        return _table_moment(self._table, jnp.asarray(order, dtype=float))
-
-    def mean(self) -> Float[Array, ""]:
-        """Mean amplitude E[A] [rad]."""
+    def scale(self):
         return self.moment(1.0)
 
-    def quantile(self, q: ArrayLike) -> Float[Array, "..."]:
-        """Amplitude [rad] below which a fraction `q` of the distribution lies (log-linear guess + Newton)."""
-        return _table_quantile(self._table, q)
+    def moment(self, order: float = 1.0) -> Float[Array, ""]:
+        """E[A^order] [rad^order] (fourth-order quadrature in ln A)."""
+        return _table_moment(self._table, jnp.asarray(order, dtype=float))
 
-    def pdf_per_degree(self, bins_deg: ArrayLike) -> Float[Array, " m"]:
-        """Bin-averaged density per degree on the bin edges `bins_deg` [deg] (what a histogram estimates)."""
-        return _table_bins(self._table, bins_deg)
-
-    def summary(self, bins_deg: ArrayLike | None = None) -> dict:
-        """JSON-ready summary: method, estimator, mean and quantiles [deg], the method's parameters.
-
-        With `bins_deg` (edges [deg]) it also holds `pdf_per_degree` on those bins.
-        """
-        out = {
+    def details(self) -> dict:
+        """The method's own numbers for JSON: method, existence, support top [deg], parameters."""
+        return {
             "method": self.method,
-            "estimator": self.estimator,
             "exists": bool(self.exists),
-            "mean_amplitude_deg": float(jnp.rad2deg(self.mean())),
-            "quantiles_deg": {
-                f"{round(100 * q)}%": float(v)
-                for q, v in zip(_QUANTILES, np.rad2deg(np.asarray(self.quantile(jnp.asarray(_QUANTILES)))))
-            },
             "support_max_deg": float(jnp.rad2deg(self.support_max)),
             "parameters": {k: float(v) for k, v in self.parameters.items()},
         }
-        if bins_deg is not None:
-            out["bins_deg"] = [float(b) for b in np.asarray(bins_deg)]
-            out["pdf_per_degree"] = [float(v) for v in np.asarray(self.pdf_per_degree(bins_deg))]
-        return out
 
 
-def _with_parameters(out: AmplitudePDF, **extra) -> AmplitudePDF:
+def _with_parameters(out: AveragedAmplitudeLaw, **extra) -> AveragedAmplitudeLaw:
     return eqx.tree_at(lambda o: o.parameters, out, {**out.parameters, **extra})
 
 
@@ -303,8 +276,8 @@ def _clip01(x):
     return jnp.clip(x, 0.0, 1.0)
 
 
-def _build_pdf(s, log_unnorm, nu0, exists, parameters, method, estimator) -> AmplitudePDF:
-    """Normalise ln p̃(A) on the grid s = ln A (p̃ ∝ A^ν0 below the grid) into an `AmplitudePDF`."""
+def _build_pdf(s, log_unnorm, nu0, exists, parameters, method, estimator) -> AveragedAmplitudeLaw:
+    """Normalise ln p̃(A) on the grid s = ln A (p̃ ∝ A^ν0 below the grid) into an `AveragedAmplitudeLaw`."""
     shift = jnp.max(jnp.where(jnp.isfinite(log_unnorm), log_unnorm + s, -jnp.inf))
     f = jnp.exp(log_unnorm + s - shift)  # p·A in s-space, scaled
     cum, tail = _cumulative(s, f, nu0 + 1)
@@ -312,7 +285,7 @@ def _build_pdf(s, log_unnorm, nu0, exists, parameters, method, estimator) -> Amp
     log_density = log_unnorm - shift - jnp.log(total)
     nan = jnp.full_like(log_density, jnp.nan)
     keep = lambda x: jnp.where(exists, x, nan)
-    return AmplitudePDF(
+    return AveragedAmplitudeLaw(
         log_amplitude=s,
         log_density=keep(log_density),
         cdf_values=keep(_clip01(cum / total)),
@@ -392,13 +365,13 @@ class RobertsCoefficients(eqx.Module):
         return _existence(self.nu, False, self.c2, self.c3)
 
     @eqx.filter_jit
-    def stationary_pdf(self, *, num: int = 2049, estimator: str = "envelope") -> AmplitudePDF:
-        """The stationary PDF p(A) = C A^ν e^{−c2A − c3A²} on [0, ∞) as an `AmplitudePDF` (NaN if none exists).
+    def stationary_pdf(self, *, num: int = 2049, estimator: str = "envelope") -> AveragedAmplitudeLaw:
+        """The stationary PDF p(A) = C A^ν e^{−c2A − c3A²} on [0, ∞) as an `AveragedAmplitudeLaw` (NaN if none exists).
 
         The grid is log-spaced up to where c2A + c3A² = 80. Per half cycle the weight ∝ Ω is constant, so both
         estimators give the same PDF.
         """
-        _check_estimator(estimator)
+        check_estimator(estimator)
         nu, c2, c3 = self.nu, self.c2, self.c3
         exists = self.exists
         nu_s, c2_s, c3_s = jnp.where(exists, nu, 0.0), jnp.where(exists, c2, 1.0), jnp.where(exists, c3, 0.0)
@@ -447,14 +420,14 @@ def _roberts_amax(c2, c3):
     return 2 * _TAIL_EXPONENT / jnp.maximum(c2 + disc, 1e-300)
 
 
-def _as_spectrum(ship: Ship, excitation) -> ParametricSpectrum:
-    if isinstance(excitation, ParametricSpectrum):
-        return excitation
-    if isinstance(excitation, EffectiveWave):
-        return parametric_spectrum(ship, excitation)
+def _as_spectrum(ship: Ship, wave) -> ParametricSpectrum:
+    if isinstance(wave, ParametricSpectrum):
+        return wave
+    if isinstance(wave, EffectiveWave):
+        return parametric_spectrum(ship, wave)
     raise TypeError(
-        "`excitation` must be a `jaxroll.EffectiveWave` or a `ParametricSpectrum`; "
-        f"got {type(excitation).__name__}."
+        "`wave` must be a `jaxroll.EffectiveWave` or a `ParametricSpectrum`; "
+        f"got {type(wave).__name__}."
     )
 
 
@@ -465,21 +438,16 @@ def _linear_stiffness(ship: Ship, spectrum: ParametricSpectrum, mean_shift: bool
 
 
 def roberts_coefficients(
-    ship: Ship, excitation: EffectiveWave | ParametricSpectrum, *, mean_shift: bool = True
+    ship: Ship, wave: EffectiveWave | ParametricSpectrum, *, mean_shift: bool = True
 ) -> RobertsCoefficients:
-    """Roberts' averaged-SDE coefficients for `ship` in `excitation` (an effective wave or its S_P).
+    """Roberts' averaged-SDE coefficients for `ship` in `wave` (an effective wave or its S_P).
 
     K = (π/8) S_P⁺(2ω)/ω² with ω = ω_l = √(ω0² + E[P]) (`mean_shift=True`, the default) or ω0.
     """
-    spectrum = _as_spectrum(ship, excitation)
+    spectrum = _as_spectrum(ship, wave)
     w = jnp.sqrt(_linear_stiffness(ship, spectrum, mean_shift))
     k = jnp.pi / 8 * spectrum(2 * w) / w**2
     return RobertsCoefficients(w, k, ship.damping)
-
-
-def _check_estimator(estimator: str):
-    if estimator not in _ESTIMATORS:
-        raise ValueError(f"`estimator` must be 'envelope' or 'zero_crossing'; got {estimator!r}.")
 
 
 def _restoring_poly(ship: Ship, stiffness_shift):
@@ -558,7 +526,7 @@ def _no_pdf_message(p: dict) -> str:
     )
 
 
-def _finish(out: AmplitudePDF, throw: bool) -> AmplitudePDF:
+def _finish(out: AveragedAmplitudeLaw, throw: bool) -> AveragedAmplitudeLaw:
     if not throw:
         return out
     if not isinstance(out.exists, jax.core.Tracer):
@@ -641,7 +609,7 @@ def _roberts_nonlinear(ship, spectrum, estimator, mean_shift, num, max_amplitude
 
 def roberts_pdf(
     ship: Ship,
-    excitation: EffectiveWave | ParametricSpectrum,
+    wave: EffectiveWave | ParametricSpectrum,
     *,
     restoring: str = "linear",
     estimator: str = "envelope",
@@ -649,13 +617,14 @@ def roberts_pdf(
     num: int = 2049,
     max_amplitude: float | None = None,
     throw: bool = True,
-) -> AmplitudePDF:
+) -> AveragedAmplitudeLaw:
     r"""Roberts' stationary PDF of the roll amplitude (stochastic averaging, Itô amplitude SDE).
 
     **Arguments:**
 
     - `ship`: the roll model (damping b1, b2, b3; restoring a1…a9; ΔGM and GM0 through S_P).
-    - `excitation`: Grim's effective wave (`jaxroll.EffectiveWave`), or a precomputed `ParametricSpectrum`.
+    - `wave`: Grim's effective wave (`jaxroll.EffectiveWave`, e.g. `problem.wave`), or its precomputed
+      `ParametricSpectrum`.
     - `restoring`: `"linear"` — Roberts' closed form $p = C A^\nu e^{-c_2A - c_3A^2}$ on [0, ∞), whatever the
       ship's GZ curve; `"nonlinear"` — the harmonic-balance frequency Ω(A) in K(A) = (π/8)S_P⁺(2Ω)/Ω² and in
       the damping averages, $p = C A \exp(-\int_0^A 2 m_d/(K a^2)\,da)$, on [0, vanishing angle].
@@ -666,14 +635,14 @@ def roberts_pdf(
     - `throw`: raise when no stationary PDF exists (ν ≤ −1, or linear damping on an unbounded restoring);
       with `throw=False` the result has `exists=False` and NaN densities.
 
-    **Returns:** `AmplitudePDF` with `parameters` ν, c2, c3, K [1/s], ω [rad/s], … (radians throughout).
+    **Returns:** `AveragedAmplitudeLaw` with `parameters` ν, c2, c3, K [1/s], ω [rad/s], … (radians throughout).
 
     **Raises:** `ValueError` (concrete inputs) or `EquinoxRuntimeError` (under `jit`/`grad`) when no PDF exists.
 
     jit-able and differentiable (e.g. `jax.grad` of `.sf(a)` with respect to ship fields or H1/3).
     """
-    _check_estimator(estimator)
-    spectrum = _as_spectrum(ship, excitation)
+    check_estimator(estimator)
+    spectrum = _as_spectrum(ship, wave)
     if restoring == "linear":
         out = _roberts_linear(ship, spectrum, estimator, mean_shift, num)
     elif restoring == "nonlinear":
@@ -797,7 +766,7 @@ def energy_averaged_pdf(
     exists: ArrayLike = True,
     parameters: dict | None = None,
     method: str = "esam",
-) -> AmplitudePDF:
+) -> AveragedAmplitudeLaw:
     r"""The ESAM core: stationary amplitude PDF from orbits and an energy diffusion σ_H²(H) on a log A grid.
 
     With the drift m_H = −⟨φ̇b⟩ + (1/2T) d(Tσ_H²)/dH, the stationary law is
@@ -807,7 +776,7 @@ def energy_averaged_pdf(
     `singular` = s0 is the limit of A·2⟨φ̇b⟩g/σ_H² as A → 0 (b1/K0 for parametric noise, 0 for additive noise):
     it is integrated analytically, so p_A ∝ A^(1 − s0) near 0. `orbits.amplitude` must be log-spaced.
     """
-    _check_estimator(estimator)
+    check_estimator(estimator)
     amp = orbits.amplitude
     s = jnp.log(amp)
     s0 = jnp.asarray(singular, dtype=float)
@@ -853,7 +822,7 @@ def _esam(ship, spectrum, estimator, mean_shift, num, max_amplitude, num_theta, 
 
 def esam_pdf(
     ship: Ship,
-    excitation: EffectiveWave | ParametricSpectrum,
+    wave: EffectiveWave | ParametricSpectrum,
     *,
     estimator: str = "envelope",
     mean_shift: bool = True,
@@ -862,7 +831,7 @@ def esam_pdf(
     num_theta: int = 256,
     num_harmonics: int = 6,
     throw: bool = True,
-) -> AmplitudePDF:
+) -> AveragedAmplitudeLaw:
     r"""Energy-based stochastic averaging (ESAM): stationary roll-amplitude PDF with the full nonlinear restoring.
 
     H = φ̇²/2 + G(φ), G' = g (the ship's GZ polynomial, plus E[P]φ with `mean_shift`); on each undamped orbit the
@@ -876,10 +845,10 @@ def esam_pdf(
 
     **Arguments:** as `roberts_pdf`; `num_theta`: θ points per orbit; `num_harmonics`: d_2 … d_{2·num}.
 
-    **Returns:** `AmplitudePDF` (`method="esam"`).
+    **Returns:** `AveragedAmplitudeLaw` (`method="esam"`).
     """
-    _check_estimator(estimator)
-    spectrum = _as_spectrum(ship, excitation)
+    check_estimator(estimator)
+    spectrum = _as_spectrum(ship, wave)
     out = _esam(ship, spectrum, estimator, mean_shift, num, max_amplitude, num_theta, num_harmonics)
     return _finish(out, throw)
 
@@ -914,12 +883,12 @@ def esam_additive_pdf(
     num: int = 2049,
     max_amplitude: float | None = None,
     num_theta: int = 256,
-) -> AmplitudePDF:
+) -> AveragedAmplitudeLaw:
     r"""ESAM for an additive white roll moment: φ̈ + b(φ̇) + g(φ) = W(t), E[W(t)W(t+τ)] = D δ(τ).
 
     The same core as `esam_pdf` with σ_H² = D⟨φ̇²⟩. For linear damping it reproduces Caughey's exact law
     p(φ, φ̇) ∝ exp(−2b1 H/D) (conditioned on the potential well when the restoring softens). `intensity`: D
     [1/s³]. The ship's ΔGM is ignored.
     """
-    _check_estimator(estimator)
+    check_estimator(estimator)
     return _esam_additive(ship, intensity, estimator, num, max_amplitude, num_theta)

@@ -53,10 +53,11 @@ import numpy as np
 import optimistix as optx
 from jaxtyping import Array, ArrayLike, Float
 
-from ..sea._filters import ShapingFilter, fit_filter, lyapunov
+from ..laws._abstract import AbstractAmplitudeLaw, check_estimator
+from ..laws._tabulated import TabulatedAmplitudeLaw
+from ..sea._filters import FilterFit, ShapingFilter, fit_filter, lyapunov
 from ..sea._grim import EffectiveWave
 from ..ship._ship import Ship
-from ..sea._spectra import AbstractWaveSpectrum
 
 Monomial = tuple[int, ...]
 
@@ -1001,7 +1002,7 @@ class AmplitudeFamily(eqx.Module):
         )
         return jnp.where(amplitude > 0, jnp.minimum(out, 1.0), 0.0)
 
-    def tail_probability(self, amplitude) -> Float[Array, "..."]:
+    def sf(self, amplitude) -> Float[Array, "..."]:
         """P(A > amplitude), `amplitude` [rad]."""
         return 1.0 - self.cdf(amplitude)
 
@@ -1120,27 +1121,48 @@ def envelope_moments(
     return jnp.stack([a2, a4, a6])
 
 
-class MomentSolution(eqx.Module):
-    """Moment-method amplitude law of one ship in one sea state (time-sampled, envelope-type amplitude PDF).
+class MomentSolution(AbstractAmplitudeLaw):
+    """The moment method's amplitude law for one ship in one sea state, with the moments behind it.
+
+    An amplitude law (`AbstractAmplitudeLaw`, radians): `pdf`, `cdf`, `sf`, `quantile`, `mean`, `summary`.
+    `estimator="envelope"` is the method's own law (time-sampled, envelope-type: compare with Monte Carlo
+    envelope amplitudes); `estimator="zero_crossing"` is the per-half-cycle law derived from it by weighting
+    each amplitude with the rate of half cycles at that amplitude, Ω(A)/π (harmonic balance on the ship's
+    restoring, as for Roberts' and ESAM's per-cycle laws): the law the maxima formulas need.
 
     - `moments`: the `StationaryMoments` (E[φ²] = `moments.moment((2, 0, 0, …))` etc.).
     - `amplitude_moments`: the (E[A²], E[A⁴], E[A⁶]) [rad^2k] the family was fitted to.
-    - `family`: the fitted `AmplitudeFamily` (ν, c2 [1/rad], c3 [1/rad²]).
-    - `grid` [rad], `pdf` [1/rad]: the PDF on a uniform grid (0, 6√E[A²]].
+    - `family`: the fitted `AmplitudeFamily` (ν, c2 [1/rad], c3 [1/rad²]) of the envelope law.
+    - `law`: the tabulated law of `estimator` that the methods evaluate.
     - `fit_residual`: max |log-moment mismatch| of the fit; `result`: a `RESULTS` item.
     """
 
     moments: StationaryMoments
     amplitude_moments: Float[Array, " 3"]
     family: AmplitudeFamily
-    grid: Float[Array, " grid"]
-    pdf: Float[Array, " grid"]
+    law: TabulatedAmplitudeLaw
     fit_residual: Float[Array, ""]
     result: RESULTS
     closure_order: int = eqx.field(static=True)
     filter_order: int = eqx.field(static=True)
     damping: str = eqx.field(static=True)
     envelope: str = eqx.field(static=True)
+    estimator: str = eqx.field(static=True)
+
+    def _logpdf(self, a):
+        return self.law._logpdf(a)
+
+    def _logsf(self, a):
+        return self.law._logsf(a)
+
+    def _logcdf(self, a):
+        return self.law._logcdf(a)
+
+    def support(self):
+        return self.law.support()
+
+    def scale(self):
+        return self.family.scale
 
     def _phi(self, i, j):
         dim = self.moments.equations.tables.dim
@@ -1161,42 +1183,10 @@ class MomentSolution(eqx.Module):
         """E[φ̇²] [rad²/s²]."""
         return self._phi(0, 2)
 
-    @property
-    def nu(self):
-        return self.family.nu
-
-    @property
-    def c2(self):
-        return self.family.c2
-
-    @property
-    def c3(self):
-        return self.family.c3
-
-    @property
-    def mean_amplitude_deg(self) -> Float[Array, ""]:
-        """Mean (time-sampled) amplitude [deg]."""
-        return jnp.rad2deg(self.family.mean())
-
-    def quantiles_deg(self, levels=(0.5, 0.9, 0.99)) -> Float[Array, " levels"]:
-        """Amplitude quantiles [deg] at `levels`."""
-        return jnp.rad2deg(self.family.quantile(jnp.asarray(levels, dtype=float)))
-
-    def pdf_per_degree(self, bins_deg) -> Float[Array, " bins"]:
-        """Mean density per degree over the bins with edges `bins_deg` [deg] (comparable to MC histograms)."""
-        edges = jnp.asarray(bins_deg, dtype=float)
-        cdf = self.family.cdf(jnp.deg2rad(edges))
-        return jnp.diff(cdf) / jnp.diff(edges)
-
-    def tail_probability(self, amplitude_deg) -> Float[Array, "..."]:
-        """P(A > `amplitude_deg`) (time fraction with envelope above that amplitude)."""
-        return self.family.tail_probability(jnp.deg2rad(jnp.asarray(amplitude_deg, dtype=float)))
-
-    def summary(self) -> dict:
-        """Plain numbers for JSON (angles in degrees where the key says `_deg`)."""
-        q = np.asarray(self.quantiles_deg())
+    def details(self) -> dict:
+        """The method's own numbers for JSON (closure, moments, fitted family; radians)."""
         return {
-            "method": "moment method (cumulant neglect), time-sampled envelope amplitude",
+            "method": "moment method (cumulant neglect)",
             "closure_order": self.closure_order,
             "filter_order": self.filter_order,
             "damping_closure": self.damping,
@@ -1209,20 +1199,57 @@ class MomentSolution(eqx.Module):
             "E_A2_rad2": float(self.amplitude_moments[0]),
             "E_A4_rad4": float(self.amplitude_moments[1]),
             "E_A6_rad6": float(self.amplitude_moments[2]),
-            "nu": float(self.nu),
-            "c2_per_rad": float(self.c2),
-            "c3_per_rad2": float(self.c3),
+            "nu": float(self.family.nu),
+            "c2_per_rad": float(self.family.c2),
+            "c3_per_rad2": float(self.family.c3),
             "fit_residual": float(self.fit_residual),
-            "mean_amplitude_deg": float(self.mean_amplitude_deg),
-            "quantiles_deg": {"50": float(q[0]), "90": float(q[1]), "99": float(q[2])},
             "max_real_eigenvalue_per_s": float(self.moments.max_real_eigenvalue),
         }
 
 
+_LAW_POINTS = 1601
+_LAW_TOP = 12.0  # the tabulated law reaches 12 √E[A²] (the family's tail there is < e^-100 of its scale)
+
+
+def _harmonic_frequency(ship: Ship, amplitude):
+    """Ω(A) [rad/s] of the undamped roll by harmonic balance on the GZ polynomial (floored at 1e-3 ω0)."""
+    a = ship.restoring_coefficients
+    x2 = amplitude * amplitude
+    w2 = a[0] + x2 * (0.75 * a[1] + x2 * (0.625 * a[2] + x2 * (35 / 64 * a[3] + x2 * 63 / 128 * a[4])))
+    return jnp.sqrt(jnp.maximum(w2, 1e-6 * a[0]))
+
+
+def _tabulated_law(family: AmplitudeFamily, ship: Ship, estimator: str) -> TabulatedAmplitudeLaw:
+    grid = family.scale * jnp.linspace(0.0, _LAW_TOP, _LAW_POINTS)[1:]
+    safe = jnp.maximum(grid, 1e-300)
+    log_pdf = family.nu * jnp.log(safe) - family.c2 * safe - family.c3 * safe**2
+    if estimator == "zero_crossing":
+        log_pdf = log_pdf + jnp.log(_harmonic_frequency(ship, grid))
+    return TabulatedAmplitudeLaw.from_logpdf(grid, log_pdf - jnp.max(log_pdf), estimator=estimator)
+
+
+def _shaping_filter(ship: Ship, wave, shaping_filter, filter_order: int) -> ShapingFilter:
+    """The filter the moment equations use: `shaping_filter` when given (the Monte Carlo's, e.g.
+    `problem.filter_fit.filter`), else the fit of `wave` at 2ω0 that `RollProblem.from_sea` makes."""
+    if shaping_filter is not None:
+        if isinstance(shaping_filter, FilterFit):
+            shaping_filter = shaping_filter.filter
+        if not isinstance(shaping_filter, ShapingFilter):
+            raise TypeError(f"`shaping_filter` must be a ShapingFilter or FilterFit; got {type(shaping_filter).__name__}.")
+        return shaping_filter
+    if not isinstance(wave, EffectiveWave):
+        raise TypeError(
+            f"`wave` must be Grim's effective wave (`jaxroll.EffectiveWave(sea, lpp, speed, heading)`, or "
+            f"`problem.wave`); got {type(wave).__name__}. A bare sea spectrum has no speed or heading."
+        )
+    return fit_filter(wave, order=filter_order, match_frequency=2 * ship.omega0).filter
+
+
 def roll_moments(
     ship: Ship,
-    wave: EffectiveWave | AbstractWaveSpectrum,
+    wave: EffectiveWave | None,
     *,
+    shaping_filter: ShapingFilter | FilterFit | None = None,
     filter_order: int = 4,
     closure_order: int = 6,
     damping: str = "cubic",
@@ -1235,10 +1262,7 @@ def roll_moments(
     σ_φ̇ = ω0 σ_φ), then each higher even order from the one below (THEORY §6: order 6 from a deterministic
     small-roll start blew up).
     """
-    if isinstance(wave, AbstractWaveSpectrum):
-        wave = EffectiveWave(wave, ship.lpp)
-    fit = fit_filter(wave, order=filter_order, match_frequency=2 * ship.omega0)
-    sde = roll_sde(ship, fit.filter, damping=damping)
+    sde = roll_sde(ship, _shaping_filter(ship, wave, shaping_filter, filter_order), damping=damping)
     s0 = math.radians(initial_roll_deg)
     w0 = jax.lax.stop_gradient(ship.omega0)
     variances = jnp.zeros(sde.dim).at[0].set(s0**2).at[1].set((w0 * s0) ** 2)
@@ -1264,39 +1288,41 @@ def roll_moments(
 
 def moment_pdf(
     ship: Ship,
-    wave: EffectiveWave | AbstractWaveSpectrum,
+    wave: EffectiveWave | None,
     *,
+    shaping_filter: ShapingFilter | FilterFit | None = None,
+    estimator: str = "envelope",
     filter_order: int = 4,
     closure_order: int = 6,
     damping: str = "cubic",
     envelope: str = "phase_averaged",
     initial_roll_deg: float = 10.0,
-    grid_size: int = 400,
     throw: bool = True,
 ) -> MomentSolution:
     """The moment method: stationary roll moments (cumulant neglect) → amplitude PDF C A^ν e^{−c2A−c3A²}.
 
     **Arguments:**
 
-    - `ship`: the roll model (SI, radians); `wave`: Grim's effective wave (or a sea spectrum, taken in head
-      seas at zero speed with L = Lpp).
-    - `filter_order`: order of the Method-2 shaping filter (`fit_filter(..., match_frequency=2ω0)`, the same
-      filter as `make_problem(..., method="filter")`).
+    - `ship`: the roll model (SI, radians); `wave`: Grim's effective wave (`problem.wave`).
+    - `shaping_filter`: the Monte Carlo's filter (`problem.filter_fit`), so theory and simulation share one
+      fit; when None, `wave` is fitted with `filter_order` at 2ω0 exactly as `RollProblem.from_sea` does.
+    - `estimator`: "envelope" (the method's time-sampled law) or "zero_crossing" (per half cycle, weighted by
+      Ω(A); for maxima).
     - `closure_order`: cumulant-neglect order N (4 or 6; ≥ 4).
     - `damping`: φ̇|φ̇| treatment, `"cubic"` (default) or `"linear"` (see `roll_sde`).
     - `envelope`: how amplitude moments follow from (φ, φ̇) moments (see `envelope_moments`).
     - `initial_roll_deg`: r.m.s. roll of the Gaussian start of the relaxation [deg].
-    - `grid_size`: points of the returned PDF grid.
     - `throw`: raise if the moment equations have no valid non-trivial fixed point or the fit fails.
 
-    **Returns:** `MomentSolution`. The amplitude law is the *time-sampled* (envelope-type) law: compare it
-    with Monte Carlo envelope amplitudes (`AmplitudeStatistics.pdf("envelope", …)`), not with per-cycle
+    **Returns:** `MomentSolution`, an amplitude law of `estimator`. The envelope law is *time-sampled*: compare it
+    with Monte Carlo envelope amplitudes (`stats.law("envelope")`), not with per-cycle
     zero-crossing amplitudes.
 
     !!! note
-        Differentiable with respect to ship and sea parameters (`jax.grad` of e.g. `tail_probability(20.0)`):
+        Differentiable with respect to ship and sea parameters (`jax.grad` of e.g. `sf(jnp.deg2rad(20.0))`):
         the filter fit, the Newton root and the PDF fit are differentiated implicitly by optimistix.
     """
+    check_estimator(estimator)
     if envelope not in ENVELOPES:
         raise ValueError(f"`envelope` must be one of {ENVELOPES}; got {envelope!r}.")
     if not (isinstance(closure_order, int) and closure_order >= 4):
@@ -1306,13 +1332,14 @@ def moment_pdf(
     mom = roll_moments(
         ship,
         wave,
+        shaping_filter=shaping_filter,
         filter_order=filter_order,
         closure_order=closure_order,
         damping=damping,
         initial_roll_deg=initial_roll_deg,
         throw=throw,
     )
-    amp, family, res, fit_result, grid, pdf = _amplitude_law(mom, ship.omega0, envelope, grid_size)
+    amp, family, res, fit_result = _amplitude_law(mom, ship.omega0, envelope)
     fit_ok = (fit_result == optx.RESULTS.successful) & (res < 1e-6)
     result = RESULTS.where(
         mom.result != RESULTS.successful,
@@ -1321,17 +1348,17 @@ def moment_pdf(
     )
     if throw:
         family = result.error_if(family, result != RESULTS.successful)
+    law = _tabulated_law(family, ship, estimator)
     return MomentSolution(
-        mom, amp, family, grid, pdf, res, result, closure_order, filter_order, damping, envelope
+        mom, amp, family, law, res, result, closure_order, filter_order, damping, envelope, estimator
     )
 
 
 @eqx.filter_jit
-def _amplitude_law(mom: StationaryMoments, omega0, envelope: str, grid_size: int):
+def _amplitude_law(mom: StationaryMoments, omega0, envelope: str):
     amp = envelope_moments(mom, omega0, envelope)
     family, res, fit_result = fit_amplitude_family(amp)
-    grid = jnp.linspace(0.0, 6.0 * jnp.sqrt(amp[0]), grid_size + 1)[1:]
-    return amp, family, res, fit_result, grid, family.pdf(grid)
+    return amp, family, res, fit_result
 
 
 def moment_pdf_first_stable(ship: Ship, wave, *, filter_order: int = 4, closure_orders=(6, 4), **kwargs) -> MomentSolution:

@@ -1,0 +1,199 @@
+"""Least-squares machinery shared by the calibration fits (optimistix Levenberg–Marquardt).
+
+Results (`Estimate`, `LeastSquaresInfo`), the solve itself (`_least_squares`, also step by step for rough
+Monte Carlo objectives), the covariances (Gauss–Newton s²(JᵀJ)⁻¹ and the cluster-robust sandwich; formulas:
+docs/calibration.md), and the ship parameters a fit can set by name (`_PARAMS`, `_get_param`,
+`_set_params`)."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Sequence
+from typing import Any
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+import optimistix as optx
+
+from ..ship._ship import Ship
+
+# ------------------------------------------------------------------------------------------------------------
+# Results
+# ------------------------------------------------------------------------------------------------------------
+
+
+@dataclasses.dataclass(frozen=True)
+class Estimate:
+    """A fitted value with its standard error (normal 95 % interval = value ± 1.96·SE), in SI units."""
+
+    value: float
+    std_error: float
+    unit: str = "-"
+
+    @property
+    def ci95(self) -> tuple[float, float]:
+        return (self.value - 1.959964 * self.std_error, self.value + 1.959964 * self.std_error)
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"value": self.value, "std_error": self.std_error, "ci95": list(self.ci95), "unit": self.unit}
+
+
+def _estimates(names, values, cov, units) -> dict[str, Estimate]:
+    se = np.sqrt(np.clip(np.diag(cov), 0, None))
+    return {n: Estimate(float(v), float(s), u) for n, v, s, u in zip(names, values, se, units)}
+
+
+@dataclasses.dataclass(frozen=True)
+class LeastSquaresInfo:
+    """Diagnostics of one optimistix least-squares solve."""
+
+    n_obs: int
+    n_params: int
+    rss: float
+    sigma: float  # residual standard deviation s = √(RSS/(n − p)) in the residual's units
+    num_steps: int
+    result: str  # optimistix result message ("" when successful)
+    condition_number: float
+
+    @property
+    def converged(self) -> bool:
+        return self.result == ""
+
+    def to_dict(self) -> dict[str, Any]:
+        return {**dataclasses.asdict(self), "converged": self.converged}
+
+
+# ------------------------------------------------------------------------------------------------------------
+# Levenberg–Marquardt and covariances
+# ------------------------------------------------------------------------------------------------------------
+
+
+@eqx.filter_jit
+def _solve(fn, theta0, args, max_steps, rtol, atol):
+    solver = optx.LevenbergMarquardt(rtol=rtol, atol=atol)
+    sol = optx.least_squares(
+        fn, solver, theta0, args, max_steps=max_steps, throw=False, options={"jac": "fwd"}
+    )
+    return sol.value, sol.result, sol.stats["num_steps"]
+
+
+@eqx.filter_jit
+def _residual_and_jacobian(fn, theta, args):
+    return fn(theta, args), jax.jacfwd(fn)(theta, args)
+
+
+class _WithAux(eqx.Module):
+    fn: Any
+
+    def __call__(self, y, args):
+        return self.fn(y, args), None
+
+
+_OPTIONS = {"jac": "fwd"}
+
+
+@eqx.filter_jit
+def _lm_init(solver, fn, y, args):
+    f_struct, aux_struct = eqx.filter_eval_shape(fn, y, args)
+    return solver.init(fn, y, args, _OPTIONS, f_struct, aux_struct, frozenset())
+
+
+@eqx.filter_jit
+def _lm_step(solver, fn, y, args, state):
+    y, state, _ = solver.step(fn, y, args, _OPTIONS, state, frozenset())
+    return y, state
+
+
+def _solve_stepwise(fn, theta0, args, max_steps, rtol, atol, stall_steps):
+    """Levenberg–Marquardt step by step (optimistix's own `step`), stopping also after `stall_steps` rejected
+    proposals in a row: a Monte Carlo objective with common random numbers is rough below the scale of its
+    statistical error, so near the optimum every proposal can look worse and the trust region shrinks
+    forever."""
+    solver = optx.LevenbergMarquardt(rtol=rtol, atol=atol)
+    fn = _WithAux(fn)
+    y = theta0
+    state = _lm_init(solver, fn, y, args)
+    message = "the maximum number of steps was reached; increase `max_steps`"
+    steps = 0
+    for steps in range(1, max_steps + 1):
+        y, state = _lm_step(solver, fn, y, args, state)
+        if bool(state.terminate):
+            message = "" if state.result == optx.RESULTS.successful else str(optx.RESULTS[state.result])
+            break
+        if int(state.num_steps_since_acceptance) >= stall_steps:
+            message = ""  # converged to the resolution of the objective
+            break
+    return y, message, steps
+
+
+def _least_squares(fn, theta0, args, *, max_steps=200, rtol=1e-8, atol=1e-10, stall_steps=None):
+    """Levenberg–Marquardt (optimistix, forward-mode Jacobian); returns θ̂, J(θ̂), residuals, info.
+
+    `fn(theta, args)` should be a module-level function (or an `eqx.Module`) so that its compilation is reused
+    between calls. With `stall_steps`, the solve also stops after that many rejected steps in a row."""
+    theta0 = jnp.asarray(theta0, dtype=float)
+    if stall_steps is None:
+        theta, result, steps = _solve(fn, theta0, args, max_steps, rtol, atol)
+        msg = "" if result == optx.RESULTS.successful else str(optx.RESULTS[result])
+    else:
+        theta, msg, steps = _solve_stepwise(fn, theta0, args, max_steps, rtol, atol, stall_steps)
+    res, jac = _residual_and_jacobian(fn, theta, args)
+    r = np.asarray(res, dtype=float)
+    j = np.asarray(jac, dtype=float).reshape(r.size, -1)
+    n, p = j.shape
+    rss = float(r @ r)
+    sv = np.linalg.svd(j, compute_uv=False)
+    info = LeastSquaresInfo(
+        n,
+        p,
+        rss,
+        math.sqrt(rss / max(n - p, 1)),
+        int(steps),
+        msg,
+        float(sv[0] / sv[-1]) if sv[-1] > 0 else float("inf"),
+    )
+    return np.asarray(theta, dtype=float), j, r, info
+
+
+def _gauss_newton_covariance(j: np.ndarray, sigma: float) -> np.ndarray:
+    return sigma**2 * np.linalg.pinv(j.T @ j)
+
+
+def _sandwich(j: np.ndarray, r: np.ndarray, clusters: np.ndarray) -> np.ndarray:
+    """Cluster-robust covariance (JᵀJ)⁻¹ [Σ_c (J_cᵀ r_c)(J_cᵀ r_c)ᵀ] (JᵀJ)⁻¹ · G/(G − 1)."""
+    bread = np.linalg.pinv(j.T @ j)
+    ids = np.unique(clusters)
+    scores = np.stack([j[clusters == c].T @ r[clusters == c] for c in ids])
+    g = ids.size
+    return bread @ (scores.T @ scores) @ bread * (g / max(g - 1, 1))
+
+
+# ------------------------------------------------------------------------------------------------------------
+# Ship parameters a fit can set, by name
+# ------------------------------------------------------------------------------------------------------------
+
+_PARAMS = {
+    "gm_correction": ("gm_correction", None, "-"),
+    "b1": ("damping", 0, "1/s"),
+    "b2": ("damping", 1, "1/rad"),
+    "b3": ("damping", 2, "s/rad^2"),
+}
+
+
+def _get_param(ship: Ship, name: str):
+    attr, idx, _ = _PARAMS[name]
+    v = getattr(ship, attr)
+    return v if idx is None else v[idx]
+
+
+def _set_params(ship: Ship, names: Sequence[str], values) -> Ship:
+    for name, v in zip(names, values):
+        attr, idx, _ = _PARAMS[name]
+        if idx is None:
+            ship = eqx.tree_at(lambda s: getattr(s, attr), ship, jnp.asarray(v, dtype=float))
+        else:
+            ship = eqx.tree_at(lambda s: getattr(s, attr), ship, getattr(ship, attr).at[idx].set(v))
+    return ship

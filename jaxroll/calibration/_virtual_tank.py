@@ -1,0 +1,271 @@
+"""Virtual tank: synthetic tank records with known truth, from the project's integrator (the CLI's
+`jaxroll tank`; protocols: docs/records.md)."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from typing import Any
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import jax.random as jr
+import numpy as np
+
+from ..io._records import Record, make_record
+from ..roll._equation import RollProblem, roll_time_series
+from ..roll._excitation import BLOCK, AbstractExcitation
+from ..sea._grim import grim_transfer, superposition_length
+from ..sea._spectra import GRAVITY, wave_frequencies_from_encounter
+from ..ship._restoring import delta_gm
+
+
+class GivenExcitation(AbstractExcitation):
+    """ζ_G [m] and dζ_G/dt [m/s] given as arrays on t_k = k·dt (length ≥ blocks·BLOCK + 1): a recorded or
+    synthesised effective wave fed to the project's integrator (`jaxroll.RollProblem`)."""
+
+    zeta: Any
+    dzeta: Any
+    dt: float = eqx.field(static=True)
+
+    def init(self, key, num_steps):
+        return (self.zeta, self.dzeta), self.zeta[0], self.dzeta[0]
+
+    def block(self, key, state, index):
+        start = index * BLOCK + 1
+        return (
+            state,
+            jax.lax.dynamic_slice_in_dim(self.zeta, start, BLOCK),
+            jax.lax.dynamic_slice_in_dim(self.dzeta, start, BLOCK),
+        )
+
+
+def virtual_sea(
+    sea,
+    key,
+    num_samples: int,
+    dt: float,
+    *,
+    length: float,
+    probes: Sequence[float] = (0.0,),
+    speed: float = 0.0,
+):
+    """One realization of a long-crested head sea seen from the ship: wave elevations and Grim's effective
+    wave.
+
+    Components at encounter frequencies ω_j = 2πj/(M·dt), M ≥ `num_samples` (the record never repeats), with
+    complex Gaussian amplitudes A_j of variance S_e(ω_j)Δω (one-sided encounter spectrum). In the ship frame
+    (x forward from amidships, waves from the bow) a component is Re[A_j e^{i(ω_j t + k_j x)}], k_j = ω_j²/g
+    at the absolute wave frequency; the probe at x sees A_j e^{ik_j x}, and Grim's effective wave is
+    ζ_G = Σ F(k_j) A_j e^{iω_j t} (crest amidships positive), the same as `jaxroll.superpose` in distribution.
+
+    **Arguments:** `sea`: one-sided spectrum; `key`; `num_samples`; `dt` [s]; `length`: L [m]; `probes`: probe
+    positions x [m] relative to amidships, positive forward; `speed`: U [m/s] ≥ 0 (head seas).
+
+    **Returns:** `(elevations [m] of shape (len(probes), num_samples), zeta_g [m], dzeta_g [m/s])`."""
+
+    m = superposition_length(num_samples)
+    domega = 2 * jnp.pi / (m * dt)
+    omega_e = jnp.arange(m // 2 + 1) * domega
+    omegas, weights = wave_frequencies_from_encounter(omega_e, speed, "head")
+    omega, jac = omegas[:, 0], weights[:, 0]
+    s = sea(omega) * jac
+    s = s.at[0].set(0.0).at[-1].set(0.0)
+    k = omega**2 / GRAVITY
+    xy = jr.normal(key, (2, m // 2 + 1))
+    coef = jnp.sqrt(s * domega) * (xy[0] + 1j * xy[1]) * (m / 2)
+    f = grim_transfer(k, length)
+    zeta_g = jnp.fft.irfft(f * coef, n=m)[:num_samples]
+    dzeta_g = jnp.fft.irfft(1j * omega_e * f * coef, n=m)[:num_samples]
+    elev = jnp.stack([jnp.fft.irfft(coef * jnp.exp(1j * k * x), n=m)[:num_samples] for x in probes])
+    return elev, zeta_g, dzeta_g
+
+
+_roll_time_series_jit = eqx.filter_jit(roll_time_series)
+
+
+def _integration_grid(record_dt: float, max_dt: float) -> tuple[int, float]:
+    sub = max(1, math.ceil(record_dt / max_dt - 1e-9))
+    return sub, record_dt / sub
+
+
+def _simulate_roll(ship, zeta_g, dzeta_g, dt: float, num_steps: int, phi0: float, dphi0: float = 0.0):
+    """Roll (φ, φ̇) on t_k = k·dt, k ≤ num_steps, from the project's RK4 integrator driven by the given
+    ζ_G."""
+
+    num_blocks = -(-num_steps // BLOCK)
+    need = num_blocks * BLOCK + 1
+    pad = need - zeta_g.shape[0]
+    if pad > 0:
+        zeta_g = jnp.concatenate([zeta_g, jnp.zeros(pad)])
+        dzeta_g = jnp.concatenate([dzeta_g, jnp.zeros(pad)])
+    exc = GivenExcitation(zeta=zeta_g, dzeta=dzeta_g, dt=float(dt))
+    problem = RollProblem(ship, exc, phi0, dphi0)
+    phi, dphi, end = _roll_time_series_jit(problem, jr.key(0), num_steps * dt)
+    return np.asarray(phi), np.asarray(dphi), bool(end.capsized)
+
+
+def _noise(rng: np.random.Generator, sigma: float, n: int) -> np.ndarray:
+    return rng.normal(0.0, sigma, n) if sigma > 0 else np.zeros(n)
+
+
+def virtual_decay_record(
+    ship,
+    *,
+    initial_roll_deg: float = 20.0,
+    duration_model_s: float = 60.0,
+    scale: float = 100.0,
+    sampling_hz: float = 20.0,
+    roll_noise_deg: float = 0.0,
+    seed: int = 0,
+    max_dt: float = 0.25,
+    realization: int | None = None,
+) -> Record:
+    """A free-decay record from the ship's own roll equation (P = 0), released from rest at
+    `initial_roll_deg`.
+
+    Integrated with the project's RK4 (`jaxroll.roll_time_series`) at ≤ `max_dt` [s, full scale]; sampled at
+    `sampling_hz` (model scale); Gaussian sensor noise of std `roll_noise_deg` [deg] added (numpy `seed`)."""
+    record_dt = math.sqrt(scale) / sampling_hz
+    n = int(round(duration_model_s * sampling_hz)) + 1
+    sub, dt = _integration_grid(record_dt, max_dt)
+    steps = (n - 1) * sub
+    zeros = jnp.zeros(steps + 1)
+    phi, _, capsized = _simulate_roll(ship, zeros, zeros, dt, steps, math.radians(initial_roll_deg))
+    if capsized:
+        raise ValueError(f"the decay from {initial_roll_deg}° capsizes the ship; start from a smaller angle.")
+    rng = np.random.default_rng(seed)
+    roll = phi[::sub][:n] + np.radians(_noise(rng, roll_noise_deg, n))
+    meta: dict[str, Any] = {"initial_roll_deg": float(initial_roll_deg)}
+    if realization is not None:
+        meta["realization"] = realization
+    meta["generator"] = f"jaxroll virtual tank (ship {ship.name!r})"
+    return make_record(
+        "decay", np.arange(n) * record_dt, {"roll": roll}, scale=scale, sampling_hz=sampling_hz, **meta
+    )
+
+
+def _sea_meta(sea, scale, probe_x_model_m, speed_model_m_s, realization):
+    meta = {
+        "wave_height_full_m": float(sea.hs),
+        "wave_period_full_s": float(sea.t01),
+        "probe_x_model_m": float(probe_x_model_m),
+        "speed_model_m_s": float(speed_model_m_s),
+        "spectrum": "ITTC",
+        "heading": "head",
+    }
+    if realization is not None:
+        meta["realization"] = realization
+    return meta
+
+
+def virtual_captive_record(
+    ship,
+    sea,
+    *,
+    heel_deg: float,
+    seed: int = 0,
+    duration_model_s: float = 360.0,
+    scale: float = 100.0,
+    sampling_hz: float = 20.0,
+    probe_x_model_m: float = 2.0,
+    speed_model_m_s: float = 0.0,
+    wave_noise_mm: float = 0.0,
+    gm_noise_mm: float = 0.0,
+    realization: int | None = None,
+) -> Record:
+    """A captive test at fixed heel: wave at the probe and the measured ΔGM, from a sea with known truth.
+
+    Truth: ΔGM_obs(t) = r · Σ C_k ζ_mid(t)^k + noise with r = `ship.gm_correction` (σ_obs/σ_thr) and ζ_mid =
+    −ζ_G of the same realization; the virtual tank's ΔGM does not depend on the heel. Noise: Gaussian, std
+    `wave_noise_mm` / `gm_noise_mm` [mm, model scale]. `sea` must be `jaxroll.ITTC` (the header records H1/3,
+    T01).
+    """
+
+    record_dt = math.sqrt(scale) / sampling_hz
+    n = int(round(duration_model_s * sampling_hz)) + 1
+    speed = speed_model_m_s * math.sqrt(scale)
+    elev, zeta_g, _ = virtual_sea(
+        sea,
+        jr.key(seed),
+        n,
+        record_dt,
+        length=float(ship.lpp),
+        probes=(probe_x_model_m * scale,),
+        speed=speed,
+    )
+    dgm = np.asarray(ship.gm_correction * delta_gm(ship, -zeta_g))
+    rng = np.random.default_rng([seed, 1])
+    wave = np.asarray(elev[0]) + _noise(rng, wave_noise_mm * 1e-3 * scale, n)
+    dgm = dgm + _noise(rng, gm_noise_mm * 1e-3 * scale, n)
+    meta = _sea_meta(sea, scale, probe_x_model_m, speed_model_m_s, realization)
+    meta = {**meta, "heel_deg": float(heel_deg), "generator": f"jaxroll virtual tank (ship {ship.name!r})"}
+    return make_record(
+        "captive",
+        np.arange(n) * record_dt,
+        {"wave": wave, "delta_gm": dgm},
+        scale=scale,
+        sampling_hz=sampling_hz,
+        **meta,
+    )
+
+
+def virtual_roll_record(
+    ship,
+    sea,
+    *,
+    seed: int = 0,
+    duration_model_s: float = 360.0,
+    scale: float = 100.0,
+    sampling_hz: float = 20.0,
+    probe_x_model_m: float = 0.0,
+    initial_roll_deg: float = 5.0,
+    roll_noise_deg: float = 0.0,
+    wave_noise_mm: float = 0.0,
+    max_dt: float = 0.25,
+    max_attempts: int = 20,
+    realization: int | None = None,
+) -> tuple[Record, int]:
+    """A free-running roll record in irregular head seas from the project's integrator, and its capsize count.
+
+    Roll from `jaxroll.roll_time_series` driven by Grim's effective wave of the same realization as the wave
+    column (the elevation at `probe_x_model_m`, amidships by default); φ(0) = `initial_roll_deg`, φ̇(0) = 0
+    (the paper's MCS start). A realization that capsizes is not a record: the tank draws the next one (seed
+    sub-streams) and returns how many it discarded.
+
+    **Returns:** `(record, n_capsized_attempts)`.
+    """
+
+    record_dt = math.sqrt(scale) / sampling_hz
+    n = int(round(duration_model_s * sampling_hz)) + 1
+    sub, dt = _integration_grid(record_dt, max_dt)
+    steps = (n - 1) * sub
+    for attempt in range(max_attempts):
+        key = jr.fold_in(jr.key(seed), attempt)
+        elev, zeta_g, dzeta_g = virtual_sea(
+            sea, key, steps + 1, dt, length=float(ship.lpp), probes=(probe_x_model_m * scale,)
+        )
+        phi, _, capsized = _simulate_roll(ship, zeta_g, dzeta_g, dt, steps, math.radians(initial_roll_deg))
+        if not capsized:
+            break
+    else:
+        raise ValueError(f"all {max_attempts} realizations capsized; the sea is too severe for this ship.")
+    rng = np.random.default_rng([seed, 2])
+    roll = phi[::sub][:n] + np.radians(_noise(rng, roll_noise_deg, n))
+    wave = np.asarray(elev[0])[::sub][:n] + _noise(rng, wave_noise_mm * 1e-3 * scale, n)
+    meta = _sea_meta(sea, scale, probe_x_model_m, 0.0, realization)
+    meta = {
+        **meta,
+        "initial_roll_deg": float(initial_roll_deg),
+        "generator": f"jaxroll virtual tank (ship {ship.name!r})",
+    }
+    rec = make_record(
+        "roll",
+        np.arange(n) * record_dt,
+        {"roll": roll, "wave": wave},
+        scale=scale,
+        sampling_hz=sampling_hz,
+        **meta,
+    )
+    return rec, attempt

@@ -1,0 +1,91 @@
+"""Ship files (TOML): read and write a `Ship`'s roll-model parameters (format: docs/ship_file.md).
+
+The fields, their sections and units are the one table `jaxroll.ship._ship._FIELDS`; a ship read from a file is
+checked by `jaxroll.ship._ship.validate_ship`.
+"""
+
+from __future__ import annotations
+
+import tomllib
+from pathlib import Path
+from typing import Any
+
+from ..ship._ship import _FIELDS, Ship, _parameter_tables, validate_ship
+
+
+def ship_to_dict(ship: Ship) -> dict[str, Any]:
+    """The ship as the nested dictionary of its TOML file (SI units; see docs/ship_file.md)."""
+    out: dict[str, Any] = {"name": ship.name}
+    if ship.provenance:
+        out["provenance"] = ship.provenance
+    out.update(_parameter_tables(ship))
+    return out
+
+
+def ship_from_dict(data: dict[str, Any], *, source: str = "<dict>") -> Ship:
+    """Build a `Ship` from the nested dictionary of a ship file, with errors that name the missing/unknown field."""
+    if not isinstance(data, dict):
+        raise ValueError(f"{source}: a ship file must be a TOML table; got {type(data).__name__}.")
+    known_sections = {s for s, *_ in _FIELDS}
+    unknown = sorted(set(data) - known_sections - {"name", "provenance"})
+    if unknown:
+        raise ValueError(
+            f"{source}: unknown top-level field(s) {unknown}; allowed: name, provenance, "
+            f"{', '.join(f'[{s}]' for s in sorted(known_sections))}. See docs/ship_file.md."
+        )
+    values: dict[str, Any] = {"restoring": [0.0] * 4, "damping": [0.0] * 3, "delta_gm": [0.0] * 7}
+    missing = []
+    for section in known_sections:
+        table = data.get(section)
+        if table is None:
+            continue
+        if not isinstance(table, dict):
+            raise ValueError(f"{source}: [{section}] must be a table; got {type(table).__name__}.")
+        allowed = {k for s, k, *_ in _FIELDS if s == section}
+        extra = sorted(set(table) - allowed)
+        if extra:
+            raise ValueError(
+                f"{source}: unknown field(s) {extra} in [{section}]; allowed: {sorted(allowed)}. "
+                "See docs/ship_file.md."
+            )
+    for section, key, attr, unit in _FIELDS:
+        table = data.get(section, {})
+        if key not in table:
+            missing.append(f"[{section}] {key} ({unit})")
+            continue
+        v = table[key]
+        if isinstance(v, bool) or not isinstance(v, int | float):
+            raise ValueError(f"{source}: [{section}] {key} must be a number ({unit}); got {v!r}.")
+        if isinstance(attr, tuple):
+            values[attr[0]][attr[1]] = float(v)
+        else:
+            values[attr] = float(v)
+    if missing:
+        raise ValueError(f"{source}: missing field(s) {', '.join(missing)}. See docs/ship_file.md.")
+    ship = Ship(
+        **values,
+        name=str(data.get("name", Path(source).stem)),
+        provenance=str(data.get("provenance", f"ship file {source}")),
+    )
+    validate_ship(ship)
+    return ship
+
+
+def load_ship(path: str | Path) -> Ship:
+    """Read a ship file (TOML, SI units at full scale; format in docs/ship_file.md)."""
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"Ship file {str(path)!r} does not exist.")
+    try:
+        data = tomllib.loads(path.read_text())
+    except tomllib.TOMLDecodeError as e:
+        raise ValueError(f"{path}: not valid TOML ({e}).") from None
+    return ship_from_dict(data, source=str(path))
+
+
+def ship_to_toml(ship: Ship) -> str:
+    """The ship file text (TOML) of `ship`."""
+    import tomli_w
+
+    lines = ["# jaxroll ship file: SI units, full scale, radians. Format: docs/ship_file.md\n"]
+    return "".join(lines) + tomli_w.dumps(ship_to_dict(ship))

@@ -1,0 +1,203 @@
+"""Observers: what a Monte Carlo keeps of each realization, reduced on the fly (like diffrax's `SaveAt(fn=…)`).
+
+One loop (`jaxroll.monte_carlo`) integrates every realization; an observer decides what it records:
+
+- `AmplitudeHistogram`: zero-crossing and envelope amplitude histograms and exact per-realization sums (PDFs);
+- `FirstMaxima`: the largest of the first N0 zero-crossing amplitudes per trial (the paper's maxima protocol);
+- `MaxRoll`: the largest |φ| per trial and the count of trials beyond an angle (risk, sweeps).
+
+An observer is an `eqx.Module` of Python settings (hashable, so the compiled chunk is reused). Its methods:
+`init(problem)` → per-realization state; `observe(problem, state, k, y, alive)` → (state, per-step output or
+None) after each step k (1-based); `reduce(problem, states, outputs, end, valid)` → (summed, per_realization) over a chunk
+(leading axis: realizations; `summed` entries must be integer-valued so any device order adds them exactly);
+`result(summed, per, config)` → the host result.
+"""
+
+from __future__ import annotations
+
+import abc
+import math
+
+import equinox as eqx
+import jax.numpy as jnp
+import numpy as np
+
+from ._amplitudes import (
+    ZeroCrossingState,
+    hilbert_envelope,
+    histogram_counts,
+    zero_crossing_init,
+    zero_crossing_update,
+)
+from ._statistics import AmplitudeStatistics, MaximaStatistics, MaxRollStatistics
+
+
+def _steps(seconds: float, dt: float) -> int:
+    return int(round(seconds / dt))
+
+
+class AbstractObserver(eqx.Module):
+    """What one Monte Carlo realization records, and how a chunk of them is reduced (see the module docstring)."""
+
+    @abc.abstractmethod
+    def init(self, problem):
+        """Per-realization observer state before the first step."""
+
+    @abc.abstractmethod
+    def observe(self, problem, state, k, y, alive):
+        """After step k (1-based) with y = (φ, φ̇) [rad, rad/s]: `(state, output)`; outputs are stacked."""
+
+    @abc.abstractmethod
+    def reduce(self, problem, states, outputs, end, valid) -> tuple[dict, dict]:
+        """`(summed, per_realization)` of a chunk; `valid` marks real (not padding) realizations."""
+
+    @abc.abstractmethod
+    def result(self, summed: dict, per: dict, config: dict):
+        """The host-side result (numpy) from the totals over all chunks."""
+
+
+class AmplitudeHistogram(AbstractObserver):
+    """Zero-crossing (per half cycle) and envelope (per time sample) amplitude histograms after `discard` [s], on
+    a fine grid of `bin_width_deg` up to `max_deg` [deg] (amplitudes beyond it are counted in the last bin), with
+    exact per-realization sums for means and E[φ²], E[φ⁴]. Result: `AmplitudeStatistics`."""
+
+    discard: float = 0.0
+    bin_width_deg: float = 0.05
+    max_deg: float = 90.0
+
+    @property
+    def num_bins(self) -> int:
+        return int(round(self.max_deg / self.bin_width_deg))
+
+    def init(self, problem):
+        return zero_crossing_init(problem.phi0)
+
+    def observe(self, problem, state, k, y, alive):
+        state, amp = zero_crossing_update(state, y[0])
+        return state, (y[0], amp)
+
+    def reduce(self, problem, states, outputs, end, valid):
+        phi, amp = outputs
+        start = _steps(self.discard, problem.dt)
+        keep = valid & ~end.capsized
+        phi, amp = phi[:, start:], amp[:, start:]
+        zc_w = ((amp > 0) & keep[:, None]).astype(float)
+        env = hilbert_envelope(phi)
+        env_w = jnp.broadcast_to(keep[:, None], env.shape).astype(float)
+        deg = 180 / jnp.pi
+        summed = {
+            "counts_zero_crossing": histogram_counts(amp * deg, zc_w, self.bin_width_deg, self.num_bins),
+            "counts_envelope": histogram_counts(env * deg, env_w, self.bin_width_deg, self.num_bins),
+        }
+        kf = keep.astype(float)
+        per = {
+            "capsized": end.capsized & valid,
+            "capsize_time": end.capsize_time,
+            "n_zc": jnp.sum(zc_w, 1),
+            "sum_zc": jnp.sum(zc_w * amp, 1),
+            "sumsq_zc": jnp.sum(zc_w * amp**2, 1),
+            "n_env": jnp.sum(env_w, 1),
+            "sum_env": jnp.sum(env_w * env, 1),
+            "sumsq_env": jnp.sum(env_w * env**2, 1),
+            "n_samples": kf * phi.shape[1],
+            "sum_phi2": kf * jnp.sum(phi**2, 1),
+            "sum_phi4": kf * jnp.sum(phi**4, 1),
+        }
+        return summed, per
+
+    def result(self, summed, per, config):
+        capsized = per.pop("capsized")
+        capsize_time = per.pop("capsize_time")
+        return AmplitudeStatistics(
+            edges_deg=np.arange(self.num_bins + 1) * self.bin_width_deg,
+            counts_zero_crossing=summed["counts_zero_crossing"],
+            counts_envelope=summed["counts_envelope"],
+            capsized=capsized,
+            capsize_time=capsize_time,
+            per_realization=per,
+            config={**config, "discard_s": self.discard},
+        )
+
+
+class _MaximaState(eqx.Module):
+    zc: ZeroCrossingState
+    count: jnp.ndarray
+    running_max: jnp.ndarray
+    maxima: jnp.ndarray
+
+
+class FirstMaxima(AbstractObserver):
+    """Per trial, the largest of its first N0 zero-crossing amplitudes after `discard` [s], for every N0 in `n0`
+    (all from the same trials). Nothing per step is kept: memory is bounded by the chunk, not by N0.
+    Result: `MaximaStatistics`."""
+
+    n0: tuple[int, ...] = (20, 50, 100, 1000)
+    discard: float = 500.0
+
+    def init(self, problem):
+        return _MaximaState(
+            zero_crossing_init(problem.phi0), jnp.array(0), jnp.array(0.0), jnp.full(len(self.n0), -1.0)
+        )
+
+    def observe(self, problem, state, k, y, alive):
+        n_max = max(self.n0)
+        zc, amp = zero_crossing_update(state.zc, y[0])
+        counted = (amp > 0) & (k > _steps(self.discard, problem.dt)) & (state.count < n_max) & alive
+        count = state.count + counted
+        running = jnp.where(counted, jnp.maximum(state.running_max, amp), state.running_max)
+        maxima = jnp.where(counted & (count == jnp.asarray(self.n0)), running, state.maxima)
+        return _MaximaState(zc, count, running, maxima), None
+
+    def reduce(self, problem, states, outputs, end, valid):
+        per = {
+            "maxima": jnp.where(valid[:, None], states.maxima, -1.0),
+            "count": jnp.where(valid, states.count, 0),
+            "capsized": end.capsized & valid,
+            "capsize_time": end.capsize_time,
+        }
+        return {}, per
+
+    def result(self, summed, per, config):
+        return MaximaStatistics(
+            n0=self.n0,
+            maxima_deg=np.where(per["maxima"] >= 0, np.rad2deg(per["maxima"]), np.nan),
+            capsized=per["capsized"],
+            capsize_time=per["capsize_time"],
+            count=per["count"],
+            config={**config, "discard_s": self.discard},
+        )
+
+
+class MaxRoll(AbstractObserver):
+    """Per trial, the largest |φ| after `discard` [s] and whether it capsized; the trials beyond `angle_deg`
+    [deg] (or capsized) are counted on the device. Result: `MaxRollStatistics`."""
+
+    angle_deg: float = 30.0
+    discard: float = 0.0
+
+    def init(self, problem):
+        return jnp.zeros(())
+
+    def observe(self, problem, state, k, y, alive):
+        later = k > _steps(self.discard, problem.dt)
+        return jnp.where(later, jnp.maximum(state, jnp.abs(y[0])), state), None
+
+    def reduce(self, problem, states, outputs, end, valid):
+        capsized = end.capsized & valid
+        exceeded = valid & (end.capsized | (states > math.radians(self.angle_deg)))
+        summed = {
+            "n_capsized": jnp.sum(capsized, dtype=jnp.int64),
+            "n_exceeded": jnp.sum(exceeded, dtype=jnp.int64),
+        }
+        per = {"max_abs_phi": jnp.where(valid, states, 0.0), "capsized": capsized, "capsize_time": end.capsize_time}
+        return summed, per
+
+    def result(self, summed, per, config):
+        return MaxRollStatistics(
+            max_abs_phi_deg=np.rad2deg(per["max_abs_phi"]),
+            capsized=per["capsized"],
+            capsize_time=per["capsize_time"],
+            angle_deg=float(self.angle_deg),
+            n_exceeded=int(summed["n_exceeded"]),
+            config={**config, "discard_s": self.discard},
+        )

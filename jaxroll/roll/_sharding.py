@@ -1,0 +1,297 @@
+"""Running a Monte Carlo in chunks: sharded over devices and hosts, checkpointed, identical whatever the layout.
+
+Realization i always uses `fold_in(key, i)`; histogram counts are integers and per-realization arrays are placed
+at their indices, so results do not depend on the chunk size, the device count or interruptions.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import io
+import json
+import os
+import re
+import tempfile
+import time
+from pathlib import Path
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import jax.random as jr
+import numpy as np
+
+REALIZATION_AXIS = "realizations"
+CHECKPOINT_FILE = "checkpoint.npz"
+CHECKPOINT_SECONDS = 60.0  # default checkpoint interval [s] of wall time when `checkpoint_every` is None
+
+
+def realization_mesh(devices=None) -> jax.sharding.Mesh:
+    """The 1-D device mesh (axis `"realizations"`) a Monte Carlo is sharded over.
+
+    **Arguments:** `devices`: None (every device of every process, `jax.devices()`), an int n (the first n of
+    them), or a sequence of devices.
+    """
+    all_devices = jax.devices()
+    if devices is None:
+        chosen = all_devices
+    elif isinstance(devices, int) and not isinstance(devices, bool):
+        if not 1 <= devices <= len(all_devices):
+            raise ValueError(
+                f"`devices` = {devices} must be between 1 and the number of devices, {len(all_devices)} "
+                f"({all_devices[0].platform})."
+            )
+        chosen = all_devices[:devices]
+    else:
+        chosen = list(devices)
+        if not chosen or len(set(chosen)) != len(chosen) or any(d not in all_devices for d in chosen):
+            raise ValueError(f"`devices` must be distinct devices from jax.devices(); got {devices!r}.")
+    return jax.sharding.Mesh(np.array(chosen), (REALIZATION_AXIS,))
+
+
+def _global_array(host: np.ndarray, sharding) -> jax.Array:
+    """A global array with `sharding` from a host array every process holds in full (works multi-process)."""
+    return jax.make_array_from_callback(host.shape, sharding, lambda index: host[index])
+
+
+def _replicate(tree, mesh):
+    """Place the array leaves of `tree` on every device of `mesh` (PRNG keys are left to jit, which copies
+    them)."""
+    sharding = jax.sharding.NamedSharding(mesh, jax.sharding.PartitionSpec())
+
+    def put(x):
+        if not isinstance(x, jax.Array) or jnp.issubdtype(x.dtype, jax.dtypes.prng_key):
+            return x
+        if jax.process_count() == 1:
+            return jax.device_put(x, sharding)
+        return _global_array(np.asarray(x), sharding)
+
+    return jax.tree_util.tree_map(put, tree)
+
+
+def _to_host(tree):
+    """Host numpy copies of (possibly sharded, possibly multi-process) global arrays."""
+    if jax.process_count() > 1:
+        from jax.experimental import multihost_utils
+
+        return multihost_utils.process_allgather(tree, tiled=True)
+    return jax.tree_util.tree_map(np.asarray, tree)
+
+
+def _run_fingerprint(chunk_fn, problem, key, num_realizations, chunk_size, static) -> dict[str, str]:
+    """What identifies a run, item by item (hashes for the arrays), so a mismatch can say what differs."""
+    from .. import __version__
+
+    def digest(leaves) -> str:
+        h = hashlib.sha256()
+        for leaf in leaves:
+            arr = np.asarray(leaf)
+            h.update(f"{arr.dtype.str}{arr.shape}".encode())
+            h.update(np.ascontiguousarray(arr).tobytes())
+        return h.hexdigest()[:16]
+
+    leaves, treedef = jax.tree_util.tree_flatten(problem)
+    if isinstance(key, jax.Array) and jnp.issubdtype(key.dtype, jax.dtypes.prng_key):
+        key_bytes = [jr.key_data(key), np.frombuffer(str(jr.key_impl(key)).encode(), np.uint8)]
+    else:
+        key_bytes = [key]
+    structure = re.sub(r"0x[0-9a-f]+", "", str(treedef))  # static fields (dt, names); no memory addresses
+    name = getattr(chunk_fn, "__qualname__", repr(chunk_fn))
+    return {
+        "chunk_fn": f"{getattr(chunk_fn, '__module__', '?')}.{name}",
+        "problem": digest(leaves) + ":" + hashlib.sha256(structure.encode()).hexdigest()[:8],
+        "key": digest(key_bytes),
+        "num_realizations": str(num_realizations),
+        "chunk_size": str(chunk_size),
+        "static": repr(static),
+        "jaxroll_version": __version__,
+    }
+
+
+_FINGERPRINT_MEANING = {
+    "chunk_fn": "the kind of Monte Carlo",
+    "problem": "the problem (ship, sea state, speed/heading, excitation, dt, initial roll)",
+    "key": "the random key (seed)",
+    "num_realizations": "the number of realizations",
+    "chunk_size": "the chunk size",
+    "static": "the run settings (duration, discard, histogram grid, ...)",
+    "jaxroll_version": "the jaxroll version",
+}
+
+
+def _load_checkpoint(path: Path, fingerprint: dict[str, str]):
+    """`(next_start, summed, per)` from a checkpoint of this very run; ValueError if unreadable or foreign."""
+    advice = f"Delete {path.parent} (or the file) to start afresh, or pass another checkpoint directory."
+    try:
+        with open(path, "rb") as f, np.load(f, allow_pickle=False) as data:
+            contents = {name: data[name] for name in data.files}
+        stored = json.loads(str(contents.pop("fingerprint")))
+        next_start = int(contents.pop("next_start"))
+        lengths = {v.shape[0] for k, v in contents.items() if k.startswith("per/")}
+        if not (0 < next_start <= int(stored["num_realizations"])) or lengths - {next_start}:
+            raise ValueError(f"inconsistent contents (next start {next_start}, arrays of lengths {lengths})")
+    except Exception as e:  # zipfile.BadZipFile, EOFError, OSError, KeyError, ValueError, ...
+        raise ValueError(
+            f"checkpoint {path} is unreadable (truncated or corrupted: {type(e).__name__}: {e}). {advice}"
+        ) from e
+    differ = [k for k in fingerprint if stored.get(k) != fingerprint[k]]
+    if differ:
+        detail = "; ".join(
+            f"{_FINGERPRINT_MEANING[k]} ({k}: {stored.get(k)!r} there, {fingerprint[k]!r} now)"
+            for k in differ
+        )
+        raise ValueError(f"checkpoint {path} belongs to a different run: {detail}. {advice}")
+    summed = {k[len("summed/") :]: v for k, v in contents.items() if k.startswith("summed/")}
+    per = {k[len("per/") :]: v for k, v in contents.items() if k.startswith("per/")}
+    return next_start, summed, per
+
+
+def _save_checkpoint(path: Path, fingerprint: dict, next_start: int, summed: dict, per: dict) -> None:
+    """Write the accumulated state atomically (temporary file in the same folder, fsync, then os.replace)."""
+    arrays = {"fingerprint": np.array(json.dumps(fingerprint)), "next_start": np.array(next_start)}
+    arrays.update({f"summed/{k}": v for k, v in summed.items()})
+    arrays.update({f"per/{k}": v[:next_start] for k, v in per.items()})
+    buf = io.BytesIO()
+    np.savez(buf, **arrays)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "wb") as f:
+            f.write(buf.getvalue())
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def run_chunks(
+    chunk_fn,
+    problem,
+    key,
+    num_realizations: int,
+    chunk_size: int,
+    static: tuple,
+    progress=None,
+    *,
+    devices=None,
+    checkpoint: str | os.PathLike | None = None,
+    checkpoint_every: int | None = None,
+):
+    """Run `chunk_fn(problem, key, indices, valid, *static) -> (summed, per_realization)` over all
+    realizations.
+
+    `summed` (dict of arrays reduced over the chunk's realization axis) is added over chunks;
+    `per_realization` (dict of arrays with a leading chunk axis) is placed at the realizations' indices. The
+    last chunk is padded with invalid realizations (`valid` False) so that every chunk has the same shape and
+    compiles once.
+
+    The realization axis of every chunk is sharded over a 1-D mesh of devices (axis `"realizations"`), across
+    processes too after `jax.distributed.initialize()`: the chunk is rounded up to a multiple of the device
+    count, `summed` is reduced across devices by XLA inside the compiled chunk, and `per_realization` is
+    gathered to every process. Realization i uses `fold_in(key, i)` whatever the device, so results do not
+    depend on the number of devices, processes or chunks: bit for bit when every device gets the same number
+    of realizations per chunk, otherwise to round-off (XLA on CPU compiles a batch-size-dependent matrix
+    product, ~1e-15 in φ). `summed` entries should be integer-valued (counts), which any reduction order adds
+    exactly; float sums belong in `per_realization` (added on the host in index order).
+
+    **Arguments:**
+
+    - `chunk_fn`: the chunk function (jitted once per mesh; `static` entries must be hashable Python values).
+    - `problem`, `key`: passed to every chunk (replicated on every device).
+    - `num_realizations`, `chunk_size`: realizations in all, and per compiled chunk (memory bound).
+    - `progress`: called with the number of realizations done after each chunk.
+    - `devices`: None (all devices, `jax.devices()`), an int n (the first n), or a sequence of devices.
+    - `checkpoint`: a directory; the accumulated state is saved there (`checkpoint.npz`, atomically) with a
+      fingerprint of the run, and a rerun with the same directory resumes where it stopped and gives exactly
+      the result of an uninterrupted run. A finished run leaves its final state, so a rerun returns at once.
+    - `checkpoint_every`: save every this many chunks; None (default) saves when `CHECKPOINT_SECONDS` (60 s)
+      of wall time have passed since the last save, and always after the last chunk.
+
+    **Returns:** `(summed, per_realization)` as host numpy arrays (the same on every process).
+
+    **Raises:** `ValueError` when the checkpoint is unreadable or belongs to a different run (the message says
+    what differs and how to proceed).
+    """
+    if checkpoint_every is not None and not (isinstance(checkpoint_every, int) and checkpoint_every >= 1):
+        raise ValueError(f"`checkpoint_every` must be None or an integer >= 1; got {checkpoint_every!r}.")
+    mesh = realization_mesh(devices)
+    num_devices = mesh.devices.size
+    chunk = -(-min(chunk_size, num_realizations) // num_devices) * num_devices
+    sharding = jax.sharding.NamedSharding(mesh, jax.sharding.PartitionSpec(REALIZATION_AXIS))
+    fn = _compiled(chunk_fn, mesh)
+
+    summed: dict[str, np.ndarray] = {}
+    per: dict[str, np.ndarray] = {}
+    start = 0
+    path = fingerprint = None
+    if checkpoint is not None:
+        path = Path(checkpoint) / CHECKPOINT_FILE
+        fingerprint = _run_fingerprint(chunk_fn, problem, key, num_realizations, chunk_size, static)
+        if path.exists():
+            start, summed, saved_per = _load_checkpoint(path, fingerprint)
+            for k, v in saved_per.items():
+                per[k] = np.zeros((num_realizations, *v.shape[1:]), v.dtype)
+                per[k][:start] = v
+        if jax.process_count() > 1:
+            from jax.experimental import multihost_utils
+
+            multihost_utils.assert_equal(
+                np.array(start),
+                "processes read different checkpoints: put the "
+                "checkpoint directory on a file system every process shares.",
+            )
+    problem = _replicate(problem, mesh)
+    last_save, chunks_since_save = time.monotonic(), 0
+    while start < num_realizations:
+        idx = np.arange(start, start + chunk)
+        valid = idx < num_realizations
+        s, p = fn(problem, key, _global_array(idx, sharding), _global_array(valid, sharding), *static)
+        s, p = _to_host((s, p))
+        n = int(valid.sum())
+        for k, v in s.items():
+            summed[k] = summed.get(k, 0) + v
+        for k, v in p.items():
+            if k not in per:
+                per[k] = np.zeros((num_realizations, *v.shape[1:]), v.dtype)
+            per[k][start : start + n] = v[:n]
+        start += n
+        chunks_since_save += 1
+        if path is not None:
+            due = (
+                chunks_since_save >= checkpoint_every
+                if checkpoint_every is not None
+                else time.monotonic() - last_save >= CHECKPOINT_SECONDS
+            )
+            if due or start >= num_realizations:
+                if jax.process_index() == 0:
+                    _save_checkpoint(path, fingerprint, start, summed, per)
+                last_save, chunks_since_save = time.monotonic(), 0
+        if progress is not None:
+            progress(start)
+    return summed, per
+
+
+_COMPILED: dict = {}
+
+
+def _compiled(fn, mesh: jax.sharding.Mesh | None = None):
+    """`fn` under `eqx.filter_jit`, with its outputs' shardings fixed on `mesh` (summed replicated,
+    per-realization sharded along the realization axis), cached per (function, mesh)."""
+    if (fn, mesh) not in _COMPILED:
+        if mesh is None:
+            _COMPILED[fn, mesh] = eqx.filter_jit(fn)
+        else:
+            replicated = jax.sharding.NamedSharding(mesh, jax.sharding.PartitionSpec())
+            along = jax.sharding.NamedSharding(mesh, jax.sharding.PartitionSpec(REALIZATION_AXIS))
+
+            def sharded(problem, key, indices, valid, *static):
+                summed, per = fn(problem, key, indices, valid, *static)
+                summed = jax.lax.with_sharding_constraint(summed, replicated)
+                per = jax.lax.with_sharding_constraint(per, along)
+                return summed, per
+
+            sharded.__name__ = sharded.__qualname__ = getattr(fn, "__name__", "chunk_fn")
+            _COMPILED[fn, mesh] = eqx.filter_jit(sharded)
+    return _COMPILED[fn, mesh]

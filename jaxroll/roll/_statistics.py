@@ -1,0 +1,241 @@
+"""What a Monte Carlo returns: reduced statistics on the host (numpy), one type per observer.
+
+Every result counts its capsized realizations (`CapsizeCounts`): they are kept out of the amplitude statistics,
+never dropped silently, and reported next to them.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..extremes._risk import wilson_interval as _wilson
+from ..laws._abstract import QUANTILE_LEVELS, SAMPLING, check_estimator
+from ..laws._tabulated import TabulatedAmplitudeLaw, law_from_histogram
+
+
+def wilson_interval(successes, trials, confidence: float = 0.95) -> tuple[np.ndarray, np.ndarray]:
+    """`jaxroll.wilson_interval` as numpy arrays: `(lower, upper)` of a binomial proportion."""
+    lo, hi = _wilson(successes, trials, confidence)
+    return np.asarray(lo), np.asarray(hi)
+
+
+class CapsizeCounts:
+    """Capsize counts of a Monte Carlo result with a per-realization boolean array `capsized`."""
+
+    capsized: np.ndarray
+
+    @property
+    def n_realizations(self) -> int:
+        """Realizations run [-]."""
+        return int(self.capsized.size)
+
+    @property
+    def n_capsized(self) -> int:
+        """Realizations that capsized (|φ| beyond the angle of vanishing stability, or diverged) [-]."""
+        return int(self.capsized.sum())
+
+    @property
+    def capsize_probability(self) -> float:
+        """Fraction of realizations that capsized [-]."""
+        return self.n_capsized / max(self.n_realizations, 1)
+
+    def capsize_interval(self, confidence: float = 0.95) -> tuple[float, float]:
+        """Wilson interval of the capsize probability [-]."""
+        lo, hi = wilson_interval(self.n_capsized, self.n_realizations, confidence)
+        return float(lo), float(hi)
+
+
+_KEYS = {"zero_crossing": "zc", "envelope": "env"}
+
+
+@dataclass
+class AmplitudeStatistics(CapsizeCounts):
+    """Reduced Monte Carlo statistics of roll amplitudes (host numpy arrays).
+
+    `counts_*` are histograms on the fine grid `edges_deg` [deg] (the last bin also holds the amplitudes beyond the
+    grid, counted separately in `beyond_grid`); per-realization arrays are in realization order. Capsized
+    realizations are excluded from every amplitude statistic and counted in `capsized`.
+    """
+
+    edges_deg: np.ndarray
+    counts_zero_crossing: np.ndarray
+    counts_envelope: np.ndarray
+    capsized: np.ndarray
+    capsize_time: np.ndarray
+    per_realization: dict[str, np.ndarray] = field(default_factory=dict)
+    config: dict = field(default_factory=dict)
+
+    def _counts(self, estimator: str) -> np.ndarray:
+        check_estimator(estimator)
+        return self.counts_zero_crossing if estimator == "zero_crossing" else self.counts_envelope
+
+    def n_amplitudes(self, estimator: str) -> int:
+        """Amplitudes counted (zero-crossing: half cycles; envelope: time samples) [-]."""
+        return int(self._counts(estimator).sum())
+
+    def mean(self, estimator: str) -> float:
+        """Mean amplitude [rad] (exact: from per-realization sums, not the histogram); NaN when none."""
+        key = _KEYS[check_estimator(estimator)]
+        n = self.per_realization[f"n_{key}"].sum()
+        return float(self.per_realization[f"sum_{key}"].sum() / n) if n else float("nan")
+
+    def moment(self, estimator: str, order: int = 2) -> float:
+        """E[Aⁿ] [rad^n] for n = 1, 2 (exact, from per-realization sums); NaN when there is no amplitude."""
+        key = _KEYS[check_estimator(estimator)]
+        n = self.per_realization[f"n_{key}"].sum()
+        name = {1: "sum", 2: "sumsq"}[order]
+        return float(self.per_realization[f"{name}_{key}"].sum() / n) if n else float("nan")
+
+    def law(self, estimator: str = "zero_crossing", *, pool: int = 1) -> TabulatedAmplitudeLaw:
+        """The amplitude law of the histogram (radians), labelled with what it is a law of.
+
+        `pool` merges that many fine bins (0.05° each; e.g. 20 → 1° bins): the maximum-value formulas amplify
+        histogram noise. Zero-crossing amplitudes give the per-half-cycle law the maxima and risk formulas need.
+
+        **Raises:** `ValueError` when no amplitude survived (all capsized, or too short a run).
+        """
+        counts = self._counts(estimator)
+        if counts.size % pool:
+            raise ValueError(f"`pool` must divide the {counts.size} fine bins; got {pool}.")
+        counts = counts.reshape(-1, pool).sum(1)
+        return law_from_histogram(
+            counts, np.deg2rad(self.edges_deg[::pool]), estimator=estimator, n_samples=int(counts.sum())
+        )
+
+    def quantiles(self, estimator: str, levels=QUANTILE_LEVELS) -> np.ndarray:
+        """Quantiles [rad] of the amplitude (linear within the fine bins, ±half a fine bin); NaN when none."""
+        counts = self._counts(estimator)
+        if counts.sum() == 0:
+            return np.full(len(levels), np.nan)
+        cdf = np.concatenate([[0.0], np.cumsum(counts)]) / counts.sum()
+        return np.deg2rad(np.interp(np.asarray(levels, dtype=float), cdf, self.edges_deg))
+
+    def pdf_per_degree(self, estimator: str, bins_deg: np.ndarray) -> np.ndarray:
+        """Density per degree on `bins_deg` [deg] (edges that are a subset of the fine edges), integrating to 1
+        over the grid (zero everywhere when there is no amplitude)."""
+        counts = self._counts(estimator)
+        cum = np.concatenate([[0.0], np.cumsum(counts)])
+        bins_deg = np.asarray(bins_deg, dtype=float)
+        idx = np.searchsorted(self.edges_deg, bins_deg - 1e-9 * (self.edges_deg[1] - self.edges_deg[0]))
+        if not np.allclose(self.edges_deg[np.clip(idx, 0, self.edges_deg.size - 1)], bins_deg, atol=1e-9):
+            raise ValueError("`bins_deg` must be edges of the fine histogram grid (multiples of its width).")
+        return np.diff(cum[idx]) / max(counts.sum(), 1) / np.diff(bins_deg)
+
+    def summary(self, bins_deg) -> dict:
+        """The amplitude statistics as plain numbers on `bins_deg` (the `pdf.json` fields; angles in degrees)."""
+        bins_deg = np.asarray(bins_deg, dtype=float)
+        out: dict = {"bins_deg": bins_deg}
+        for est in SAMPLING:
+            out[f"pdf_{est}"] = self.pdf_per_degree(est, bins_deg)
+        out["amplitude_sampling"] = dict(SAMPLING)
+        out["n_amplitudes"] = {e: self.n_amplitudes(e) for e in SAMPLING}
+        out["mean_amplitude_deg"] = {e: float(np.rad2deg(self.mean(e))) for e in SAMPLING}
+        out["quantiles_deg"] = {
+            e: {f"{round(q * 100):d}": float(v) for q, v in zip(QUANTILE_LEVELS, np.rad2deg(self.quantiles(e)), strict=True)}
+            for e in SAMPLING
+        }
+        out["n_realizations"] = self.n_realizations
+        out["n_capsized"] = self.n_capsized
+        out["capsize_probability"] = self.capsize_probability
+        out["roll_moments"] = self.phi_moments()
+        return out
+
+    def phi_moments(self) -> dict[str, float]:
+        """Time-sampled E[φ²] [rad²] and E[φ⁴] [rad⁴] over surviving realizations (after the discard)."""
+        pr = self.per_realization
+        n = pr["n_samples"].sum()
+        if n == 0:
+            return {"E_phi2": float("nan"), "E_phi4": float("nan")}
+        return {"E_phi2": float(pr["sum_phi2"].sum() / n), "E_phi4": float(pr["sum_phi4"].sum() / n)}
+
+
+@dataclass
+class MaximaStatistics(CapsizeCounts):
+    """Monte Carlo maxima of the first N0 zero-crossing amplitudes per trial (angles in degrees).
+
+    `maxima_deg[i, j]` is trial i's maximum over its first `n0[j]` amplitudes after the discard, NaN where the
+    trial capsized or ended before reaching n0[j] amplitudes (counted in `n_capsized_before`, `n_incomplete`).
+    `count` is the number of amplitudes each trial contributed (at most max(n0)).
+    """
+
+    n0: tuple[int, ...]
+    maxima_deg: np.ndarray
+    capsized: np.ndarray
+    capsize_time: np.ndarray
+    count: np.ndarray
+    config: dict = field(default_factory=dict)
+
+    def valid(self, j: int) -> np.ndarray:
+        """Trials whose maximum over their first n0[j] amplitudes is known."""
+        return np.isfinite(self.maxima_deg[:, j])
+
+    def n_capsized_before(self, j: int) -> int:
+        """Trials that capsized before their n0[j]-th amplitude."""
+        return int(np.sum(self.capsized & ~self.valid(j)))
+
+    def n_incomplete(self, j: int) -> int:
+        """Trials that neither capsized nor reached n0[j] amplitudes (increase `duration`)."""
+        return int(np.sum(~self.capsized & ~self.valid(j)))
+
+
+@dataclass
+class MaxRollStatistics(CapsizeCounts):
+    """Per-trial largest roll and capsizes (host numpy arrays; realization order).
+
+    `max_abs_phi_deg` is the largest |φ| after the discard (for a capsized trial, up to its capsize). A trial
+    exceeds an angle when that maximum is larger or when it capsized.
+    """
+
+    max_abs_phi_deg: np.ndarray
+    capsized: np.ndarray
+    capsize_time: np.ndarray
+    angle_deg: float
+    n_exceeded: int
+    config: dict = field(default_factory=dict)
+
+    def exceedances(self, angle_deg: float | None = None) -> int:
+        """Trials with max |φ| > `angle_deg` [deg] (default: the run's angle) or capsized."""
+        if angle_deg is None:
+            return self.n_exceeded
+        return int(np.sum(self.capsized | (self.max_abs_phi_deg > angle_deg)))
+
+    def exceedance_probability(self, angle_deg: float | None = None) -> float:
+        """P(max |φ| > angle within the duration) per trial [-]."""
+        return self.exceedances(angle_deg) / self.n_realizations
+
+    def exceedance_interval(self, angle_deg: float | None = None, confidence: float = 0.95) -> tuple[float, float]:
+        """Wilson interval of `exceedance_probability` [-]."""
+        lo, hi = wilson_interval(self.exceedances(angle_deg), self.n_realizations, confidence)
+        return float(lo), float(hi)
+
+
+@dataclass
+class SweepResult:
+    """Probabilities on the grid, arrays shaped (heading, speed, H1/3, T01) in the order of `grid`'s axes."""
+
+    grid: dict
+    n_realizations: int
+    angle_deg: float
+    confidence: float
+    n_capsized: np.ndarray
+    n_exceeded: np.ndarray
+
+    @property
+    def capsize_probability(self) -> np.ndarray:
+        """Per grid point [-]."""
+        return self.n_capsized / self.n_realizations
+
+    @property
+    def exceedance_probability(self) -> np.ndarray:
+        """Per grid point: P(max |φ| > angle or capsize within the duration) [-]."""
+        return self.n_exceeded / self.n_realizations
+
+    def capsize_interval(self) -> np.ndarray:
+        """Wilson interval, shape (..., 2)."""
+        return np.stack(wilson_interval(self.n_capsized, self.n_realizations, self.confidence), -1)
+
+    def exceedance_interval(self) -> np.ndarray:
+        """Wilson interval, shape (..., 2)."""
+        return np.stack(wilson_interval(self.n_exceeded, self.n_realizations, self.confidence), -1)
