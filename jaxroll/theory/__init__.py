@@ -6,8 +6,8 @@ in `_excitation.py`; the moment method in `_moments.py`.
 """
 
 # --- excitation spectrum S_P and stochastic averaging (Roberts' SAM, ESAM) ---
+from ._averaged_law import AveragedAmplitudeLaw as AveragedAmplitudeLaw
 from ._averaging import (
-    AveragedAmplitudeLaw as AveragedAmplitudeLaw,
     Orbits as Orbits,
     RobertsCoefficients as RobertsCoefficients,
     additive_energy_diffusion as additive_energy_diffusion,
@@ -29,19 +29,23 @@ from ._excitation import (
 )
 
 # --- moment equations ---
-from ._moments import (
-    RESULTS as RESULTS,
-    AmplitudeFamily as AmplitudeFamily,
+from ._moment_equations import (
     MomentEquations as MomentEquations,
-    MomentSolution as MomentSolution,
     PolynomialSDE as PolynomialSDE,
+    moment_equations as moment_equations,
+    roll_sde as roll_sde,
+)
+from ._moment_solver import (
+    RESULTS as RESULTS,
     StationaryMoments as StationaryMoments,
+    stationary_moments as stationary_moments,
+)
+from ._moments import (
+    AmplitudeFamily as AmplitudeFamily,
+    MomentSolution as MomentSolution,
     envelope_moments as envelope_moments,
     fit_amplitude_family as fit_amplitude_family,
-    moment_equations as moment_equations,
     moment_pdf as moment_pdf,
     moment_pdf_first_stable as moment_pdf_first_stable,
     roll_moments as roll_moments,
-    roll_sde as roll_sde,
-    stationary_moments as stationary_moments,
 )
