@@ -82,13 +82,13 @@ def save_figure(fig, path: str | Path) -> None:
 def load_ship_arg(path: str | None):
     """The ship named on the command line: a ship file, `c11-hull` (GZ and ΔGM from the shipped representative
     hull), or by default C11 (representative)."""
-    from ..io._ship_file import load_ship
-    from ..ship._ship import c11_representative
+    from ..io import load_ship
+    from ..ship import c11_representative
 
     if path is None:
         return c11_representative()
     if path == "c11-hull":
-        from ..ship._fits import c11_hull_ship
+        from ..ship import c11_hull_ship
 
         return c11_hull_ship()
     return load_ship(path)

@@ -40,7 +40,7 @@ def check_positive(args, *names: str) -> None:
 def sea_config(args, ship) -> dict:
     """The sea/numerics part of a run's configuration, for JSON provenance."""
     from .. import ship_to_dict
-    from ..ship._ship import DEFAULT_SHIP_NOTE
+    from ..ship import DEFAULT_SHIP_NOTE
 
     cfg = {
         "sea": {"spectrum": "ITTC", "hs_m": args.hs, "t01_s": args.t01},

@@ -126,7 +126,7 @@ def _load(args, kind):
 
 def _finish(args, kind, ship, fitted, payload, figures) -> int:
     from .. import ship_to_toml
-    from ..io._ship_file import load_ship
+    from ..io import load_ship
 
     out = Path(args.out or f"jaxroll-out/calibrate-{kind}")
     atomic_write_text(out / "ship.toml", ship_to_toml(fitted))
@@ -160,7 +160,7 @@ def run_decay(args) -> int:
     import matplotlib.pyplot as plt
 
     from ..calibration import calibrated_ship, decay_agreement, fit_decay_ode, fit_extinction
-    from ..plotting._calibration import plot_decay_fit, plot_extinction
+    from ..plotting import plot_decay_fit, plot_extinction
 
     ship = load_ship_arg(args.ship)
     records = _load(args, "decay")
@@ -200,7 +200,7 @@ def run_captive(args) -> int:
     import matplotlib.pyplot as plt
 
     from ..calibration import calibrated_ship, fit_captive
-    from ..plotting._calibration import plot_captive, plot_captive_series
+    from ..plotting import plot_captive, plot_captive_series
 
     if not args.block > 0:
         raise CLIError(f"--block must be > 0; got {args.block}.")
@@ -243,7 +243,7 @@ def run_roll(args) -> int:
     import jax
 
     from ..calibration import calibrated_ship, fit_roll_pdf
-    from ..plotting._calibration import plot_roll_calibration
+    from ..plotting import plot_roll_calibration
 
     params = [p.strip() for p in args.params.split(",") if p.strip()]
     if args.realizations < 2:

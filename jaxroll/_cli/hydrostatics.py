@@ -71,13 +71,20 @@ def run(args) -> int:
     import jax.numpy as jnp
     import numpy as np
 
-    from ..io._hull_file import loading_from_dict, read_hull_file
-    from ..io._ship_file import ship_to_dict, ship_to_toml
-    from ..plotting._hydrostatics import plot_body_plan, plot_delta_gm, plot_gz_curves
-    from ..ship._fits import default_heel_grid, default_zeta_grid, hull_hydrostatics, ship_from_hydrostatics
-    from ..ship._hull import C11_HULL_NOTE, _c11_hull_path
-    from ..ship._hydrostatics import equilibrium, metacentric_height
-    from ..ship._ship import c11_representative, restoring_fields_from_gz
+    from ..io import loading_from_dict, read_hull_file, ship_to_dict, ship_to_toml
+    from ..plotting import plot_body_plan, plot_delta_gm, plot_gz_curves
+    from ..ship import (
+        C11_HULL_NOTE,
+        c11_hull_path as _c11_hull_path,
+        c11_representative,
+        default_heel_grid,
+        default_zeta_grid,
+        equilibrium,
+        hull_hydrostatics,
+        metacentric_height,
+        restoring_fields_from_gz,
+        ship_from_hydrostatics,
+    )
 
     is_c11 = args.hull.lower() == "c11"
     path = _c11_hull_path() if is_c11 else Path(args.hull)

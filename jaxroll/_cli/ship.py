@@ -17,8 +17,8 @@ def register(sub) -> None:
 
 
 def run_show(args) -> int:
-    from ..io._ship_file import ship_to_dict, ship_to_toml
-    from ..ship._restoring import righting_lever, vanishing_angle
+    from ..io import ship_to_dict, ship_to_toml
+    from ..ship import righting_lever, vanishing_angle
 
     ship = load_ship_arg(args.ship)
     import jax.numpy as jnp

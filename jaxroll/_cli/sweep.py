@@ -280,7 +280,7 @@ def run(args) -> int:
         "capsize_angle_deg": capsize_deg,
     }
     if args.ship is None:
-        from ..ship._ship import DEFAULT_SHIP_NOTE
+        from ..ship import DEFAULT_SHIP_NOTE
 
         config["ship_note"] = DEFAULT_SHIP_NOTE
     cap_ci, exc_ci = result.capsize_interval(), result.exceedance_interval()

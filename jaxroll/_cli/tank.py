@@ -126,7 +126,7 @@ def run(args) -> int:
 
     from .. import ITTC, ship_to_dict, ship_to_toml
     from ..calibration import virtual_captive_record, virtual_decay_record, virtual_roll_record
-    from ..ship._ship import validate_ship
+    from ..ship import validate_ship
 
     tests = [t.strip() for t in args.tests.split(",") if t.strip()]
     unknown = sorted(set(tests) - set(TESTS))

@@ -1,6 +1,10 @@
 """Every file format: tank records, ship files and hull files."""
 
-from ._hull_file import load_hull as load_hull
+from ._hull_file import (
+    load_hull as load_hull,
+    loading_from_dict as loading_from_dict,
+    read_hull_file as read_hull_file,
+)
 from ._records import (
     Record as Record,
     RecordError as RecordError,

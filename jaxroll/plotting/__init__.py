@@ -1,3 +1,5 @@
-"""Figures (the only package that imports matplotlib)."""
+"""Figures: the only package that imports matplotlib. Every function returns matplotlib figures or axes."""
 
+from ._calibration import *  # noqa: F401,F403
+from ._hydrostatics import *  # noqa: F401,F403
 from ._pdf import *  # noqa: F401,F403

@@ -5,16 +5,23 @@ Ship and hull files (TOML) are read and written by `jaxroll.io`.
 
 from ._fits import (
     c11_hull_ship as c11_hull_ship,
+    default_heel_grid as default_heel_grid,
+    default_zeta_grid as default_zeta_grid,
     hull_hydrostatics as hull_hydrostatics,
     ship_from_hull as ship_from_hull,
+    ship_from_hydrostatics as ship_from_hydrostatics,
 )
 from ._hull import (
+    C11_HULL_NOTE as C11_HULL_NOTE,
     Hull as Hull,
     box_hull as box_hull,
     c11_hull as c11_hull,
+    c11_hull_path as c11_hull_path,
+    scale_hull as scale_hull,
     wigley_hull as wigley_hull,
 )
 from ._hydrostatics import (
+    c11_hull_loading as c11_hull_loading,
     equilibrium as equilibrium,
     gz_curve as gz_curve,
     hydrostatic_particulars as hydrostatic_particulars,
@@ -29,6 +36,9 @@ from ._restoring import (
     vanishing_angle as vanishing_angle,
 )
 from ._ship import (
+    DEFAULT_SHIP_NOTE as DEFAULT_SHIP_NOTE,
     Ship as Ship,
     c11_representative as c11_representative,
+    restoring_fields_from_gz as restoring_fields_from_gz,
+    validate_ship as validate_ship,
 )

@@ -403,3 +403,4 @@ def c11_hull() -> Hull:
 def _c11_hull_path() -> Path:
     """Path of the packaged hull file `jaxroll/data/c11_hull.toml`."""
     return Path(__file__).parents[1] / "data" / "c11_hull.toml"
+c11_hull_path = _c11_hull_path

@@ -1,0 +1,75 @@
+"""The package's shape (docs/architecture.md): imports run downward, no module is oversized, the CLI and the
+notebooks use public names only."""
+
+import ast
+import json
+import pathlib
+
+import pytest
+
+ROOT = pathlib.Path(__file__).resolve().parents[1]
+PKG = ROOT / "jaxroll"
+CORE = ("sea", "ship", "laws", "roll", "theory", "extremes", "calibration", "io")
+# what each stage may import (module level and inside functions)
+ALLOWED = {
+    "sea": {"sea"},
+    "laws": {"laws"},
+    "ship": {"ship", "sea", "io"},  # io only inside functions (packaged hull file)
+    "io": {"io", "ship"},
+    "roll": {"roll", "sea", "ship", "laws", "extremes"},
+    "theory": {"theory", "sea", "ship", "laws"},
+    "extremes": {"extremes", "laws"},
+    "calibration": {"calibration", "sea", "ship", "roll", "theory", "laws", "io", "extremes"},
+}
+
+
+def _imports(path: pathlib.Path):
+    tree = ast.parse(path.read_text())
+    pkg_parts = path.relative_to(ROOT).with_suffix("").parts[:-1]
+    for node in ast.walk(tree):
+        if isinstance(node, ast.ImportFrom):
+            if node.level:
+                base = pkg_parts[: len(pkg_parts) - node.level + 1]
+                target = (*base, *(node.module.split(".") if node.module else ()))
+                if not node.module:
+                    for alias in node.names:
+                        yield (*target, alias.name)
+                    continue
+                yield target
+            elif node.module:
+                yield tuple(node.module.split("."))
+        elif isinstance(node, ast.Import):
+            for alias in node.names:
+                yield tuple(alias.name.split("."))
+
+
+@pytest.mark.parametrize("stage", CORE)
+def test_imports_run_downward(stage):
+    for path in (PKG / stage).glob("*.py"):
+        for target in _imports(path):
+            if target[0] == "matplotlib":
+                pytest.fail(f"{path.relative_to(ROOT)} imports matplotlib")
+            if target[0] != "jaxroll" or len(target) < 2:
+                continue
+            if target[1] in ("__version__",):
+                continue
+            assert target[1] in ALLOWED[stage], f"{path.relative_to(ROOT)} imports jaxroll.{target[1]}"
+
+
+def test_no_module_is_oversized():
+    big = [(p.relative_to(ROOT), n) for p in PKG.rglob("*.py") if (n := len(p.read_text().splitlines())) > 800]
+    assert not big, big
+
+
+def test_cli_and_notebooks_use_public_names():
+    offenders = []
+    for path in (PKG / "_cli").glob("*.py"):
+        for target in _imports(path):
+            if target[0] == "jaxroll" and len(target) > 2 and target[1] != "_cli" and target[2].startswith("_"):
+                offenders.append((path.name, ".".join(target)))
+    for nb in (ROOT / "notebooks").glob("*.ipynb"):
+        for cell in json.loads(nb.read_text())["cells"]:
+            src = "".join(cell["source"])
+            if "jaxroll." in src and any(f"jaxroll.{s}._" in src or f"from jaxroll._" in src for s in CORE + ("plotting",)):
+                offenders.append((nb.name, "private import"))
+    assert not offenders, offenders
