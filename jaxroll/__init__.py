@@ -89,6 +89,7 @@ from .roll import (
     SampledExcitation as SampledExcitation,
     SuperpositionExcitation as SuperpositionExcitation,
     SweepResult as SweepResult,
+    amplitude_samples as amplitude_samples,
     check_time_step as check_time_step,
     default_duration as default_duration,
     hilbert_envelope as hilbert_envelope,

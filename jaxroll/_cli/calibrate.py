@@ -57,7 +57,7 @@ def register(sub) -> None:
     d.add_argument(
         "--no-bias-correction",
         action="store_true",
-        help="extinction method: plain first-order conversion of a, b, c (THEORY.md §3)",
+        help="extinction method: plain first-order conversion of a, b, c (docs/calibration.md)",
     )
     d.set_defaults(func=run_decay)
     c = kinds.add_parser(

@@ -17,10 +17,6 @@ Uncertainties are Gauss–Newton: covariance = s² (JᵀJ)⁻¹ with s² = RSS/(
 are correlated (captive: blocks of the records as clusters; roll: a bootstrap over realizations).
 """
 
-from ._amplitudes import (
-    amplitude_samples as amplitude_samples,
-    zero_crossing_hysteresis as zero_crossing_hysteresis,
-)
 from ._calibrated_ship import calibrated_ship as calibrated_ship
 from ._captive import (
     CaptiveFit as CaptiveFit,

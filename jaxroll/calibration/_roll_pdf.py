@@ -19,9 +19,11 @@ import jax.random as jr
 import numpy as np
 
 from ..io._records import Record, RecordError, group_by_sea_state
+from ..roll._amplitudes import amplitude_samples
+from ..roll._monte_carlo import simulate_chunk
+from ..roll._observers import AbstractObserver
 from ..sea._spectra import ITTC
 from ..ship._ship import Ship
-from ._amplitudes import amplitude_samples
 from ._inputs import PAPER_WINDOW_MODEL_S, _as_list, _check_kind, _noise_std
 from ._least_squares import (
     _PARAMS,
@@ -71,30 +73,56 @@ def _np_band_means(x: np.ndarray, edges) -> np.ndarray:
 _amplitude_samples_jit = eqx.filter_jit(amplitude_samples)
 
 
-def _model_band_means(ship, problem, keys, num_steps, sub, start, bands, estimators, noise, hysteresis):
-    """Model band means of the amplitude estimators from a Monte Carlo with fixed keys (common random
-    numbers),
-    with the records' sensor noise `noise` [rad] added (fixed keys too) before estimation."""
-    from ..roll._equation import roll_time_series
+class BandMeans(AbstractObserver):
+    """Observer of the roll-PDF calibration: the model's roll sampled like the records (every `sub`-th step from
+    t = 0, the first `start` samples left out), with the records' sensor noise `noise` [rad] added (keyed by the
+    realization, so common random numbers hold), then the band means of the zero-crossing (with `hysteresis`
+    [rad]) and envelope amplitudes over all surviving realizations of the chunk.
 
+    Band means are not additive over chunks: evaluate it in one chunk with `simulate_chunk` (as the calibration
+    objective does), not through `monte_carlo`.
+    """
+
+    sub: int
+    start: int
+    bands: tuple
+    estimators: tuple
+    noise: Any
+    hysteresis: Any
+
+    def init(self, problem, key):
+        return jr.fold_in(key, 0x5E45)
+
+    def observe(self, problem, state, k, y, alive):
+        return state, y[0]
+
+    def reduce(self, problem, states, outputs, end, valid):
+        phi0 = jnp.broadcast_to(problem.phi0, outputs[:, :1].shape)
+        phi = jnp.concatenate([phi0, outputs], axis=1)[:, :: self.sub][:, self.start :]
+        phi = phi + self.noise * jax.vmap(lambda k: jr.normal(k, phi.shape[1:]))(states)
+        zc, zc_mask, env = amplitude_samples(phi, self.hysteresis)
+        alive = (valid & ~end.capsized)[:, None]
+        out = []
+        for est in self.estimators:
+            if est == "zero_crossing":
+                out.append(band_means(zc, zc_mask & alive, self.bands))
+            else:
+                out.append(band_means(env, jnp.broadcast_to(alive, env.shape), self.bands))
+        return {"band_means": jnp.concatenate(out)}, {"phi": phi, "capsized": end.capsized & valid}
+
+    def result(self, summed, per, config):
+        return summed["band_means"], per["phi"], per["capsized"]
+
+
+def _model_band_means(ship, problem, key, num_realizations, num_steps, observer):
+    """Model band means of the amplitude estimators from `num_realizations` realizations keyed
+    `fold_in(key, i)` (common random numbers), through the one Monte Carlo body (`simulate_chunk`)."""
     problem = eqx.tree_at(lambda p: p.ship, problem, ship)
-
-    @jax.checkpoint
-    def one(key):
-        phi, _, end = roll_time_series(problem, key, num_steps * problem.dt)
-        phi = phi[::sub][start:]
-        return phi + noise * jr.normal(jr.fold_in(key, 0x5E45), phi.shape), end.capsized
-
-    phi, capsized = jax.vmap(one)(keys)
-    zc, zc_mask, env = amplitude_samples(phi, hysteresis)
-    alive = ~capsized[:, None]
-    out = []
-    for est in estimators:
-        if est == "zero_crossing":
-            out.append(band_means(zc, zc_mask & alive, bands))
-        else:
-            out.append(band_means(env, jnp.broadcast_to(alive, env.shape), bands))
-    return jnp.concatenate(out), phi, capsized
+    indices = jnp.arange(num_realizations)
+    summed, per = simulate_chunk(
+        problem, key, indices, jnp.ones(num_realizations, bool), observer, num_steps, remat=True
+    )
+    return summed["band_means"], per["phi"], per["capsized"]
 
 
 def _theory_band_means(theory, ship, sea, grid, bands):
@@ -115,20 +143,17 @@ class _RollObjective(eqx.Module):
     ship: Ship
     problems: tuple
     seas: tuple
-    keys: Any
+    key: Any
+    observer: BandMeans
     targets: tuple
     weights: tuple
     scales: Any
     names: tuple = eqx.field(static=True)
+    num_realizations: int = eqx.field(static=True)
     num_steps: int = eqx.field(static=True)
-    sub: int = eqx.field(static=True)
-    start: int = eqx.field(static=True)
     bands: tuple = eqx.field(static=True)
-    estimators: tuple = eqx.field(static=True)
     theory: Any = eqx.field(static=True)
     grid: Any
-    noise: Any
-    hysteresis: Any
     derivative: str = eqx.field(static=True)
     fd_step: float = eqx.field(static=True)
 
@@ -143,18 +168,7 @@ class _RollObjective(eqx.Module):
                 out.append(_theory_band_means(self.theory, ship, sea, self.grid, self.bands))
             else:
                 out.append(
-                    _model_band_means(
-                        ship,
-                        prob,
-                        self.keys,
-                        self.num_steps,
-                        self.sub,
-                        self.start,
-                        self.bands,
-                        self.estimators,
-                        self.noise,
-                        self.hysteresis,
-                    )[0]
+                    _model_band_means(ship, prob, self.key, self.num_realizations, self.num_steps, self.observer)[0]
                 )
         return out
 
@@ -380,7 +394,6 @@ def fit_roll_pdf(
         noise = math.radians(sensor_noise_deg)
     hyst = 3 * noise if hysteresis_deg is None else math.radians(hysteresis_deg)
     key = jr.key(seed) if key is None else key
-    keys = jax.vmap(lambda i: jr.fold_in(key, i))(jnp.arange(num_realizations))
     rng = np.random.default_rng(seed)
 
     problems, seas, targets, cov_e, exp_samples = [], [], [], [], []
@@ -409,12 +422,12 @@ def fit_roll_pdf(
     theta0 = np.array([float(_get_param(ship, p)) for p in params]) / scales
     grid = jnp.linspace(0.0, math.radians(90.0), 4001)
 
+    observer = BandMeans(sub, start, bands, estimators, jnp.asarray(noise), jnp.asarray(hyst))
+
     def model_run(s: Ship):
         out = []
         for prob in problems:
-            q, phi, cap = _model_band_means_jit(
-                s, prob, keys, num_steps, sub, start, bands, estimators, noise, hyst
-            )
+            q, phi, cap = _model_band_means_jit(s, prob, key, num_realizations, num_steps, observer)
             out.append((np.asarray(q), np.asarray(phi), np.asarray(cap)))
         return out
 
@@ -441,20 +454,17 @@ def fit_roll_pdf(
         ship,
         tuple(problems),
         tuple(seas),
-        keys,
+        key,
+        observer,
         tuple(jnp.asarray(t) for t in targets),
         tuple(jnp.asarray(w) for w in weights),
         jnp.asarray(scales),
         params,
+        num_realizations,
         num_steps,
-        sub,
-        start,
         bands,
-        estimators,
         theory,
         grid,
-        jnp.asarray(noise),
-        jnp.asarray(hyst),
         derivative,
         fd_step * _ROLL_FTOL / tol,
     )

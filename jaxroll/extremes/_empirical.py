@@ -14,7 +14,7 @@ from jaxtyping import Array, ArrayLike, Float
 
 
 def maxima_of_first(amplitudes: Float[ArrayLike, "trials m"], n0: int) -> Float[Array, " trials"]:
-    r"""Per-trial maximum [rad] of the first `n0` amplitudes (the THEORY.md §7 protocol).
+    r"""Per-trial maximum [rad] of the first `n0` amplitudes (the paper's maxima protocol, docs/maxima.md).
 
     **Arguments:**
 

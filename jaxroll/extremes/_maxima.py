@@ -9,7 +9,7 @@ down-crossing, and |minimum| between a down-crossing and the next up-crossing). 
 Amplitudes are in **radians** (non-negative). Degrees appear only in the `*_deg` helpers of results.
 
 Maximum of $N_0$ independent amplitudes with PDF $P$ and survival $\bar F(a) = \int_a^\infty P\,dA$
-(THEORY.md §7, after Goda 2000):
+(docs/maxima.md, after Goda 2000):
 
 $$P^*(A_M) = N_0\,[1 - \bar F(A_M)]^{N_0 - 1} P(A_M),\qquad
 \Pr(A_{\max} \le a) = [1 - \bar F(a)]^{N_0},$$
@@ -80,7 +80,7 @@ def max_pdf(dist: AbstractAmplitudeLaw, a: ArrayLike, n0: ArrayLike) -> Float[Ar
 def max_pdf_asymptotic(
     dist: AbstractAmplitudeLaw, a: ArrayLike, n0: ArrayLike
 ) -> Float[Array, "..."]:
-    r"""The asymptotic form of THEORY.md §7, $P^* \approx \xi e^{-\xi} [\bar F (1 - \bar F)]^{-1} P$,
+    r"""The asymptotic form (docs/maxima.md), $P^* \approx \xi e^{-\xi} [\bar F (1 - \bar F)]^{-1} P$,
     $\xi = N_0 \bar F$ [1/rad].
 
     It replaces $(1 - \bar F)^{N_0}$ by $e^{-\xi}$; its ratio to the exact $P^*$ is

@@ -16,7 +16,7 @@ class RayleighLaw(AbstractAmplitudeLaw):
     r"""Rayleigh amplitudes, $P(a) = (a/\sigma^2)\,e^{-a^2/2\sigma^2}$, $\bar F(a) = e^{-a^2/2\sigma^2}$.
 
     The per-cycle amplitude distribution of a narrow-band Gaussian roll with standard deviation $\sigma$; the
-    closed-form test case of THEORY.md §7.
+    closed-form test case of docs/maxima.md.
     """
 
     sigma: Float[Array, ""]
@@ -106,7 +106,7 @@ class RobertsLaw(AbstractAmplitudeLaw):
     r"""Roberts-family amplitudes with $c_2 = 0$: $P(A) \propto A^\nu e^{-c_3 A^2}$.
 
     With $k = (\nu + 1)/2$: $P(A) = 2 c_3^k A^\nu e^{-c_3 A^2} / \Gamma(k)$ and
-    $\bar F(a) = Q(k, c_3 a^2)$, the regularised upper incomplete gamma function (THEORY.md §7).
+    $\bar F(a) = Q(k, c_3 a^2)$, the regularised upper incomplete gamma function (docs/maxima.md).
     $\nu = 1$ is Rayleigh with $\sigma^2 = 1/(2 c_3)$. For $c_2 \ne 0$ there is no closed form: tabulate
     `roberts_logpdf`.
 

@@ -97,19 +97,6 @@ def amplitude_pdf_figures(summary: dict, *, experiment: dict | None = None, titl
     return figs[0], figs[1]
 
 
-def plot_spectrum(omega, values, *, ax=None, label=None, **kwargs):
-    """Plot a one-sided spectrum [m² s/rad] against frequency [rad/s]. **Returns:** the `Axes`."""
-    if ax is None:
-        _, ax = plt.subplots(figsize=(6.0, 4.0))
-    ax.plot(np.asarray(omega), np.asarray(values), label=label, **kwargs)
-    ax.set_xlabel("frequency [rad/s]")
-    ax.set_ylabel("spectrum [m² s/rad]")
-    ax.grid(True, alpha=0.3)
-    if label:
-        ax.legend(fontsize=8)
-    return ax
-
-
 def maxima_figures(centres_deg, histograms: dict, *, title: str | None = None):
     """The paper's Figs. 12-13 analogue: Monte Carlo PDFs of the maximum amplitude, one curve per N0.
 

@@ -1,6 +1,7 @@
 """The roll equation, its excitation, amplitude estimators, observers and the Monte Carlo."""
 
 from ._amplitudes import (
+    amplitude_samples as amplitude_samples,
     hilbert_envelope as hilbert_envelope,
     zero_crossing_amplitudes as zero_crossing_amplitudes,
 )

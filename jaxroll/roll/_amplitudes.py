@@ -14,9 +14,10 @@ from jaxtyping import Array, Bool, Float
 
 
 class ZeroCrossingState(eqx.Module):
-    """Streaming zero-crossing detector: sign of the last sample, whether a crossing was seen, running peak."""
+    """Streaming zero-crossing detector: sign of the current half cycle (±1), whether a crossing was seen, and
+    the largest excursion in the half cycle so far [rad]."""
 
-    positive: Bool[Array, ""]
+    sign: Float[Array, ""]
     started: Bool[Array, ""]
     peak: Float[Array, ""]
 
@@ -24,32 +25,50 @@ class ZeroCrossingState(eqx.Module):
 def zero_crossing_init(phi0) -> ZeroCrossingState:
     """Detector state before the first sample `phi0` [rad] (the first, incomplete half cycle is never emitted)."""
     phi0 = jnp.asarray(phi0, dtype=float)
-    return ZeroCrossingState(phi0 >= 0, jnp.array(False), jnp.abs(phi0))
+    return ZeroCrossingState(jnp.where(phi0 >= 0, 1.0, -1.0), jnp.array(False), jnp.abs(phi0))
 
 
-def zero_crossing_update(state: ZeroCrossingState, phi):
+def zero_crossing_update(state: ZeroCrossingState, phi, hysteresis=0.0):
     """Feed one sample φ [rad]. **Returns:** `(state, amplitude)`; `amplitude` [rad] > 0 when a half cycle ends.
 
-    The amplitude is the largest |φ| sampled in the half cycle: with 20+ samples per roll period its bias is
-    below 0.1 % (tests/test_amplitudes.py), so no peak interpolation is applied.
+    A positive half cycle ends when φ < −h, a negative one when φ > h (φ ≥ 0 when h = 0), with the hysteresis
+    h = `hysteresis` [rad] ≥ 0: sensor noise near zero then does not split a swing. The amplitude is the largest
+    excursion sampled in the half cycle: with 20+ samples per roll period its bias is below 0.1 %
+    (tests/test_amplitudes.py), so no peak interpolation is applied.
     """
-    value = jnp.abs(phi)
-    positive = phi >= 0
-    crossed = positive != state.positive
+    if isinstance(hysteresis, int | float) and hysteresis == 0:
+        up = phi >= 0
+    else:
+        up = jnp.where(hysteresis > 0, phi > hysteresis, phi >= 0)
+    crossed = jnp.where(state.sign > 0, phi < -hysteresis, up)
     amplitude = jnp.where(crossed & state.started, state.peak, 0.0)
-    peak = jnp.where(crossed, value, jnp.maximum(state.peak, value))
-    return ZeroCrossingState(positive, state.started | crossed, peak), amplitude
+    sign = jnp.where(crossed, -state.sign, state.sign)
+    peak = jnp.where(crossed, sign * phi, jnp.maximum(state.peak, state.sign * phi))
+    return ZeroCrossingState(sign, state.started | crossed, peak), amplitude
 
 
-def zero_crossing_amplitudes(phi: Float[Array, " n"]) -> Float[Array, " n"]:
+def zero_crossing_amplitudes(phi: Float[Array, " n"], hysteresis=0.0) -> Float[Array, " n"]:
     """Zero-crossing amplitudes of a series φ [rad] (per half cycle), as an array the length of `phi`.
 
     Entry i is the amplitude of the half cycle that ended at sample i, and 0 where none ended; select
     `out[out > 0]`. The first (incomplete) half cycle and the last (unfinished) one are not counted.
+    `hysteresis` [rad]: see `zero_crossing_update` (tank records with sensor noise).
     """
     phi = jnp.asarray(phi, dtype=float)
-    _, amps = jax.lax.scan(zero_crossing_update, zero_crossing_init(phi[0]), phi)
+    _, amps = jax.lax.scan(lambda st, v: zero_crossing_update(st, v, hysteresis), zero_crossing_init(phi[0]), phi)
     return amps
+
+
+def amplitude_samples(phi, hysteresis=0.0):
+    """The paper's two amplitude estimators on each row of `phi` [rad] (shape (realizations, samples)):
+    zero-crossing amplitudes with `hysteresis` [rad] and the Hilbert envelope.
+
+    **Returns:** `(zc, zc_mask, env)`: zero-crossing amplitudes [rad] with the mask of the samples where a
+    half cycle ended, and the envelope [rad] at every sample.
+    """
+    phi = jnp.atleast_2d(phi)
+    zc = jax.vmap(zero_crossing_amplitudes, in_axes=(0, None))(phi, hysteresis)
+    return zc, zc > 0, hilbert_envelope(phi)
 
 
 def hilbert_envelope(x: Float[Array, "... n"]) -> Float[Array, "... n"]:
@@ -75,10 +94,3 @@ def pdf_from_counts(counts, edges):
     counts = jnp.asarray(counts, dtype=float)
     total = jnp.sum(counts)
     return counts / jnp.where(total > 0, total, 1.0) / jnp.diff(edges)
-
-
-def quantiles_from_counts(counts, edges, qs):
-    """Quantiles (linear within a bin) of a histogram with `counts` on `edges`."""
-    counts = jnp.asarray(counts, dtype=float)
-    cdf = jnp.concatenate([jnp.zeros(1), jnp.cumsum(counts)]) / jnp.maximum(jnp.sum(counts), 1.0)
-    return jnp.interp(jnp.asarray(qs, dtype=float), cdf, edges)

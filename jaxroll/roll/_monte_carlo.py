@@ -19,21 +19,25 @@ from ._sharding import run_chunks
 from ._statistics import AmplitudeStatistics, MaximaStatistics, MaxRollStatistics
 
 
-def simulate_chunk(problem: RollProblem, key, indices, valid, observer: AbstractObserver, num_steps: int):
+def simulate_chunk(
+    problem: RollProblem, key, indices, valid, observer: AbstractObserver, num_steps: int, *, remat: bool = False
+):
     """Realizations `indices` (realization i keyed `fold_in(key, i)`) of `problem` for `num_steps` steps, reduced
-    by `observer`: returns its `(summed, per_realization)`. Pure and jittable (the body of every Monte Carlo; the
-    calibration differentiates through it)."""
+    by `observer`: returns its `(summed, per_realization)`. Pure and jittable: the body of every Monte Carlo, and
+    what the calibration evaluates (and differentiates) inside its objective. `remat=True` recomputes each
+    realization in the backward pass instead of storing it (reverse-mode autodiff through long runs)."""
 
     def one(i):
+        k = jr.fold_in(key, i)
         return simulate(
             problem,
-            jr.fold_in(key, i),
+            k,
             num_steps,
-            lambda state, k, y, alive: observer.observe(problem, state, k, y, alive),
-            observer.init(problem),
+            lambda state, step, y, alive: observer.observe(problem, state, step, y, alive),
+            observer.init(problem, k),
         )
 
-    states, outputs, end = jax.vmap(one)(indices)
+    states, outputs, end = jax.vmap(jax.checkpoint(one) if remat else one)(indices)
     return observer.reduce(problem, states, outputs, end, valid)
 
 

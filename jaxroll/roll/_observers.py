@@ -7,7 +7,7 @@ One loop (`jaxroll.monte_carlo`) integrates every realization; an observer decid
 - `MaxRoll`: the largest |φ| per trial and the count of trials beyond an angle (risk, sweeps).
 
 An observer is an `eqx.Module` of Python settings (hashable, so the compiled chunk is reused). Its methods:
-`init(problem)` → per-realization state; `observe(problem, state, k, y, alive)` → (state, per-step output or
+`init(problem, key)` → per-realization state (`key`: the realization's key, for observers that draw noise); `observe(problem, state, k, y, alive)` → (state, per-step output or
 None) after each step k (1-based); `reduce(problem, states, outputs, end, valid)` → (summed, per_realization) over a chunk
 (leading axis: realizations; `summed` entries must be integer-valued so any device order adds them exactly);
 `result(summed, per, config)` → the host result.
@@ -40,8 +40,8 @@ class AbstractObserver(eqx.Module):
     """What one Monte Carlo realization records, and how a chunk of them is reduced (see the module docstring)."""
 
     @abc.abstractmethod
-    def init(self, problem):
-        """Per-realization observer state before the first step."""
+    def init(self, problem, key):
+        """Per-realization observer state before the first step (`key`: the realization's PRNG key)."""
 
     @abc.abstractmethod
     def observe(self, problem, state, k, y, alive):
@@ -69,7 +69,7 @@ class AmplitudeHistogram(AbstractObserver):
     def num_bins(self) -> int:
         return int(round(self.max_deg / self.bin_width_deg))
 
-    def init(self, problem):
+    def init(self, problem, key):
         return zero_crossing_init(problem.phi0)
 
     def observe(self, problem, state, k, y, alive):
@@ -134,7 +134,7 @@ class FirstMaxima(AbstractObserver):
     n0: tuple[int, ...] = (20, 50, 100, 1000)
     discard: float = 500.0
 
-    def init(self, problem):
+    def init(self, problem, key):
         return _MaximaState(
             zero_crossing_init(problem.phi0), jnp.array(0), jnp.array(0.0), jnp.full(len(self.n0), -1.0)
         )
@@ -175,7 +175,7 @@ class MaxRoll(AbstractObserver):
     angle_deg: float = 30.0
     discard: float = 0.0
 
-    def init(self, problem):
+    def init(self, problem, key):
         return jnp.zeros(())
 
     def observe(self, problem, state, k, y, alive):

@@ -143,7 +143,7 @@ def fit_filter(
     **Arguments:**
 
     - `wave`: the effective wave (sea, ship length, speed, heading).
-    - `order`: filter order n ≥ 3 (4 is the default: THEORY.md §6 found order 2 under-excites roll by ~16 %).
+    - `order`: filter order n ≥ 3 (4 is the default: docs/theory.md reports order 2 under-excites roll by ~16 %).
     - `match_frequency`: encounter frequency [rad/s] where S_G is matched with extra weight (use 2ω0).
     - `match_weight`: weight of that point relative to one grid point of the L2 fit.
     - `num`: number of fit frequencies.

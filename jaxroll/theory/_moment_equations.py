@@ -30,7 +30,7 @@ covariance, so pure-z moments are known, not unknowns (checked: the generated fi
 the Lyapunov covariance, tests/test_moments.py).
 
 φ̇|φ̇| is not polynomial. It is replaced by the Gaussian least-squares equivalent cubic
-φ̇|φ̇| ≈ √(2/π) (σ_v φ̇ + φ̇³/(3σ_v)), σ_v² = E[φ̇²] (the moment state itself), the choice of THEORY §6 that
+φ̇|φ̇| ≈ √(2/π) (σ_v φ̇ + φ̇³/(3σ_v)), σ_v² = E[φ̇²] (the moment state itself), the choice (docs/theory.md) that
 keeps a stable non-trivial fixed point; the equivalent-linear form √(8/π) σ_v φ̇ is available
 (`damping="linear"`) but under-damps this strongly non-Gaussian φ̇ and the moment equations blow up
 (docs/theory.md, "Moment method").
@@ -200,7 +200,7 @@ def _compositions(k: int, n: int):
 
 
 def roll_sde(ship: Ship, shaping_filter: ShapingFilter, *, damping: str = "cubic") -> PolynomialSDE:
-    r"""The roll + Method-2 filter Itô system X = (φ, φ̇, z_1 … z_n) of THEORY §1/§6 as a `PolynomialSDE`.
+    r"""The roll + Method-2 filter Itô system X = (φ, φ̇, z_1 … z_n) of docs/conventions.md and docs/theory.md as a `PolynomialSDE`.
 
     $d\dot\phi = [-b_1\dot\phi - b_2\,\dot\phi|\dot\phi| - b_3\dot\phi^3 - \sum a_{2k-1}\phi^{2k-1}
     - r\kappa\,\Delta GM(-c^Tz)\,\phi]\,dt$, κ = ω0²/GM0, ζ_mid = −ζ_G = −cᵀz; dz = A z dt + b dW.

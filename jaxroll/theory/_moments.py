@@ -186,7 +186,7 @@ def envelope_moments(
 ) -> Float[Array, " 3"]:
     """(E[A²], E[A⁴], E[A⁶]) of the roll envelope from the stationary moments of (φ, φ̇) [rad^2k].
 
-    - `"omega0"`: A² = φ² + φ̇²/ω0² (THEORY §6), exact moments of that energy-type envelope.
+    - `"omega0"`: A² = φ² + φ̇²/ω0² (docs/theory.md), exact moments of that energy-type envelope.
     - `"mean_square_frequency"`: the same with Ω² = E[φ̇²]/E[φ²] in place of ω0² (so E[A²] = 2E[φ²]).
     - `"phase_averaged"` (default): φ = A cos Θ with Θ uniform and independent of A, so
       E[A^{2k}] = E[φ^{2k}]·4ᵏ k!²/(2k)! (E[A²] = 2E[φ²], E[A⁴] = 8/3 E[φ⁴], E[A⁶] = 16/5 E[φ⁶]); the Hilbert
@@ -346,7 +346,7 @@ def roll_moments(
     """Stationary moments of the roll + filter system of `ship` in `wave` (see `moment_pdf`).
 
     Order N > 4 is reached by continuation: order 4 from a Gaussian start (σ_φ = `initial_roll_deg`,
-    σ_φ̇ = ω0 σ_φ), then each higher even order from the one below (THEORY §6: order 6 from a deterministic
+    σ_φ̇ = ω0 σ_φ), then each higher even order from the one below (docs/theory.md: order 6 from a deterministic
     small-roll start blew up).
     """
     sde = roll_sde(ship, _shaping_filter(ship, wave, shaping_filter, filter_order), damping=damping)
