@@ -43,7 +43,7 @@ def test_zero_crossing_amplitudes_of_narrow_band_gaussian_are_rayleigh(getkey):
     s = np.exp(-0.5 * ((w - 0.5) / 0.005) ** 2)
     key = getkey()
     xy = jr.normal(key, (2, w.size))
-    coef = jnp.sqrt(s * (w[1] - w[0])) * (xy[0] + 1j * xy[1]) * n / 2
+    coef = jnp.asarray(np.sqrt(s * (w[1] - w[0])) * n / 2, dtype=complex) * jax.lax.complex(xy[0], xy[1])
     x = jnp.fft.irfft(coef, n=n)
     sigma = float(jnp.sqrt(jnp.sum(s * (w[1] - w[0]))))
     amps = np.asarray(jaxroll.zero_crossing_amplitudes(x))

@@ -126,7 +126,7 @@ def test_time_step_convergence_with_common_random_numbers(getkey):
             problem = jaxroll.RollProblem(ship, jaxroll.SampledExcitation(zeta[::sub], dzeta[::sub], step))
             phi, _, end = jaxroll.roll_time_series(problem, key, duration)
             a = jaxroll.zero_crossing_amplitudes(phi)
-            out.append(jnp.sum(a) / jnp.sum(a > 0))
+            out.append(jnp.sum(a) / jnp.sum(a > 0).astype(float))
         return jnp.stack(out), end.capsized
 
     with warnings.catch_warnings():

@@ -9,13 +9,14 @@ import numpy as np
 import pytest
 
 import jaxroll as jxr
+from helpers import default_problem
 
 SHIP = jxr.c11_representative()
 
 
 @pytest.fixture(scope="module")
 def problem():
-    return jxr.RollProblem.from_sea(SHIP, jxr.ITTC(7.0, 10.0), dt=0.5)
+    return default_problem(7.0)
 
 
 @pytest.fixture(scope="module")

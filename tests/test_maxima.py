@@ -5,11 +5,12 @@ import numpy as np
 import pytest
 
 import jaxroll
+from helpers import default_problem
 
 
 @pytest.fixture(scope="module")
 def problem():
-    return jaxroll.RollProblem.from_sea(jaxroll.c11_representative(), jaxroll.ITTC(7.0, 10.0), dt=0.5)
+    return default_problem(7.0)
 
 
 def test_maxima_nested_reproducible_and_chunk_invariant(problem):

@@ -21,6 +21,7 @@ import scipy.linalg
 import scipy.special
 
 import jaxroll as jxr
+from helpers import rel
 from jaxroll.theory import (
     AmplitudeFamily,
     PolynomialSDE,
@@ -286,7 +287,6 @@ def test_default_ship_order4_order6_vs_monte_carlo(ship_solutions, monte_carlo_7
     q_mc = np.rad2deg(mc.quantiles("envelope"))
     mean_mc = np.rad2deg(mc.mean("envelope"))
     levels = jnp.array([0.5, 0.9, 0.99])
-    rel = lambda a, b: float(a) / float(b) - 1
     s4, s6 = ship_solutions[4], ship_solutions[6]
     assert 0.03 < rel(s6.e_phi2, pm["E_phi2"]) < 0.25
     assert abs(rel(s6.e_phi4, pm["E_phi4"])) < 0.12
@@ -382,7 +382,6 @@ def test_default_ship_vs_large_monte_carlo(hs):
     mean_mc, q99_mc = np.rad2deg(mc.mean("envelope")), np.rad2deg(mc.quantiles("envelope")[2])
     q99 = lambda sol: np.rad2deg(float(sol.quantile(0.99)))
     s4 = moment_pdf(SHIP, _wave(hs), closure_order=4)
-    rel = lambda a, b: float(a) / float(b) - 1
     if hs == 7.0:
         s6 = moment_pdf(SHIP, _wave(hs), closure_order=6)
         assert 0.10 < rel(s6.e_phi2, pm["E_phi2"]) < 0.17  # THEORY §6: +12…16 %

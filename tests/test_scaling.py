@@ -20,6 +20,7 @@ import jaxroll
 from jaxroll import monte_carlo_max_roll, realization_mesh, wilson_interval
 from jaxroll._cli import main
 from jaxroll.roll._sharding import CHECKPOINT_FILE
+from helpers import default_problem
 
 N = 7  # odd: divides neither 2 nor 4 devices, so every sharded run pads its last chunk
 DURATION = 300.0
@@ -80,7 +81,7 @@ def _free_port() -> int:
 
 @pytest.fixture(scope="module")
 def problem():
-    return jaxroll.RollProblem.from_sea(jaxroll.c11_representative(), jaxroll.ITTC(7.0, 10.0))
+    return default_problem(7.0)
 
 
 @pytest.fixture(scope="module")

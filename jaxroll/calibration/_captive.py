@@ -47,7 +47,7 @@ def effective_wave_from_probe(
     n = wave.shape[-1]
     m = _fft_length(pad_factor * n)
     spec = jnp.fft.rfft(wave - jnp.mean(wave), n=m)
-    omega_e = jnp.arange(m // 2 + 1) * (2 * jnp.pi / (m * dt))
+    omega_e = jnp.arange(m // 2 + 1, dtype=float) * (2 * jnp.pi / (m * dt))
     omega = wave_frequencies_from_encounter(omega_e, speed, "head")[0][:, 0]
     k = omega**2 / GRAVITY
     return jnp.fft.irfft(spec * grim_transfer(k, length) * jnp.exp(-1j * k * probe_x), n=m)[:n]

@@ -67,7 +67,7 @@ def virtual_sea(
 
     m = superposition_length(num_samples)
     domega = 2 * jnp.pi / (m * dt)
-    omega_e = jnp.arange(m // 2 + 1) * domega
+    omega_e = jnp.arange(m // 2 + 1, dtype=float) * domega
     omegas, weights = wave_frequencies_from_encounter(omega_e, speed, "head")
     omega, jac = omegas[:, 0], weights[:, 0]
     s = sea(omega) * jac

@@ -80,7 +80,7 @@ def hilbert_envelope(x: Float[Array, "... n"]) -> Float[Array, "... n"]:
         h = h.at[n // 2].set(1.0).at[1 : n // 2].set(2.0)
     else:
         h = h.at[1 : (n + 1) // 2].set(2.0)
-    return jnp.abs(jnp.fft.ifft(spec * h, axis=-1))
+    return jnp.abs(jnp.fft.ifft(spec * h.astype(spec.dtype), axis=-1))
 
 
 def histogram_counts(values, weights, width: float, num_bins: int) -> Float[Array, " num_bins"]:

@@ -143,7 +143,7 @@ class FirstMaxima(AbstractObserver):
         n_max = max(self.n0)
         zc, amp = zero_crossing_update(state.zc, y[0])
         counted = (amp > 0) & (k > _steps(self.discard, problem.dt)) & (state.count < n_max) & alive
-        count = state.count + counted
+        count = state.count + counted.astype(state.count.dtype)
         running = jnp.where(counted, jnp.maximum(state.running_max, amp), state.running_max)
         maxima = jnp.where(counted & (count == jnp.asarray(self.n0)), running, state.maxima)
         return _MaximaState(zc, count, running, maxima), None

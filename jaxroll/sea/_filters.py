@@ -35,9 +35,10 @@ class ShapingFilter(eqx.Module):
     def transfer(self, omega) -> Array:
         """H(iω) (complex) at `omega` [rad/s]."""
         n = self.order
-        s = 1j * jnp.asarray(omega, dtype=float)
-        den = s**n - sum(self.a[-1, k] * s**k for k in range(n))
-        num = sum(self.c[k] * s**k for k in range(n))
+        s = 1j * jnp.asarray(omega, dtype=float).astype(complex)
+        a, c = self.a[-1].astype(complex), self.c.astype(complex)
+        den = s**n - sum(a[k] * s**k for k in range(n))
+        num = sum(c[k] * s**k for k in range(n))
         return num / den
 
     def spectrum(self, omega) -> Float[Array, "..."]:

@@ -11,6 +11,7 @@ The roll model uses ζ_mid = −ζ_G (positive when a trough is amidships); see 
 from __future__ import annotations
 
 import equinox as eqx
+import jax
 import jax.numpy as jnp
 import jax.random as jr
 from jaxtyping import Array, Float, PRNGKeyArray
@@ -91,13 +92,13 @@ def superpose(
     """
     m = superposition_length(num_samples)
     domega = 2 * jnp.pi / (m * dt)
-    j = jnp.arange(m // 2 + 1)
+    j = jnp.arange(m // 2 + 1, dtype=float)
     omega = j * domega
     s = wave.spectrum(omega)
     s = s.at[0].set(0.0).at[-1].set(0.0)
     xy = jr.normal(key, (2, m // 2 + 1))
-    coef = jnp.sqrt(s * domega) * (xy[0] + 1j * xy[1]) * (m / 2)
+    coef = (jnp.sqrt(s * domega) * (m / 2)).astype(complex) * jax.lax.complex(xy[0], xy[1])
     zeta = jnp.fft.irfft(coef, n=m)[:num_samples]
-    dzeta = jnp.fft.irfft(1j * omega * coef, n=m)[:num_samples]
+    dzeta = jnp.fft.irfft(1j * omega.astype(complex) * coef, n=m)[:num_samples]
     return zeta, dzeta
 

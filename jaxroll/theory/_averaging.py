@@ -453,14 +453,14 @@ def undamped_orbits(
     a = jnp.asarray(a_coefficients, dtype=float)
     b1, b2, b3 = jnp.asarray(damping, dtype=float)
     amp = jnp.asarray(amplitude, dtype=float)
-    theta = jnp.arange(num_theta) * jnp.pi / num_theta
+    theta = jnp.arange(num_theta, dtype=float) * jnp.pi / num_theta
     x_gl, w_gl = np.polynomial.legendre.leggauss(num_gauss)
     theta_gl = jnp.asarray((x_gl + 1) * jnp.pi / 4)
     w_gl = jnp.asarray(w_gl * np.pi / 4)
     kk = jnp.fft.fftfreq(num_theta) * num_theta
     nyq = jnp.abs(kk) == num_theta // 2
-    harmonics = 2 * jnp.arange(1, num_harmonics + 1)
-    sign = (-1.0) ** (harmonics // 2)
+    harmonics = 2 * jnp.arange(1, num_harmonics + 1, dtype=float)
+    sign = jnp.where((harmonics // 2) % 2 == 0, 1.0, -1.0)
 
     def one(amp_i):
         u = amp_i**2
@@ -471,7 +471,8 @@ def undamped_orbits(
         period = 2 * jnp.pi * f0
         omega = 1 / f0
         coef = jnp.fft.fft(f - f0)
-        integ = jnp.where((kk == 0) | nyq, 0.0, coef / jnp.where(kk == 0, 1.0, 2j * kk))
+        denom = jnp.where(kk == 0, 1.0, kk).astype(coef.dtype) * jnp.asarray(2j, coef.dtype)
+        integ = jnp.where((kk == 0) | nyq, 0.0, coef / denom)
         p = jnp.real(jnp.fft.ifft(integ))
         tau = f0 * theta + p - p[0]
         phase = harmonics[:, None] * omega * tau[None, :]
@@ -491,7 +492,7 @@ def undamped_orbits(
 
 def parametric_energy_diffusion(orbits: Orbits, spectrum: ParametricSpectrum) -> Float[Array, " n"]:
     """σ_H²(H) = (π/8) Σ_m m² Ω² d_m² S_P⁺(mΩ) [1/s⁵] for the energy rate −P̃ φ φ̇ (one-sided S_P⁺)."""
-    m = 2 * jnp.arange(1, orbits.fourier.shape[1] + 1)
+    m = 2 * jnp.arange(1, orbits.fourier.shape[1] + 1, dtype=float)
     w = orbits.frequency[:, None] * m[None, :]
     return jnp.pi / 8 * jnp.sum(w**2 * orbits.fourier**2 * spectrum(w), axis=1)
 

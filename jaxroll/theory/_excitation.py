@@ -87,7 +87,7 @@ class ParametricSpectrum(eqx.Module):
         n = self.omega.shape[0]
         x = w / step
         i = jnp.clip(jnp.floor(x).astype(int), 0, n - 2)
-        t = x - i
+        t = x - i.astype(x.dtype)
         value = (1 - t) * self.values[i] + t * self.values[i + 1]
         return jnp.where(x <= n - 1, value, 0.0)
 
@@ -115,7 +115,7 @@ def _grid(num: int, domega: float):
         raise ValueError(f"`num` must be an even integer >= 64; got {num!r}.")
     if not (domega > 0):
         raise ValueError(f"`domega` must be > 0 [rad/s]; got {domega!r}.")
-    return jnp.arange(num // 2 + 1) * domega
+    return jnp.arange(num // 2 + 1, dtype=float) * domega
 
 
 @eqx.filter_jit
@@ -178,7 +178,7 @@ def welch_parametric_spectrum(
         raise ValueError(f"`segment` must be in [16, num_samples = {num_samples}]; got {segment!r}.")
     step = segment // 2
     starts = jnp.arange(0, num_samples - segment + 1, step)
-    window = 0.5 - 0.5 * jnp.cos(2 * jnp.pi * jnp.arange(segment) / segment)  # periodic Hann
+    window = 0.5 - 0.5 * jnp.cos(2 * jnp.pi * jnp.arange(segment, dtype=float) / segment)  # periodic Hann
     norm = dt / (jnp.pi * jnp.sum(window**2))  # one-sided, per rad/s: ∫₀^∞ S dω = variance
 
     def one(k):
