@@ -70,6 +70,6 @@ def test_cli_and_notebooks_use_public_names():
     for nb in (ROOT / "notebooks").glob("*.ipynb"):
         for cell in json.loads(nb.read_text())["cells"]:
             src = "".join(cell["source"])
-            if "jaxroll." in src and any(f"jaxroll.{s}._" in src or f"from jaxroll._" in src for s in CORE + ("plotting",)):
+            if "jaxroll." in src and any(f"jaxroll.{s}._" in src or "from jaxroll._" in src for s in CORE + ("plotting",)):
                 offenders.append((nb.name, "private import"))
     assert not offenders, offenders

@@ -4,12 +4,11 @@ mean = ∫ sf), and says what it is a law of; the maxima and risk formulas refus
 import math
 
 import jax
-import jax.numpy as jnp
 import numpy as np
 import pytest
+from helpers import default_problem
 
 import jaxroll as jxr
-from helpers import default_problem
 
 SHIP = jxr.c11_representative()
 

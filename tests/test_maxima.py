@@ -3,9 +3,9 @@
 import jax.random as jr
 import numpy as np
 import pytest
+from helpers import default_problem
 
 import jaxroll
-from helpers import default_problem
 
 
 @pytest.fixture(scope="module")

@@ -19,9 +19,9 @@ import pytest
 import scipy.integrate
 import scipy.linalg
 import scipy.special
+from helpers import rel
 
 import jaxroll as jxr
-from helpers import rel
 from jaxroll.theory import (
     AmplitudeFamily,
     PolynomialSDE,

@@ -15,12 +15,12 @@ import textwrap
 import jax
 import numpy as np
 import pytest
+from helpers import default_problem
 
 import jaxroll
 from jaxroll import monte_carlo_max_roll, realization_mesh, wilson_interval
 from jaxroll._cli import main
 from jaxroll.roll._sharding import CHECKPOINT_FILE
-from helpers import default_problem
 
 N = 7  # odd: divides neither 2 nor 4 devices, so every sharded run pads its last chunk
 DURATION = 300.0

@@ -70,6 +70,11 @@ def run(args) -> int:
     amp = monte_carlo_amplitudes(problem, jax.random.key(args.seed), num_realizations=min(args.realizations, 2000),
                                  duration=3600.0, discard=min(args.discard, 3000.0), chunk_size=args.chunk_size)
     mc_dist = amp.law("zero_crossing", pool=20)  # 1° bins: P* amplifies histogram noise
+    laws = {}
+    if theories:
+        from ._theory import theory_laws
+
+        laws = theory_laws(problem, args, theories)  # per-half-cycle laws: what P* needs
     for n0s, n_trials in groups:
         print(f"maxima: N0 = {n0s}, {n_trials} trials, discard {args.discard} s")
         progress = Progress(n_trials, f"trials (N0 ≤ {max(n0s)})", enabled=None if not args.quiet else False)
@@ -86,12 +91,9 @@ def run(args) -> int:
             curves = {"mcs_amplitudes": {
                 "exact": np.asarray(max_pdf(mc_dist, a, n0)) * np.pi / 180,
                 "asymptotic": np.asarray(max_pdf_asymptotic(mc_dist, a, n0)) * np.pi / 180}}
-            if theories:
-                from ._theory import theory_laws
-
-                for name, dist in theory_laws(problem, args, theories).items():
-                    curves[name] = {"exact": np.asarray(max_pdf(dist, a, n0)) * np.pi / 180,
-                                    "asymptotic": np.asarray(max_pdf_asymptotic(dist, a, n0)) * np.pi / 180}
+            for name, dist in laws.items():
+                curves[name] = {"exact": np.asarray(max_pdf(dist, a, n0)) * np.pi / 180,
+                                "asymptotic": np.asarray(max_pdf_asymptotic(dist, a, n0)) * np.pi / 180}
             per_n0[str(n0)] = {
                 "n_trials": n_trials,
                 "n_valid": int(x.size),
@@ -118,6 +120,11 @@ def run(args) -> int:
         "runs": amplitude_summaries,
         "amplitude_pdf_source": "zero-crossing amplitudes of a separate run of the same sea "
         f"({min(args.realizations, 2000)} × 3600 s, discard {min(args.discard, 3000.0)} s)",
+        "theory_amplitude_laws": {
+            name: f"{law.estimator} ({law.sampling}): the theory's time-sampled envelope law weighted by the rate of "
+            "half cycles Ω(A)/π at each amplitude"
+            for name, law in laws.items()
+        },
         "run_time_s": elapsed,
     }
     fig_lin, fig_log = maxima_figures(centres, {int(k): v["histogram_pdf_per_deg"] for k, v in per_n0.items()},
