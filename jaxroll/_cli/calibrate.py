@@ -86,35 +86,62 @@ def register(sub) -> None:
         help="cluster length for the standard errors [s, model scale] (default 10)",
     )
     c.set_defaults(func=run_captive)
-    r = kinds.add_parser("roll", help="fit damping and/or the GM correction to free-running amplitude PDFs")
+    r = kinds.add_parser(
+        "roll",
+        help="fit damping and/or the GM correction to free-running records (amplitude PDFs, or the time series)",
+        description="Calibrates the roll model on free-running roll records. --estimator pdf (default) matches "
+        "the model's amplitude PDFs (Monte Carlo); time-domain fits the roll time series by multiple shooting "
+        "through the roll equation driven by the probe's effective wave; kalman maximises the extended-Kalman-"
+        "filter likelihood with fitted process noise (use it when the model is not exact; "
+        "docs/calibration.md, 'Time-domain calibration').",
+    )
     _common(r)
     r.add_argument(
-        "--params",
-        default="gm_correction",
-        help="comma-separated parameters to fit: gm_correction, b1, b2, b3 (default gm_correction)",
+        "--estimator",
+        choices=("pdf", "time-domain", "kalman"),
+        default="pdf",
+        help="pdf: amplitude-PDF band means (default); time-domain: multiple shooting; kalman: EKF likelihood",
     )
-    r.add_argument("--realizations", type=int, default=96, help="Monte Carlo realizations per sea state (96)")
+    r.add_argument(
+        "--params",
+        default=None,
+        help="comma-separated parameters to fit. pdf: gm_correction, b1, b2, b3 (default gm_correction); "
+        "time-domain, kalman: b1, b2, b3, gm_correction, roll_period, delta_gm_nonlinear "
+        "(default b1,b2,gm_correction)",
+    )
+    r.add_argument(
+        "--realizations", type=int, default=None, help="pdf: Monte Carlo realizations per sea state (96)"
+    )
     r.add_argument(
         "--method",
         choices=("superposition", "filter"),
-        default="superposition",
-        help="effective wave of the Monte Carlo (default superposition)",
+        default=None,
+        help="pdf: effective wave of the Monte Carlo (default superposition)",
     )
     r.add_argument(
         "--derivative",
         choices=("fd", "pathwise"),
-        default="fd",
-        help="derivatives: central differences with common random numbers (default) or pathwise AD",
+        default=None,
+        help="pdf: derivatives by central differences with common random numbers (default) or pathwise AD",
     )
     r.add_argument(
         "--window",
         type=float,
         nargs=2,
-        default=(70.0, 340.0),
+        default=None,
         metavar=("START", "STOP"),
-        help="analysis window [s, model scale] (default 70 340)",
+        help="analysis window [s, model scale]; pdf: default 70 340; time-domain, kalman: default 70 340 when "
+        "the records cover it, else each record less 5·T01 at both ends",
     )
-    r.add_argument("--seed", type=int, default=0, help="random seed of the Monte Carlo (default 0)")
+    r.add_argument(
+        "--shooting-window",
+        type=float,
+        default=None,
+        metavar="S",
+        help="time-domain: length of each shooting window [s, full scale] (default four natural roll periods "
+        "of the ship, 97.6 s for C11)",
+    )
+    r.add_argument("--seed", type=int, default=None, help="pdf: random seed of the Monte Carlo (default 0)")
     r.set_defaults(func=run_roll)
 
 
@@ -239,15 +266,32 @@ def run_captive(args) -> int:
     )
 
 
+_PDF_ONLY = ("realizations", "method", "derivative", "seed")
+
+
 def run_roll(args) -> int:
+    if args.estimator != "pdf":
+        return _run_roll_time_domain(args)
     import jax
 
     from ..calibration import calibrated_ship, fit_roll_pdf
     from ..plotting import plot_roll_calibration
 
-    params = [p.strip() for p in args.params.split(",") if p.strip()]
-    if args.realizations < 2:
-        raise CLIError(f"--realizations must be >= 2; got {args.realizations}.")
+    if args.shooting_window is not None:
+        raise CLIError("--shooting-window belongs to --estimator time-domain.")
+    params = [p.strip() for p in (args.params or "gm_correction").split(",") if p.strip()]
+    allowed = ("gm_correction", "b1", "b2", "b3")
+    for p in params:
+        if p not in allowed:
+            raise CLIError(
+                f"--params: {p!r} is not a parameter of the roll model the pdf estimator fits; choose from "
+                f"{', '.join(allowed)} (roll_period and delta_gm_nonlinear: --estimator time-domain or kalman)."
+            )
+    realizations = 96 if args.realizations is None else args.realizations
+    seed = 0 if args.seed is None else args.seed
+    window = (70.0, 340.0) if args.window is None else tuple(args.window)
+    if realizations < 2:
+        raise CLIError(f"--realizations must be >= 2; got {realizations}.")
     ship = load_ship_arg(args.ship)
     records = _load(args, "roll")
     t0 = time.time()
@@ -255,12 +299,12 @@ def run_roll(args) -> int:
         records,
         ship,
         params=params,
-        key=jax.random.key(args.seed),
-        num_realizations=args.realizations,
-        method=args.method,
-        derivative=args.derivative,
-        window_model_s=tuple(args.window),
-        seed=args.seed,
+        key=jax.random.key(seed),
+        num_realizations=realizations,
+        method=args.method or "superposition",
+        derivative=args.derivative or "fd",
+        window_model_s=window,
+        seed=seed,
     )
     fitted = calibrated_ship(ship, roll=fit, name=args.name)
     print(
@@ -269,8 +313,94 @@ def run_roll(args) -> int:
         + f"; {fit.info.num_steps} solver steps, {time.time() - t0:.0f} s"
     )
     payload = {
-        "config": {**_base_config(args, ship, records), "params": params},
+        "config": {**_base_config(args, ship, records), "estimator": "pdf", "params": params},
         "estimates": fit.to_dict(),
         "run_time_s": time.time() - t0,
     }
     return _finish(args, "roll", ship, fitted, payload, {"roll_pdfs.png": plot_roll_calibration(fit)})
+
+
+def _run_roll_time_domain(args) -> int:
+    """`--estimator time-domain|kalman`: every input is checked before anything is computed."""
+    import sys
+
+    from .. import ship_to_dict
+    from ..calibration import (
+        calibrated_ship,
+        check_time_domain_inputs,
+        check_time_domain_params,
+        default_window,
+        fit_roll_kalman,
+        fit_roll_time_domain,
+    )
+    from ..io import load_records
+    from ..plotting import plot_residual_spectrum, plot_time_domain_fit
+
+    kalman = args.estimator == "kalman"
+    given = [f"--{o}" for o in _PDF_ONLY if getattr(args, o) is not None]
+    if given:
+        raise CLIError(
+            f"{', '.join(given)} belong(s) to --estimator pdf (the Monte Carlo); the time-domain estimators take "
+            "the effective wave from the records' wave probe."
+        )
+    if kalman and args.shooting_window is not None:
+        raise CLIError("--shooting-window belongs to --estimator time-domain (the Kalman filter has no windows).")
+    try:
+        params = check_time_domain_params(
+            [p.strip() for p in (args.params or "b1,b2,gm_correction").split(",") if p.strip()]
+        )
+    except ValueError as e:
+        raise CLIError(f"--params: {e}") from None
+    if args.shooting_window is not None and not args.shooting_window > 0:
+        raise CLIError(f"--shooting-window must be > 0 [s, full scale]; got {args.shooting_window:g}.")
+    ship = load_ship_arg(args.ship)
+    records = load_records(args.records, resample=args.resample)
+    span = None if args.window is None else tuple(args.window)
+    checked = check_time_domain_inputs(
+        ship,
+        records,
+        params=params,
+        window=args.shooting_window,
+        span_model_s=span,
+        what="Kalman-filter calibration" if kalman else "time-domain calibration",
+        check_window=not kalman,
+    )
+    # --- compute ---
+    t0 = time.time()
+    if kalman:
+        fit = fit_roll_kalman(ship, records, params=params, span_model_s=span, warn=False)
+    else:
+        fit = fit_roll_time_domain(
+            ship, records, params=params, window=args.shooting_window, span_model_s=span, warn=False
+        )
+    fitted = calibrated_ship(ship, roll=fit, name=args.name)
+    for k, e in fit.estimates.items():
+        lo, hi = e.ci95
+        print(f"{k:>18} = {e.value:.6g} ± {e.std_error:.2g} {e.unit}  (95 % interval {lo:.6g} … {hi:.6g})")
+    ratio = ", ".join(f"{d.residual_to_noise:.2f}" for d in fit.records)
+    print(
+        f"{fit.method}: {fit.n_windows} {'blocks' if kalman else 'windows'} of {fit.window_s:.4g} s, residual rms "
+        f"{fit.residual_rms_deg:.4f}° (residual / sensor noise per record: {ratio}), condition number "
+        f"{fit.condition_number:.3g}, {time.time() - t0:.0f} s"
+    )
+    for w in fit.warnings:
+        print(f"jaxroll calibrate: warning: {w}", file=sys.stderr)
+    result = fit.to_dict()
+    payload = {
+        "config": {
+            **_base_config(args, ship, records),
+            "estimator": args.estimator,
+            "params": list(params),
+            "window_model_s": None if span is None else list(span),
+            "shooting_window_s": None if kalman else checked.window,
+            "shooting_window_rule": None
+            if kalman
+            else ("given" if args.shooting_window is not None else f"four natural roll periods ({default_window(ship):.4g} s)"),
+            "fit": result.pop("config"),
+        },
+        **result,
+        "written": {"ship": ship_to_dict(fitted)},
+        "run_time_s": time.time() - t0,
+    }
+    figures = {"roll_fit.png": plot_time_domain_fit(fit), "residual_spectrum.png": plot_residual_spectrum(fit).figure}
+    return _finish(args, "roll", ship, fitted, payload, figures)

@@ -9,6 +9,10 @@ docs/calibration.md).
    and optionally the polynomial itself.
 3. **Free-running roll** (`_roll_pdf`: `fit_roll_pdf`): damping and/or the GM correction such that the model's
    amplitude distributions match the experimental zero-crossing and envelope distributions.
+4. **Free-running roll in the time domain** (`_time_domain`: `fit_roll_time_domain`, multiple shooting through
+   the project's integrator driven by the probe's effective wave; `_kalman`: `fit_roll_kalman`, the
+   extended-Kalman-filter likelihood with fitted process noise, for records with model error); results in
+   `_time_domain_results` (`TimeDomainFit`, identifiability).
 
 `calibrated_ship` (`_calibrated_ship`) puts the results into a ship; `_least_squares` holds the shared solver,
 results and covariances; `_virtual_tank` writes synthetic records with known truth (`jaxroll tank`).
@@ -36,6 +40,7 @@ from ._decay import (
     fit_extinction as fit_extinction,
 )
 from ._inputs import PAPER_WINDOW_MODEL_S as PAPER_WINDOW_MODEL_S
+from ._kalman import fit_roll_kalman as fit_roll_kalman
 from ._least_squares import (
     Estimate as Estimate,
     LeastSquaresInfo as LeastSquaresInfo,
@@ -47,6 +52,20 @@ from ._roll_pdf import (
     SeaStateComparison as SeaStateComparison,
     band_means as band_means,
     fit_roll_pdf as fit_roll_pdf,
+)
+from ._time_domain import (
+    TIME_DOMAIN_PARAMETERS as TIME_DOMAIN_PARAMETERS,
+    check_time_domain_inputs as check_time_domain_inputs,
+    check_time_domain_params as check_time_domain_params,
+    default_window as default_window,
+    effective_wave_on_grid as effective_wave_on_grid,
+    fit_roll_time_domain as fit_roll_time_domain,
+)
+from ._time_domain_results import (
+    Identifiability as Identifiability,
+    ParameterEstimate as ParameterEstimate,
+    RecordDiagnostics as RecordDiagnostics,
+    TimeDomainFit as TimeDomainFit,
 )
 from ._virtual_tank import (
     GivenExcitation as GivenExcitation,

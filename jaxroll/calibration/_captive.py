@@ -50,7 +50,8 @@ def effective_wave_from_probe(
     omega_e = jnp.arange(m // 2 + 1, dtype=float) * (2 * jnp.pi / (m * dt))
     omega = wave_frequencies_from_encounter(omega_e, speed, "head")[0][:, 0]
     k = omega**2 / GRAVITY
-    return jnp.fft.irfft(spec * grim_transfer(k, length) * jnp.exp(-1j * k * probe_x), n=m)[:n]
+    transfer = grim_transfer(k, length).astype(complex) * jnp.exp(-1j * k.astype(complex) * probe_x)
+    return jnp.fft.irfft(spec * transfer, n=m)[:n]
 
 
 @dataclasses.dataclass(frozen=True)

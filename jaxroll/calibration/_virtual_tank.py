@@ -74,11 +74,12 @@ def virtual_sea(
     s = s.at[0].set(0.0).at[-1].set(0.0)
     k = omega**2 / GRAVITY
     xy = jr.normal(key, (2, m // 2 + 1))
-    coef = jnp.sqrt(s * domega) * (xy[0] + 1j * xy[1]) * (m / 2)
-    f = grim_transfer(k, length)
+    coef = jnp.sqrt(s * domega).astype(complex) * jax.lax.complex(xy[0], xy[1]) * (m / 2)
+    f = grim_transfer(k, length).astype(complex)  # explicit casts: strict dtype promotion
+    kc = k.astype(complex)
     zeta_g = jnp.fft.irfft(f * coef, n=m)[:num_samples]
-    dzeta_g = jnp.fft.irfft(1j * omega_e * f * coef, n=m)[:num_samples]
-    elev = jnp.stack([jnp.fft.irfft(coef * jnp.exp(1j * k * x), n=m)[:num_samples] for x in probes])
+    dzeta_g = jnp.fft.irfft(1j * omega_e.astype(complex) * f * coef, n=m)[:num_samples]
+    elev = jnp.stack([jnp.fft.irfft(coef * jnp.exp(1j * kc * x), n=m)[:num_samples] for x in probes])
     return elev, zeta_g, dzeta_g
 
 
@@ -90,20 +91,41 @@ def _integration_grid(record_dt: float, max_dt: float) -> tuple[int, float]:
     return sub, record_dt / sub
 
 
-def _simulate_roll(ship, zeta_g, dzeta_g, dt: float, num_steps: int, phi0: float, dphi0: float = 0.0):
+def _simulate_roll(
+    ship, zeta_g, dzeta_g, dt: float, num_steps: int, phi0: float, dphi0: float = 0.0, moment=None
+):
     """Roll (φ, φ̇) on t_k = k·dt, k ≤ num_steps, from the project's RK4 integrator driven by the given
-    ζ_G."""
+    ζ_G (and, if given, an external roll moment `moment` = (M_w [rad/s²], dM_w/dt) on the same grid)."""
 
     num_blocks = -(-num_steps // BLOCK)
     need = num_blocks * BLOCK + 1
-    pad = need - zeta_g.shape[0]
-    if pad > 0:
-        zeta_g = jnp.concatenate([zeta_g, jnp.zeros(pad)])
-        dzeta_g = jnp.concatenate([dzeta_g, jnp.zeros(pad)])
-    exc = GivenExcitation(zeta=zeta_g, dzeta=dzeta_g, dt=float(dt))
-    problem = RollProblem(ship, exc, phi0, dphi0)
+
+    def given(x, dx):
+        pad = need - x.shape[0]
+        if pad > 0:
+            x, dx = jnp.concatenate([x, jnp.zeros(pad)]), jnp.concatenate([dx, jnp.zeros(pad)])
+        return GivenExcitation(zeta=x, dzeta=dx, dt=float(dt))
+
+    exc = given(zeta_g, dzeta_g)
+    moment_exc = None if moment is None else given(*moment)
+    problem = RollProblem(ship, exc, phi0, dphi0, moment_excitation=moment_exc)
     phi, dphi, end = _roll_time_series_jit(problem, jr.key(0), num_steps * dt)
     return np.asarray(phi), np.asarray(dphi), bool(end.capsized)
+
+
+def _random_moment(key, num_samples: int, dt: float, *, std: float, band: tuple[float, float]):
+    """A Gaussian roll moment per unit inertia M_w(t) [rad/s²] with a flat one-sided spectrum over `band`
+    [rad/s] and standard deviation `std`, and its exact derivative, on t = k·dt (FFT superposition)."""
+    m = superposition_length(num_samples)
+    domega = 2 * math.pi / (m * dt)
+    omega = np.arange(m // 2 + 1) * domega
+    s = ((omega >= band[0]) & (omega <= band[1])).astype(float)
+    s = s * std**2 / max(s.sum() * domega, 1e-300)
+    xy = jr.normal(key, (2, m // 2 + 1))
+    coef = jnp.sqrt(s * domega).astype(complex) * jax.lax.complex(xy[0], xy[1]) * (m / 2)
+    x = jnp.fft.irfft(coef, n=m)[:num_samples]
+    dx = jnp.fft.irfft(1j * omega * coef, n=m)[:num_samples]
+    return x, dx
 
 
 def _noise(rng: np.random.Generator, sigma: float, n: int) -> np.ndarray:
@@ -226,6 +248,8 @@ def virtual_roll_record(
     max_dt: float = 0.25,
     max_attempts: int = 20,
     realization: int | None = None,
+    moment_std: float = 0.0,
+    moment_band: tuple[float, float] = (0.05, 1.0),
 ) -> tuple[Record, int]:
     """A free-running roll record in irregular head seas from the project's integrator, and its capsize count.
 
@@ -234,9 +258,19 @@ def virtual_roll_record(
     (the paper's MCS start). A realization that capsizes is not a record: the tank draws the next one (seed
     sub-streams) and returns how many it discarded.
 
+    **Model error on purpose:** `moment_std` > 0 [rad/s², full scale] adds an external random roll moment per
+    unit inertia M_w(t) (`RollProblem(moment_excitation=...)`), Gaussian with a flat spectrum over
+    `moment_band` [rad/s, full scale] — something the calibrated roll model does not contain (wind, a beam
+    component, sloshing), for testing how the estimators behave under model error (docs/calibration.md).
+    5e-4 rad/s² alone rolls the default ship 3–4° rms. Records with `moment_std` = 0 are unchanged.
+
     **Returns:** `(record, n_capsized_attempts)`.
     """
 
+    if not (math.isfinite(moment_std) and moment_std >= 0):
+        raise ValueError(f"`moment_std` must be >= 0 [rad/s²]; got {moment_std!r}.")
+    if moment_std > 0 and not (0 <= moment_band[0] < moment_band[1]):
+        raise ValueError(f"`moment_band` must be (low, high) [rad/s] with 0 <= low < high; got {moment_band!r}.")
     record_dt = math.sqrt(scale) / sampling_hz
     n = int(round(duration_model_s * sampling_hz)) + 1
     sub, dt = _integration_grid(record_dt, max_dt)
@@ -246,7 +280,12 @@ def virtual_roll_record(
         elev, zeta_g, dzeta_g = virtual_sea(
             sea, key, steps + 1, dt, length=float(ship.lpp), probes=(probe_x_model_m * scale,)
         )
-        phi, _, capsized = _simulate_roll(ship, zeta_g, dzeta_g, dt, steps, math.radians(initial_roll_deg))
+        moment = None
+        if moment_std > 0:
+            moment = _random_moment(jr.fold_in(key, 77), steps + 1, dt, std=moment_std, band=moment_band)
+        phi, _, capsized = _simulate_roll(
+            ship, zeta_g, dzeta_g, dt, steps, math.radians(initial_roll_deg), moment=moment
+        )
         if not capsized:
             break
     else:
@@ -258,7 +297,12 @@ def virtual_roll_record(
     meta = {
         **meta,
         "initial_roll_deg": float(initial_roll_deg),
-        "generator": f"jaxroll virtual tank (ship {ship.name!r})",
+        "generator": f"jaxroll virtual tank (ship {ship.name!r})"
+        + (
+            f"; extra random roll moment, std {moment_std:g} rad/s², band {moment_band[0]:g}–{moment_band[1]:g} rad/s"
+            if moment_std > 0
+            else ""
+        ),
     }
     rec = make_record(
         "roll",

@@ -10,7 +10,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from ..calibration import CaptiveFit, DecayFit, RollFit, SeaStateComparison
+from ..calibration import CaptiveFit, DecayFit, RollFit, SeaStateComparison, TimeDomainFit
 
 
 def _axes(ax, figsize=(6.0, 4.0)):
@@ -202,3 +202,86 @@ def plot_roll_calibration(fit: RollFit):
     fig.suptitle(f"Free-running roll: model vs experiment; fitted {est}", fontsize=10)
     fig.tight_layout()
     return fig
+
+
+# ------------------------------------------------------------------------------------------------------------
+# Time-domain calibration
+# ------------------------------------------------------------------------------------------------------------
+
+
+def _segments(fit: TimeDomainFit, record: int):
+    """(time, measured, fitted) segments of one record: the shooting windows, or the Kalman filter's record cut
+    into blocks of `fit.window_s`."""
+    out = []
+    for t, m, f, r in zip(fit.curves["time"], fit.curves["measured"], fit.curves["fitted"], fit.curves["record"]):
+        if r != record:
+            continue
+        t, m, f = np.asarray(t), np.asarray(m), np.asarray(f)
+        if fit.method == "multiple shooting":
+            out.append((t, m, f))
+            continue
+        n = max(8, int(round(fit.window_s / (t[1] - t[0]))) + 1)
+        out.extend((t[a : a + n], m[a : a + n], f[a : a + n]) for a in range(0, t.size - n + 1, n - 1))
+    return out
+
+
+def plot_time_domain_fit(fit: TimeDomainFit, *, record: int = 0, windows: int = 3):
+    """Measured roll (dots), the fitted model (line: the simulated roll of each shooting window, or the Kalman
+    filter's one-step prediction) and the residual, over `windows` windows spread through record `record`.
+    Returns the `Figure`."""
+    import matplotlib.pyplot as plt
+
+    segs = _segments(fit, record)
+    if not segs:
+        raise ValueError(f"the fit has no curves for record {record} (it has {len(fit.records)} record(s)).")
+    pick = np.unique(np.linspace(0, len(segs) - 1, min(windows, len(segs))).round().astype(int))
+    fig, axes = plt.subplots(1, pick.size, figsize=(4.2 * pick.size, 3.6), squeeze=False, sharey=True)
+    label = "fitted (simulated)" if fit.method == "multiple shooting" else "fitted (one-step prediction)"
+    for ax, i in zip(axes[0], pick):
+        t, m, f = segs[i]
+        ax.plot(t, np.degrees(m), ".", color="0.35", ms=2.5, label="measured")
+        ax.plot(t, np.degrees(f), "C3-", lw=1, label=label)
+        ax.plot(t, np.degrees(m - f), "C0-", lw=0.6, label="residual")
+        ax.set_xlabel("time [s, full scale]")
+    axes[0, 0].set_ylabel("roll [deg]")
+    axes[0, 0].legend(fontsize=7, loc="upper left")
+    est = ", ".join(f"{k} = {e.value:.4g} ± {e.std_error:.2g}" for k, e in fit.estimates.items())
+    d = fit.records[record]
+    fig.suptitle(
+        f"{fit.method}, {d.source}: residual {d.residual_rms_deg:.3f}° rms (sensor noise {d.sensor_noise_deg:.3f}°)"
+        f"\n{est}",
+        fontsize=8,
+    )
+    fig.tight_layout()
+    return fig
+
+
+def plot_residual_spectrum(fit: TimeDomainFit, *, ax=None):
+    """One-sided spectrum of the residual (measured − fitted roll) [deg²·s/rad], averaged over the windows of
+    all records (Hann-windowed periodograms), against the white level of the sensor noise estimated from the
+    records. A flat residual at that level: the model explains the record; a peak near ω0: model error (an
+    unmodelled roll moment or a wrong damping law; use `fit_roll_kalman`)."""
+    ax = _axes(ax, (6.0, 4.0))
+    segs = [s for r in range(len(fit.records)) for s in _segments(fit, r)]
+    n = min(s[0].size for s in segs)
+    dt = float(segs[0][0][1] - segs[0][0][0])
+    w = np.hanning(n)
+    psd = np.zeros(n // 2 + 1)
+    for _, m, f in segs:
+        res = np.degrees(m[:n] - f[:n])
+        res = res - res.mean()
+        psd += np.abs(np.fft.rfft(res * w)) ** 2
+    psd *= 2 * dt / (2 * np.pi * np.sum(w**2) * len(segs))  # ∫ S dω over [0, π/dt] = variance
+    omega = 2 * np.pi * np.fft.rfftfreq(n, dt)
+    ax.semilogy(omega[1:], psd[1:], "C0-", lw=1, label=f"residual ({len(segs)} windows)")
+    noise = np.sqrt(np.mean([d.sensor_noise_deg**2 for d in fit.records]))
+    ax.axhline(noise**2 * dt / np.pi, color="k", ls="--", lw=0.8, label=f"white sensor noise {noise:.3f}°")
+    w0 = float(fit.ship.omega0)
+    for k, txt in ((1, "ω0"), (2, "2ω0")):
+        ax.axvline(k * w0, color="0.6", lw=0.6, ls=":")
+        ax.text(k * w0, ax.get_ylim()[1], txt, fontsize=7, ha="center", va="top")
+    ax.set_xlabel("encounter frequency ω [rad/s]")
+    ax.set_ylabel("residual spectrum [deg²·s/rad]")
+    ax.set_title(f"{fit.method}: residual spectrum", fontsize=9)
+    ax.legend(fontsize=7)
+    return ax
