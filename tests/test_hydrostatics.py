@@ -316,7 +316,7 @@ def test_grad_matches_finite_difference(c11):
         loading = loading_condition(hull, kg=kg, draught=11.5)
         gm = metacentric_height(hull, loading, zeta_mid=zeta)
         c, _ = fit_delta_gm_polynomial(zeta, gm - gm[3], degree=3)
-        return gm[3] + jnp.sum(c * 3.0 ** jnp.arange(7))
+        return gm[3] + jnp.sum(c * 3.0 ** jnp.arange(7, dtype=float))
 
     x0 = (jnp.asarray(1.0), jnp.asarray(15.5))
     grad = jax.jit(jax.grad(fitted_gm_3m, argnums=(0, 1)))(*x0)

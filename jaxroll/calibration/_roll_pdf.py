@@ -51,12 +51,13 @@ def band_means(values, mask, edges):
     mask = jnp.ravel(mask)
     top = jnp.max(jnp.where(mask, values, -jnp.inf))
     s = jnp.sort(jnp.where(mask, values, top + 1e3))
-    n = jnp.sum(mask)
+    count = jnp.sum(mask)
+    n = count.astype(float)
     cum = jnp.concatenate([jnp.zeros(1), jnp.cumsum(s)])
     edges = jnp.asarray(edges, dtype=float)
     x = edges * n
-    i = jnp.clip(jnp.floor(x).astype(int), 0, n - 1)
-    g = (cum[i] + (x - i) * s[i]) / n  # ∫_0^q Q(u) du
+    i = jnp.clip(jnp.floor(x).astype(int), 0, count - 1)
+    g = (cum[i] + (x - i.astype(x.dtype)) * s[i]) / n  # ∫_0^q Q(u) du
     return jnp.diff(g) / jnp.diff(edges)
 
 
