@@ -142,3 +142,220 @@ def test_theory_command(tmp_path, capsys):
         np.testing.assert_allclose(np.sum(np.array(t["pdf"]) * np.diff(edges)), 1.0, atol=1e-3)
         assert 0 < t["quantiles_deg"]["50"] < t["quantiles_deg"]["99"]
     assert (tmp_path / "theory_log.png").stat().st_size > 0
+
+
+# Issue 13, "never a confident wrong number": the command line's part.
+
+
+def _fake_stats(n_realizations=10, n_capsized=0, zc=(), env=(), beyond_deg=None):
+    """An `AmplitudeStatistics` with given amplitudes [deg] (one realization holds them all), no simulation."""
+    from jaxroll.roll._statistics import AmplitudeStatistics
+
+    edges = np.arange(1801) * 0.05
+    counts = {}
+    for name, amps in (("zc", zc), ("env", env)):
+        amps = np.asarray(amps, float)
+        c = np.histogram(np.minimum(amps, edges[-1] - 1e-9), bins=edges)[0].astype(float)
+        counts[name] = c
+    per = {}
+    for name, amps in (("zc", zc), ("env", env)):
+        a = np.deg2rad(np.asarray(amps, float))
+        for key, v in (("n", a.size), ("sum", a.sum()), ("sumsq", (a**2).sum())):
+            arr = np.zeros(n_realizations)
+            arr[-1] = v
+            per[f"{key}_{name}"] = arr
+    per.update(n_samples=per["n_env"].copy(), sum_phi2=np.zeros(n_realizations), sum_phi4=np.zeros(n_realizations))
+    capsized = np.zeros(n_realizations, bool)
+    capsized[:n_capsized] = True
+    return AmplitudeStatistics(edges, counts["zc"], counts["env"], capsized, np.zeros(n_realizations), per)
+
+
+def _patch_monte_carlo(monkeypatch, stats):
+    monkeypatch.setattr(jaxroll, "monte_carlo_amplitudes", lambda *a, **k: stats)
+
+
+def test_summary_of_nothing_is_null_with_a_reason():
+    s = _fake_stats(n_realizations=5, n_capsized=5)
+    d = s.summary(np.arange(0, 73, 1.0))
+    for est in ("zero_crossing", "envelope"):
+        assert d[f"pdf_{est}"] is None and d["mean_amplitude_deg"][est] is None
+        assert d["quantiles_deg"][est] is None and d["mass_beyond_grid"][est] is None
+    assert "all 5 realizations capsized" in d["reason"] and d["n_survivors"] == 0
+    d = _fake_stats(zc=[], env=[0.1, 0.2]).summary(np.arange(0, 73, 1.0))
+    assert d["pdf_zero_crossing"] is None and d["pdf_envelope"] is not None
+    assert "zero-crossing" in d["reason"] and "shorter than a roll period" in d["reason"]
+    assert _fake_stats(zc=[3.0], env=[3.0]).summary(np.arange(0, 73, 1.0))["reason"] is None
+
+
+def test_pdf_all_capsized_reports_null_not_invented_numbers(tmp_path, monkeypatch, capsys):
+    _patch_monte_carlo(monkeypatch, _fake_stats(n_realizations=5, n_capsized=5))
+    out = tmp_path / "run"
+    assert main(["pdf", "--realizations", "5", "--duration", "600", "--out", str(out), "--quiet"]) == 0
+    text = (out / "pdf.json").read_text()
+    assert "NaN" not in text
+    d = json.loads(text)
+    for est in ("zero_crossing", "envelope"):
+        assert d[f"pdf_{est}"] is None and d["quantiles_deg"][est] is None and d["mean_amplitude_deg"][est] is None
+    assert "all 5 realizations capsized" in d["reason"] and d["n_capsized"] == 5
+    printed = capsys.readouterr().out
+    assert "no statistics:" in printed and "nan" not in printed.lower()
+    assert (out / "pdf_linear.png").stat().st_size > 0
+
+
+def test_pdf_states_capsizes_and_mass_beyond_grid(tmp_path, monkeypatch, capsys):
+    zc = [5.0, 10.0, 20.0, 80.0]  # one amplitude beyond the last figure bin (72°)
+    env = [4.0, 9.0, 19.0, 30.0, 85.0, 95.0]  # two beyond it, one beyond the fine grid's 90°
+    _patch_monte_carlo(monkeypatch, _fake_stats(n_realizations=10, n_capsized=9, zc=zc, env=env))
+    titles = []
+    import jaxroll.plotting as plotting
+
+    real = plotting.amplitude_pdf_figures
+
+    def spy(payload, **kw):
+        titles.append(kw.get("title"))
+        return real(payload, **kw)
+
+    monkeypatch.setattr(plotting, "amplitude_pdf_figures", spy)
+    out = tmp_path / "run"
+    assert main(["pdf", "--realizations", "10", "--duration", "600", "--out", str(out), "--quiet"]) == 0
+    d = json.loads((out / "pdf.json").read_text())
+    assert d["n_capsized"] == 9 and d["n_survivors"] == 1 and d["conditional_on_no_capsize"] is True
+    assert d["mass_beyond_grid"]["zero_crossing"] == pytest.approx(1 / 4)
+    assert d["mass_beyond_grid"]["envelope"] == pytest.approx(2 / 6)
+    edges = np.array(d["bins_deg"])
+    for est in ("zero_crossing", "envelope"):
+        integral = np.sum(np.array(d[f"pdf_{est}"]) * np.diff(edges))
+        assert integral == pytest.approx(1 - d["mass_beyond_grid"][est], abs=1e-12)
+    assert "N = 10, 9 capsized; PDF of the 1 survivors" in titles[0]
+    printed = capsys.readouterr().out
+    assert "conditional on no capsize" in printed and "9 capsized" in printed and "capsized 9/10" in printed
+    labels = [c.label for c in plotting.amplitude_curves(d)]
+    assert all("given no capsize" in lab for lab in labels if lab.startswith("MCS"))
+
+
+def _refuse_computation(monkeypatch):
+    import jaxroll._cli._sea as sea
+    import jaxroll._cli.pdf as pdf
+
+    def boom(*args, **kwargs):
+        raise AssertionError("computation started before the options were checked")
+
+    monkeypatch.setattr(pdf, "build_problem", boom)
+    monkeypatch.setattr(sea, "build_problem", boom)
+    monkeypatch.setattr(jaxroll, "monte_carlo_amplitudes", boom)
+    monkeypatch.setattr(jaxroll.RollProblem, "from_sea", boom)
+    import jaxroll.calibration as calibration
+    import jaxroll.ship as ship
+
+    monkeypatch.setattr(ship, "hull_hydrostatics", boom)
+    for name in ("virtual_decay_record", "virtual_captive_record", "virtual_roll_record"):
+        monkeypatch.setattr(calibration, name, boom)
+
+
+@pytest.mark.parametrize(
+    "argv, message",
+    [
+        (["pdf", "--duration", "600", "--discard", "700"], r"--discard must be in \[0, --duration\)"),
+        (["pdf", "--duration", "20"], "shorter than two roll periods"),
+        (["pdf", "--duration", "600", "--discard", "590"], "shorter than two roll periods"),
+        (["pdf", "--phi0-deg", "0"], "--phi0-deg 0: the roll equation has parametric excitation only"),
+        (["pdf", "--phi0-deg", "80"], "beyond the angle of vanishing stability"),
+        (["pdf", "--hs", "nan"], "--hs must be a finite number > 0"),
+        (["pdf", "--dt", "-1"], "--dt must be a finite number > 0"),
+        (["pdf", "--bin-width-deg", "0.33"], "multiple of 0.05"),
+        (["theory", "--bin-width-deg", "0.33"], "multiple of 0.05"),
+        (["theory", "--theory", ""], "--theory: give at least one"),
+        (["theory", "--t01", "0"], "--t01 must be a finite number > 0"),
+        (["hydrostatics", "c11", "--roll-period", "-1"], "--roll-period must be a finite number > 0"),
+        (["hydrostatics", "c11", "--n-heel", "3"], "--n-heel must be at least 5"),
+        (["hydrostatics", "c11", "--added-inertia", "nan"], "--added-inertia must be a finite number >= 0"),
+        (["tank", "--probe-x", "nan"], "--probe-x must be a finite number"),
+        (["tank", "--captive-heels", "0,nan"], "--captive-heels: angles must be finite"),
+        (["tank", "--roll-seas", "nan,10"], "H1/3 and T01 must be > 0"),
+        (["tank", "--gm-ratio", "-1"], "--gm-ratio must be a finite number > 0"),
+        (["tank", "--wave-noise-mm", "nan"], "--wave-noise-mm must be >= 0"),
+    ],
+)
+def test_options_are_checked_before_any_computation(argv, message, tmp_path, monkeypatch, capsys):
+    import re
+
+    _refuse_computation(monkeypatch)
+    out = tmp_path / "out"
+    assert main([*argv, "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert re.search(message, err), err
+    assert not out.exists() and not list(tmp_path.iterdir())
+
+
+@pytest.mark.parametrize("command", ["pdf", "theory", "tank"])
+def test_out_that_is_a_file_is_refused_first(command, tmp_path, monkeypatch, capsys):
+    _refuse_computation(monkeypatch)
+    target = tmp_path / "file"
+    target.write_text("mine")
+    assert main([command, "--out", str(target)]) == 2
+    assert "exists and is not a folder" in capsys.readouterr().err and target.read_text() == "mine"
+
+
+def test_interrupted_run_leaves_the_previous_set_untouched(tmp_path, monkeypatch, capsys):
+    _patch_monte_carlo(monkeypatch, _fake_stats(zc=[5.0, 6.0], env=[4.0, 5.0]))
+    out = tmp_path / "run"
+    assert main(["pdf", "--realizations", "10", "--duration", "600", "--out", str(out), "--quiet"]) == 0
+    (out / "notes.txt").write_text("the user's own file")
+    before = {p.name: p.read_bytes() for p in out.iterdir()}
+    _patch_monte_carlo(monkeypatch, _fake_stats(zc=[15.0, 16.0], env=[14.0, 15.0]))
+    import jaxroll._cli.pdf as pdf
+
+    def killed(*args, **kwargs):  # Ctrl-C after the figures, before pdf.json
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(pdf, "write_json", killed)
+    capsys.readouterr()
+    assert main(["pdf", "--realizations", "10", "--duration", "600", "--out", str(out), "--quiet"]) == 130
+    err = capsys.readouterr().err
+    assert len(err.strip().splitlines()) == 1 and "interrupted" in err and "Traceback" not in err
+    assert {p.name: p.read_bytes() for p in out.iterdir()} == before  # the old set, whole
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["run"]  # no partial folder left behind
+    monkeypatch.undo()
+    _patch_monte_carlo(monkeypatch, _fake_stats(zc=[15.0, 16.0], env=[14.0, 15.0]))
+    assert main(["pdf", "--realizations", "10", "--duration", "600", "--out", str(out), "--quiet"]) == 0
+    d = json.loads((out / "pdf.json").read_text())
+    assert d["mean_amplitude_deg"]["zero_crossing"] == pytest.approx(15.5)
+    assert (out / "notes.txt").read_text() == "the user's own file"  # files it does not write are kept
+
+
+def test_resumed_run_says_so_and_reports_total_time(tmp_path, capsys):
+    args = ["pdf", "--realizations", "4", "--duration", "300", "--chunk-size", "2", "--quiet",
+            "--checkpoint", str(tmp_path / "ck")]
+    assert main([*args, "--out", str(tmp_path / "a")]) == 0
+    first = json.loads((tmp_path / "a" / "pdf.json").read_text())
+    assert "resumed_from_checkpoint" not in first
+    capsys.readouterr()
+    assert main([*args, "--out", str(tmp_path / "b")]) == 0
+    printed = capsys.readouterr().out
+    assert "resuming from the checkpoint" in printed and "in total" in printed
+    second = json.loads((tmp_path / "b" / "pdf.json").read_text())
+    assert second["resumed_from_checkpoint"] is True
+    assert second["total_run_time_s"] >= second["run_time_s"] and second["total_run_time_s"] >= first["run_time_s"] * 0.5
+    assert second["pdf_envelope"] == first["pdf_envelope"]
+
+
+def test_docs_promise_only_what_the_code_does(capsys):
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    readme = (root / "README.md").read_text()
+    with pytest.raises(SystemExit):
+        main(["pdf", "--help"])
+    assert "(default: none)" in capsys.readouterr().out
+    row = next(line for line in readme.splitlines() if line.startswith("| `jaxroll pdf"))
+    assert "--theory roberts,esam,moment --" not in row and "default: none" in row
+    tank_row = next(line for line in readme.splitlines() if line.startswith("| `jaxroll tank"))
+    assert "no figure" in tank_row
+    # Every document the command line's help cites exists (and THEORY.md is not one: it is not in the repository).
+    import re
+
+    for path in sorted((root / "jaxroll" / "_cli").glob("*.py")):
+        text = path.read_text()
+        assert "THEORY" not in text, path
+        for doc in re.findall(r"docs/[\w.]+\.md", text):
+            assert (root / doc).is_file(), f"{path.name} cites {doc}"

@@ -123,3 +123,25 @@ def test_filter_errors():
         jaxroll.EffectiveWave(jaxroll.ITTC(7.0, 10.0), L, 0.0, "beam")
     with pytest.raises(RuntimeError, match="`speed` must be >= 0"):
         jaxroll.EffectiveWave(jaxroll.ITTC(7.0, 10.0), L, -1.0)
+
+
+def test_filter_order_bounded_and_fit_gated():
+    """Issue 13: order 30/40 corrupted the sea silently (indefinite Σ, |eig Φ| > 1); now refused or gated."""
+    import equinox as eqx
+
+    from jaxroll.sea._filters import MAX_FILTER_ORDER, check_filter_fit
+
+    wave = jaxroll.EffectiveWave(jaxroll.ITTC(7.0, 10.0), L)
+    for order in (MAX_FILTER_ORDER + 1, 30, 40):
+        with pytest.raises(ValueError, match="`order` must be <="):
+            jaxroll.fit_filter(wave, order=order)
+    fit = jaxroll.fit_filter(wave, order=4, match_frequency=2 * 2 * np.pi / 24.4)
+    assert check_filter_fit(fit, 0.5) == []  # a good fit passes every gate silently
+    # A filter whose gain is wrong (variance by quadrature 4× the target) is refused, not simulated.
+    bad = eqx.tree_at(lambda f: f.filter.c, fit, fit.filter.c * 2.0)
+    with pytest.raises(ValueError, match="not usable.*variance"):
+        check_filter_fit(bad, 0.5)
+    # An unstable filter (Σ not positive definite / Φ not contracting) is refused.
+    unstable = eqx.tree_at(lambda f: f.filter.a, fit, fit.filter.a.at[-1, -1].set(1.0))
+    with pytest.raises(ValueError, match="not usable"):
+        check_filter_fit(unstable, 0.5)

@@ -418,3 +418,18 @@ def test_sweep_cli_errors(extra, message, tmp_path, capsys):
 
     assert main(["sweep", "--duration", "300", "--out", str(tmp_path), *extra]) == 2
     assert re.search(message, capsys.readouterr().err)
+
+
+def test_chunk_size_from_memory_budget():
+    """Issue 13: the chunk is cut to a memory budget so a small dt cannot exhaust memory (`--dt 0.01` asked 30 GB)."""
+    from jaxroll.roll._sharding import BYTES_PER_REALIZATION_STEP, chunk_size_for_memory, default_memory_budget
+
+    steps = int(1800 / 0.01)
+    budget = 2 * 2**30
+    chunk = chunk_size_for_memory(1000, steps, budget)
+    assert 1 <= chunk < 1000 and chunk * steps * BYTES_PER_REALIZATION_STEP <= budget
+    assert chunk_size_for_memory(1000, 100, 2**40) == 1000  # never above the asked chunk
+    assert chunk_size_for_memory(1000, 10**9, 1.0) == 1  # always at least one realization
+    assert default_memory_budget() > 0
+    with pytest.raises(ValueError, match="memory_budget"):
+        chunk_size_for_memory(10, 10, 0.0)

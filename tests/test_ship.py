@@ -26,7 +26,8 @@ def test_vanishing_angle_closed_form():
     # a1 + a3 x + a5 x² = 0 with x = φ²: x² + x − 4 = 0 for the default ship.
     s = jaxroll.c11_representative()
     np.testing.assert_allclose(jaxroll.vanishing_angle(s), np.sqrt((np.sqrt(17) - 1) / 2), rtol=1e-10, atol=0)
-    linear = jaxroll.ship_from_dict({**jaxroll.ship_to_dict(s), "restoring": {"a3": 0.0, "a5": 0.0, "a7": 0.0, "a9": 0.0}})
+    with pytest.warns(UserWarning, match="GZ never returns to zero"):
+        linear = jaxroll.ship_from_dict({**jaxroll.ship_to_dict(s), "restoring": {"a3": 0.0, "a5": 0.0, "a7": 0.0, "a9": 0.0}})
     np.testing.assert_allclose(jaxroll.vanishing_angle(linear), np.pi, rtol=0, atol=0)
 
 
@@ -88,3 +89,19 @@ def test_ship_file_errors(tmp_path):
 def _kwargs():
     return dict(lpp=1.0, breadth=1.0, depth=1.0, draught=0.5, displacement=1.0, block_coefficient=0.5, gm0=0.1,
                 roll_period=10.0, restoring=[0.0] * 4, damping=[0.0] * 3, delta_gm=[0.0] * 7)
+
+
+def test_validate_ship_refuses_absurd_period_and_gz_without_vanishing_angle():
+    """Issue 13: a roll period of 1e6 s and a GZ that never returns to zero were accepted silently."""
+    import equinox as eqx
+
+    from jaxroll.ship._ship import validate_ship
+
+    ship = jaxroll.c11_representative()
+    validate_ship(ship)
+    slow = eqx.tree_at(lambda s: s.roll_period, ship, jnp.asarray(1e6))
+    with pytest.raises(ValueError, match="roll period 1e\\+06 s"):
+        validate_ship(slow)
+    stiff = eqx.tree_at(lambda s: s.restoring, ship, jnp.abs(ship.restoring))
+    with pytest.warns(UserWarning, match="GZ never returns to zero"):
+        validate_ship(stiff)

@@ -69,6 +69,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     except (ValueError, FileNotFoundError) as e:
         print(f"jaxroll {args.command}: error: {e}", file=sys.stderr)
         return 2
+    except KeyboardInterrupt:
+        from ._common import interrupted_message
+
+        print(interrupted_message(args.command, getattr(args, "out", None)), file=sys.stderr)
+        return 130
 
 
 if __name__ == "__main__":  # pragma: no cover

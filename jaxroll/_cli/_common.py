@@ -113,3 +113,66 @@ class Progress:
         sys.stderr.flush()
         if done >= self.total:
             sys.stderr.write("\n")
+
+
+class OutputFolder:
+    """Write a command's outputs as one set: into a temporary sibling folder, renamed into place at the end.
+
+    Use as `with OutputFolder(out) as tmp:` and write every file under `tmp`. On success the new set replaces the
+    previous contents of `out` (files of `out` the new set does not write — e.g. a user's own files — are kept);
+    on an error or Ctrl-C the temporary folder is removed and `out` is left exactly as it was. A folder never
+    holds the figures of one run beside the JSON of another.
+    """
+
+    def __init__(self, out: str | Path):
+        self.out = Path(out)
+        self.tmp: Path | None = None
+
+    def __enter__(self) -> Path:
+        parent = self.out.resolve().parent
+        parent.mkdir(parents=True, exist_ok=True)
+        if self.out.exists() and not self.out.is_dir():
+            raise CLIError(f"--out {str(self.out)!r} exists and is not a folder.")
+        self.tmp = Path(tempfile.mkdtemp(dir=parent, prefix=f".{self.out.resolve().name}.partial-"))
+        return self.tmp
+
+    def __exit__(self, exc_type, exc, tb) -> bool:
+        import shutil
+
+        assert self.tmp is not None
+        if exc_type is not None:
+            shutil.rmtree(self.tmp, ignore_errors=True)
+            return False
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(self.tmp, 0o777 & ~umask)
+        target = self.out.resolve()
+        if not target.exists():
+            os.rename(self.tmp, target)
+            return False
+        # Carry the entries the new set does not write over into it, then swap the folders.
+        new = {p.name for p in self.tmp.iterdir()}
+        for entry in target.iterdir():
+            if entry.name not in new and not entry.name.startswith(f".{target.name}.partial-"):
+                os.replace(entry, self.tmp / entry.name) if not entry.is_dir() else shutil.move(entry, self.tmp)
+        old = Path(tempfile.mkdtemp(dir=target.parent, prefix=f".{target.name}.old-"))
+        try:
+            os.replace(target, old / "x")
+        except OSError:  # a mount point or the working directory: move the entries one by one instead
+            for entry in self.tmp.iterdir():
+                dest = target / entry.name
+                if dest.is_dir() and not dest.is_symlink():
+                    shutil.rmtree(dest)
+                os.replace(entry, dest)
+            shutil.rmtree(self.tmp, ignore_errors=True)
+            shutil.rmtree(old, ignore_errors=True)
+            return False
+        os.rename(self.tmp, target)
+        shutil.rmtree(old, ignore_errors=True)
+        return False
+
+
+def interrupted_message(command: str, out: str | None) -> str:
+    """The one line printed on Ctrl-C."""
+    where = f"; {out} is unchanged (outputs are written as a complete set or not at all)" if out else ""
+    return f"jaxroll {command}: interrupted{where}."

@@ -1,5 +1,7 @@
 """`jaxroll calibrate decay|captive|roll RECORDS...`: fit the ship's coefficients to tank records; writes
-ship.toml (feeds straight back into `jaxroll pdf --ship`), calibration.json and figures."""
+ship.toml (feeds straight back into `jaxroll pdf --ship`), calibration.json and figures. `roll` fits the
+amplitude PDFs (`--estimator pdf`) or the time series (`time-domain`: multiple shooting; `kalman`: EKF
+likelihood)."""
 
 from __future__ import annotations
 
@@ -33,8 +35,8 @@ def _common(p) -> None:
 def register(sub) -> None:
     p = sub.add_parser(
         "calibrate",
-        help="fit damping (decay), the GM correction (captive) or the model to roll PDFs (roll) from tank "
-        "records",
+        help="fit damping (decay), the GM correction (captive) or the model to free-running roll records (roll: "
+        "amplitude PDFs, or the time series) from tank records",
         description="Calibrates a ship from tank records (docs/records.md, docs/calibration.md) and writes "
         "ship.toml, calibration.json and figures into --out.",
     )

@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-from ._common import CLIError, atomic_write_text, save_figure, write_json
+from ._common import CLIError, OutputFolder, atomic_write_text, save_figure, write_json
 
 DEFAULT_OUT = Path("jaxroll-out") / "hydrostatics"
 
@@ -67,6 +67,30 @@ def register(subparsers) -> None:
     p.set_defaults(func=run)
 
 
+def _check_options(args) -> None:
+    """Every numeric option, before any hydrostatics is computed."""
+    positive = {
+        "--kg": args.kg, "--displacement": args.displacement, "--draught": args.draught,
+        "--water-density": args.water_density, "--roll-period": args.roll_period,
+        "--roll-gyradius": args.roll_gyradius, "--wavelength": args.wavelength,
+    }
+    for flag, value in positive.items():
+        if value is not None and not (math.isfinite(value) and value > 0):
+            raise CLIError(f"{flag} must be a finite number > 0; got {value}.")
+    for flag, value in (("--gm", args.gm), ("--lcg", args.lcg)):
+        if value is not None and not math.isfinite(value):
+            raise CLIError(f"{flag} must be a finite number; got {value}.")
+    if not (math.isfinite(args.added_inertia) and args.added_inertia >= 0):
+        raise CLIError(f"--added-inertia must be a finite number >= 0; got {args.added_inertia}.")
+    if args.damping is not None and not all(math.isfinite(b) for b in args.damping):
+        raise CLIError(f"--damping: B1 B2 B3 must be finite numbers; got {args.damping}.")
+    for flag, value, least in (("--n-zeta", args.n_zeta, 7), ("--n-heel", args.n_heel, 5)):
+        if value < least:
+            raise CLIError(f"{flag} must be at least {least} (the polynomial fits need them); got {value}.")
+    if args.out.exists() and not args.out.is_dir():
+        raise CLIError(f"--out {str(args.out)!r} exists and is not a folder.")
+
+
 def run(args) -> int:
     import jax.numpy as jnp
     import numpy as np
@@ -86,6 +110,7 @@ def run(args) -> int:
         ship_from_hydrostatics,
     )
 
+    _check_options(args)
     is_c11 = args.hull.lower() == "c11"
     path = _c11_hull_path() if is_c11 else Path(args.hull)
     if not is_c11 and not path.is_file():
@@ -136,119 +161,119 @@ def run(args) -> int:
         hull, loading, heel=fine[None, :], zeta_mid=zfig, wavelength=args.wavelength, throw=False
     )
 
-    out: Path = args.out
-    out.mkdir(parents=True, exist_ok=True)
-    p = sol.particulars
-    gz_labels = [
-        "calm water",
-        f"crest amidships, ζ_mid = −{args.zeta_max:g} m",
-        f"trough amidships, ζ_mid = +{args.zeta_max:g} m",
-    ]
-    ax = plot_gz_curves(
-        np.asarray(fine),
-        {
-            lab: np.where(np.asarray(curves.converged[i]), np.asarray(curves.gz[i]), np.nan)
-            for i, lab in enumerate(gz_labels)
-        },
-        fit=(float(p.gm), np.asarray(sol.gz_coefficients)),
-        fit_heel_max=float(heels[-1]),
-    )
-    ax.set_title(
-        f"{hull.name}: GZ, free sinkage and trim, λ = {float(sol.wavelength):g} m", fontsize="medium"
-    )
-    save_figure(ax.figure, out / "gz_curves.png")
-    default = c11_representative()
-    ax = plot_delta_gm(
-        np.asarray(sol.zeta_mid),
-        np.asarray(sol.delta_gm),
-        np.asarray(sol.delta_gm_coefficients),
-        reference=np.asarray(default.delta_gm),
-    )
-    ax.set_title(f"{hull.name}: ΔGM(ζ_mid), GM0 = {float(p.gm):.4f} m", fontsize="medium")
-    save_figure(ax.figure, out / "delta_gm.png")
-    ax = plot_body_plan(hull, draught=float(p.draught))
-    save_figure(ax.figure, out / "body_plan.png")
-
-    notes = [C11_HULL_NOTE] if is_c11 else []
-    notes.append(
-        "Roll period and damping are inputs, not hydrostatics; damping defaults to the default ship's."
-    )
-    payload = {
-        "command": "hydrostatics",
-        "notes": notes,
-        "config": {
-            "hull": "c11" if is_c11 else str(path),
-            "kg_m": float(loading.kg),
-            "gm_requested_m": args.gm,
-            "displacement_kg": float(loading.displacement),
-            "lcg_m": float(loading.lcg),
-            "water_density_kg_m3": float(loading.water_density),
-            "roll_period_s": float(ship.roll_period),
-            "roll_gyradius_m": gyradius,
-            "added_inertia": args.added_inertia,
-            "wavelength_m": float(sol.wavelength),
-            "zeta_max_m": args.zeta_max,
-            "n_zeta": args.n_zeta,
-            "heel_max_deg": args.heel_max_deg,
-            "n_heel": args.n_heel,
-            "method": "sectional polygon clipping (exact for the offsets polygons), trapezoid rule along x, "
-            "sinkage and trim balanced by optimistix Newton at every heel and wave (Froude–Krylov)",
-            "wave_profile": "eta(x) = -zeta_mid cos(2 pi (x - Lpp/2) / wavelength); zeta_mid > 0: trough "
-            "amidships",
-        },
-        "hull": {
-            "name": hull.name,
-            "provenance": hull.provenance,
-            "lpp_m": float(hull.lpp),
-            "depth_m": float(hull.depth),
-            "n_stations": int(hull.stations.shape[0]),
-            "n_waterlines": int(hull.waterlines.shape[0]),
-        },
-        "calm_water": p.as_dict(),
-        "tables": {
-            "zeta_mid_m": sol.zeta_mid,
-            "heel_deg": np.degrees(np.asarray(sol.heels)),
-            "gz_m": sol.gz,
-            "sinkage_m": sol.sinkage,
-            "trim_m": sol.trim,
-            "gz_calm_m": sol.gz_calm,
-            "gm_m": sol.gm,
-            "delta_gm_m": sol.delta_gm,
-        },
-        "gz_curves_figure": {
-            "heel_deg": np.degrees(np.asarray(fine)),
-            "zeta_mid_m": np.asarray(zfig[:, 0]),
-            "gz_m": np.where(np.asarray(curves.converged), np.asarray(curves.gz), np.nan),
-        },
-        "fits": {
-            "gm0_m": float(p.gm),
-            "gz_coefficients_m": dict(
-                zip(("g3", "g5", "g7", "g9"), np.asarray(sol.gz_coefficients).tolist())
-            ),
-            "restoring": dict(
-                zip(
-                    ("a3", "a5", "a7", "a9"),
-                    restoring_fields_from_gz(
-                        np.asarray(sol.gz_coefficients), float(p.gm), float(ship.roll_period)
-                    ).tolist(),
-                )
-            ),
-            "gz_fit_rms_m": float(sol.gz_fit_rms),
-            "gz_fit_heel_max_deg": args.heel_max_deg,
-            "delta_gm_coefficients": {
-                f"c{k}": float(c) for k, c in enumerate(np.asarray(sol.delta_gm_coefficients))
+    final: Path = args.out
+    with OutputFolder(final) as out:
+        p = sol.particulars
+        gz_labels = [
+            "calm water",
+            f"crest amidships, ζ_mid = −{args.zeta_max:g} m",
+            f"trough amidships, ζ_mid = +{args.zeta_max:g} m",
+        ]
+        ax = plot_gz_curves(
+            np.asarray(fine),
+            {
+                lab: np.where(np.asarray(curves.converged[i]), np.asarray(curves.gz[i]), np.nan)
+                for i, lab in enumerate(gz_labels)
             },
-            "delta_gm_fit_rms_m": float(sol.delta_gm_fit_rms),
-        },
-        "balance_check": {
-            "max_relative_volume_error": float(sol.max_volume_error),
-            "max_lcb_minus_lcg_m": float(sol.max_lcb_error),
-            "all_converged": bool(np.all(np.asarray(sol.converged))),
-        },
-        "ship": ship_to_dict(ship),
-    }
-    write_json(out / "hydrostatics.json", payload)
-    atomic_write_text(out / "ship.toml", ship_to_toml(ship))
+            fit=(float(p.gm), np.asarray(sol.gz_coefficients)),
+            fit_heel_max=float(heels[-1]),
+        )
+        ax.set_title(
+            f"{hull.name}: GZ, free sinkage and trim, λ = {float(sol.wavelength):g} m", fontsize="medium"
+        )
+        save_figure(ax.figure, out / "gz_curves.png")
+        default = c11_representative()
+        ax = plot_delta_gm(
+            np.asarray(sol.zeta_mid),
+            np.asarray(sol.delta_gm),
+            np.asarray(sol.delta_gm_coefficients),
+            reference=np.asarray(default.delta_gm),
+        )
+        ax.set_title(f"{hull.name}: ΔGM(ζ_mid), GM0 = {float(p.gm):.4f} m", fontsize="medium")
+        save_figure(ax.figure, out / "delta_gm.png")
+        ax = plot_body_plan(hull, draught=float(p.draught))
+        save_figure(ax.figure, out / "body_plan.png")
+
+        notes = [C11_HULL_NOTE] if is_c11 else []
+        notes.append(
+            "Roll period and damping are inputs, not hydrostatics; damping defaults to the default ship's."
+        )
+        payload = {
+            "command": "hydrostatics",
+            "notes": notes,
+            "config": {
+                "hull": "c11" if is_c11 else str(path),
+                "kg_m": float(loading.kg),
+                "gm_requested_m": args.gm,
+                "displacement_kg": float(loading.displacement),
+                "lcg_m": float(loading.lcg),
+                "water_density_kg_m3": float(loading.water_density),
+                "roll_period_s": float(ship.roll_period),
+                "roll_gyradius_m": gyradius,
+                "added_inertia": args.added_inertia,
+                "wavelength_m": float(sol.wavelength),
+                "zeta_max_m": args.zeta_max,
+                "n_zeta": args.n_zeta,
+                "heel_max_deg": args.heel_max_deg,
+                "n_heel": args.n_heel,
+                "method": "sectional polygon clipping (exact for the offsets polygons), trapezoid rule along x, "
+                "sinkage and trim balanced by optimistix Newton at every heel and wave (Froude–Krylov)",
+                "wave_profile": "eta(x) = -zeta_mid cos(2 pi (x - Lpp/2) / wavelength); zeta_mid > 0: trough "
+                "amidships",
+            },
+            "hull": {
+                "name": hull.name,
+                "provenance": hull.provenance,
+                "lpp_m": float(hull.lpp),
+                "depth_m": float(hull.depth),
+                "n_stations": int(hull.stations.shape[0]),
+                "n_waterlines": int(hull.waterlines.shape[0]),
+            },
+            "calm_water": p.as_dict(),
+            "tables": {
+                "zeta_mid_m": sol.zeta_mid,
+                "heel_deg": np.degrees(np.asarray(sol.heels)),
+                "gz_m": sol.gz,
+                "sinkage_m": sol.sinkage,
+                "trim_m": sol.trim,
+                "gz_calm_m": sol.gz_calm,
+                "gm_m": sol.gm,
+                "delta_gm_m": sol.delta_gm,
+            },
+            "gz_curves_figure": {
+                "heel_deg": np.degrees(np.asarray(fine)),
+                "zeta_mid_m": np.asarray(zfig[:, 0]),
+                "gz_m": np.where(np.asarray(curves.converged), np.asarray(curves.gz), np.nan),
+            },
+            "fits": {
+                "gm0_m": float(p.gm),
+                "gz_coefficients_m": dict(
+                    zip(("g3", "g5", "g7", "g9"), np.asarray(sol.gz_coefficients).tolist())
+                ),
+                "restoring": dict(
+                    zip(
+                        ("a3", "a5", "a7", "a9"),
+                        restoring_fields_from_gz(
+                            np.asarray(sol.gz_coefficients), float(p.gm), float(ship.roll_period)
+                        ).tolist(),
+                    )
+                ),
+                "gz_fit_rms_m": float(sol.gz_fit_rms),
+                "gz_fit_heel_max_deg": args.heel_max_deg,
+                "delta_gm_coefficients": {
+                    f"c{k}": float(c) for k, c in enumerate(np.asarray(sol.delta_gm_coefficients))
+                },
+                "delta_gm_fit_rms_m": float(sol.delta_gm_fit_rms),
+            },
+            "balance_check": {
+                "max_relative_volume_error": float(sol.max_volume_error),
+                "max_lcb_minus_lcg_m": float(sol.max_lcb_error),
+                "all_converged": bool(np.all(np.asarray(sol.converged))),
+            },
+            "ship": ship_to_dict(ship),
+        }
+        write_json(out / "hydrostatics.json", payload)
+        atomic_write_text(out / "ship.toml", ship_to_toml(ship))
 
     c = np.asarray(sol.delta_gm_coefficients)
     print(
@@ -268,6 +293,6 @@ def run(args) -> int:
     if is_c11:
         print("Note: the c11 hull is REPRESENTATIVE (parametric), not the real C11 lines.")
     print(
-        f"wrote {out / 'hydrostatics.json'}, {out / 'ship.toml'}, gz_curves.png, delta_gm.png, body_plan.png"
+        f"wrote {final / 'hydrostatics.json'}, {final / 'ship.toml'}, gz_curves.png, delta_gm.png, body_plan.png"
     )
     return 0

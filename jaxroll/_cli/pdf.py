@@ -6,7 +6,7 @@ import math
 import time
 from pathlib import Path
 
-from ._common import CLIError, Progress, load_ship_arg, save_figure, write_json
+from ._common import CLIError, Progress, atomic_write_text, load_ship_arg, save_figure, write_json
 from ._sea import add_sea_options, build_problem, check_positive, sea_config
 
 THEORIES = ("roberts", "esam", "moment")
@@ -58,76 +58,165 @@ def pdf_bins(bin_width_deg: float, capsize_angle_deg: float):
     return np.arange(n + 1) * steps * fine
 
 
+def check_run_length(duration: float, discard: float, ship) -> None:
+    """Refuse a run that cannot produce an amplitude: (duration − discard) shorter than two roll periods."""
+    if not (math.isfinite(discard) and 0 <= discard < duration):
+        raise CLIError(f"--discard must be in [0, --duration) = [0, {duration:g}) s; got {discard:g}.")
+    t_roll = float(ship.roll_period)
+    if duration - discard < 2 * t_roll:
+        raise CLIError(
+            f"--duration − --discard = {duration - discard:g} s is shorter than two roll periods "
+            f"(2 × {t_roll:.3g} s): no roll amplitude could be measured. Use --duration >= "
+            f"{discard + 2 * t_roll:.0f} s (the paper: 3600 s)."
+        )
+
+
+def check_phi0(phi0_deg: float, ship) -> None:
+    """Refuse φ0 = 0 (the parametric roll equation has no direct excitation: φ ≡ 0 forever) and angles at or
+    beyond the vanishing angle."""
+    import jax.numpy as jnp
+
+    from ..ship import vanishing_angle
+
+    if not math.isfinite(phi0_deg):
+        raise CLIError(f"--phi0-deg must be finite; got {phi0_deg}.")
+    if phi0_deg == 0:
+        raise CLIError(
+            "--phi0-deg 0: the roll equation has parametric excitation only, so a ship started upright stays "
+            "upright (φ ≡ 0) and there is no amplitude to estimate. Use the paper's --phi0-deg 5."
+        )
+    vanish = float(jnp.rad2deg(vanishing_angle(ship)))
+    if abs(phi0_deg) >= vanish:
+        raise CLIError(f"--phi0-deg {phi0_deg:g} is at or beyond the angle of vanishing stability ({vanish:.1f}°).")
+
+
+def check_out(out: Path) -> None:
+    if out.exists() and not out.is_dir():
+        raise CLIError(f"--out {str(out)!r} exists and is not a folder.")
+
+
+def capsize_caption(n_realizations: int, n_capsized: int) -> str:
+    """'N = 10000' or 'N = 10000, 9143 capsized; PDF of the 857 survivors'."""
+    if not n_capsized:
+        return f"N = {n_realizations}"
+    return f"N = {n_realizations}, {n_capsized} capsized; PDF of the {n_realizations - n_capsized} survivors"
+
+
+_TIME_FILE = "jaxroll_pdf_run_time.json"
+
+
 def run(args) -> int:
+    import json
+
     import jax
     import jax.numpy as jnp
 
     from .. import monte_carlo_amplitudes
     from ..plotting import amplitude_pdf_figures
+    from ._common import OutputFolder
 
+    # Check everything first: no filter fit, compilation or simulation before every option is known good.
     theories = parse_theories(args.theory)
-    check_positive(args, "duration", "bin_width_deg")
+    check_positive(args, "hs", "t01", "dt", "duration", "bin_width_deg")
     if args.realizations < 1:
         raise CLIError(f"--realizations must be >= 1; got {args.realizations}.")
     if args.chunk_size < 1:
         raise CLIError(f"--chunk-size must be >= 1; got {args.chunk_size}.")
+    if not (math.isfinite(args.speed) and args.speed >= 0):
+        raise CLIError(f"--speed must be >= 0 [m/s] (use --heading for direction); got {args.speed}.")
+    if args.method == "filter" and args.filter_order < 3:
+        raise CLIError(f"--filter-order must be >= 3 (4 recommended); got {args.filter_order}.")
+    out = Path(args.out)
+    check_out(out)
+    checkpoint_file = None
+    if args.checkpoint is not None:
+        if Path(args.checkpoint).exists() and not Path(args.checkpoint).is_dir():
+            raise CLIError(f"--checkpoint {args.checkpoint!r} exists and is not a folder.")
+        checkpoint_file = Path(args.checkpoint) / "checkpoint.npz"
     ship = load_ship_arg(args.ship)
+    check_run_length(args.duration, args.discard, ship)
+    check_phi0(args.phi0_deg, ship)
+    bins_check = pdf_bins(args.bin_width_deg, 89.0)  # the width is valid (the grid's top comes later)
+    del bins_check
     problem, fit, sea = build_problem(args, ship, phi0_deg=args.phi0_deg)
     capsize_deg = float(jnp.rad2deg(problem.capsize_angle))
     bins = pdf_bins(args.bin_width_deg, capsize_deg)
-    out = Path(args.out)
     if args.ship is None:
         print("Ship: C11 (representative) — Table-1 particulars, representative coefficients (see `jaxroll ship show`).")
     print(
         f"Monte Carlo: {args.realizations} realizations × {args.duration:g} s, dt {args.dt} s, "
         f"H1/3 {args.hs} m, T01 {args.t01} s, {args.heading} seas, U {args.speed} m/s, method {args.method}"
     )
-    progress = Progress(args.realizations, "realizations", enabled=None if not args.quiet else False)
+    earlier = 0.0
+    resumed = checkpoint_file is not None and checkpoint_file.exists()
+    if resumed:
+        try:
+            earlier = float(json.loads((Path(args.checkpoint) / _TIME_FILE).read_text())["run_time_s"])
+        except (OSError, ValueError, KeyError, TypeError):
+            earlier = 0.0
+        print(f"resuming from the checkpoint in {args.checkpoint} ({earlier:.1f} s of earlier run time)")
+    shown = Progress(args.realizations, "realizations", enabled=None if not args.quiet else False)
     t0 = time.time()
-    stats = monte_carlo_amplitudes(
-        problem,
-        jax.random.key(args.seed),
-        num_realizations=args.realizations,
-        duration=args.duration,
-        discard=args.discard,
-        chunk_size=args.chunk_size,
-        progress=progress,
-        checkpoint=args.checkpoint,
-    )
-    elapsed = time.time() - t0
-    summary = stats.summary(bins)
-    if theories:
-        from ._theory import theory_summaries
 
-        summary["theory"] = theory_summaries(problem, args, theories, bins)
-    config = {
-        **sea_config(args, ship),
-        "realizations": args.realizations,
-        "duration_s": args.duration,
-        "discard_s": args.discard,
-        "phi0_deg": args.phi0_deg,
-        "chunk_size": args.chunk_size,
-        "bin_width_deg": args.bin_width_deg,
-        "theory": theories,
-        "capsize_angle_deg": capsize_deg,
-    }
-    payload = {"config": config, **summary, "run_time_s": elapsed}
-    if fit is not None:
-        payload["filter_fit"] = fit.summary()
-    title = (
-        f"{ship.name}: H1/3 = {args.hs:g} m, T01 = {args.t01:g} s, U = {args.speed:g} m/s, "
-        f"N = {args.realizations}"
-    )
-    fig_lin, fig_log = amplitude_pdf_figures(payload, title=title)
-    save_figure(fig_lin, out / "pdf_linear.png")
-    save_figure(fig_log, out / "pdf_log.png")
-    write_json(out / "pdf.json", payload)
-    zc, env = summary["mean_amplitude_deg"]["zero_crossing"], summary["mean_amplitude_deg"]["envelope"]
-    print(
-        f"done in {elapsed:.1f} s: mean amplitude {zc:.2f}° (zero-crossing), {env:.2f}° (envelope); "
-        f"99 % quantile {summary['quantiles_deg']['zero_crossing']['99']:.1f}° / "
-        f"{summary['quantiles_deg']['envelope']['99']:.1f}°; capsized {stats.n_capsized}/{stats.n_realizations} "
-        f"(P = {stats.capsize_probability:.4f})"
-    )
+    def progress(done: int) -> None:
+        shown(done)
+        if args.checkpoint is not None:
+            atomic_write_text(Path(args.checkpoint) / _TIME_FILE,
+                              json.dumps({"run_time_s": earlier + time.time() - t0}) + "\n")
+
+    with OutputFolder(out) as tmp:
+        stats = monte_carlo_amplitudes(
+            problem,
+            jax.random.key(args.seed),
+            num_realizations=args.realizations,
+            duration=args.duration,
+            discard=args.discard,
+            chunk_size=args.chunk_size,
+            progress=progress,
+            checkpoint=args.checkpoint,
+        )
+        elapsed = time.time() - t0
+        summary = stats.summary(bins)
+        if theories:
+            from ._theory import theory_summaries
+
+            summary["theory"] = theory_summaries(problem, args, theories, bins)
+        config = {
+            **sea_config(args, ship),
+            "realizations": args.realizations,
+            "duration_s": args.duration,
+            "discard_s": args.discard,
+            "phi0_deg": args.phi0_deg,
+            "chunk_size": args.chunk_size,
+            "bin_width_deg": args.bin_width_deg,
+            "theory": theories,
+            "capsize_angle_deg": capsize_deg,
+        }
+        payload = {"config": config, **summary, "run_time_s": elapsed}
+        if resumed:
+            payload["resumed_from_checkpoint"] = True
+            payload["total_run_time_s"] = earlier + elapsed
+        if fit is not None:
+            payload["filter_fit"] = fit.summary()
+        caption = capsize_caption(stats.n_realizations, stats.n_capsized)
+        title = f"{ship.name}: H1/3 = {args.hs:g} m, T01 = {args.t01:g} s, U = {args.speed:g} m/s, {caption}"
+        fig_lin, fig_log = amplitude_pdf_figures(payload, title=title)
+        save_figure(fig_lin, tmp / "pdf_linear.png")
+        save_figure(fig_log, tmp / "pdf_log.png")
+        write_json(tmp / "pdf.json", payload)
+    took = f"done in {elapsed:.1f} s" + (f" (resumed; {earlier + elapsed:.1f} s in total)" if resumed else "")
+    capsized = f"capsized {stats.n_capsized}/{stats.n_realizations} (P = {stats.capsize_probability:.4f})"
+    print(f"{took}; {capsized}")
+    if stats.n_capsized:
+        print(f"the statistics below are conditional on no capsize: {caption}")
+    for est, name in (("zero_crossing", "zero-crossing"), ("envelope", "envelope")):
+        if summary[f"pdf_{est}"] is None:
+            continue
+        q = summary["quantiles_deg"][est]
+        beyond = summary["mass_beyond_grid"][est]
+        print(f"{name:>13}: mean amplitude {summary['mean_amplitude_deg'][est]:.2f}°, 99 % quantile {q['99']:.1f}°"
+              + (f", {beyond:.2g} of the amplitudes beyond {bins[-1]:g}°" if beyond else ""))
+    if summary["reason"]:
+        print(f"no statistics: {summary['reason']}")
     print(f"wrote {out / 'pdf_linear.png'}, {out / 'pdf_log.png'}, {out / 'pdf.json'}")
     return 0

@@ -23,16 +23,23 @@ def run(args) -> int:
     import jax.numpy as jnp
 
     from ..plotting import amplitude_pdf_figures
+    from ._common import CLIError, OutputFolder
     from ._sea import build_problem
     from ._theory import theory_summaries
-    from .pdf import parse_theories, pdf_bins
+    from .pdf import check_out, parse_theories, pdf_bins
 
+    # Check every option before the filter fit and the theories' compilation.
     names = parse_theories(args.theory)
-    check_positive(args, "hs", "t01", "bin_width_deg")
+    if not names:
+        raise CLIError("--theory: give at least one of roberts,esam,moment.")
+    check_positive(args, "hs", "t01", "dt", "bin_width_deg")
     if not (math.isfinite(args.speed) and args.speed >= 0):
-        from ._common import CLIError
-
         raise CLIError(f"--speed must be >= 0 [m/s]; got {args.speed}.")
+    if args.method == "filter" and args.filter_order < 3:
+        raise CLIError(f"--filter-order must be >= 3 (4 recommended); got {args.filter_order}.")
+    pdf_bins(args.bin_width_deg, 89.0)
+    out = Path(args.out)
+    check_out(out)
     ship = load_ship_arg(args.ship)
     t0 = time.time()
     problem, _, _ = build_problem(args, ship)
@@ -40,12 +47,12 @@ def run(args) -> int:
     theories = theory_summaries(problem, args, names, bins)
     payload = {"config": {**sea_config(args, ship), "theory": names}, "bins_deg": bins, "theory": theories,
                "run_time_s": time.time() - t0}
-    out = Path(args.out)
-    fig_lin, fig_log = amplitude_pdf_figures(
-        payload, title=f"{ship.name}: H1/3 = {args.hs:g} m, T01 = {args.t01:g} s (theory)")
-    save_figure(fig_lin, out / "theory_linear.png")
-    save_figure(fig_log, out / "theory_log.png")
-    write_json(out / "theory.json", payload)
+    with OutputFolder(out) as tmp:
+        fig_lin, fig_log = amplitude_pdf_figures(
+            payload, title=f"{ship.name}: H1/3 = {args.hs:g} m, T01 = {args.t01:g} s (theory)")
+        save_figure(fig_lin, tmp / "theory_linear.png")
+        save_figure(fig_log, tmp / "theory_log.png")
+        write_json(tmp / "theory.json", payload)
     for name, t in theories.items():
         print(f"{name:>8}: mean {t['mean_amplitude_deg']:.2f}°, 99 % {t['quantiles_deg']['99']:.2f}° "
               f"({t['time_s']:.2f} s)")

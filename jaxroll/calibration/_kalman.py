@@ -234,11 +234,19 @@ def fit_roll_kalman(
     """
     if covariance not in ("fisher", "sandwich"):
         raise ValueError(f"`covariance` must be 'fisher' or 'sandwich'; got {covariance!r}.")
-    for name, value in (("process_noise", process_noise), ("measurement_noise", measurement_noise),
-                        ("block", block), ("max_dt", max_dt)):
+    for name, value in (
+        ("process_noise", process_noise),
+        ("measurement_noise", measurement_noise),
+        ("block", block),
+        ("max_dt", max_dt),
+    ):
         _positive(name, value)
     checked = check_time_domain_inputs(
-        ship, records, params=params, span_model_s=span_model_s, what="Kalman-filter calibration",
+        ship,
+        records,
+        params=params,
+        span_model_s=span_model_s,
+        what="Kalman-filter calibration",
         check_window=False,
     )
     params, records, dt = checked.params, checked.records, checked.dt
@@ -271,7 +279,11 @@ def fit_roll_kalman(
     n_total = float(np.sum(masks))
     coords = Coordinates(ship, params, start)
     q0 = 1e-4 if process_noise is None else float(process_noise)
-    s0 = max(float(np.median(noises)), math.radians(1e-3)) if measurement_noise is None else float(measurement_noise)
+    s0 = (
+        max(float(np.median(noises)), math.radians(1e-3))
+        if measurement_noise is None
+        else float(measurement_noise)
+    )
     prior = jnp.asarray([max(3 * s0, math.radians(0.2)), float(ship.omega0) * math.radians(1.0)])
     obj = KalmanObjective(ship, coords, data, jnp.asarray([q0, s0]), prior, n_total)
     theta0 = np.concatenate([coords.theta0(start), [1.0, 0.0]])
@@ -300,7 +312,9 @@ def fit_roll_kalman(
     q_ref, s_ref = (float(x) for x in obj.noise_ref)
     sv_hat = s_ref * math.exp(theta[p + 1])
     d = np.concatenate([coords.jacobian_diag(theta[:p]), [q_ref * (np.sign(theta[p]) or 1.0), sv_hat]])
-    values = np.concatenate([np.asarray(coords.values(jnp.asarray(theta[:p]))), [abs(q_ref * theta[p]), sv_hat]])
+    values = np.concatenate(
+        [np.asarray(coords.values(jnp.asarray(theta[:p]))), [abs(q_ref * theta[p]), sv_hat]]
+    )
     cov_h = d[:, None] * hinv * d[None, :]
     cov_s = d[:, None] * cov_sand_t * d[None, :]
     cov, cov_other = (cov_h, cov_s) if covariance == "fisher" else (cov_s, cov_h)
@@ -342,7 +356,9 @@ def fit_roll_kalman(
     dof = math.inf if covariance == "fisher" else float(n_cl - 1)
     return TimeDomainFit(
         method="extended Kalman filter (ML)",
-        estimates={nm: ParameterEstimate(float(v), float(s), u, dof) for nm, v, s, u in zip(names, values, se, units)},
+        estimates={
+            nm: ParameterEstimate(float(v), float(s), u, dof) for nm, v, s, u in zip(names, values, se, units)
+        },
         names=names,
         covariance=cov,
         covariance_model_based=cov_other,

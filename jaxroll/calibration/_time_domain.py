@@ -60,7 +60,12 @@ TIME_DOMAIN_PARAMETERS: dict[str, tuple[str, str, float | None, str]] = {
     "b2": ("1/rad", "relative", 0.1, "quadratic roll damping"),
     "b3": ("s/rad^2", "relative", 1.0, "cubic roll damping"),
     "gm_correction": ("-", "log", 1.0, "GM correction r = σ_obs/σ_thr multiplying P(t)"),
-    "roll_period": ("s", "log", None, "natural roll period Tφ = 2π/√a1 (a3…a9 scale with ω0², GZ shape kept)"),
+    "roll_period": (
+        "s",
+        "log",
+        None,
+        "natural roll period Tφ = 2π/√a1 (a3…a9 scale with ω0², GZ shape kept)",
+    ),
     "delta_gm_nonlinear": ("-", "log", 1.0, "factor on the nonlinear ΔGM coefficients C2…C6 (C1 kept)"),
 }
 #: Largest integrator step [s, full scale] unless given (the virtual tank's default `max_dt`).
@@ -137,7 +142,9 @@ def _start_values(ship: Ship, names: Sequence[str], initial: Mapping[str, float]
         if not math.isfinite(v0[i]):
             raise ValueError(f"the starting value of {n!r} must be finite; got {v0[i]}.")
         if TIME_DOMAIN_PARAMETERS[n][1] == "log" and not v0[i] > 0:
-            raise ValueError(f"the starting value of {n!r} must be > 0 (it is fitted on a log scale); got {v0[i]}.")
+            raise ValueError(
+                f"the starting value of {n!r} must be > 0 (it is fitted on a log scale); got {v0[i]}."
+            )
     return v0
 
 
@@ -151,7 +158,9 @@ class Coordinates(eqx.Module):
     def __init__(self, ship: Ship, names: Sequence[str], start: np.ndarray):
         self.names = tuple(names)
         self.log = tuple(TIME_DOMAIN_PARAMETERS[n][1] == "log" for n in self.names)
-        refs = [v if lg else max(abs(v), _natural_size(n, ship)) for n, lg, v in zip(self.names, self.log, start)]
+        refs = [
+            v if lg else max(abs(v), _natural_size(n, ship)) for n, lg, v in zip(self.names, self.log, start)
+        ]
         self.ref = jnp.asarray(refs, dtype=float)
 
     def theta0(self, start: np.ndarray) -> np.ndarray:
@@ -215,9 +224,15 @@ def check_roll_record(record: Record, what: str = "time-domain calibration") -> 
             f"{' and no '.join(f'`{c}`' for c in missing)} column."
         )
     for key, why in (
-        ("probe_x_model_m", "the wave is moved from the probe to amidships by this distance (0 for a probe "
-         "amidships); a probe that is not amidships cannot be used without it"),
-        ("speed_model_m_s", "the probe's encounter frequencies are converted to wave numbers with it (0 at rest)"),
+        (
+            "probe_x_model_m",
+            "the wave is moved from the probe to amidships by this distance (0 for a probe "
+            "amidships); a probe that is not amidships cannot be used without it",
+        ),
+        (
+            "speed_model_m_s",
+            "the probe's encounter frequencies are converted to wave numbers with it (0 at rest)",
+        ),
     ):
         if key not in record.meta:
             raise ValueError(f"{record.source}: the {what} needs the header entry `{key}`: {why}.")
@@ -314,12 +329,16 @@ def check_time_domain_inputs(
         return CheckedInputs(params, records, spans, float(dt), math.nan, 0)
     if window is None:
         window = default_window(ship)
-    if isinstance(window, bool) or not (isinstance(window, int | float) and math.isfinite(window) and window > 0):
+    if isinstance(window, bool) or not (
+        isinstance(window, int | float) and math.isfinite(window) and window > 0
+    ):
         raise ValueError(f"`window` must be a positive number of seconds (full scale); got {window!r}.")
     window = float(window)
     n = int(round(window / dt)) + 1
     if n < 8:
-        raise ValueError(f"`window` = {window:g} s holds only {n} samples of {dt:g} s; use at least 8 samples.")
+        raise ValueError(
+            f"`window` = {window:g} s holds only {n} samples of {dt:g} s; use at least 8 samples."
+        )
     for r, (i0, i1) in zip(records, spans):
         if i1 - i0 < n:
             raise ValueError(

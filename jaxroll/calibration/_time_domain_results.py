@@ -75,7 +75,9 @@ class Identifiability:
 
     names: tuple[str, ...]
     correlation: np.ndarray
-    condition_number: float  # of the column-equilibrated Jacobian (shooting) or √ of the information's (Kalman)
+    condition_number: (
+        float  # of the column-equilibrated Jacobian (shooting) or √ of the information's (Kalman)
+    )
     variance_inflation: dict[str, float]  # 1/(1 − R²) of each parameter on the others
     relative_se: dict[str, float]  # SE / max(|value|, natural size)
     not_identified: tuple[str, ...]

@@ -316,7 +316,7 @@ def _read_text(path: Path) -> str:
         except (OSError, EOFError) as e:
             raise _err(str(path), None, f"not a readable gzip file ({e}).") from None
     try:
-        return data.decode("utf-8")
+        return data.decode("utf-8-sig")  # a UTF-8 byte-order mark (Excel writes one) is dropped
     except UnicodeDecodeError as e:
         raise _err(str(path), None, f"not UTF-8 text ({e}).") from None
 
@@ -561,6 +561,16 @@ def load_record(
     full = {}
     for j, (name, unit) in enumerate(zip(columns, meta["units"])):
         full[name] = data[:, j] * COLUMN_UNITS[name][unit] * lam ** _FROUDE_POWER[name]
+    if "roll" in full and full["roll"].size:
+        peak = float(np.max(np.abs(full["roll"])))
+        if peak > math.pi / 2:
+            unit = meta["units"][list(columns).index("roll")]
+            raise _err(
+                source,
+                None,
+                f"the roll reaches {peak:.4g} rad ({math.degrees(peak):.4g}°) with unit `{unit}`: beyond 90°, no "
+                "ship record holds that; the column is probably in degrees (set `units` to deg for roll).",
+            )
     time = full.pop("time")
     return Record(got, time, full, float(lam), meta, source, linenos)
 

@@ -39,7 +39,10 @@ def amplitude_curves(summary: dict, *, experiment: dict | None = None) -> list[C
         (("pdf_zero_crossing", "zero-crossing"), ("pdf_envelope", "envelope")), mc_colours, styles, strict=True
     ):
         if summary.get(key) is not None:
-            curves.append(Curve(centres, np.asarray(summary[key], float), f"MCS {name}", style, colour))
+            label = f"MCS {name}"
+            if summary.get("n_capsized"):
+                label += f" (given no capsize: {summary['n_realizations'] - summary['n_capsized']} survivors)"
+            curves.append(Curve(centres, np.asarray(summary[key], float), label, style, colour))
     if experiment:
         for key, name, colour in (("pdf_zero_crossing", "zero-crossing", "k"), ("pdf_envelope", "envelope", "tab:red")):
             if experiment.get(key) is not None:
@@ -80,7 +83,8 @@ def plot_amplitude_pdf(curves: Sequence[Curve], *, log: bool = False, ax=None, t
         ax.set_ylim(0, ymax * 1.1 if ymax > 0 else 1)
     ax.set_xlim(left=0)
     ax.grid(True, alpha=0.3, which="both" if log else "major")
-    ax.legend(fontsize=8)
+    if curves:
+        ax.legend(fontsize=8)
     if title:
         ax.set_title(title, fontsize=9)
     return ax
@@ -93,6 +97,9 @@ def amplitude_pdf_figures(summary: dict, *, experiment: dict | None = None, titl
     for log in (False, True):
         fig, ax = plt.subplots(figsize=(6.0, 4.2))
         plot_amplitude_pdf(curves, log=log, ax=ax, title=title)
+        if summary.get("reason"):
+            ax.text(0.5, 0.5, "Monte Carlo: " + summary["reason"], transform=ax.transAxes, ha="center",
+                    va="center", wrap=True, fontsize=8, color="tab:red")
         figs.append(fig)
     return figs[0], figs[1]
 

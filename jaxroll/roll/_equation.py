@@ -21,7 +21,7 @@ import jax.random as jr
 import numpy as np
 from jaxtyping import Array, Float, PRNGKeyArray
 
-from ..sea._filters import FilterFit, fit_filter
+from ..sea._filters import FilterFit, check_filter_fit, fit_filter
 from ..sea._grim import EffectiveWave
 from ..sea._spectra import AbstractWaveSpectrum
 from ..ship._restoring import parametric_excitation, restoring_moment, vanishing_angle
@@ -189,6 +189,7 @@ class RollProblem(eqx.Module):
             )
         if excitation == "filter":
             fit = fit_filter(wave, order=filter_order, match_frequency=2 * ship.omega0)
+            check_filter_fit(fit, dt)
             source = FilterExcitation(fit.filter, dt)
         else:
             fit = None
@@ -222,7 +223,6 @@ def simulate(problem: RollProblem, key: PRNGKeyArray, num_steps: int, observe, o
     if problem.moment_excitation is not None:
         sources.append(problem.moment_excitation)
     keys = [key, jr.fold_in(key, 0x7FFFFFFE)]
-    num_blocks = -(-num_steps // BLOCK)
     inits = [src.init(k, num_steps) for src, k in zip(sources, keys, strict=False)]
     src_states = tuple(i[0] for i in inits)
     x0 = jnp.stack([i[1] for i in inits])
@@ -247,21 +247,32 @@ def simulate(problem: RollProblem, key: PRNGKeyArray, num_steps: int, observe, o
         obs, out = observe(obs, k + 1, y1, alive)
         return (y1, x1, dx1, alive, k_cap, obs, k + 1), out
 
-    def block(carry, index):
+    def block(carry, index, length=BLOCK):
         src_states, inner = carry
         new_states, xs, dxs = [], [], []
         for src, st, k in zip(sources, src_states, keys, strict=False):
             st, x, dx = src.block(k, st, index)
             new_states.append(st)
-            xs.append(x)
-            dxs.append(dx)
+            xs.append(x[:length])
+            dxs.append(dx[:length])
         inner, outs = jax.lax.scan(step, inner, (jnp.stack(xs, -1), jnp.stack(dxs, -1)))
         return (tuple(new_states), inner), outs
 
-    inner0 = (y0, x0, dx0, jnp.array(True), jnp.array(-1), obs_state, jnp.array(0))
-    (_, inner), outs = jax.lax.scan(block, (src_states, inner0), jnp.arange(num_blocks))
+    # Whole blocks, then the first `rest` steps of one more: no step past num_steps is simulated, observed or
+    # checked for capsize (a trial of 7200 steps used to run 29 whole blocks, 7424 steps, and count capsizes up
+    # to 3712 s of a 3600 s trial). The noise of the steps simulated is unchanged.
+    num_full, rest = divmod(num_steps, BLOCK)
+    carry = (src_states, (y0, x0, dx0, jnp.array(True), jnp.array(-1), obs_state, jnp.array(0)))
+    pieces = []
+    if num_full:
+        carry, outs = jax.lax.scan(block, carry, jnp.arange(num_full))
+        pieces.append(jax.tree_util.tree_map(lambda o: o.reshape(num_full * BLOCK, *o.shape[2:]), outs))
+    if rest:
+        carry, outs = block(carry, jnp.array(num_full), rest)
+        pieces.append(outs)
+    _, inner = carry
     _, _, _, alive, k_cap, obs_state, _ = inner
-    outs = jax.tree_util.tree_map(lambda o: o.reshape(num_blocks * BLOCK, *o.shape[2:])[:num_steps], outs)
+    outs = jax.tree_util.tree_map(lambda *o: jnp.concatenate(o), *pieces)
     end = RealizationEnd(~alive, jnp.where(alive, jnp.inf, k_cap * h))
     return obs_state, outs, end
 

@@ -11,21 +11,51 @@ import os
 from collections.abc import Callable, Sequence
 
 import jax
+import jax.numpy as jnp
 import jax.random as jr
 
+from . import _batched
 from ._equation import RollProblem, simulate
 from ._observers import AbstractObserver, AmplitudeHistogram, FirstMaxima, MaxRoll
-from ._sharding import run_chunks
+from ._sharding import chunk_size_for_memory, run_chunks
 from ._statistics import AmplitudeStatistics, MaximaStatistics, MaxRollStatistics
 
 
 def simulate_chunk(
-    problem: RollProblem, key, indices, valid, observer: AbstractObserver, num_steps: int, *, remat: bool = False
+    problem: RollProblem,
+    key,
+    indices,
+    valid,
+    observer: AbstractObserver,
+    num_steps: int,
+    *,
+    remat: bool = False,
+    batched: bool = False,
 ):
     """Realizations `indices` (realization i keyed `fold_in(key, i)`) of `problem` for `num_steps` steps, reduced
     by `observer`: returns its `(summed, per_realization)`. Pure and jittable: the body of every Monte Carlo, and
     what the calibration evaluates (and differentiates) inside its objective. `remat=True` recomputes each
-    realization in the backward pass instead of storing it (reverse-mode autodiff through long runs)."""
+    realization in the backward pass instead of storing it (reverse-mode autodiff through long runs).
+
+    `batched=True` (experimental, off by default until it is benchmarked and its random stream is shared with
+    `simulate`/`roll_time_series`): a problem with a `FilterExcitation` and no moment excitation then runs on the
+    batched float32 kernel (`simulate_batch`: realizations as vectors, the filter on a coarse grid); otherwise,
+    and always with `remat=True`, on `simulate` vmapped in float64.
+    Observers get the same per-step (state, k, y, alive) either way (y in float32 on the batched kernel), their
+    outputs with the realization axis first, and the floating results come back as float64."""
+    if batched and not remat and _batched.supported(problem):
+        keys = jax.vmap(lambda i: jr.fold_in(key, i))(indices)
+        states, outputs, end = _batched.simulate_batch(
+            problem,
+            keys,
+            num_steps,
+            lambda state, step, y, alive: observer.observe(problem, state, step, y, alive),
+            jax.vmap(lambda k: observer.init(problem, k))(keys),
+        )
+        outputs = jax.tree_util.tree_map(lambda o: jnp.moveaxis(o, 0, 1), outputs)  # [chunk, num_steps, ...]
+        summed, per = observer.reduce(problem, states, outputs, end, valid)
+        as64 = lambda x: x.astype(jnp.float64) if jnp.issubdtype(x.dtype, jnp.floating) else x  # noqa: E731
+        return jax.tree_util.tree_map(as64, summed), jax.tree_util.tree_map(as64, per)
 
     def one(i):
         k = jr.fold_in(key, i)
@@ -58,6 +88,7 @@ def monte_carlo(
     devices=None,
     checkpoint: str | os.PathLike | None = None,
     checkpoint_every: int | None = None,
+    memory_budget: float | None = None,
 ):
     """Run `num_realizations` realizations of `problem` for `duration` [s] and return what `observer` records.
 
@@ -69,6 +100,8 @@ def monte_carlo(
     - `observer`: `AmplitudeHistogram(...)`, `FirstMaxima(...)`, `MaxRoll(...)` or your own `AbstractObserver`.
     - `num_realizations`: trials; `duration`: simulated time per trial [s].
     - `chunk_size`: realizations per compiled batch (bounds the memory).
+    - `memory_budget`: bytes a chunk may use (None: a quarter of the machine's available memory); the chunk is
+      cut to fit it, so a small `dt` cannot exhaust memory. Results do not depend on the chunk.
     - `progress`: called with the number of realizations done after each chunk.
     - `devices`: None (every device of every process), an int n (the first n) or a sequence of devices: the
       realization axis is sharded over them (`docs/scaling.md`).
@@ -86,6 +119,7 @@ def monte_carlo(
     if not (isinstance(duration, int | float) and math.isfinite(duration) and duration > 0):
         raise ValueError(f"`duration` must be a finite number > 0 [s]; got {duration!r}.")
     num_steps = int(round(duration / problem.dt))
+    chunk_size = chunk_size_for_memory(chunk_size, num_steps, memory_budget)
     summed, per = run_chunks(
         simulate_chunk,
         problem,

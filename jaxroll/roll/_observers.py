@@ -24,11 +24,10 @@ import numpy as np
 
 from ._amplitudes import (
     ZeroCrossingState,
-    hilbert_envelope,
-    histogram_counts,
     zero_crossing_init,
     zero_crossing_update,
 )
+from ._batched import envelope_rfft, integer_counts, sum_last
 from ._statistics import AmplitudeStatistics, MaximaStatistics, MaxRollStatistics
 
 
@@ -77,31 +76,37 @@ class AmplitudeHistogram(AbstractObserver):
         return state, (y[0], amp)
 
     def reduce(self, problem, states, outputs, end, valid):
-        phi, amp = outputs
+        # In the outputs' dtype (float32 from the batched kernel, float64 from `simulate`): rfft envelope, integer
+        # histograms, time sums in float32 groups and float64 across (`_batched`; docs/numerics.md).
+        # float64 (exact from float32): float32 FFTs/sums were ~4e-8 dependent on the chunk size (to revisit)
+        phi, amp = (x.astype(jnp.float64) for x in outputs)
         start = _steps(self.discard, problem.dt)
         keep = valid & ~end.capsized
         phi, amp = phi[:, start:], amp[:, start:]
-        zc_w = ((amp > 0) & keep[:, None]).astype(float)
-        env = hilbert_envelope(phi)
-        env_w = jnp.broadcast_to(keep[:, None], env.shape).astype(float)
-        deg = 180 / jnp.pi
+        zc_on = (amp > 0) & keep[:, None]
+        env = envelope_rfft(phi)
+        deg = 180 / math.pi
         summed = {
-            "counts_zero_crossing": histogram_counts(amp * deg, zc_w, self.bin_width_deg, self.num_bins),
-            "counts_envelope": histogram_counts(env * deg, env_w, self.bin_width_deg, self.num_bins),
+            "counts_zero_crossing": integer_counts(amp * deg, zc_on, self.bin_width_deg, self.num_bins),
+            "counts_envelope": integer_counts(
+                env * deg, jnp.broadcast_to(keep[:, None], env.shape), self.bin_width_deg, self.num_bins
+            ),
         }
-        kf = keep.astype(float)
+        kf = keep.astype(jnp.float64)
+        amp = jnp.where(zc_on, amp, 0)
+        phi2 = phi * phi
         per = {
             "capsized": end.capsized & valid,
             "capsize_time": end.capsize_time,
-            "n_zc": jnp.sum(zc_w, 1),
-            "sum_zc": jnp.sum(zc_w * amp, 1),
-            "sumsq_zc": jnp.sum(zc_w * amp**2, 1),
-            "n_env": jnp.sum(env_w, 1),
-            "sum_env": jnp.sum(env_w * env, 1),
-            "sumsq_env": jnp.sum(env_w * env**2, 1),
+            "n_zc": jnp.sum(zc_on, 1, dtype=jnp.float64),
+            "sum_zc": sum_last(amp),
+            "sumsq_zc": sum_last(amp * amp),
+            "n_env": kf * phi.shape[1],
+            "sum_env": kf * sum_last(env),
+            "sumsq_env": kf * sum_last(env * env),
             "n_samples": kf * phi.shape[1],
-            "sum_phi2": kf * jnp.sum(phi**2, 1),
-            "sum_phi4": kf * jnp.sum(phi**4, 1),
+            "sum_phi2": kf * sum_last(phi2),
+            "sum_phi4": kf * sum_last(phi2 * phi2),
         }
         return summed, per
 

@@ -166,6 +166,36 @@ def _save_checkpoint(path: Path, fingerprint: dict, next_start: int, summed: dic
         raise
 
 
+#: Peak bytes per realization-step of a chunk (85 B measured for the histogram observer, docs/scaling.md),
+#: rounded up: the chunk of a memory budget is budget // (num_steps × this).
+BYTES_PER_REALIZATION_STEP = 128
+
+
+def default_memory_budget(fraction: float = 0.25) -> float:
+    """`fraction` of the machine's available memory [bytes] (MemAvailable of /proc/meminfo, else sysconf)."""
+    try:
+        with open("/proc/meminfo") as fh:
+            for line in fh:
+                if line.startswith("MemAvailable:"):
+                    return fraction * int(line.split()[1]) * 1024
+    except OSError:
+        pass
+    try:
+        return fraction * os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    except (ValueError, OSError, AttributeError):
+        return fraction * 8 * 2**30
+
+
+def chunk_size_for_memory(chunk_size: int, num_steps: int, memory_budget: float | None) -> int:
+    """The largest chunk ≤ `chunk_size` whose peak memory (num_steps × BYTES_PER_REALIZATION_STEP per
+    realization) fits `memory_budget` [bytes] (None: `default_memory_budget()`); at least 1."""
+    budget = default_memory_budget() if memory_budget is None else float(memory_budget)
+    if not (budget > 0):
+        raise ValueError(f"`memory_budget` must be > 0 [bytes]; got {memory_budget!r}.")
+    fit = int(budget // (max(num_steps, 1) * BYTES_PER_REALIZATION_STEP))
+    return max(1, min(int(chunk_size), fit))
+
+
 def run_chunks(
     chunk_fn,
     problem,

@@ -124,23 +124,64 @@ class AmplitudeStatistics(CapsizeCounts):
         return np.diff(cum[idx]) / max(counts.sum(), 1) / np.diff(bins_deg)
 
     def summary(self, bins_deg) -> dict:
-        """The amplitude statistics as plain numbers on `bins_deg` (the `pdf.json` fields; angles in degrees)."""
+        """The amplitude statistics as plain numbers on `bins_deg` (the `pdf.json` fields; angles in degrees).
+
+        Every amplitude statistic is conditional on no capsize (capsized realizations are counted, not used).
+        An estimator with no amplitude (all realizations capsized, a run shorter than a roll period, or a roll
+        that never left zero) gets None for its PDF, mean, quantiles and `mass_beyond_grid`, and `reason` says
+        why (None when every statistic is present). `mass_beyond_grid` is the fraction of amplitudes beyond the
+        last edge of `bins_deg` (the PDF integrates to 1 minus it).
+        """
         bins_deg = np.asarray(bins_deg, dtype=float)
         out: dict = {"bins_deg": bins_deg}
+        n = {e: self.n_amplitudes(e) for e in SAMPLING}
+        empty = [e for e in SAMPLING if n[e] == 0]
         for est in SAMPLING:
-            out[f"pdf_{est}"] = self.pdf_per_degree(est, bins_deg)
+            out[f"pdf_{est}"] = None if n[est] == 0 else self.pdf_per_degree(est, bins_deg)
         out["amplitude_sampling"] = dict(SAMPLING)
-        out["n_amplitudes"] = {e: self.n_amplitudes(e) for e in SAMPLING}
-        out["mean_amplitude_deg"] = {e: float(np.rad2deg(self.mean(e))) for e in SAMPLING}
+        out["n_amplitudes"] = n
+        out["mean_amplitude_deg"] = {e: None if n[e] == 0 else float(np.rad2deg(self.mean(e))) for e in SAMPLING}
         out["quantiles_deg"] = {
-            e: {f"{round(q * 100):d}": float(v) for q, v in zip(QUANTILE_LEVELS, np.rad2deg(self.quantiles(e)), strict=True)}
+            e: None
+            if n[e] == 0
+            else {
+                f"{round(q * 100):d}": float(v)
+                for q, v in zip(QUANTILE_LEVELS, np.rad2deg(self.quantiles(e)), strict=True)
+            }
             for e in SAMPLING
+        }
+        out["mass_beyond_grid"] = {
+            e: None if n[e] == 0 else self._mass_beyond(e, float(bins_deg[-1])) for e in SAMPLING
         }
         out["n_realizations"] = self.n_realizations
         out["n_capsized"] = self.n_capsized
+        out["n_survivors"] = self.n_realizations - self.n_capsized
         out["capsize_probability"] = self.capsize_probability
+        out["conditional_on_no_capsize"] = True
         out["roll_moments"] = self.phi_moments()
+        out["reason"] = self._empty_reason(empty)
         return out
+
+    def _mass_beyond(self, estimator: str, edge_deg: float) -> float:
+        """Fraction of the amplitudes beyond `edge_deg` [deg] (a fine-grid edge; the last fine bin also holds the
+        amplitudes beyond the fine grid)."""
+        counts = self._counts(estimator)
+        i = int(np.searchsorted(self.edges_deg, edge_deg - 1e-9 * (self.edges_deg[1] - self.edges_deg[0])))
+        return float(counts[i:].sum() / counts.sum())
+
+    def _empty_reason(self, empty: list[str]) -> str | None:
+        """Why the estimators in `empty` have no amplitude (None when none is empty)."""
+        if not empty:
+            return None
+        which = " and ".join(e.replace("_", "-") for e in empty)
+        if self.n_capsized == self.n_realizations:
+            why = f"all {self.n_realizations} realizations capsized"
+        else:
+            why = (
+                "the surviving realizations produced none after the discard: the run (duration − discard) is "
+                "shorter than a roll period, or the roll never left zero (φ0 = 0 in calm water)"
+            )
+        return f"no {which} amplitude: {why}; the statistics are null, not estimated"
 
     def phi_moments(self) -> dict[str, float]:
         """Time-sampled E[φ²] [rad²] and E[φ⁴] [rad⁴] over surviving realizations (after the discard)."""

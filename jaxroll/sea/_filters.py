@@ -63,6 +63,60 @@ class ShapingFilter(eqx.Module):
         return phi, psd_sqrt(sigma - phi @ sigma @ phi.T)
 
 
+MAX_FILTER_ORDER = 12
+"""Highest supported filter order (docs/numerics.md: the canonical form's conditioning bounds it)."""
+
+
+def check_filter_fit(fit: "FilterFit", dt=None) -> list[str]:
+    """Gate a run on the quality of a filter fit; raise `ValueError` when the filter would give a wrong sea.
+
+    Checks, independently of the Lyapunov solve used by the fit: the output variance by quadrature of |H|²/π
+    against the target (error: > 10 %, warning: > 3 %), S at the match frequency (error: > 25 %, warning: > 10 %),
+    the relative L2 error (error: > 0.5, warning: > 0.25), the stationary covariance Σ (must be positive
+    definite) and, given `dt`, the discretised filter: spectral radius of Φ < 1 and Σ − ΦΣΦᵀ positive
+    semi-definite up to round-off. **Returns:** the warnings (also issued with `warnings.warn`).
+    """
+    import warnings
+
+    import numpy as np
+
+    f = fit.filter
+    errors, warns = [], []
+    grid = np.linspace(0.0, 20.0, 40001)[1:]
+    var_q = float(np.trapezoid(np.asarray(f.spectrum(grid)), grid))
+    var_t = float(fit.variance_target)
+    dv = abs(var_q - var_t) / var_t
+    (errors if dv > 0.10 else warns if dv > 0.03 else []).append(
+        f"filter output variance {var_q:.4g} m² (by quadrature) vs target {var_t:.4g} m² ({100 * dv:.1f} % off)"
+    )
+    sm, st = float(f.spectrum(fit.match_frequency)), float(fit.spectrum_target_at_match)
+    dm = abs(sm - st) / st if st > 0 else 0.0
+    (errors if dm > 0.25 else warns if dm > 0.10 else []).append(
+        f"filter spectrum at {float(fit.match_frequency):.3g} rad/s (2ω0) is {sm:.4g} vs target {st:.4g} m² s "
+        f"({100 * dm:.0f} % off)"
+    )
+    rel = float(fit.relative_l2_error)
+    (errors if rel > 0.5 else warns if rel > 0.25 else []).append(f"relative L2 error of the fit is {rel:.3g}")
+    sigma = np.asarray(f.stationary_covariance())
+    ev = np.linalg.eigvalsh(sigma)
+    if not (np.all(np.isfinite(ev)) and ev.min() > 0):
+        errors.append(f"stationary covariance not positive definite (eigenvalues {ev.min():.3g} … {ev.max():.3g})")
+    if dt is not None and not errors:
+        phi = np.asarray(jsl.expm(f.a * dt))
+        rho = float(np.abs(np.linalg.eigvals(phi)).max())
+        if not rho < 1.0:
+            errors.append(f"discretised filter is not stable (spectral radius of Φ = {rho:.6f} ≥ 1)")
+        q = sigma - phi @ sigma @ phi.T
+        wq = np.linalg.eigvalsh((q + q.T) / 2)
+        if wq.min() < -1e-6 * max(wq.max(), 1e-300):
+            errors.append(f"Σ − ΦΣΦᵀ is indefinite (eigenvalues {wq.min():.3g} … {wq.max():.3g})")
+    if errors:
+        raise ValueError(f"the order-{f.order} shaping-filter fit is not usable: " + "; ".join(errors) + ".")
+    for w in warns:
+        warnings.warn(f"order-{f.order} shaping filter: {w}", stacklevel=2)
+    return warns
+
+
 def lyapunov(a, q):
     """Solve A X + X Aᵀ + Q = 0 for X (small dense systems, by Kronecker vectorisation)."""
     n = a.shape[0]
@@ -152,6 +206,12 @@ def fit_filter(
     **Returns:** a `FilterFit`; the output variance equals ∫S_G exactly, `relative_l2_error` = ‖S−S_G‖/‖S_G‖ on
     the fit grid.
     """
+    if order > MAX_FILTER_ORDER:
+        raise ValueError(
+            f"`order` must be <= {MAX_FILTER_ORDER} (got {order}): the controllable canonical form is too "
+            "ill-conditioned above it (cond(A) ~1e13 and an indefinite stationary covariance at order 30; an "
+            "unstable discretised filter at order 40), so the simulated sea would be wrong."
+        )
     if order < 3:
         raise ValueError(
             f"`order` must be >= 3 (got {order}): the filter needs relative degree 2 so that ζ_G is differentiable."

@@ -189,6 +189,28 @@ def validate_ship(ship: Ship) -> None:
         )
     if d["correction"]["gm_ratio"] < 0:
         problems.append(f"[correction] gm_ratio = {d['correction']['gm_ratio']} must be >= 0")
+    period = _get(ship, "roll_period")
+    if math.isfinite(period) and period > 0:
+        if period > 100.0:
+            problems.append(
+                f"roll period {period:g} s is beyond any ship (ship roll periods are ~5-60 s); check the units"
+            )
+        elif not 3.0 <= period <= 60.0:
+            import warnings
+
+            warnings.warn(f"ship {ship.name!r}: roll period {period:g} s is unusual (ships: ~5-60 s).", stacklevel=2)
+    if not problems:
+        from ._restoring import vanishing_angle
+
+        if float(vanishing_angle(ship)) >= math.pi - 1e-9:
+            import warnings
+
+            warnings.warn(
+                f"ship {ship.name!r}: GZ never returns to zero for 0 < φ < 180°, so there is no angle of vanishing "
+                "stability and capsize is never detected; check the GZ coefficients (the highest-order one is "
+                "usually negative) unless a linear-restoring model is intended.",
+                stacklevel=2,
+            )
     if problems:
         raise ValueError(f"Invalid ship {ship.name!r}: " + "; ".join(problems) + ".")
 
