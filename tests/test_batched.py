@@ -4,8 +4,8 @@ import jax
 import jax.numpy as jnp
 import jax.random as jr
 import numpy as np
-
 from helpers import default_problem
+
 from jaxroll.roll import _batched
 from jaxroll.roll._equation import simulate
 

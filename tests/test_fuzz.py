@@ -3,11 +3,10 @@ message, or writes JSON without NaN and without invented numbers. Bounded: few e
 
 import json
 import math
+import random
 
 import numpy as np
 import pytest
-
-import random
 
 import jaxroll
 from jaxroll._cli import main

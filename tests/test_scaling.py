@@ -422,7 +422,11 @@ def test_sweep_cli_errors(extra, message, tmp_path, capsys):
 
 def test_chunk_size_from_memory_budget():
     """Issue 13: the chunk is cut to a memory budget so a small dt cannot exhaust memory (`--dt 0.01` asked 30 GB)."""
-    from jaxroll.roll._sharding import BYTES_PER_REALIZATION_STEP, chunk_size_for_memory, default_memory_budget
+    from jaxroll.roll._sharding import (
+        BYTES_PER_REALIZATION_STEP,
+        chunk_size_for_memory,
+        default_memory_budget,
+    )
 
     steps = int(1800 / 0.01)
     budget = 2 * 2**30
