@@ -3,3 +3,4 @@
 from ._calibration import *  # noqa: F401,F403
 from ._hydrostatics import *  # noqa: F401,F403
 from ._pdf import *  # noqa: F401,F403
+from ._sensitivity import *  # noqa: F401,F403

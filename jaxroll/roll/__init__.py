@@ -34,6 +34,13 @@ from ._observers import (
     FirstMaxima as FirstMaxima,
     MaxRoll as MaxRoll,
 )
+from ._sensitivity import (
+    DEFAULT_SENSITIVITY_STATISTICS as DEFAULT_SENSITIVITY_STATISTICS,
+    SENSITIVITY_PARAMETERS as SENSITIVITY_PARAMETERS,
+    SensitivityResult as SensitivityResult,
+    monte_carlo_sensitivity as monte_carlo_sensitivity,
+    sensitivity_problem as sensitivity_problem,
+)
 from ._sharding import realization_mesh as realization_mesh
 from ._statistics import (
     AmplitudeStatistics as AmplitudeStatistics,
