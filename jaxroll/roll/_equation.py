@@ -159,6 +159,7 @@ class RollProblem(eqx.Module):
         filter_order: int = 4,
         phi0: float = math.radians(5.0),
         dphi0: float = 0.0,
+        validate: bool = True,
     ) -> "RollProblem":
         """The roll problem of `ship` in the sea state `sea`: Grim's effective wave, its excitation, initial roll.
 
@@ -171,25 +172,31 @@ class RollProblem(eqx.Module):
         - `dt`: time step [s] (checked against the roll period and the excitation bandwidth).
         - `filter_order`: order of the shaping filter (Method 2).
         - `phi0` [rad], `dphi0` [rad/s]: initial condition (the paper's 5°, 0).
+        - `validate`: check the inputs and gate the filter fit (default). `False` skips those concrete checks so
+          that the construction can be traced (e.g. differentiated in the ship or sea parameters); validate the
+          nominal problem first.
 
-        **Raises:** `ValueError` for a bad method, time step or initial roll (beyond the vanishing angle).
+        **Raises:** `ValueError` for a bad method, time step, filter fit or initial roll (beyond the vanishing
+        angle).
         """
         if excitation not in ("filter", "superposition"):
             raise ValueError(f"`excitation` must be 'filter' or 'superposition'; got {excitation!r}.")
-        for name, value in (("phi0", phi0), ("dphi0", dphi0)):
-            if not math.isfinite(value):
-                raise ValueError(f"`{name}` must be finite; got {value!r}.")
         wave = EffectiveWave(sea, ship.lpp, speed, heading)
-        check_time_step(dt, ship, wave)
-        capsize = float(vanishing_angle(ship))
-        if abs(phi0) >= capsize:
-            raise ValueError(
-                f"the initial roll {math.degrees(phi0):.4g}° is beyond the angle of vanishing stability "
-                f"({math.degrees(capsize):.1f}°)."
-            )
+        if validate:
+            for name, value in (("phi0", phi0), ("dphi0", dphi0)):
+                if not math.isfinite(value):
+                    raise ValueError(f"`{name}` must be finite; got {value!r}.")
+            check_time_step(dt, ship, wave)
+            capsize = float(vanishing_angle(ship))
+            if abs(phi0) >= capsize:
+                raise ValueError(
+                    f"the initial roll {math.degrees(phi0):.4g}° is beyond the angle of vanishing stability "
+                    f"({math.degrees(capsize):.1f}°)."
+                )
         if excitation == "filter":
             fit = fit_filter(wave, order=filter_order, match_frequency=2 * ship.omega0)
-            check_filter_fit(fit, dt)
+            if validate:
+                check_filter_fit(fit, dt)
             source = FilterExcitation(fit.filter, dt)
         else:
             fit = None

@@ -116,8 +116,7 @@ def monte_carlo(
         raise TypeError(
             f"`observer` must be an AbstractObserver (e.g. AmplitudeHistogram()); got {observer!r}."
         )
-    if not (isinstance(duration, int | float) and math.isfinite(duration) and duration > 0):
-        raise ValueError(f"`duration` must be a finite number > 0 [s]; got {duration!r}.")
+    _check_duration(duration)
     num_steps = int(round(duration / problem.dt))
     chunk_size = chunk_size_for_memory(chunk_size, num_steps, memory_budget)
     summed, per = run_chunks(
@@ -136,7 +135,14 @@ def monte_carlo(
     return observer.result(summed, per, config)
 
 
+def _check_duration(duration) -> None:
+    if not (isinstance(duration, int | float) and math.isfinite(duration) and duration > 0):
+        raise ValueError(f"`duration` must be a finite number > 0 [s]; got {duration!r}.")
+
+
 def _check_discard(discard, duration, dt, min_steps: int = 16) -> None:
+    """`duration` [s] valid, and `discard` [s] in [0, duration) leaving at least `min_steps` steps of `dt`."""
+    _check_duration(duration)
     if not (isinstance(discard, int | float) and math.isfinite(discard) and 0 <= discard < duration):
         raise ValueError(f"`discard` must be in [0, duration) = [0, {duration}) s; got {discard!r}.")
     if (duration - discard) / dt < min_steps:
@@ -166,8 +172,6 @@ def monte_carlo_amplitudes(
 
     **Returns:** `AmplitudeStatistics` (zero-crossing amplitudes per half cycle, envelope amplitudes per sample).
     """
-    if not (isinstance(duration, int | float) and math.isfinite(duration) and duration > 0):
-        raise ValueError(f"`duration` must be a finite number > 0 [s]; got {duration!r}.")
     _check_discard(discard, duration, problem.dt)
     observer = AmplitudeHistogram(float(discard), float(bin_width_deg), float(max_deg))
     return monte_carlo(
@@ -241,8 +245,6 @@ def monte_carlo_max_roll(
 
     **Returns:** `MaxRollStatistics`.
     """
-    if not (isinstance(duration, int | float) and math.isfinite(duration) and duration > 0):
-        raise ValueError(f"`duration` must be a finite number > 0 [s]; got {duration!r}.")
     _check_discard(discard, duration, problem.dt, min_steps=1)
     capsize_deg = math.degrees(float(problem.capsize_angle))
     if not (0 < angle_deg < capsize_deg):

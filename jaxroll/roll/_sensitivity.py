@@ -41,14 +41,12 @@ import jax.random as jr
 import numpy as np
 from jax.scipy.stats import norm
 
-from ..sea._filters import fit_filter
-from ..sea._grim import EffectiveWave
 from ..sea._spectra import ITTC
-from ..ship._restoring import parametric_excitation, vanishing_angle
+from ..ship._restoring import parametric_excitation
 from ..ship._ship import Ship
 from ._amplitudes import hilbert_envelope, zero_crossing_init, zero_crossing_update
-from ._equation import RollProblem, check_time_step, rk4_step
-from ._excitation import BLOCK, FilterExcitation, SuperpositionExcitation
+from ._equation import RollProblem, rk4_step
+from ._excitation import BLOCK, FilterExcitation
 
 DEFAULT_SENSITIVITY_STATISTICS = ("E_phi2", "mean_envelope", "mean_zero_crossing", "P_exceed_20deg")
 # the parameters of `sensitivity_problem` and their units
@@ -335,24 +333,12 @@ def sensitivity_problem(
     - `c0` … `c6`: the ΔGM(ζ) polynomial [m^(1−k)];
     - `hs` [m], `t01` [s]: the ITTC sea; `speed` [m/s].
 
-    The nominal problem is checked as `RollProblem.from_sea` checks it (time step, initial roll). Derivatives in
+    The nominal problem is checked by `RollProblem.from_sea` (time step, initial roll, filter fit). Derivatives in
     the sea parameters are tested with `excitation="filter"` (the default); with "superposition" they go through
     √S_G of the FFT synthesis, which has no derivative where S_G = 0 — not supported.
     """
-    if excitation not in ("filter", "superposition"):
-        raise ValueError(f"`excitation` must be 'filter' or 'superposition'; got {excitation!r}.")
-    if excitation == "filter" and filter_order < 3:
-        raise ValueError(f"`filter_order` must be >= 3; got {filter_order!r}.")
-    for name, value in (("phi0", phi0), ("dphi0", dphi0)):
-        if not math.isfinite(value):
-            raise ValueError(f"`{name}` must be finite; got {value!r}.")
-    check_time_step(dt, ship, EffectiveWave(ITTC(hs, t01), ship.lpp, speed, heading))
-    capsize = float(jax.jit(vanishing_angle)(ship))
-    if abs(phi0) >= capsize:
-        raise ValueError(
-            f"the initial roll {math.degrees(phi0):.4g}° is beyond the angle of vanishing stability "
-            f"({math.degrees(capsize):.1f}°)."
-        )
+    options = dict(heading=heading, excitation=excitation, dt=dt, filter_order=filter_order, phi0=phi0, dphi0=dphi0)
+    RollProblem.from_sea(ship, ITTC(hs, t01), speed=speed, **options)  # every check of the nominal problem
     gm0_nominal = float(ship.gm0)
     kappa = float(ship.omega0) ** 2 / gm0_nominal  # a1/GM0 = gΔ/I44, held fixed
     params = {
@@ -381,13 +367,7 @@ def sensitivity_problem(
             delta_gm=jnp.stack([jnp.asarray(q[f"c{k}"], dtype=float) for k in range(7)]),
             gm_correction=q["gm_correction"], name=ship.name, provenance=ship.provenance,
         )  # fmt: skip
-        wave = EffectiveWave(ITTC(q["hs"], q["t01"]), new.lpp, q["speed"], heading)
-        if excitation == "filter":
-            fit = fit_filter(wave, order=filter_order, match_frequency=2 * new.omega0)
-            source = FilterExcitation(fit.filter, dt)
-        else:
-            fit, source = None, SuperpositionExcitation(wave, dt)
-        return RollProblem(new, source, phi0, dphi0, wave=wave, filter_fit=fit)
+        return RollProblem.from_sea(new, ITTC(q["hs"], q["t01"]), speed=q["speed"], validate=False, **options)
 
     return problem_fn, params
 

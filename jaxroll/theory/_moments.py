@@ -17,6 +17,7 @@ from ..laws._tabulated import TabulatedAmplitudeLaw
 from ..sea._filters import FilterFit, ShapingFilter, fit_filter
 from ..sea._grim import EffectiveWave
 from ..ship._ship import Ship
+from ._averaging import _harmonic_frequency2
 from ._moment_equations import roll_sde
 from ._moment_solver import RESULTS, StationaryMoments, stationary_moments
 
@@ -301,9 +302,7 @@ _LAW_TOP = 12.0  # the tabulated law reaches 12 √E[A²] (the family's tail the
 def _harmonic_frequency(ship: Ship, amplitude):
     """Ω(A) [rad/s] of the undamped roll by harmonic balance on the GZ polynomial (floored at 1e-3 ω0)."""
     a = ship.restoring_coefficients
-    x2 = amplitude * amplitude
-    w2 = a[0] + x2 * (0.75 * a[1] + x2 * (0.625 * a[2] + x2 * (35 / 64 * a[3] + x2 * 63 / 128 * a[4])))
-    return jnp.sqrt(jnp.maximum(w2, 1e-6 * a[0]))
+    return jnp.sqrt(jnp.maximum(_harmonic_frequency2(a, amplitude), 1e-6 * a[0]))
 
 
 def _tabulated_law(family: AmplitudeFamily, ship: Ship, estimator: str) -> TabulatedAmplitudeLaw:
