@@ -264,6 +264,8 @@ def _refuse_computation(monkeypatch):
         (["pdf", "--dt", "-1"], "--dt must be a finite number > 0"),
         (["pdf", "--bin-width-deg", "0.33"], "multiple of 0.05"),
         (["theory", "--bin-width-deg", "0.33"], "multiple of 0.05"),
+        (["risk", "--angle", "80"], "is not below the angle of vanishing stability"),
+        (["risk", "--discard", "5000"], r"--discard must be in \[0, --duration\)"),
         (["theory", "--theory", ""], "--theory: give at least one"),
         (["theory", "--t01", "0"], "--t01 must be a finite number > 0"),
         (["hydrostatics", "c11", "--roll-period", "-1"], "--roll-period must be a finite number > 0"),

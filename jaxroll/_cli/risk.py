@@ -51,7 +51,7 @@ def run(args) -> int:
     import jax.numpy as jnp
     import numpy as np
 
-    from .. import exposure_risk, monte_carlo_amplitudes, monte_carlo_max_roll
+    from .. import exposure_risk, monte_carlo_amplitudes, monte_carlo_max_roll, vanishing_angle
     from .pdf import parse_theories
 
     theories = parse_theories(args.theory)
@@ -60,7 +60,16 @@ def run(args) -> int:
         raise CLIError(f"--angle must be in (0, 90) degrees; got {args.angle}.")
     if args.realizations < 1:
         raise CLIError(f"--realizations must be >= 1; got {args.realizations}.")
+    if not (math.isfinite(args.discard) and 0 <= args.discard < args.duration):
+        raise CLIError(f"--discard must be in [0, --duration) = [0, {args.duration:g}) s; got {args.discard:g}.")
     ship = load_ship_arg(args.ship)
+    vanishing_deg = math.degrees(float(vanishing_angle(ship)))
+    if args.angle >= vanishing_deg:
+        raise CLIError(
+            f"--angle {args.angle:g}° is not below the angle of vanishing stability of {ship.name} "
+            f"({vanishing_deg:.1f}°): beyond it the ship capsizes (capsizes are counted separately); choose a "
+            "smaller angle."
+        )
     problem, _, sea = build_problem(args, ship)
     exposure = args.hours * 3600.0
     t0 = time.time()
