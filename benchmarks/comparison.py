@@ -37,7 +37,8 @@ def main() -> None:
         m = theory.moment_pdf_first_stable(ship, wave, shaping_filter=problem.filter_fit)
         for label, law in (("Roberts (nonlinear restoring)", theory.roberts_pdf(ship, wave, restoring="nonlinear")),
                            ("ESAM", theory.esam_pdf(ship, wave)),
-                           (f"moment method (closure {m.closure_order})", m)):
+                           (f"moment method (closure {m.closure_order})", m),
+                           ("envelope FPK (coloured averaging)", theory.envelope_fpk_pdf(ship, wave))):
             q = law.summary()["quantiles_deg"]
             rows.append((label, float(np.rad2deg(law.mean())), q["99"], float(law.sf(np.deg2rad(20.0))),
                          float(law.sf(np.deg2rad(30.0)))))

@@ -12,7 +12,7 @@ import jax
 
 jax.config.update("jax_enable_x64", True)
 
-from . import theory as theory
+from . import criteria as criteria, theory as theory
 from .calibration import (
     CaptiveFit as CaptiveFit,
     CaptiveGroup as CaptiveGroup,

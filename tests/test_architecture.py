@@ -9,7 +9,7 @@ import pytest
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 PKG = ROOT / "jaxroll"
-CORE = ("sea", "ship", "laws", "roll", "theory", "extremes", "calibration", "io")
+CORE = ("sea", "ship", "laws", "roll", "theory", "extremes", "calibration", "io", "criteria")
 # what each stage may import (module level and inside functions)
 ALLOWED = {
     "sea": {"sea"},
@@ -20,6 +20,7 @@ ALLOWED = {
     "theory": {"theory", "sea", "ship", "laws"},
     "extremes": {"extremes", "laws"},
     "calibration": {"calibration", "sea", "ship", "roll", "theory", "laws", "io", "extremes"},
+    "criteria": {"criteria", "sea", "ship", "roll", "theory", "laws", "io"},
 }
 
 

@@ -428,3 +428,27 @@ def test_notebook_04_runs_in_smoke_mode(tmp_path, monkeypatch):
         nb, timeout=600, kernel_name="python3", resources={"metadata": {"path": str(tmp_path)}}
     ).execute()
     assert os.environ["JAXROLL_SMOKE"] == "1"
+
+
+def test_dense_decay_records_are_decimated_not_overfitted():
+    """Issue 13 case 7: a record sampled far more densely than the roll (a 10⁶-row record took 97 s and gave
+    standard errors 30× too small) is decimated to ~50 samples per roll period: the same damping within its SE."""
+    base = virtual_decay_record(DECAY_SHIP, initial_roll_deg=20.0, duration_model_s=60.0, sampling_hz=200.0)
+    rec = _with_noise(base, 0.05, seed=11)
+    fit = fit_decay_ode(rec, BASE)
+    per_period = BASE.roll_period / rec.dt
+    assert fit.config["decimation"] == [int(per_period) // 50] and fit.config["decimation"][0] >= 4
+    for name, truth in zip(NAMES, B_TRUE):
+        e = fit.damping[name]
+        assert abs(e.value - truth) < K * e.std_error, (name, e, truth)
+
+
+def test_a_fit_whose_solver_fails_says_what_to_check():
+    """Issue 13 case 7: a decay near the vanishing angle made the ODE solver fail inside the fit and escape as an
+    EquinoxRuntimeError traceback; now a ValueError (exit 2 on the command line) saying what to check."""
+    from jaxroll.calibration._least_squares import FitFailure
+
+    rec = virtual_decay_record(DECAY_SHIP, initial_roll_deg=20.0, duration_model_s=30.0)
+    wild = dataclasses.replace(rec, channels={"roll": rec.roll * 3.4})  # 68°: the fit drives the model to capsize
+    with pytest.raises(FitFailure, match="roll unit"):
+        fit_decay_ode(wild, BASE)

@@ -114,6 +114,29 @@ def test_maxima_command(tmp_path):
         assert (tmp_path / name).stat().st_size > 0
 
 
+def test_maxima_count_capsizes_as_the_largest_maxima(tmp_path, capsys):
+    """Issue 13 case 4: at H1/3 = 11 m trials capsize before N0; they are maxima beyond the vanishing angle, not
+    dropped: the histogram is defective (mass 1 - P(capsize)), the mean is null with a reason, high quantiles are
+    null, and P(max > x) counts them."""
+    code = main(["maxima", "--hs", "11", "--n0", "20,100", "--realizations", "60", "--duration", "2500",
+                 "--chunk-size", "60", "--out", str(tmp_path), "--quiet"])
+    assert code == 0
+    d = json.loads((tmp_path / "maxima.json").read_text())
+    for k, v in d["per_n0"].items():
+        assert v["n_known"] == v["n_valid"] + v["n_capsized"] == 60 - v["n_incomplete"]
+        assert v["n_capsized"] > 0, k  # 11 m capsizes this ship (P ≈ 0.2-0.45 measured with 200 trials)
+        p_cap = v["n_capsized"] / v["n_known"]
+        assert v["capsize_probability"] == pytest.approx(p_cap)
+        mass = np.sum(np.asarray(v["histogram_pdf_per_deg"]) * np.diff(d["bins_deg"]))
+        assert mass == pytest.approx(1.0 - p_cap) and v["histogram_mass"] == pytest.approx(1.0 - p_cap)
+        assert v["mean_deg"] is None and "capsized before N0" in v["mean_reason"]
+        assert v["quantiles_deg"]["99"] is None and "vanishing stability" in v["quantiles_reason"]["99"]
+        assert v["p_exceed"]["40"] >= p_cap
+    assert d["per_n0"]["100"]["n_capsized"] >= d["per_n0"]["20"]["n_capsized"]
+    out = capsys.readouterr().out
+    assert "capsized before N0" in out and "counted as maxima beyond the vanishing angle" in out
+
+
 def test_risk_command(tmp_path, capsys):
     code = main(["risk", "--angle", "20", "--hours", "3", "--realizations", "8", "--duration", "1200",
                  "--out", str(tmp_path), "--quiet"])
@@ -127,6 +150,13 @@ def test_risk_command(tmp_path, capsys):
     assert 0 <= direct["probability_ci95"][0] <= direct["probability"] <= direct["probability_ci95"][1] <= 1
     assert direct["largest_roll_quantiles_deg"]["50"] <= direct["largest_roll_quantiles_deg"]["99"]
     assert "P(roll > 20° within 3 h)" in capsys.readouterr().out
+    # The risk curve: the direct one is P(largest roll > x or capsize), non-increasing, equal to the headline
+    # probability at the threshold; the figure is written with the JSON.
+    curve = d["curve"]
+    i = curve["angle_deg"].index(20.0)
+    assert curve["direct"][i] == pytest.approx(direct["probability"])
+    assert np.all(np.diff(curve["direct"]) <= 0) and np.all(np.diff(curve["monte_carlo"]) <= 1e-12)
+    assert (tmp_path / "risk.png").stat().st_size > 0
     assert main(["risk", "--angle", "95", "--out", str(tmp_path)]) == 2
     assert "--angle must be in (0, 90)" in capsys.readouterr().err
 
@@ -266,6 +296,13 @@ def _refuse_computation(monkeypatch):
         (["theory", "--bin-width-deg", "0.33"], "multiple of 0.05"),
         (["risk", "--angle", "80"], "is not below the angle of vanishing stability"),
         (["risk", "--discard", "5000"], r"--discard must be in \[0, --duration\)"),
+        (["maxima", "--discard", "-5"], "--discard must be >= 0"),
+        (["maxima", "--duration", "400"], "--duration must exceed --discard"),
+        (["maxima", "--n0", "0"], "--n0 values must be integers >= 1"),
+        (["sensitivity", "--wrt", "b1,nonsense"], "--wrt"),
+        (["sensitivity", "--discard", "4000"], r"--discard must be in \[0, --duration\)"),
+        (["pdf", "--memory-gb", "0"], "--memory-gb must be a finite number > 0"),
+        (["risk", "--memory-gb", "nan"], "--memory-gb must be a finite number > 0"),
         (["theory", "--theory", ""], "--theory: give at least one"),
         (["theory", "--t01", "0"], "--t01 must be a finite number > 0"),
         (["hydrostatics", "c11", "--roll-period", "-1"], "--roll-period must be a finite number > 0"),
@@ -289,7 +326,7 @@ def test_options_are_checked_before_any_computation(argv, message, tmp_path, mon
     assert not out.exists() and not list(tmp_path.iterdir())
 
 
-@pytest.mark.parametrize("command", ["pdf", "theory", "tank"])
+@pytest.mark.parametrize("command", ["pdf", "theory", "tank", "maxima", "risk", "sensitivity"])
 def test_out_that_is_a_file_is_refused_first(command, tmp_path, monkeypatch, capsys):
     _refuse_computation(monkeypatch)
     target = tmp_path / "file"
@@ -361,3 +398,20 @@ def test_docs_promise_only_what_the_code_does(capsys):
         assert "THEORY" not in text, path
         for doc in re.findall(r"docs/[\w.]+\.md", text):
             assert (root / doc).is_file(), f"{path.name} cites {doc}"
+
+
+def test_sensitivity_command(tmp_path, capsys):
+    """Issue 12: `jaxroll sensitivity` writes sensitivity.json (Monte Carlo value ± SE per statistic and parameter,
+    the theory beside it) and the bar chart; d(E[φ²])/db1 is negative (more damping, less roll) for the Monte Carlo
+    and for Roberts. (The moment method's gradient, its closure recorded, is tested in test_sensitivity.py.)"""
+    code = main(["sensitivity", "--wrt", "b1,gm_correction", "--statistics", "E_phi2,mean_envelope",
+                 "--realizations", "16", "--duration", "900", "--window", "300", "--burn-in", "150",
+                 "--chunk-size", "16", "--theory", "roberts", "--out", str(tmp_path), "--quiet"])
+    assert code == 0, capsys.readouterr().err
+    d = json.loads((tmp_path / "sensitivity.json").read_text())
+    g = d["gradients"]["E_phi2_deg2"]
+    mc = g["b1"]["monte_carlo"]
+    assert mc["value"] < 0 and mc["std_error"] > 0
+    assert g["b1"]["theory"]["roberts"] < 0 and g["gm_correction"]["theory"]["roberts"] > 0
+    assert d["estimator"]["n_realizations"] == 16
+    assert (tmp_path / "sensitivity.png").stat().st_size > 0

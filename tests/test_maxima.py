@@ -71,3 +71,28 @@ def test_maxima_checkpoint_resume_equals_uninterrupted(problem, tmp_path):
                                    **kw)
     resumed = jaxroll.monte_carlo_maxima(problem, jr.key(4), checkpoint=tmp_path, **kw)
     np.testing.assert_array_equal(resumed.maxima_deg, ref.maxima_deg)
+
+
+def test_maxima_statistics_are_a_defective_distribution():
+    """A trial that capsized before N0 is a maximum beyond the vanishing angle (issue 13 case 4): counted in the
+    probabilities and the quantiles (as +inf), never dropped; incomplete trials are unknown and left out."""
+    from jaxroll.roll._statistics import MaximaStatistics
+
+    maxima = np.array([[10.0], [20.0], [30.0], [np.nan], [np.nan], [40.0], [np.nan], [15.0], [25.0], [35.0]])
+    capsized = np.array([False, False, False, True, True, False, False, False, False, False])
+    stats = MaximaStatistics(n0=(20,), maxima_deg=maxima, capsized=capsized, capsize_time=np.zeros(10),
+                             count=np.full(10, 20))
+    assert (stats.n_capsized_before(0), stats.n_incomplete(0), stats.n_known(0)) == (2, 1, 9)
+    # P(max > 22°) = (25, 30, 35, 40 and the two capsizes) / 9 known trials
+    assert stats.exceedance_probability(0, 22.0) == pytest.approx(6 / 9)
+    bins = np.arange(0.0, 91.0, 5.0)
+    s = stats.summary(0, bins)
+    assert s["capsize_probability"] == pytest.approx(2 / 9)
+    assert np.sum(np.asarray(s["histogram_pdf_per_deg"]) * np.diff(bins)) == pytest.approx(7 / 9)
+    assert s["mean_deg"] is None and s["mean_deg_given_no_capsize"] == pytest.approx(25.0)
+    # numpy's linear quantile of [10, 15, 20, 25, 30, 35, 40, inf, inf]: the median is 30; 0.9 falls among the
+    # capsizes -> null with a reason
+    assert s["quantiles_deg"]["50"] == pytest.approx(30.0)
+    assert s["quantiles_deg"]["90"] is None and "vanishing stability" in s["quantiles_reason"]["90"]
+    lo, hi = s["capsize_probability_ci95"]
+    assert lo < 2 / 9 < hi

@@ -394,3 +394,164 @@ def test_default_ship_vs_large_monte_carlo(hs):
     else:  # 5 m: order 4 only (order 6 folds); MC kurtosis ≈ 7.6, far from Gaussian: order 4 over-predicts
         assert 0.6 < rel(s4.e_phi2, pm["E_phi2"]) < 1.1
         assert abs(rel(q99(s4), q99_mc)) < 0.08
+
+
+# ------------------------------------------------------------------------------------------------------------
+# Caches (generated tables, exported solve), vmap, continuation along H1/3 and the fold
+# ------------------------------------------------------------------------------------------------------------
+
+
+def _duffing_sde():
+    c, d, a3 = 0.1, 0.002, 20.0
+    return PolynomialSDE(
+        ("phi", "dphi"),
+        [(0, (0, 1), 0.0), (1, (0, 1), 0.0), (1, (1, 0), 0.0), (1, (3, 0), 0.0)],
+        [1.0, -c, -1.0, -a3],
+        [(1, 0, (0, 0))],
+        [math.sqrt(d)],
+        symmetric=(0, 1),
+    )
+
+
+def test_cached_tables_equal_freshly_generated(tmp_path, monkeypatch):
+    from jaxroll.theory import _moment_cache as mc, _moment_equations as me
+
+    monkeypatch.setattr(mc, "cache_dir", lambda: tmp_path)
+    sde = roll_sde(SHIP, _filter())
+    args = (sde._structure(), 6, me._extra_monomials(sde.dim, sde.symmetric))
+    fresh = me._build_tables.__wrapped__(*args)  # generated now, bypassing every cache
+    mc.cached_tables.cache_clear()
+    written = mc.cached_tables(*args)  # generated and written to disk
+    mc.cached_tables.cache_clear()
+    read = mc.cached_tables(*args)  # read back from disk
+    mc.cached_tables.cache_clear()
+    assert len(list(tmp_path.glob("tables-*.pkl"))) == 1 and read is not written
+    for t in (written, read):
+        assert t.monomials == fresh.monomials and t.index == fresh.index
+        for a, b in zip(jax.tree.leaves(t.arrays), jax.tree.leaves(fresh.arrays)):
+            np.testing.assert_array_equal(a, b)
+    # the equations evaluated from the read-back tables equal the fresh ones
+    rng = np.random.default_rng(0)
+    m = jnp.asarray(rng.normal(size=fresh.unknowns.size) * 1e-3)
+    f_read = me.MomentEquations(read).rhs(sde, m)
+    f_fresh = me.MomentEquations(fresh).rhs(sde, m)
+    np.testing.assert_array_equal(f_read, f_fresh)
+
+
+def test_cache_key_changes_when_the_generator_changes(monkeypatch):
+    from jaxroll.theory import _moment_cache as mc
+
+    structure, extra = _duffing_sde()._structure(), ()
+    try:
+        mc.generator_key.cache_clear()
+        key, tkey = mc.generator_key(), mc.tables_key(structure, 4, extra)
+        assert mc.generator_key() == key  # deterministic
+        sources = mc._generator_sources()
+        edited = (sources[0].replace("yield", "yield  "),) + sources[1:]
+        monkeypatch.setattr(mc, "_generator_sources", lambda: edited)
+        mc.generator_key.cache_clear()
+        assert mc.generator_key() != key
+        assert mc.tables_key(structure, 4, extra) != tkey
+        assert mc.tables_key(structure, 6, extra) != mc.tables_key(structure, 4, extra)
+    finally:
+        monkeypatch.undo()
+        mc.generator_key.cache_clear()
+        mc.solver_key.cache_clear()
+
+
+def test_exported_solve_equals_traced_solve(tmp_path, monkeypatch):
+    """The disk-cached `jax.export` of the stationary solve gives the traced solve's numbers."""
+    pytest.importorskip("flatbuffers")
+    from jaxroll.theory import _moment_cache as mc, _moment_solver as ms
+
+    sde = _duffing_sde()
+    kw = dict(closure_order=4, initial_variances=[0.01, 0.01], time_scale=2 * np.pi)
+    monkeypatch.setattr(ms, "cache_dir", lambda: None)
+    traced = stationary_moments(sde, **kw)
+    monkeypatch.setattr(ms, "cache_dir", lambda: tmp_path)
+    monkeypatch.setattr(mc, "cache_dir", lambda: tmp_path)
+    mc._EXPORTED.clear()
+    exported = stationary_moments(sde, **kw)  # exported, serialized to disk
+    mc._EXPORTED.clear()
+    reread = stationary_moments(sde, **kw)  # deserialized
+    mc._EXPORTED.clear()
+    assert len(list(tmp_path.glob("solve-*.bin"))) == 1
+    for sol in (exported, reread):
+        np.testing.assert_allclose(sol.values, traced.values, rtol=1e-12, atol=0)
+        assert bool(sol.converged)
+
+
+def test_vmap_over_sea_states_equals_loop():
+    hs = [6.5, 7.0, 7.5]
+    filters = [_filter(h) for h in hs]
+    stacked = jax.tree.map(lambda *x: jnp.stack(x), *filters)
+
+    def e_phi2(f):
+        sol = jxr.theory.roll_moments(SHIP, None, shaping_filter=f, closure_order=4, throw=False)
+        return sol.moment((2, 0, 0, 0, 0, 0))
+
+    loop = np.array([float(e_phi2(f)) for f in filters])
+    batched = np.asarray(jax.vmap(e_phi2)(stacked))
+    np.testing.assert_allclose(batched, loop, rtol=1e-12, atol=0)  # measured: 3e-15
+    assert np.all(np.diff(loop) > 0)
+
+
+def test_first_stable_records_the_closure_and_never_switches_under_tracing(monkeypatch):
+    from jaxroll.theory import _moments
+
+    real = _moments.moment_pdf
+    order4 = real(SHIP, _wave(7.0), closure_order=4)
+
+    def fake(ship, wave, *, closure_order, **kw):  # order 6 "has no stable solution"
+        if closure_order == 6:
+            raise eqx.EquinoxRuntimeError("no stationary non-trivial solution: the closure failed (test)")
+        return order4
+
+    monkeypatch.setattr(_moments, "moment_pdf", fake)
+    with pytest.warns(UserWarning, match="closure order 6 has no stable solution here"):
+        sol = jxr.theory.moment_pdf_first_stable(SHIP, _wave(7.0))
+    d = sol.details()
+    assert d["closure_order"] == 4 and d["requested_closure_order"] == 6 and d["closure_fallback"]
+    assert not real(SHIP, _wave(7.0), closure_order=4).details()["closure_fallback"]
+
+    def traced(b1):
+        ship = eqx.tree_at(lambda s: s.damping, SHIP, SHIP.damping.at[0].set(b1))
+        return jxr.theory.moment_pdf_first_stable(ship, _wave(7.0)).e_phi2
+
+    with pytest.raises(eqx.EquinoxRuntimeError, match="closure failed"):
+        jax.make_jaxpr(traced)(SHIP.damping[0])
+
+
+def _hs_path(hs):
+    return SHIP, _wave(hs)
+
+
+@pytest.mark.parametrize(
+    "grid",
+    [
+        # ~25 s idle, 66 s on the loaded 2-core machine (compiles the full and the continuation solves)
+        pytest.param(np.array([6.6, 6.45, 6.3, 6.2]), marks=pytest.mark.slow),
+        pytest.param(np.round(np.arange(7.0, 5.95, -0.05), 10), marks=pytest.mark.slow),
+    ],
+)
+def test_branch_is_continuous_and_reports_its_fold(grid):
+    """Order 6 followed down in H1/3 from 7 m: continuous mean, then a fold near 6.26 m (no switch to order 4)."""
+    branch = jxr.theory.moment_branch(_hs_path, grid, closure_order=6, fold_bisections=5)
+    on = branch.on_branch
+    assert branch.closure_order == 6 and on[0] and not on[-1]
+    assert np.all(on[: np.argmin(on)]) and not np.any(on[np.argmin(on) :])  # one connected branch
+    ((fold, lower, upper),) = branch.folds
+    last_on, first_off = grid[on][-1], grid[~on][0]
+    assert first_off <= lower <= fold <= upper <= last_on
+    assert 6.24 < fold < 6.29  # measured 6.2648 (bisected on a 0.1 m grid)
+    assert np.all(branch.max_real_eigenvalue[on] < 0)
+    # continuous: the mean falls steadily, its steps growing smoothly towards the fold (square-root approach)
+    # and never jumping like the 6 → 4 switch (+2.3° at 6.25 m)
+    mean_deg = np.rad2deg(branch.mean_amplitude[on])
+    steps = -np.diff(mean_deg) / np.abs(np.diff(grid[on]))
+    assert np.all(steps > 0)
+    assert np.all(steps[1:] / steps[:-1] < 2.0)
+    np.testing.assert_allclose(mean_deg[0], 11.2077 if grid[0] == 7.0 else mean_deg[0], rtol=1e-4)
+    rows = branch.table()
+    assert rows[0]["closure_order"] == 6 and rows[0]["stable"] and not rows[-1]["on_branch"]
+    json.dumps(rows)

@@ -45,7 +45,7 @@ def _enable_compilation_cache() -> None:
     path = os.environ.get("JAXROLL_CACHE_DIR", default)
     if path:
         jax.config.update("jax_compilation_cache_dir", path)
-        jax.config.update("jax_persistent_cache_min_compile_time_secs", 1.0)
+        jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.0)
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -94,6 +94,23 @@ def load_ship_arg(path: str | None):
     return load_ship(path)
 
 
+def add_memory_option(parser) -> None:
+    """--memory-gb: the memory a compiled chunk of realizations may use."""
+    parser.add_argument("--memory-gb", type=float, default=None,
+                        help="memory a chunk of realizations may use [GiB] (default: a quarter of the available "
+                        "memory); the chunk is cut to fit, so any --dt runs")
+
+
+def memory_budget(args) -> float | None:
+    """--memory-gb in bytes (None: the library's default), checked."""
+    value = getattr(args, "memory_gb", None)
+    if value is None:
+        return None
+    if not (math.isfinite(value) and value > 0):
+        raise CLIError(f"--memory-gb must be a finite number > 0 [GiB]; got {value}.")
+    return value * 2**30
+
+
 class Progress:
     """A one-line progress display on stderr (only when stderr is a terminal, or when forced)."""
 

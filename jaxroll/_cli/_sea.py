@@ -1,4 +1,7 @@
-"""Command-line options shared by every subcommand that simulates a sea state."""
+"""Command-line options shared by every subcommand that simulates a sea state.
+
+Headings: degrees here (0° following, 90° beam, 180° head; `head`/`following` accepted), radians in the API.
+"""
 
 from __future__ import annotations
 
@@ -14,9 +17,21 @@ def add_sea_options(p: argparse.ArgumentParser) -> None:
     g.add_argument("--hs", type=float, default=7.0, help="significant wave height H1/3 [m] (default 7)")
     g.add_argument("--t01", type=float, default=10.0, help="mean wave period T01 [s] (default 10)")
     g.add_argument("--speed", type=float, default=0.0, help="ship speed [m/s] (default 0)")
-    g.add_argument("--heading", choices=("head", "following"), default="head", help="long-crested waves from")
-    g.add_argument("--ship", metavar="FILE", default=None, help="ship file (TOML), or `c11-hull` for GZ and ΔGM computed from the shipped representative hull; "
-        "default: C11 (representative)")
+    g.add_argument(
+        "--heading",
+        type=normalise_heading,
+        default="head",
+        metavar="DEG",
+        help="heading χ [deg] of the long-crested waves relative to the course: 0 following, 90 beam, 180 head; "
+        "or head / following (default head)",
+    )
+    g.add_argument(
+        "--ship",
+        metavar="FILE",
+        default=None,
+        help="ship file (TOML), or `c11-hull` for GZ and ΔGM computed from the shipped representative hull; "
+        "default: C11 (representative)",
+    )
     n = p.add_argument_group("numerics")
     n.add_argument("--dt", type=float, default=0.5, help="time step [s] (default 0.5)")
     n.add_argument(
@@ -27,6 +42,54 @@ def add_sea_options(p: argparse.ArgumentParser) -> None:
     )
     n.add_argument("--filter-order", type=int, default=4, help="order of the Method-2 filter (default 4)")
     n.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+
+
+def heading_number(text: str) -> float | None:
+    """Degrees from 'head', 'following', '135', '135deg' or '135°'; None when it is none of those."""
+    t = str(text).strip().lower()
+    if t in ("head", "following"):
+        return 180.0 if t == "head" else 0.0
+    for suffix in ("deg", "°"):
+        t = t.removesuffix(suffix)
+    try:
+        value = float(t)
+    except ValueError:
+        return None
+    return value if 0.0 <= value <= 180.0 else None
+
+
+def parse_heading(text: str) -> float:
+    """Heading χ [deg] in [0, 180] from the command line ('head' = 180, 'following' = 0). Raises CLIError."""
+    value = heading_number(text)
+    if value is None:
+        raise CLIError(
+            f"--heading must be head, following or an angle in degrees in [0, 180] (0 following, 90 beam, 180 head); "
+            f"got {text!r}."
+        )
+    return value
+
+
+def heading_label(deg: float) -> str:
+    """The heading's name in JSON and folder names: 'head' (180°), 'following' (0°) or e.g. '135deg'."""
+    return "head" if deg == 180.0 else "following" if deg == 0.0 else f"{deg:g}deg"
+
+
+def heading_phrase(deg: float) -> str:
+    """The heading in words for printed lines and titles, e.g. 'head seas' or 'oblique seas (χ = 135°)'."""
+    if deg in (0.0, 180.0):
+        return f"{heading_label(deg)} seas"
+    return f"{'beam' if deg == 90.0 else 'oblique'} seas (χ = {deg:g}°)"
+
+
+def heading_for_api(deg: float) -> str | float:
+    """What `RollProblem.from_sea` takes: 'head' / 'following' (today's exact path) or χ [rad]."""
+    return heading_label(deg) if deg in (0.0, 180.0) else math.radians(deg)
+
+
+def normalise_heading(text: str) -> str:
+    """argparse type of --heading: the canonical label of a valid heading, else the text (checked later)."""
+    value = heading_number(text)
+    return text if value is None else heading_label(value)
 
 
 def check_positive(args, *names: str) -> None:
@@ -45,7 +108,9 @@ def sea_config(args, ship) -> dict:
     cfg = {
         "sea": {"spectrum": "ITTC", "hs_m": args.hs, "t01_s": args.t01},
         "speed_m_s": args.speed,
-        "heading": args.heading,
+        "heading": heading_label(parse_heading(args.heading)),
+        "heading_deg": parse_heading(args.heading),
+        "heading_convention": "χ between the course and the wave direction: 0° following, 90° beam, 180° head",
         "ship": ship_to_dict(ship),
         "ship_file": args.ship,
         "dt_s": args.dt,
@@ -62,6 +127,7 @@ def build_problem(args, ship, *, phi0_deg: float = 5.0):
     """`RollProblem.from_sea` from the parsed options. **Returns:** `(problem, filter_fit, sea)`."""
     from .. import ITTC, RollProblem
 
+    heading_deg = parse_heading(args.heading)
     check_positive(args, "hs", "t01", "dt")
     if not (math.isfinite(args.speed) and args.speed >= 0):
         raise CLIError(f"--speed must be >= 0 [m/s] (use --heading for direction); got {args.speed}.")
@@ -70,11 +136,17 @@ def build_problem(args, ship, *, phi0_deg: float = 5.0):
     sea = ITTC(args.hs, args.t01)
     if not math.isfinite(phi0_deg):
         raise CLIError(f"--phi0-deg must be finite; got {phi0_deg}.")
+    if heading_deg == 90.0:
+        print(
+            "Beam seas (χ = 90°): the wave number projected on the ship's axis, k·cos χ, is 0, so Grim's effective "
+            "wave and the parametric excitation vanish in this model: no parametric roll (the roll only decays "
+            "from its initial angle)."
+        )
     problem = RollProblem.from_sea(
         ship,
         sea,
         speed=args.speed,
-        heading=args.heading,
+        heading=heading_for_api(heading_deg),
         excitation=args.method,
         dt=args.dt,
         filter_order=args.filter_order,

@@ -20,8 +20,9 @@ def first_line(error: Exception) -> str:
 
 def compute(problem, args, name: str, *, estimator: str = "envelope"):
     """One theory's amplitude law for the Monte Carlo's own problem (same effective wave, same filter fit):
-    Roberts (nonlinear restoring), ESAM, or the moment method (order-6 closure, order 4 where 6 has no stable
-    fixed point — the closure used is recorded in the law's `details()`)."""
+    Roberts (nonlinear restoring), ESAM, the moment method (order-6 closure, order 4 where 6 has no stable
+    fixed point — the closure used is recorded in the law's `details()`), or the envelope Fokker–Planck method
+    (coloured-noise averaging; its grid and fitted envelope are recorded in `details()`)."""
     from .. import theory
 
     ship, wave = problem.ship, problem.wave
@@ -34,6 +35,8 @@ def compute(problem, args, name: str, *, estimator: str = "envelope"):
             return theory.moment_pdf_first_stable(
                 ship, wave, shaping_filter=problem.filter_fit, filter_order=args.filter_order, estimator=estimator
             )
+        if name == "envelope_fpk":
+            return theory.envelope_fpk_pdf(ship, wave, estimator=estimator)
     except (ValueError, RuntimeError) as e:
         raise CLIError(f"{name}: {first_line(e)}") from None
     raise CLIError(f"unknown theory {name!r}")

@@ -6,6 +6,7 @@ import math
 from pathlib import Path
 
 from ._common import CLIError, OutputFolder, atomic_write_text, save_figure, write_json
+from .sgisc import add_hull_options, check_hull_options, read_hull_arg
 
 DEFAULT_OUT = Path("jaxroll-out") / "hydrostatics"
 
@@ -18,12 +19,13 @@ def register(subparsers) -> None:
             "Compute calm-water particulars, GZ curves and the GM variation ΔGM(ζ_mid) of a hull in a "
             "wave of length L with its crest or trough amidships (sinkage and trim balanced), fit the roll "
             "model's polynomials and write a ship file for `jaxroll pdf --ship FILE`. HULL is a hull "
-            "file (TOML, docs/hydrostatics.md) or the word `c11` for the shipped REPRESENTATIVE "
-            "C11-like hull."
+            "file (TOML, docs/hydrostatics.md), a closed STL surface (ascii or binary) or an offsets CSV "
+            "(docs/sgisc.md; sliced into stations, with --lpp, --units, --scale, --forward, --up), or the word "
+            "`c11` for the shipped REPRESENTATIVE C11-like hull."
         ),
     )
     add = p.add_argument
-    add("hull", metavar="HULL", help="hull file (TOML) or `c11`")
+    add("hull", metavar="HULL", help="hull file (TOML, STL, offsets CSV) or `c11`")
     g = p.add_mutually_exclusive_group()
     g.add_argument(
         "--kg", type=float, metavar="M", help="KG [m] above the baseline (default: the file's [loading])"
@@ -57,6 +59,7 @@ def register(subparsers) -> None:
     add("--n-heel", type=int, default=15, metavar="N", help="heels in [0, heel-max] (default: 15)")
     add("--wavelength", type=float, metavar="M", help="wave length λ [m] (default: Lpp)")
     add("--name", help="name of the ship in ship.toml")
+    add_hull_options(p)
     add(
         "--out",
         type=Path,
@@ -89,17 +92,17 @@ def _check_options(args) -> None:
             raise CLIError(f"{flag} must be at least {least} (the polynomial fits need them); got {value}.")
     if args.out.exists() and not args.out.is_dir():
         raise CLIError(f"--out {str(args.out)!r} exists and is not a folder.")
+    check_hull_options(args)
 
 
 def run(args) -> int:
     import jax.numpy as jnp
     import numpy as np
 
-    from ..io import loading_from_dict, read_hull_file, ship_to_dict, ship_to_toml
+    from ..io import hull_to_toml, loading_from_dict, ship_to_dict, ship_to_toml
     from ..plotting import plot_body_plan, plot_delta_gm, plot_gz_curves
     from ..ship import (
         C11_HULL_NOTE,
-        c11_hull_path as _c11_hull_path,
         c11_representative,
         default_heel_grid,
         default_zeta_grid,
@@ -111,11 +114,8 @@ def run(args) -> int:
     )
 
     _check_options(args)
-    is_c11 = args.hull.lower() == "c11"
-    path = _c11_hull_path() if is_c11 else Path(args.hull)
-    if not is_c11 and not path.is_file():
-        raise CLIError(f"hull file {str(path)!r} does not exist (give a TOML hull file, or `c11`).")
-    hull, file_loading = read_hull_file(path)
+    is_mesh = Path(args.hull).suffix.lower() in (".stl", ".csv")
+    hull, file_loading, is_c11 = read_hull_arg(args)
 
     for flag, value in (("--zeta-max", args.zeta_max), ("--heel-max-deg", args.heel_max_deg)):
         if not (math.isfinite(value) and value > 0):
@@ -202,7 +202,7 @@ def run(args) -> int:
             "command": "hydrostatics",
             "notes": notes,
             "config": {
-                "hull": "c11" if is_c11 else str(path),
+                "hull": "c11" if is_c11 else str(args.hull),
                 "kg_m": float(loading.kg),
                 "gm_requested_m": args.gm,
                 "displacement_kg": float(loading.displacement),
@@ -274,6 +274,8 @@ def run(args) -> int:
         }
         write_json(out / "hydrostatics.json", payload)
         atomic_write_text(out / "ship.toml", ship_to_toml(ship))
+        if is_mesh:  # the sliced offsets, to inspect and reuse as a TOML hull file
+            atomic_write_text(out / "hull.toml", hull_to_toml(hull, header=f"sliced from {args.hull}"))
 
     c = np.asarray(sol.delta_gm_coefficients)
     print(

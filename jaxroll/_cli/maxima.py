@@ -2,11 +2,21 @@
 
 from __future__ import annotations
 
+import math
 import time
 from pathlib import Path
 
-from ._common import CLIError, Progress, load_ship_arg, save_figure, write_json
-from ._sea import add_sea_options, build_problem, sea_config
+from ._common import (
+    CLIError,
+    OutputFolder,
+    Progress,
+    add_memory_option,
+    load_ship_arg,
+    memory_budget,
+    save_figure,
+    write_json,
+)
+from ._sea import add_sea_options, build_problem, heading_phrase, parse_heading, sea_config
 
 
 def register(sub) -> None:
@@ -24,7 +34,8 @@ def register(sub) -> None:
     m.add_argument("--discard", type=float, default=500.0, help="initial time left out [s] (500)")
     m.add_argument("--duration", type=float, default=None, help="simulated time per trial [s] (default: enough)")
     m.add_argument("--chunk-size", type=int, default=1000, help="trials per compiled batch")
-    m.add_argument("--theory", default="", help="comma-separated amplitude PDFs for P*: roberts,esam,moment")
+    add_memory_option(m)
+    m.add_argument("--theory", default="", help="comma-separated amplitude PDFs for P*: roberts,esam,moment,envelope_fpk")
     m.add_argument("--checkpoint", metavar="DIR", default=None,
                    help="save progress in DIR (one subfolder per trial group); a rerun resumes from it")
     p.add_argument("--out", default="jaxroll-out/maxima", help="output folder (default ./jaxroll-out/maxima)")
@@ -48,27 +59,34 @@ def run(args) -> int:
 
     from .. import max_pdf, max_pdf_asymptotic, monte_carlo_amplitudes, monte_carlo_maxima
     from ..plotting import maxima_comparison_figure, maxima_figures
-    from .pdf import parse_theories
+    from .pdf import check_out, parse_theories
 
     n0_all = parse_n0(args.n0)
     theories = parse_theories(args.theory)
     for name in ("realizations", "realizations_large", "chunk_size"):
         if getattr(args, name) < 1:
             raise CLIError(f"--{name.replace('_', '-')} must be >= 1; got {getattr(args, name)}.")
+    if not (math.isfinite(args.discard) and args.discard >= 0):
+        raise CLIError(f"--discard must be >= 0 [s]; got {args.discard:g}.")
+    if args.duration is not None and not (math.isfinite(args.duration) and args.duration > args.discard):
+        raise CLIError(f"--duration must exceed --discard ({args.discard:g} s); got {args.duration:g}.")
+    budget = memory_budget(args)
+    out = Path(args.out)
+    check_out(out)
     ship = load_ship_arg(args.ship)
     problem, fit, sea = build_problem(args, ship)
     groups = [(g, n) for g, n in (([v for v in n0_all if v < 10_000], args.realizations),
                                   ([v for v in n0_all if v >= 10_000], args.realizations_large)) if g]
-    out = Path(args.out)
     bins = np.arange(0.0, 90.0 + 1e-9, 1.0)
     centres = (bins[1:] + bins[:-1]) / 2
     grid_deg = np.linspace(0.0, 89.0, 891)
     per_n0: dict[str, dict] = {}
     amplitude_summaries = []
     t0 = time.time()
+    resumed = False
     # The per-cycle amplitude PDF of the same sea (zero-crossing, after the discard), for P*(A_M).
     amp = monte_carlo_amplitudes(problem, jax.random.key(args.seed), num_realizations=min(args.realizations, 2000),
-                                 duration=3600.0, discard=min(args.discard, 3000.0), chunk_size=args.chunk_size)
+                                 duration=3600.0, discard=min(args.discard, 3000.0), chunk_size=args.chunk_size, memory_budget=budget)
     mc_dist = amp.law("zero_crossing", pool=20)  # 1° bins: P* amplifies histogram noise
     laws = {}
     if theories:
@@ -77,16 +95,18 @@ def run(args) -> int:
         laws = theory_laws(problem, args, theories)  # per-half-cycle laws: what P* needs
     for n0s, n_trials in groups:
         print(f"maxima: N0 = {n0s}, {n_trials} trials, discard {args.discard} s")
+        group_checkpoint = (None if args.checkpoint is None
+                            else Path(args.checkpoint) / f"n0_{'_'.join(map(str, n0s))}")
+        if group_checkpoint is not None and (group_checkpoint / "checkpoint.npz").exists():
+            print(f"resuming N0 = {n0s} from the checkpoint in {group_checkpoint}")
+            resumed = True
         progress = Progress(n_trials, f"trials (N0 ≤ {max(n0s)})", enabled=None if not args.quiet else False)
         stats = monte_carlo_maxima(problem, jax.random.key(args.seed), n0=n0s, num_realizations=n_trials,
-                                   discard=args.discard, duration=args.duration, chunk_size=args.chunk_size,
+                                   discard=args.discard, duration=args.duration, chunk_size=args.chunk_size, memory_budget=budget,
                                    progress=progress,
-                                   checkpoint=None if args.checkpoint is None
-                                   else Path(args.checkpoint) / f"n0_{'_'.join(map(str, n0s))}")
+                                   checkpoint=group_checkpoint)
         amplitude_summaries.append({"n0": n0s, "n_trials": n_trials})
         for j, n0 in enumerate(stats.n0):
-            x = stats.maxima_deg[stats.valid(j), j]
-            hist, _ = np.histogram(x, bins=bins, density=True) if x.size else (np.zeros(bins.size - 1), None)
             a = np.deg2rad(grid_deg)
             curves = {"mcs_amplitudes": {
                 "exact": np.asarray(max_pdf(mc_dist, a, n0)) * np.pi / 180,
@@ -94,17 +114,10 @@ def run(args) -> int:
             for name, dist in laws.items():
                 curves[name] = {"exact": np.asarray(max_pdf(dist, a, n0)) * np.pi / 180,
                                 "asymptotic": np.asarray(max_pdf_asymptotic(dist, a, n0)) * np.pi / 180}
-            per_n0[str(n0)] = {
-                "n_trials": n_trials,
-                "n_valid": int(x.size),
-                "n_capsized_before": stats.n_capsized_before(j),
-                "n_incomplete": stats.n_incomplete(j),
-                "histogram_pdf_per_deg": hist,
-                "mean_deg": float(x.mean()) if x.size else float("nan"),
-                "quantiles_deg": {k: float(np.quantile(x, q)) if x.size else float("nan")
-                                  for k, q in (("50", 0.5), ("90", 0.9), ("99", 0.99))},
-                "curves": curves,
-            }
+            summary = stats.summary(j, bins)
+            summary["n_trials"] = n_trials
+            summary["p_exceed"] = {f"{x:g}": stats.exceedance_probability(j, x) for x in (20.0, 30.0, 40.0)}
+            per_n0[str(n0)] = {**summary, "curves": curves}
             if stats.n_incomplete(j):
                 print(f"warning: {stats.n_incomplete(j)} trials did not reach N0 = {n0} amplitudes; "
                       "increase --duration")
@@ -113,7 +126,11 @@ def run(args) -> int:
         "config": {**sea_config(args, ship), "n0": n0_all, "realizations": args.realizations,
                    "realizations_large": args.realizations_large, "discard_s": args.discard,
                    "duration_s": args.duration, "theory": theories,
-                   "amplitudes": "zero-crossing (per half cycle), the first N0 after the discard"},
+                   "amplitudes": "zero-crossing (per half cycle), the first N0 after the discard",
+                   "capsizes": "a trial that capsized before its N0-th amplitude counts as a maximum beyond the "
+                               "angle of vanishing stability: histogram_pdf_per_deg integrates to "
+                               "1 - capsize_probability (a defective distribution); quantiles above that mass "
+                               "are null"},
         "bins_deg": bins,
         "grid_deg": grid_deg,
         "per_n0": per_n0,
@@ -122,21 +139,30 @@ def run(args) -> int:
         f"({min(args.realizations, 2000)} × 3600 s, discard {min(args.discard, 3000.0)} s)",
         "theory_amplitude_laws": {
             name: f"{law.estimator} ({law.sampling}): the theory's time-sampled envelope law weighted by the rate of "
-            "half cycles Ω(A)/π at each amplitude"
+            + ("half cycles (ω + dψ/dt)/π of the averaged (amplitude, phase, wave-envelope) system"
+               if name == "envelope_fpk" else "half cycles Ω(A)/π at each amplitude")
             for name, law in laws.items()
         },
         "run_time_s": elapsed,
+        "resumed_from_checkpoint": resumed,
     }
-    fig_lin, fig_log = maxima_figures(centres, {int(k): v["histogram_pdf_per_deg"] for k, v in per_n0.items()},
-                                      title=f"{ship.name}: H1/3 = {args.hs:g} m, T01 = {args.t01:g} s")
-    save_figure(fig_lin, out / "maxima_linear.png")
-    save_figure(fig_log, out / "maxima_log.png")
+    title = f"{ship.name}: H1/3 = {args.hs:g} m, T01 = {args.t01:g} s, U = {args.speed:g} m/s, {heading_phrase(parse_heading(args.heading))}"
+    capsized = {int(k): v["capsize_probability"] for k, v in per_n0.items()}
+    with OutputFolder(out) as tmp:
+        fig_lin, fig_log = maxima_figures(centres, {int(k): v["histogram_pdf_per_deg"] for k, v in per_n0.items()},
+                                          title=title, capsize_probability=capsized)
+        save_figure(fig_lin, tmp / "maxima_linear.png")
+        save_figure(fig_log, tmp / "maxima_log.png")
+        for k, v in per_n0.items():
+            fig = maxima_comparison_figure(centres, v["histogram_pdf_per_deg"], grid_deg, v["curves"], int(k),
+                                           title=title, capsize_probability=v["capsize_probability"],
+                                           n_trials=v["n_known"])
+            save_figure(fig, tmp / f"maxima_N0_{k}.png")
+        write_json(tmp / "maxima.json", payload)
     for k, v in per_n0.items():
-        fig = maxima_comparison_figure(centres, v["histogram_pdf_per_deg"], grid_deg, v["curves"], int(k))
-        save_figure(fig, out / f"maxima_N0_{k}.png")
-    write_json(out / "maxima.json", payload)
-    for k, v in per_n0.items():
-        print(f"N0 = {k:>6}: mean max {v['mean_deg']:.2f}°, 99 % {v['quantiles_deg']['99']:.2f}° "
-              f"({v['n_valid']} trials, {v['n_capsized_before']} capsized before N0)")
-    print(f"done in {elapsed:.1f} s; wrote {out}/maxima_linear.png, maxima_log.png, maxima_N0_*.png, maxima.json")
+        mean = f"{v['mean_deg']:.2f}°" if v["mean_deg"] is not None else "∞ (capsizes)"
+        q99 = f"{v['quantiles_deg']['99']:.2f}°" if v["quantiles_deg"]["99"] is not None else "capsize"
+        print(f"N0 = {k:>6}: mean max {mean}, 99 % {q99} ({v['n_known']} trials, {v['n_capsized']} capsized "
+              f"before N0: P = {v['capsize_probability']:.3g}, counted as maxima beyond the vanishing angle)")
+    print(f"done in {elapsed:.1f} s{' (resumed from the checkpoint; this run only)' if resumed else ''}; wrote {out}/maxima_linear.png, maxima_log.png, maxima_N0_*.png, maxima.json")
     return 0

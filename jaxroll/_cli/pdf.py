@@ -6,10 +6,19 @@ import math
 import time
 from pathlib import Path
 
-from ._common import CLIError, Progress, atomic_write_text, load_ship_arg, save_figure, write_json
-from ._sea import add_sea_options, build_problem, check_positive, sea_config
+from ._common import (
+    CLIError,
+    Progress,
+    add_memory_option,
+    atomic_write_text,
+    load_ship_arg,
+    memory_budget,
+    save_figure,
+    write_json,
+)
+from ._sea import add_sea_options, build_problem, check_positive, heading_phrase, parse_heading, sea_config
 
-THEORIES = ("roberts", "esam", "moment")
+THEORIES = ("roberts", "esam", "moment", "envelope_fpk")
 
 
 def register(sub) -> None:
@@ -26,6 +35,7 @@ def register(sub) -> None:
     m.add_argument("--discard", type=float, default=0.0, help="initial transient left out of the PDFs [s] (0)")
     m.add_argument("--phi0-deg", type=float, default=5.0, help="initial roll angle [deg] (5)")
     m.add_argument("--chunk-size", type=int, default=1000, help="realizations per compiled batch (memory bound)")
+    add_memory_option(m)
     m.add_argument("--bin-width-deg", type=float, default=1.0, help="PDF bin width [deg] (1)")
     m.add_argument(
         "--theory",
@@ -126,6 +136,7 @@ def run(args) -> int:
         raise CLIError(f"--speed must be >= 0 [m/s] (use --heading for direction); got {args.speed}.")
     if args.method == "filter" and args.filter_order < 3:
         raise CLIError(f"--filter-order must be >= 3 (4 recommended); got {args.filter_order}.")
+    budget = memory_budget(args)
     out = Path(args.out)
     check_out(out)
     checkpoint_file = None
@@ -145,7 +156,7 @@ def run(args) -> int:
         print("Ship: C11 (representative) — Table-1 particulars, representative coefficients (see `jaxroll ship show`).")
     print(
         f"Monte Carlo: {args.realizations} realizations × {args.duration:g} s, dt {args.dt} s, "
-        f"H1/3 {args.hs} m, T01 {args.t01} s, {args.heading} seas, U {args.speed} m/s, method {args.method}"
+        f"H1/3 {args.hs} m, T01 {args.t01} s, {heading_phrase(parse_heading(args.heading))}, U {args.speed} m/s, method {args.method}"
     )
     earlier = 0.0
     resumed = checkpoint_file is not None and checkpoint_file.exists()
@@ -171,7 +182,7 @@ def run(args) -> int:
             num_realizations=args.realizations,
             duration=args.duration,
             discard=args.discard,
-            chunk_size=args.chunk_size,
+            chunk_size=args.chunk_size, memory_budget=budget,
             progress=progress,
             checkpoint=args.checkpoint,
         )

@@ -6,8 +6,17 @@ import math
 import time
 from pathlib import Path
 
-from ._common import CLIError, Progress, load_ship_arg, write_json
-from ._sea import add_sea_options, build_problem, check_positive, sea_config
+from ._common import (
+    CLIError,
+    OutputFolder,
+    Progress,
+    add_memory_option,
+    load_ship_arg,
+    memory_budget,
+    save_figure,
+    write_json,
+)
+from ._sea import add_sea_options, build_problem, check_positive, heading_phrase, parse_heading, sea_config
 
 
 def register(sub) -> None:
@@ -24,10 +33,16 @@ def register(sub) -> None:
     p.add_argument("--duration", type=float, default=3600.0, help="simulated time per trial [s] (3600)")
     p.add_argument("--discard", type=float, default=500.0, help="initial transient left out [s] (500)")
     p.add_argument("--chunk-size", type=int, default=1000, help="trials per compiled batch")
-    p.add_argument("--theory", default="", help="also from theory: roberts,esam,moment")
-    p.add_argument("--out", default="jaxroll-out/risk", help="output folder for risk.json")
+    add_memory_option(p)
+    p.add_argument("--theory", default="", help="also from theory: roberts,esam,moment,envelope_fpk")
+    p.add_argument("--out", default="jaxroll-out/risk", help="output folder for risk.json and risk.png")
     p.add_argument("--quiet", action="store_true", help="no progress display")
     p.set_defaults(func=run)
+
+
+def _deg(value) -> str:
+    """An angle for the terminal; None (a quantile beyond the vanishing angle) prints as 'capsize'."""
+    return "capsize" if value is None else f"{value:.1f}°"
 
 
 def _risk_dict(r) -> dict:
@@ -51,8 +66,15 @@ def run(args) -> int:
     import jax.numpy as jnp
     import numpy as np
 
-    from .. import exposure_risk, monte_carlo_amplitudes, monte_carlo_max_roll, vanishing_angle
-    from .pdf import parse_theories
+    from .. import (
+        exceedance_probability,
+        exposure_risk,
+        monte_carlo_amplitudes,
+        monte_carlo_max_roll,
+        vanishing_angle,
+    )
+    from ..plotting import risk_figure
+    from .pdf import check_out, parse_theories
 
     theories = parse_theories(args.theory)
     check_positive(args, "hours", "duration")
@@ -62,6 +84,9 @@ def run(args) -> int:
         raise CLIError(f"--realizations must be >= 1; got {args.realizations}.")
     if not (math.isfinite(args.discard) and 0 <= args.discard < args.duration):
         raise CLIError(f"--discard must be in [0, --duration) = [0, {args.duration:g}) s; got {args.discard:g}.")
+    budget = memory_budget(args)
+    out = Path(args.out)
+    check_out(out)
     ship = load_ship_arg(args.ship)
     vanishing_deg = math.degrees(float(vanishing_angle(ship)))
     if args.angle >= vanishing_deg:
@@ -75,7 +100,7 @@ def run(args) -> int:
     t0 = time.time()
     progress = Progress(args.realizations, "realizations", enabled=None if not args.quiet else False)
     stats = monte_carlo_amplitudes(problem, jax.random.key(args.seed), num_realizations=args.realizations,
-                                   duration=args.duration, discard=args.discard, chunk_size=args.chunk_size,
+                                   duration=args.duration, discard=args.discard, chunk_size=args.chunk_size, memory_budget=budget,
                                    progress=progress)
     counts = stats.counts_zero_crossing
     edges = stats.edges_deg
@@ -93,40 +118,66 @@ def run(args) -> int:
     # Direct estimate: trials as long as the exposure, no independence assumption between amplitudes.
     direct_stats = monte_carlo_max_roll(problem, jax.random.key(args.seed + 1), angle_deg=angle_used,
                                         num_realizations=args.realizations, duration=args.discard + exposure,
-                                        discard=args.discard, chunk_size=args.chunk_size)
-    largest = direct_stats.max_abs_phi_deg[~direct_stats.capsized]
+                                        discard=args.discard, chunk_size=args.chunk_size, memory_budget=budget)
+    # A capsized trial's largest roll is beyond the vanishing angle: +inf in the order statistics, never dropped.
+    largest = np.sort(np.where(direct_stats.capsized, np.inf, direct_stats.max_abs_phi_deg))
+    with np.errstate(invalid="ignore"):
+        largest_q = {k: float(np.quantile(largest, q)) for k, q in (("50", 0.5), ("90", 0.9), ("99", 0.99))}
     direct = {
         "probability": direct_stats.exceedance_probability(),
         "probability_ci95": list(direct_stats.exceedance_interval()),
         "capsize_probability": direct_stats.capsize_probability,
         "capsize_probability_ci95": list(direct_stats.capsize_interval()),
-        "largest_roll_quantiles_deg": {k: float(np.quantile(largest, q)) if largest.size else float("nan")
-                                       for k, q in (("50", 0.5), ("90", 0.9), ("99", 0.99))},
+        "n_capsized": direct_stats.n_capsized,
+        "largest_roll_quantiles_deg": {k: v if math.isfinite(v) else None for k, v in largest_q.items()},
         "n_realizations": direct_stats.n_realizations,
-        "method": "trials of the exposure's length after the discard; exceedance = max |φ| > angle or capsize",
+        "method": "trials of the exposure's length after the discard; exceedance = max |φ| > angle or capsize; "
+                  "a capsized trial's largest roll counts as beyond the angle of vanishing stability",
     }
+    if any(not math.isfinite(v) for v in largest_q.values()):
+        direct["largest_roll_quantiles_reason"] = (
+            f"null: beyond the angle of vanishing stability ({direct_stats.n_capsized} of "
+            f"{direct_stats.n_realizations} trials capsized)")
     result = {"direct": direct,
               "monte_carlo": {"angle_deg": angle_used, "rate_per_s": rate, "n_amplitudes": n_amp,
                               "n_exceed": n_exceed, **_risk_dict(mc),
-                              "method": "per-cycle amplitude distribution, amplitudes assumed independent"}}
+                              "n_capsized": stats.n_capsized, "n_realizations": stats.n_realizations,
+                              "method": "per-cycle amplitude distribution, amplitudes assumed independent; "
+                                        "the amplitudes of the trials that did not capsize (conditional on "
+                                        "survival: see direct.capsize_probability)"}}
+    # The risk curve P(max |φ| > x within the exposure) over x, for the figure and the JSON.
+    curve_deg = np.arange(0.0, math.floor(vanishing_deg) + 1e-9, 0.5)
+    curve_rad = jnp.deg2rad(curve_deg)
+    curves = {"monte_carlo": np.asarray(exceedance_probability(stats.law("zero_crossing"), curve_rad, rate=rate,
+                                                               duration=exposure))}
     if theories:
         from ._theory import theory_laws
 
         for name, tdist in theory_laws(problem, args, theories).items():
             result[name] = _risk_dict(exposure_risk(tdist, jnp.deg2rad(angle_used), rate=rate, duration=exposure))
+            curves[name] = np.asarray(exceedance_probability(tdist, curve_rad, rate=rate, duration=exposure))
+    direct_curve = np.mean(direct_stats.capsized[None, :]
+                           | (direct_stats.max_abs_phi_deg[None, :] > curve_deg[:, None]), axis=1)
+    result["curve"] = {"angle_deg": curve_deg, "direct": direct_curve, **curves}
     payload = {"config": {**sea_config(args, ship), "angle_deg": args.angle, "hours": args.hours,
                           "realizations": args.realizations, "duration_s": args.duration,
                           "discard_s": args.discard, "theory": theories,
                           "amplitudes": "zero-crossing, per half cycle; amplitudes assumed independent"},
                **result, "run_time_s": time.time() - t0}
-    write_json(Path(args.out) / "risk.json", payload)
+    title = (f"{ship.name}: H1/3 = {args.hs:g} m, T01 = {args.t01:g} s, U = {args.speed:g} m/s, "
+             f"{heading_phrase(parse_heading(args.heading))}; {args.realizations} trials")
+    with OutputFolder(out) as tmp:
+        fig = risk_figure(curve_deg, direct_curve, curves, angle_deg=angle_used, hours=args.hours,
+                          capsize_probability=direct_stats.capsize_probability, title=title)
+        save_figure(fig, tmp / "risk.png")
+        write_json(tmp / "risk.json", payload)
     m, d = result["monte_carlo"], result["direct"]
-    print(f"Sea: H1/3 {args.hs} m, T01 {args.t01} s, {args.heading} seas, U {args.speed} m/s; ship {ship.name}")
+    print(f"Sea: H1/3 {args.hs} m, T01 {args.t01} s, {heading_phrase(parse_heading(args.heading))}, U {args.speed} m/s; ship {ship.name}")
     print(f"Direct ({args.realizations} trials of {args.hours:g} h after {args.discard:g} s): "
           f"P(roll > {angle_used:g}° within {args.hours:g} h) = {d['probability']:.4f} "
           f"(95 % CI {d['probability_ci95'][0]:.4f}–{d['probability_ci95'][1]:.4f}); "
-          f"median largest roll {d['largest_roll_quantiles_deg']['50']:.1f}°, "
-          f"90 % {d['largest_roll_quantiles_deg']['90']:.1f}°; "
+          f"median largest roll {_deg(d['largest_roll_quantiles_deg']['50'])}, "
+          f"90 % {_deg(d['largest_roll_quantiles_deg']['90'])}; "
           f"P(capsize) = {d['capsize_probability']:.4f} "
           f"(95 % CI {d['capsize_probability_ci95'][0]:.4f}–{d['capsize_probability_ci95'][1]:.4f})")
     print(f"Independent amplitudes ({n_amp} amplitudes, {rate * 3600:.0f} per hour): "
@@ -136,5 +187,5 @@ def run(args) -> int:
     for name in theories:
         t = result[name]
         print(f"{name}: P = {t['probability']:.4f}, most probable largest {t['most_probable_largest_deg']:.1f}°")
-    print(f"wrote {Path(args.out) / 'risk.json'}")
+    print(f"wrote {out}/risk.json, risk.png")
     return 0

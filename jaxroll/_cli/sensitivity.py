@@ -7,8 +7,8 @@ import math
 import time
 from pathlib import Path
 
-from ._common import CLIError, Progress, load_ship_arg, save_figure, write_json
-from ._sea import add_sea_options, check_positive, sea_config
+from ._common import CLIError, OutputFolder, Progress, load_ship_arg, save_figure, write_json
+from ._sea import add_sea_options, check_positive, heading_for_api, parse_heading, sea_config
 
 THEORIES = ("roberts", "esam", "moment")
 DEFAULT_WRT = "gm_correction,b1,b2,gm0,hs"
@@ -155,6 +155,7 @@ def run(args) -> int:
 
     from .. import SENSITIVITY_PARAMETERS, monte_carlo_sensitivity, sensitivity_problem
     from ..plotting import sensitivity_bar_chart
+    from .pdf import check_out
 
     wrt = _names(args.wrt, tuple(SENSITIVITY_PARAMETERS), "--wrt")
     if not wrt:
@@ -168,14 +169,17 @@ def run(args) -> int:
         raise CLIError(f"--chunk-size must be >= 1; got {args.chunk_size}.")
     if not (math.isfinite(args.speed) and args.speed >= 0):
         raise CLIError(f"--speed must be >= 0 [m/s] (use --heading for direction); got {args.speed}.")
+    if not (math.isfinite(args.discard) and 0 <= args.discard < args.duration):
+        raise CLIError(f"--discard must be in [0, --duration) = [0, {args.duration:g}) s; got {args.discard:g}.")
+    out = Path(args.out)
+    check_out(out)
     ship = load_ship_arg(args.ship)
     problem_fn, params = sensitivity_problem(
-        ship, hs=args.hs, t01=args.t01, speed=args.speed, heading=args.heading, excitation=args.method,
+        ship, hs=args.hs, t01=args.t01, speed=args.speed, heading=heading_for_api(parse_heading(args.heading)), excitation=args.method,
         dt=args.dt, filter_order=args.filter_order, phi0=math.radians(args.phi0_deg),
     )  # fmt: skip
     if args.method != "filter" and any(p in ("hs", "t01", "speed") for p in wrt):
         raise CLIError("sea-parameter derivatives need the filter excitation (--method filter).")
-    out = Path(args.out)
     print(
         f"Sensitivities: {args.realizations} realizations × {args.duration:g} s (window {args.window:g} s, "
         f"burn-in {args.burn_in:g} s), H1/3 {args.hs} m, T01 {args.t01} s, U {args.speed} m/s; "
@@ -237,8 +241,9 @@ def run(args) -> int:
         "theory_time_s": theory_time,
     }
     title = f"{ship.name}: H1/3 = {args.hs:g} m, T01 = {args.t01:g} s, U = {args.speed:g} m/s, N = {args.realizations}"
-    save_figure(sensitivity_bar_chart(payload, title=title), out / "sensitivity.png")
-    write_json(out / "sensitivity.json", payload)
+    with OutputFolder(out) as tmp:
+        save_figure(sensitivity_bar_chart(payload, title=title), tmp / "sensitivity.png")
+        write_json(tmp / "sensitivity.json", payload)
 
     print(f"Monte Carlo done in {elapsed:.1f} s (capsized {res.n_capsized}); theories in {theory_time:.1f} s")
     for n, t in theory.items():

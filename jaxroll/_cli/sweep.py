@@ -1,4 +1,8 @@
-"""`jaxroll sweep`: capsize and angle-exceedance probability maps over H1/3 × T01 × speed × heading."""
+"""`jaxroll sweep`: capsize and angle-exceedance probability maps over H1/3 × T01 × speed × heading.
+
+Headings are degrees here (0° following, 90° beam, 180° head); with two or more headings and speeds the sweep
+also draws the polar risk chart (`jaxroll.plotting.sweep_polar_figure`) of every sea state.
+"""
 
 from __future__ import annotations
 
@@ -7,6 +11,7 @@ import time
 from pathlib import Path
 
 from ._common import CLIError, Progress, load_ship_arg, save_figure, write_json
+from ._sea import heading_for_api, heading_number, heading_phrase
 
 
 def register(sub) -> None:
@@ -16,13 +21,19 @@ def register(sub) -> None:
         description="For every sea state of the grid, runs a Monte Carlo of --realizations trials of "
         "--duration s "
         "and estimates P(capsize) and P(max |φ| > --angle within the duration), with Wilson confidence "
-        "intervals. Writes sweep.png and sweep.json into --out.",
+        "intervals. Writes sweep.png and sweep.json into --out, and sweep_polar.png (the polar risk chart: "
+        "probability over speed × heading for each sea state) when two or more headings and speeds are given.",
     )
     g = p.add_argument_group("grid (comma-separated lists; full scale)")
     g.add_argument("--hs", default="3,5,7", help="significant wave heights H1/3 [m] (default 3,5,7)")
     g.add_argument("--t01", default="8,10,12", help="mean wave periods T01 [s] (default 8,10,12)")
     g.add_argument("--speed", default="0", help="ship speeds [m/s] (default 0)")
-    g.add_argument("--heading", default="head", help="head, following or head,following (default head)")
+    g.add_argument(
+        "--heading",
+        default="head",
+        help="headings χ [deg] in [0, 180] (0 following, 90 beam, 180 head), or head / following; "
+        "e.g. 0,45,90,135,180 (default head)",
+    )
     g.add_argument(
         "--ship", metavar="FILE", default=None, help="ship file (TOML); default: C11 (representative)"
     )
@@ -75,12 +86,15 @@ def parse_list(text: str, option: str, *, minimum: float, strict: bool = True) -
     return sorted(set(values))
 
 
-def parse_headings(text: str) -> list[str]:
-    names = [h.strip().lower() for h in text.split(",") if h.strip()]
-    bad = sorted(set(names) - {"head", "following"})
-    if not names or bad:
-        raise CLIError(f"--heading must be head, following or head,following; got {text!r}.")
-    return sorted(set(names), key=names.index)
+def parse_headings(text: str) -> list[float]:
+    """Distinct headings χ [deg] in [0, 180] from 'head,following' or '0,45,90' (in the order given)."""
+    values = [heading_number(h) for h in text.split(",") if h.strip()]
+    if not values or None in values:
+        raise CLIError(
+            "--heading must be head, following or head,following, or angles in degrees in [0, 180] "
+            f"(0 following, 90 beam, 180 head); got {text!r}."
+        )
+    return sorted(set(values), key=values.index)
 
 
 def sweep_figure(payload: dict):
@@ -91,11 +105,17 @@ def sweep_figure(payload: dict):
     grid = payload["grid"]
     hs, t01 = np.asarray(grid["hs_m"]), np.asarray(grid["t01_s"])
     cases = [(h, u) for h in grid["heading"] for u in grid["speed_m_s"]]
+    phrase = dict(zip(grid["heading"], map(heading_phrase, payload["heading_deg"]), strict=True))
     angle = payload["config"]["angle_deg"]
     rows = (("capsize_probability", "P(capsize)"), ("exceedance_probability", f"P(max |φ| > {angle:g}°)"))
+    ncol = min(len(cases), 6)  # many (heading, speed) cases wrap onto further pairs of rows
+    blocks = -(-len(cases) // ncol)
     fig, axes = plt.subplots(
-        2, len(cases), figsize=(3.6 * len(cases) + 1.2, 6.4), squeeze=False, layout="constrained"
+        2 * blocks, ncol, figsize=(3.6 * ncol + 1.2, 6.4 * blocks), squeeze=False, layout="constrained"
     )
+    for c in range(len(cases), blocks * ncol):
+        axes[2 * (c // ncol), c % ncol].set_visible(False)
+        axes[2 * (c // ncol) + 1, c % ncol].set_visible(False)
 
     def edges(x):
         if x.size == 1:
@@ -107,7 +127,7 @@ def sweep_figure(payload: dict):
     for r, (name, label) in enumerate(rows):
         values = np.asarray(payload[name], float)
         for c, (h, u) in enumerate(cases):
-            ax = axes[r, c]
+            ax = axes[2 * (c // ncol) + r, c % ncol]
             z = values[grid["heading"].index(h), grid["speed_m_s"].index(u)]
             mesh = ax.pcolormesh(edges(t01), edges(hs), z, cmap="magma_r", vmin=0, vmax=1, shading="flat")
             if hs.size > 1 and t01.size > 1 and np.ptp(z) > 0:
@@ -124,7 +144,7 @@ def sweep_figure(payload: dict):
                         fontsize=7,
                         color="w" if z[i, j] > 0.5 else "k",
                     )
-            ax.set_title(f"{label}\n{h} seas, U = {u:g} m/s", fontsize=9)
+            ax.set_title(f"{label}\n{phrase[h]}, U = {u:g} m/s", fontsize=9)
             ax.set_xlabel("T01 [s]")
             ax.set_ylabel("H1/3 [m]")
     fig.colorbar(mesh, ax=axes, label="probability per trial", shrink=0.8)
@@ -187,11 +207,13 @@ def run(args) -> int:
     import numpy as np
 
     from .. import ITTC, EffectiveWave, check_time_step, ship_to_dict, sweep_sea_states, vanishing_angle
+    from ..plotting import sweep_polar_figure
 
     hs = parse_list(args.hs, "--hs", minimum=0)
     t01 = parse_list(args.t01, "--t01", minimum=0)
     speed = parse_list(args.speed, "--speed", minimum=0, strict=False)
-    heading = parse_headings(args.heading)
+    heading_deg = parse_headings(args.heading)
+    heading = [heading_for_api(d) for d in heading_deg]
     for name in ("realizations", "chunk_size"):
         if getattr(args, name) < 1:
             raise CLIError(f"--{name.replace('_', '-')} must be >= 1; got {getattr(args, name)}.")
@@ -261,6 +283,7 @@ def run(args) -> int:
     elapsed = time.time() - t0
     config = {
         "sea": {"spectrum": "ITTC"},
+        "heading_convention": "χ between the course and the wave direction: 0° following, 90° beam, 180° head",
         "ship": ship_to_dict(ship),
         "ship_file": args.ship,
         "angle_deg": args.angle,
@@ -290,6 +313,7 @@ def run(args) -> int:
         points.append(
             {
                 "heading": h,
+                "heading_deg": heading_deg[index[0]],
                 "speed_m_s": u,
                 "hs_m": height,
                 "t01_s": period,
@@ -304,6 +328,7 @@ def run(args) -> int:
     payload = {
         "config": config,
         "grid": {"axes": list(result.grid), **result.grid},
+        "heading_deg": heading_deg,
         "n_realizations": result.n_realizations,
         "n_capsized": result.n_capsized,
         "n_exceeded": result.n_exceeded,
@@ -320,11 +345,16 @@ def run(args) -> int:
         return 0
     out = Path(args.out)
     save_figure(sweep_figure(payload), out / "sweep.png")
+    polar = len(heading_deg) > 1 and len(speed) > 1
+    if polar:
+        save_figure(sweep_polar_figure(payload), out / "sweep_polar.png")
     write_json(out / "sweep.json", payload)
     w = points[int(np.argmax(result.capsize_probability))]
     print(
-        f"done in {elapsed:.1f} s: largest P(capsize) {w['capsize_probability']:.3f} at {w['heading']} seas, "
+        f"done in {elapsed:.1f} s: largest P(capsize) {w['capsize_probability']:.3f} in "
+        f"{heading_phrase(w['heading_deg'])}, "
         f"U {w['speed_m_s']:g} m/s, H1/3 {w['hs_m']:g} m, T01 {w['t01_s']:g} s"
     )
-    print(f"wrote {out / 'sweep.png'}, {out / 'sweep.json'}")
+    polar_note = f", {out / 'sweep_polar.png'}" if polar else ""
+    print(f"wrote {out / 'sweep.png'}{polar_note}, {out / 'sweep.json'}")
     return 0

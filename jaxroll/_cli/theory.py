@@ -1,4 +1,5 @@
-"""`jaxroll theory`: the theoretical amplitude PDFs alone (Roberts, ESAM, moment method), no Monte Carlo."""
+"""`jaxroll theory`: the theoretical amplitude PDFs alone (Roberts, ESAM, moment method, envelope FPK), no Monte
+Carlo."""
 
 from __future__ import annotations
 
@@ -11,9 +12,15 @@ from ._sea import add_sea_options, check_positive, sea_config
 
 
 def register(sub) -> None:
-    p = sub.add_parser("theory", help="theoretical roll-amplitude PDFs (Roberts, ESAM, moment method), in seconds")
+    p = sub.add_parser(
+        "theory", help="theoretical roll-amplitude PDFs (Roberts, ESAM, moment method, envelope FPK)"
+    )
     add_sea_options(p)
-    p.add_argument("--theory", default="roberts,esam,moment", help="comma-separated: roberts,esam,moment (all)")
+    p.add_argument(
+        "--theory",
+        default="roberts,esam,moment,envelope_fpk",
+        help="comma-separated: roberts,esam,moment,envelope_fpk (default: all)",
+    )
     p.add_argument("--bin-width-deg", type=float, default=1.0, help="PDF bin width [deg] (1)")
     p.add_argument("--out", default="jaxroll-out/theory", help="output folder (default ./jaxroll-out/theory)")
     p.set_defaults(func=run)
@@ -31,7 +38,7 @@ def run(args) -> int:
     # Check every option before the filter fit and the theories' compilation.
     names = parse_theories(args.theory)
     if not names:
-        raise CLIError("--theory: give at least one of roberts,esam,moment.")
+        raise CLIError("--theory: give at least one of roberts,esam,moment,envelope_fpk.")
     check_positive(args, "hs", "t01", "dt", "bin_width_deg")
     if not (math.isfinite(args.speed) and args.speed >= 0):
         raise CLIError(f"--speed must be >= 0 [m/s]; got {args.speed}.")
@@ -54,7 +61,7 @@ def run(args) -> int:
         save_figure(fig_log, tmp / "theory_log.png")
         write_json(tmp / "theory.json", payload)
     for name, t in theories.items():
-        print(f"{name:>8}: mean {t['mean_amplitude_deg']:.2f}°, 99 % {t['quantiles_deg']['99']:.2f}° "
+        print(f"{name:>12}: mean {t['mean_amplitude_deg']:.2f}°, 99 % {t['quantiles_deg']['99']:.2f}° "
               f"({t['time_s']:.2f} s)")
     print(f"wrote {out}/theory_linear.png, theory_log.png, theory.json")
     return 0

@@ -129,18 +129,45 @@ def _solve_stepwise(fn, theta0, args, max_steps, rtol, atol, stall_steps):
     return y, message, steps
 
 
-def _least_squares(fn, theta0, args, *, max_steps=200, rtol=1e-8, atol=1e-10, stall_steps=None):
+class FitFailure(ValueError):
+    """A fit whose model could not be evaluated (its ODE solver failed): the message says what to check."""
+
+
+#: What to check when the roll equation fails inside a fit.
+SOLVER_HINT = (
+    "Usually the record is not what the model can reproduce: check the roll unit (degrees labelled rad?), that "
+    "the roll stays well below the ship's angle of vanishing stability, and the ship's roll period; or start "
+    "the fit closer (initial damping)."
+)
+
+
+def _first_line(error: Exception) -> str:
+    """The user-facing line of a JAX/Equinox runtime error."""
+    text = str(error)
+    marker = "EquinoxRuntimeError: "
+    if marker in text:
+        text = text.split(marker, 1)[1]
+    return text.strip().splitlines()[0] if text.strip() else type(error).__name__
+
+
+def _least_squares(fn, theta0, args, *, max_steps=200, rtol=1e-8, atol=1e-10, stall_steps=None, hint=SOLVER_HINT):
     """Levenberg–Marquardt (optimistix, forward-mode Jacobian); returns θ̂, J(θ̂), residuals, info.
+
+    **Raises:** `FitFailure` (a `ValueError`, so the command line prints it and exits 2) when the model's ODE
+    solver fails during the fit, with `hint` saying what to check.
 
     `fn(theta, args)` should be a module-level function (or an `eqx.Module`) so that its compilation is reused
     between calls. With `stall_steps`, the solve also stops after that many rejected steps in a row."""
     theta0 = jnp.asarray(theta0, dtype=float)
-    if stall_steps is None:
-        theta, result, steps = _solve(fn, theta0, args, max_steps, rtol, atol)
-        msg = "" if result == optx.RESULTS.successful else str(optx.RESULTS[result])
-    else:
-        theta, msg, steps = _solve_stepwise(fn, theta0, args, max_steps, rtol, atol, stall_steps)
-    res, jac = _residual_and_jacobian(fn, theta, args)
+    try:
+        if stall_steps is None:
+            theta, result, steps = _solve(fn, theta0, args, max_steps, rtol, atol)
+            msg = "" if result == optx.RESULTS.successful else str(optx.RESULTS[result])
+        else:
+            theta, msg, steps = _solve_stepwise(fn, theta0, args, max_steps, rtol, atol, stall_steps)
+        res, jac = _residual_and_jacobian(fn, theta, args)
+    except eqx.EquinoxRuntimeError as e:
+        raise FitFailure(f"the roll equation could not be integrated during the fit ({_first_line(e)}). {hint}") from None
     r = np.asarray(res, dtype=float)
     j = np.asarray(jac, dtype=float).reshape(r.size, -1)
     n, p = j.shape

@@ -1,9 +1,22 @@
 """Every file format: tank records, ship files and hull files."""
 
 from ._hull_file import (
+    hull_to_toml as hull_to_toml,
     load_hull as load_hull,
     loading_from_dict as loading_from_dict,
     read_hull_file as read_hull_file,
+)
+from ._mesh import (
+    MeshError as MeshError,
+    ModelScaleError as ModelScaleError,
+    hull_from_triangles as hull_from_triangles,
+    read_hull as read_hull,
+    read_offsets_csv as read_offsets_csv,
+    read_stl as read_stl,
+    read_stl_hull as read_stl_hull,
+    triangulate_offsets as triangulate_offsets,
+    write_offsets_csv as write_offsets_csv,
+    write_stl as write_stl,
 )
 from ._records import (
     Record as Record,
@@ -16,6 +29,7 @@ from ._records import (
     save_record as save_record,
 )
 from ._ship_file import (
+    damping_source as damping_source,
     load_ship as load_ship,
     ship_from_dict as ship_from_dict,
     ship_to_dict as ship_to_dict,

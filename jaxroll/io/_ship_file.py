@@ -12,14 +12,30 @@ from typing import Any
 
 from ..ship._ship import _FIELDS, Ship, _parameter_tables, validate_ship
 
+DAMPING_SOURCE_KEY = "source"
+"""Optional text key of the `[damping]` table: where b1, b2, b3 come from (e.g. a decay test, the simplified
+Ikeda method). Older files without it remain valid; see docs/ship_file.md."""
 
-def ship_to_dict(ship: Ship) -> dict[str, Any]:
-    """The ship as the nested dictionary of its TOML file (SI units; see docs/ship_file.md)."""
+
+def ship_to_dict(ship: Ship, *, damping_source: str | None = None) -> dict[str, Any]:
+    """The ship as the nested dictionary of its TOML file (SI units; see docs/ship_file.md).
+
+    `damping_source`: text stored as `[damping] source` (where b1..b3 come from); None writes no such key.
+    """
     out: dict[str, Any] = {"name": ship.name}
     if ship.provenance:
         out["provenance"] = ship.provenance
     out.update(_parameter_tables(ship))
+    if damping_source is not None:
+        out["damping"] = {DAMPING_SOURCE_KEY: str(damping_source), **out["damping"]}
     return out
+
+
+def damping_source(data: dict[str, Any]) -> str | None:
+    """The `[damping] source` text of a ship file's dictionary, or None when the file does not say."""
+    table = data.get("damping") if isinstance(data, dict) else None
+    value = table.get(DAMPING_SOURCE_KEY) if isinstance(table, dict) else None
+    return None if value is None else str(value)
 
 
 def ship_from_dict(data: dict[str, Any], *, source: str = "<dict>") -> Ship:
@@ -41,7 +57,9 @@ def ship_from_dict(data: dict[str, Any], *, source: str = "<dict>") -> Ship:
             continue
         if not isinstance(table, dict):
             raise ValueError(f"{source}: [{section}] must be a table; got {type(table).__name__}.")
-        allowed = {k for s, k, *_ in _FIELDS if s == section}
+        allowed = {k for s, k, *_ in _FIELDS if s == section} | (
+            {DAMPING_SOURCE_KEY} if section == "damping" else set()
+        )
         extra = sorted(set(table) - allowed)
         if extra:
             raise ValueError(
@@ -62,10 +80,19 @@ def ship_from_dict(data: dict[str, Any], *, source: str = "<dict>") -> Ship:
             values[attr] = float(v)
     if missing:
         raise ValueError(f"{source}: missing field(s) {', '.join(missing)}. See docs/ship_file.md.")
+    provenance = str(data.get("provenance", f"ship file {source}"))
+    src = data.get("damping", {}).get(DAMPING_SOURCE_KEY)
+    if src is not None:
+        if not isinstance(src, str):
+            raise ValueError(
+                f"{source}: [damping] source must be text (where b1..b3 come from); got {src!r}."
+            )
+        if f"damping: {src}" not in provenance:
+            provenance = f"{provenance} [damping: {src}]".strip()
     ship = Ship(
         **values,
         name=str(data.get("name", Path(source).stem)),
-        provenance=str(data.get("provenance", f"ship file {source}")),
+        provenance=provenance,
     )
     validate_ship(ship)
     return ship
@@ -83,9 +110,9 @@ def load_ship(path: str | Path) -> Ship:
     return ship_from_dict(data, source=str(path))
 
 
-def ship_to_toml(ship: Ship) -> str:
-    """The ship file text (TOML) of `ship`."""
+def ship_to_toml(ship: Ship, *, damping_source: str | None = None) -> str:
+    """The ship file text (TOML) of `ship`; `damping_source` is written as `[damping] source` when given."""
     import tomli_w
 
     lines = ["# jaxroll ship file: SI units, full scale, radians. Format: docs/ship_file.md\n"]
-    return "".join(lines) + tomli_w.dumps(ship_to_dict(ship))
+    return "".join(lines) + tomli_w.dumps(ship_to_dict(ship, damping_source=damping_source))

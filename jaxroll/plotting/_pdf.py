@@ -13,8 +13,9 @@ from dataclasses import dataclass
 import matplotlib.pyplot as plt
 import numpy as np
 
-THEORY_COLOURS = {"roberts": "tab:blue", "esam": "gold", "moment": "purple"}
-THEORY_LABELS = {"roberts": "Roberts (SAM)", "esam": "ESAM", "moment": "moment method"}
+THEORY_COLOURS = {"roberts": "tab:blue", "esam": "gold", "moment": "purple", "envelope_fpk": "teal"}
+THEORY_LABELS = {"roberts": "Roberts (SAM)", "esam": "ESAM", "moment": "moment method",
+                 "envelope_fpk": "envelope FPK (coloured averaging)"}
 
 
 @dataclass
@@ -104,17 +105,22 @@ def amplitude_pdf_figures(summary: dict, *, experiment: dict | None = None, titl
     return figs[0], figs[1]
 
 
-def maxima_figures(centres_deg, histograms: dict, *, title: str | None = None):
-    """The paper's Figs. 12-13 analogue: Monte Carlo PDFs of the maximum amplitude, one curve per N0.
+def maxima_figures(centres_deg, histograms: dict, *, title: str | None = None, capsize_probability: dict | None = None):
+    """The paper's Figs. 12-13 analogue: Monte Carlo PDFs [1/deg] of the maximum amplitude, one curve per N0.
 
+    `capsize_probability` maps N0 to P(capsize before the N0-th amplitude) [-]: the histograms are then defective
+    (they integrate to 1 - P) and the legend says so.
     **Returns:** `(fig_linear, fig_log)`.
     """
+    capsize_probability = capsize_probability or {}
     figs = []
     for log in (False, True):
         fig, ax = plt.subplots(figsize=(6.0, 4.2))
         for n0, h in sorted(histograms.items()):
             h = np.asarray(h, float)
-            ax.plot(centres_deg, np.where(h > 0, h, np.nan) if log else h, "o-", ms=3, lw=0.8, label=f"N0 = {n0}")
+            p = capsize_probability.get(n0, 0.0)
+            label = f"N0 = {n0}" + (f" (P(capsize) = {p:.3g}: mass beyond the vanishing angle)" if p else "")
+            ax.plot(centres_deg, np.where(h > 0, h, np.nan) if log else h, "o-", ms=3, lw=0.8, label=label)
         ax.set_xlabel("maximum roll amplitude [deg]")
         ax.set_ylabel("probability density [1/deg]")
         if log:
@@ -127,10 +133,13 @@ def maxima_figures(centres_deg, histograms: dict, *, title: str | None = None):
     return figs[0], figs[1]
 
 
-def maxima_comparison_figure(centres_deg, histogram, grid_deg, curves: dict, n0: int):
+def maxima_comparison_figure(centres_deg, histogram, grid_deg, curves: dict, n0: int, *, title: str | None = None,
+                             capsize_probability: float = 0.0, n_trials: int | None = None):
     """The paper's Figs. 14-19 analogue: MCS maxima PDF (dots) vs P*(A_M), exact (solid) and asymptotic (dashed).
 
     `curves` maps a source ("mcs_amplitudes", "moment", "roberts", …) to {"exact": …, "asymptotic": …} [1/deg].
+    `title` names the ship and sea state; `capsize_probability` [-] (trials that capsized before N0, the
+    histogram's missing mass) and `n_trials` are stated on the figure.
     **Returns:** the figure (linear and log panels).
     """
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.2))
@@ -150,6 +159,11 @@ def maxima_comparison_figure(centres_deg, histogram, grid_deg, curves: dict, n0:
             peak = np.nanmax(h) if np.any(h > 0) else 1.0
             ax.set_ylim(peak * 1e-5, peak * 5)
         ax.grid(True, alpha=0.3)
-        ax.set_title(f"N0 = {n0}", fontsize=9)
+        head = f"N0 = {n0}" + (f", {n_trials} trials" if n_trials is not None else "")
+        if capsize_probability:
+            head += f"; P(capsize before N0) = {capsize_probability:.3g} (not in the dots)"
+        ax.set_title(head, fontsize=8)
     axes[0].legend(fontsize=7)
+    if title:
+        fig.suptitle(title, fontsize=9)
     return fig

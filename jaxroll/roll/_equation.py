@@ -66,6 +66,8 @@ def excitation_bandwidth(wave: EffectiveWave, fraction: float = 0.999) -> float:
     w = np.linspace(0.0, 6.0, 12001)
     s = np.asarray(wave.spectrum(w))
     cum = np.concatenate([[0.0], np.cumsum((s[1:] + s[:-1]) / 2 * np.diff(w))])
+    if not cum[-1] > 0:
+        return 0.0  # beam seas: ζ_G ≡ 0, no excitation bandwidth
     return float(np.interp(fraction * cum[-1], cum, w))
 
 
@@ -79,7 +81,7 @@ def check_time_step(dt: float, ship: Ship, wave: EffectiveWave) -> None:
     if not (isinstance(dt, int | float) and math.isfinite(dt) and dt > 0):
         raise ValueError(f"`dt` must be a finite number > 0 [s]; got {dt!r}.")
     t_roll = float(ship.roll_period)
-    w_max = excitation_bandwidth(wave)
+    w_max = max(excitation_bandwidth(wave), 1e-12)  # > 0 for the messages (beam seas have none)
     if dt > t_roll / 10 or w_max * dt > 1.0:
         raise ValueError(
             f"dt = {dt} s is too large: it must be <= Tφ/10 = {t_roll / 10:.3g} s and <= 1/ω_max = "
@@ -153,7 +155,7 @@ class RollProblem(eqx.Module):
         sea: AbstractWaveSpectrum,
         *,
         speed: float = 0.0,
-        heading: str = "head",
+        heading: str | float = "head",
         excitation: str = "filter",
         dt: float = 0.5,
         filter_order: int = 4,
@@ -166,7 +168,8 @@ class RollProblem(eqx.Module):
         **Arguments:**
 
         - `ship`: the roll model; `sea`: one-sided sea spectrum (`ITTC`, `JONSWAP`).
-        - `speed` [m/s]; `heading`: "head" | "following".
+        - `speed` [m/s]; `heading`: "head" | "following" | χ [rad] in [0, π] (0 following, π/2 beam, π head;
+          long-crested). In beam seas the projected wave number is 0: ζ_G ≡ 0 and the roll only decays.
         - `excitation`: "filter" (Method 2, the paper's for Monte Carlo: a shaping filter fitted once to S_G
           with extra weight at 2ω0, kept in `filter_fit` for the moment method) or "superposition" (Method 1).
         - `dt`: time step [s] (checked against the roll period and the excitation bandwidth).

@@ -118,7 +118,8 @@ def monte_carlo(
         )
     _check_duration(duration)
     num_steps = int(round(duration / problem.dt))
-    chunk_size = chunk_size_for_memory(chunk_size, num_steps, memory_budget)
+    chunk_size = chunk_size_for_memory(chunk_size, num_steps, memory_budget,
+                                      observer.bytes_per_realization(num_steps))
     summed, per = run_chunks(
         simulate_chunk,
         problem,

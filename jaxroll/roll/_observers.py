@@ -54,6 +54,12 @@ class AbstractObserver(eqx.Module):
     def result(self, summed: dict, per: dict, config: dict):
         """The host-side result (numpy) from the totals over all chunks."""
 
+    def bytes_per_realization(self, num_steps: int) -> int:
+        """Peak working memory of one realization of a compiled chunk [bytes] for `num_steps` steps, used to size
+        chunks to a memory budget. The default assumes the whole time series is kept (64 B per step, the
+        histogram observer's measured peak rounded up); observers that reduce step by step override it."""
+        return 64 * num_steps + 65_536
+
 
 class AmplitudeHistogram(AbstractObserver):
     """Zero-crossing (per half cycle) and envelope (per time sample) amplitude histograms after `discard` [s], on
@@ -139,6 +145,11 @@ class FirstMaxima(AbstractObserver):
     n0: tuple[int, ...] = (20, 50, 100, 1000)
     discard: float = 500.0
 
+    def bytes_per_realization(self, num_steps: int) -> int:
+        """Streaming: ~53 kB per realization measured at 72 000 steps (0.74 B per step), whatever the length;
+        bounded here by 2 B per step + 64 kB [bytes]."""
+        return 2 * num_steps + 65_536
+
     def init(self, problem, key):
         return _MaximaState(
             zero_crossing_init(problem.phi0), jnp.array(0), jnp.array(0.0), jnp.full(len(self.n0), -1.0)
@@ -179,6 +190,11 @@ class MaxRoll(AbstractObserver):
 
     angle_deg: float = 30.0
     discard: float = 0.0
+
+    def bytes_per_realization(self, num_steps: int) -> int:
+        """Streaming: ~53 kB per realization measured at 72 000 steps (0.74 B per step), whatever the length;
+        bounded here by 2 B per step + 64 kB [bytes]."""
+        return 2 * num_steps + 65_536
 
     def init(self, problem, key):
         return jnp.zeros(())

@@ -166,9 +166,10 @@ def _save_checkpoint(path: Path, fingerprint: dict, next_start: int, summed: dic
         raise
 
 
-#: Peak bytes per realization-step of a chunk (85 B measured for the histogram observer, docs/scaling.md),
-#: rounded up: the chunk of a memory budget is budget // (num_steps × this).
-BYTES_PER_REALIZATION_STEP = 128
+#: Peak bytes per realization-step of the histogram observer's chunk, measured (peak RSS, dt = 0.05 s, 3600 s,
+#: chunks of 100 and 200: 56 and 52 B; XLA's own estimate 41-46 B) and rounded up; observers state their own
+#: `bytes_per_realization` (benchmarks/memory.py).
+BYTES_PER_REALIZATION_STEP = 64
 
 
 def default_memory_budget(fraction: float = 0.25) -> float:
@@ -186,13 +187,16 @@ def default_memory_budget(fraction: float = 0.25) -> float:
         return fraction * 8 * 2**30
 
 
-def chunk_size_for_memory(chunk_size: int, num_steps: int, memory_budget: float | None) -> int:
-    """The largest chunk ≤ `chunk_size` whose peak memory (num_steps × BYTES_PER_REALIZATION_STEP per
-    realization) fits `memory_budget` [bytes] (None: `default_memory_budget()`); at least 1."""
+def chunk_size_for_memory(chunk_size: int, num_steps: int, memory_budget: float | None,
+                          bytes_per_realization: int | None = None) -> int:
+    """The largest chunk ≤ `chunk_size` whose peak memory fits `memory_budget` [bytes] (None:
+    `default_memory_budget()`): `bytes_per_realization` each (None: num_steps × BYTES_PER_REALIZATION_STEP,
+    the whole-series observers' figure); at least 1."""
     budget = default_memory_budget() if memory_budget is None else float(memory_budget)
     if not (budget > 0):
         raise ValueError(f"`memory_budget` must be > 0 [bytes]; got {memory_budget!r}.")
-    fit = int(budget // (max(num_steps, 1) * BYTES_PER_REALIZATION_STEP))
+    per = max(num_steps, 1) * BYTES_PER_REALIZATION_STEP if bytes_per_realization is None else bytes_per_realization
+    fit = int(budget // max(per, 1))
     return max(1, min(int(chunk_size), fit))
 
 

@@ -198,6 +198,8 @@ class MaximaStatistics(CapsizeCounts):
 
     `maxima_deg[i, j]` is trial i's maximum over its first `n0[j]` amplitudes after the discard, NaN where the
     trial capsized or ended before reaching n0[j] amplitudes (counted in `n_capsized_before`, `n_incomplete`).
+    A capsize before the n0[j]-th amplitude is a maximum beyond the angle of vanishing stability: `summary`,
+    `exceedance_probability` and `maxima_with_capsizes_deg` count it (a defective distribution), never drop it.
     `count` is the number of amplitudes each trial contributed (at most max(n0)).
     """
 
@@ -219,6 +221,73 @@ class MaximaStatistics(CapsizeCounts):
     def n_incomplete(self, j: int) -> int:
         """Trials that neither capsized nor reached n0[j] amplitudes (increase `duration`)."""
         return int(np.sum(~self.capsized & ~self.valid(j)))
+
+    def n_known(self, j: int) -> int:
+        """Trials whose maximum over n0[j] amplitudes is known: a finite maximum, or a capsize before (a maximum
+        beyond the angle of vanishing stability)."""
+        return int(np.sum(self.valid(j))) + self.n_capsized_before(j)
+
+    def maxima_with_capsizes_deg(self, j: int) -> np.ndarray:
+        """The known maxima [deg] with a capsize before the n0[j]-th amplitude as +inf (sorted)."""
+        x = self.maxima_deg[self.valid(j), j]
+        return np.sort(np.concatenate([x, np.full(self.n_capsized_before(j), np.inf)]))
+
+    def exceedance_probability(self, j: int, angle_deg: float) -> float:
+        """P(max of the first n0[j] amplitudes > `angle_deg`, or a capsize before them) [-], over the known
+        trials: the capsizes are the largest maxima and are counted, not dropped."""
+        n = self.n_known(j)
+        return float(np.sum(self.maxima_with_capsizes_deg(j) > angle_deg) / n) if n else float("nan")
+
+    def summary(self, j: int, bins_deg: np.ndarray, levels=QUANTILE_LEVELS) -> dict:
+        """JSON-ready statistics of the maximum over the first n0[j] amplitudes, as a *defective* distribution.
+
+        A trial that capsized before its n0[j]-th amplitude has a maximum beyond the angle of vanishing stability:
+        it is counted in every probability (`capsize_probability` is the missing mass). So the histogram density
+        [1/deg] integrates to 1 - capsize_probability; a quantile at a level above 1 - capsize_probability is
+        `None` ("capsize"); the mean is `None` when any trial capsized (infinite), with the survivors' mean beside
+        it. Incomplete trials (neither capsized nor reached n0[j] amplitudes) are unknown and left out.
+        """
+        n_cap, n_known = self.n_capsized_before(j), self.n_known(j)
+        x = self.maxima_deg[self.valid(j), j]
+        all_x = self.maxima_with_capsizes_deg(j)
+        hist = np.histogram(x, bins=bins_deg)[0] / (max(n_known, 1) * np.diff(bins_deg))
+        p_cap = n_cap / n_known if n_known else float("nan")
+        lo, hi = wilson_interval(n_cap, max(n_known, 1))
+        quantiles, reasons = {}, {}
+        for q in levels:
+            key = f"{100 * q:g}"
+            with np.errstate(invalid="ignore"):
+                value = float(np.quantile(all_x, q)) if n_known else float("nan")
+            quantiles[key] = value if np.isfinite(value) else None
+            if not n_known:
+                reasons[key] = "no trial reached N0 amplitudes"
+            elif not np.isfinite(value):
+                reasons[key] = (f"beyond the angle of vanishing stability: P(capsize before N0) = {p_cap:.3g} "
+                                f"exceeds 1 - {q:g}")
+        mean = float(x.mean()) if (x.size and not n_cap) else None
+        out = {
+            "n_trials": int(self.maxima_deg.shape[0]),
+            "n_known": n_known,
+            "n_valid": int(x.size),
+            "n_capsized": n_cap,
+            "n_capsized_before": n_cap,
+            "n_incomplete": self.n_incomplete(j),
+            "capsize_probability": p_cap,
+            "capsize_probability_ci95": [float(lo), float(hi)],
+            "histogram_pdf_per_deg": hist,
+            "histogram_mass": float(np.sum(hist * np.diff(bins_deg))),
+            "beyond_bins": int(np.sum(x > bins_deg[-1])),
+            "mean_deg": mean,
+            "mean_deg_given_no_capsize": float(x.mean()) if x.size else None,
+            "quantiles_deg": quantiles,
+        }
+        if mean is None:
+            out["mean_reason"] = ("infinite: trials capsized before N0 (their maximum is beyond the angle of "
+                                  "vanishing stability); see mean_deg_given_no_capsize" if n_cap
+                                  else "no trial reached N0 amplitudes")
+        if reasons:
+            out["quantiles_reason"] = reasons
+        return out
 
 
 @dataclass

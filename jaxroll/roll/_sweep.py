@@ -16,13 +16,26 @@ from pathlib import Path
 
 import numpy as np
 
-from ..sea._spectra import ITTC
+from ..sea._spectra import ITTC, heading_angle
 from ..ship._ship import Ship
 from ._equation import RollProblem
 from ._monte_carlo import monte_carlo_max_roll
 from ._statistics import SweepResult, wilson_interval
 
 HEADINGS = ("head", "following")
+
+
+def heading_label(heading: str | float) -> str:
+    """Name of a heading on the sweep's grid: "head" (χ = π), "following" (χ = 0), else e.g. "135deg".
+
+    **Raises:** `ValueError` for a heading `heading_angle` refuses.
+    """
+    chi = heading_angle(heading)
+    if chi == math.pi:
+        return "head"
+    if chi == 0.0:
+        return "following"
+    return f"{math.degrees(chi):g}deg"
 
 
 def point_label(heading: str, speed: float, hs: float, t01: float) -> str:
@@ -37,7 +50,7 @@ def sweep_sea_states(
     hs: Sequence[float],
     t01: Sequence[float],
     speed: Sequence[float] = (0.0,),
-    heading: Sequence[str] = ("head",),
+    heading: Sequence[str | float] = ("head",),
     angle_deg: float = 30.0,
     confidence: float = 0.95,
     num_realizations: int = 200,
@@ -57,16 +70,17 @@ def sweep_sea_states(
     Every grid point uses the same key (common random numbers: the same trial indices, hence smoother maps and
     sharper differences between neighbours) and its own problem from `RollProblem.from_sea`.
 
-    **Arguments:** `ship`; `key`; `hs` [m], `t01` [s], `speed` [m/s] and `heading` ("head" | "following"):
-    the grid; `angle_deg` [deg] and `confidence`: the exceedance angle and the interval level; the rest as in
+    **Arguments:** `ship`; `key`; `hs` [m], `t01` [s], `speed` [m/s] and `heading` ("head" | "following" |
+    χ [rad] in [0, π]: 0 following, π/2 beam, π head): the grid (the heading axis holds `heading_label`s); `angle_deg` [deg] and `confidence`: the exceedance angle and the interval level; the rest as in
     `monte_carlo_max_roll` and `RollProblem.from_sea`. `checkpoint`: a directory holding one sub-directory per grid
     point (`point_label`), so an interrupted sweep resumes at the point and chunk where it stopped.
     `progress` is called with the realizations done over the whole sweep.
 
     **Returns:** `SweepResult`.
     """
+    headings = {heading_label(h): h for h in heading}  # validates; the API value behind each label
     axes = {
-        "heading": [str(h) for h in heading],
+        "heading": [heading_label(h) for h in heading],
         "speed_m_s": [float(u) for u in speed],
         "hs_m": [float(h) for h in hs],
         "t01_s": [float(t) for t in t01],
@@ -77,25 +91,32 @@ def sweep_sea_states(
         if len(set(values)) != len(values):
             raise ValueError(f"`{name}` has repeated values: {values}.")
     wilson_interval(0, 1, confidence)  # validates `confidence` before any work
-    bad = sorted(set(axes["heading"]) - set(HEADINGS))
-    if bad:
-        raise ValueError(f"`heading` must be among {HEADINGS}; got {bad}.")
     shape = tuple(len(v) for v in axes.values())
     n_capsized = np.zeros(shape, np.int64)
     n_exceeded = np.zeros(shape, np.int64)
+    # Every grid point's problem (time-step check, filter fit and its gate) before any simulation, so that a sea
+    # state the model cannot represent stops the sweep at once, named.
+    problems = {}
+    for index in np.ndindex(*shape):
+        h, u, height, period = (values[i] for values, i in zip(axes.values(), index, strict=True))
+        try:
+            problems[index] = RollProblem.from_sea(
+                ship,
+                ITTC(height, period),
+                speed=u,
+                heading=headings[h],
+                excitation=excitation,
+                dt=dt,
+                filter_order=filter_order,
+                phi0=phi0,
+            )
+        except ValueError as e:
+            where = f"heading {h}, U {u:g} m/s, H1/3 {height:g} m, T01 {period:g} s"
+            raise ValueError(f"sea state ({where}): {e}") from e
     done = 0
     for index in np.ndindex(*shape):
         h, u, height, period = (values[i] for values, i in zip(axes.values(), index, strict=True))
-        problem = RollProblem.from_sea(
-            ship,
-            ITTC(height, period),
-            speed=u,
-            heading=h,
-            excitation=excitation,
-            dt=dt,
-            filter_order=filter_order,
-            phi0=phi0,
-        )
+        problem = problems[index]
         offset = done
         stats = monte_carlo_max_roll(
             problem,

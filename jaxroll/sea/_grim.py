@@ -5,6 +5,10 @@ crest amidships; its amplitude transfer function for a component of wave number 
 
     F(k) = (kL) sin(kL/2) / (π² − (kL/2)²),   F(2π/L) = 1.
 
+In an oblique long-crested sea of heading χ the profile along the ship's axis is a wave of number k|cos χ|, so the
+transfer is F(k|cos χ|): beam seas (cos χ = 0) give ζ_G ≡ 0, no parametric excitation in this model (the direct
+roll moment of oblique waves is not modelled).
+
 The roll model uses ζ_mid = −ζ_G (positive when a trough is amidships); see `jaxroll.delta_gm`.
 """
 
@@ -16,7 +20,14 @@ import jax.numpy as jnp
 import jax.random as jr
 from jaxtyping import Array, Float, PRNGKeyArray
 
-from ._spectra import GRAVITY, AbstractWaveSpectrum, spectral_moment, wave_frequencies_from_encounter
+from ._spectra import (
+    GRAVITY,
+    AbstractWaveSpectrum,
+    encounter_branches,
+    heading_angle,
+    heading_cosine,
+    spectral_moment,
+)
 
 
 def grim_transfer(k, length):
@@ -28,29 +39,50 @@ def grim_transfer(k, length):
 
 
 class EffectiveWave(eqx.Module):
-    """Grim's effective wave of a sea for a ship of length L at speed U, heading head/following."""
+    """Grim's effective wave of a long-crested sea for a ship of length L at speed U and heading χ."""
 
     sea: AbstractWaveSpectrum
     length: Float[Array, ""]
     speed: Float[Array, ""]
-    heading: str = eqx.field(static=True)
+    heading: Float[Array, ""]  # χ [rad]
+    cos_heading: Float[Array, ""]  # cos χ, exactly −1, 0, 1 for head, beam, following seas
+    following: bool = eqx.field(static=True)  # cos χ > 0: the encounter transform has up to three branches
+    # |cos χ| < 1: oblique or beam. Head and following seas skip the projection, so that they compile to exactly
+    # the computation they had before headings were angles (a shaping-filter fit is bitwise the same).
+    projected: bool = eqx.field(static=True)
 
-    def __init__(self, sea: AbstractWaveSpectrum, length, speed=0.0, heading: str = "head"):
+    def __init__(self, sea: AbstractWaveSpectrum, length, speed=0.0, heading: str | float = "head"):
         """**Arguments:** `sea`: one-sided sea spectrum; `length`: L = Lpp [m]; `speed`: U [m/s] ≥ 0;
-        `heading`: `"head"` or `"following"` (long-crested)."""
-        if heading not in ("head", "following"):
-            raise ValueError(f"`heading` must be 'head' or 'following'; got {heading!r}.")
+        `heading`: `"head"`, `"following"` or the angle χ [rad] in [0, π] between the ship's course and the
+        wave direction (0 following, π/2 beam, π head; long-crested)."""
+        chi, cos_chi = heading_angle(heading), heading_cosine(heading)  # validates
         self.sea = sea
         length = jnp.asarray(length, dtype=float)
         self.length = eqx.error_if(length, ~(length > 0), "ship length must be > 0 [m].")
         speed = jnp.asarray(speed, dtype=float)
-        self.speed = eqx.error_if(speed, ~(speed >= 0), "`speed` must be >= 0 [m/s]; use `heading` for direction.")
-        self.heading = heading
+        self.speed = eqx.error_if(
+            speed, ~(speed >= 0), "`speed` must be >= 0 [m/s]; use `heading` for direction."
+        )
+        self.heading = jnp.asarray(chi, dtype=float)
+        self.cos_heading = jnp.asarray(cos_chi, dtype=float)
+        self.following = cos_chi > 0
+        self.projected = abs(cos_chi) != 1.0
+
+    @property
+    def is_beam_sea(self) -> bool:
+        """True when cos χ = 0: the projected wave number, hence ζ_G and the parametric excitation, vanish."""
+        return float(self.cos_heading) == 0.0
 
     def spectrum(self, omega_e) -> Float[Array, "..."]:
-        """One-sided effective-wave spectrum S_G(ω_e) = Σ F(k)² S(ω)/|dω_e/dω| [m² s/rad] in encounter frequency."""
-        omegas, weights = wave_frequencies_from_encounter(omega_e, self.speed, self.heading)
-        f = grim_transfer(omegas**2 / GRAVITY, self.length)
+        """One-sided effective-wave spectrum S_G(ω_e) = Σ F(k|cos χ|)² S(ω)/|dω_e/dω| [m² s/rad] in encounter
+        frequency (k = ω²/g; zero in beam seas)."""
+        if self.projected:
+            projection = jnp.abs(self.cos_heading)
+            omegas, weights = encounter_branches(omega_e, self.speed * projection, self.following)
+            f = grim_transfer(omegas**2 / GRAVITY * projection, self.length)
+        else:
+            omegas, weights = encounter_branches(omega_e, self.speed, self.following)
+            f = grim_transfer(omegas**2 / GRAVITY, self.length)
         return jnp.sum(f**2 * self.sea(omegas) * weights, axis=-1)
 
     def variance(self) -> Float[Array, ""]:
@@ -101,4 +133,3 @@ def superpose(
     zeta = jnp.fft.irfft(coef, n=m)[:num_samples]
     dzeta = jnp.fft.irfft(1j * omega.astype(complex) * coef, n=m)[:num_samples]
     return zeta, dzeta
-

@@ -1,7 +1,7 @@
 """Sea spectra (one-sided, in angular frequency), spectral moments and the encounter-frequency transform.
 
 Conventions (docs/conventions.md): S(ω) [m² s/rad] is one-sided, ∫₀^∞ S dω = m0 = H1/3²/16; ω is the absolute
-wave frequency [rad/s]; deep water, k = ω²/g.
+wave frequency [rad/s]; deep water, k = ω²/g. Heading χ [rad]: 0 following seas, π/2 beam, π head seas.
 """
 
 from __future__ import annotations
@@ -132,35 +132,77 @@ def spectral_moment(spectrum, order: int) -> Float[Array, ""]:
     return jnp.sum(weight * omega**order * spectrum(omega))
 
 
-def encounter_frequency(omega, speed, heading: str = "head"):
-    """Encounter frequency ω_e [rad/s] of waves of frequency ω [rad/s] at ship speed U [m/s].
+# Headings: χ is the angle between the ship's course and the direction the waves travel (docs/conventions.md):
+# 0 following seas, π/2 beam seas (waves from starboard or port: long-crested, so the side does not matter here),
+# π head seas. Below this |cos χ| the sea counts as beam (cos(π/2) is 6e-17 in floating point, not 0).
+_BEAM_COS = 1e-12
+HEADING_NAMES = {"head": math.pi, "following": 0.0}
 
-    Head seas: ω_e = ω + ω²U/g. Following seas: ω_e = |ω − ω²U/g|.
+
+def heading_angle(heading) -> float:
+    """Heading χ [rad] in [0, π] from `"head"` (π), `"following"` (0) or an angle in radians.
+
+    **Raises:** `ValueError` for any other string, a non-finite angle or one outside [0, π].
     """
+    if isinstance(heading, str):
+        if heading in HEADING_NAMES:
+            return HEADING_NAMES[heading]
+    else:
+        try:
+            chi = float(heading)
+        except (TypeError, ValueError):
+            chi = math.nan
+        if 0.0 <= chi <= math.pi:
+            return chi
+    raise ValueError(
+        f"`heading` must be 'head' or 'following', or an angle χ in [0, π] rad (0 following, π/2 beam, π head); "
+        f"got {heading!r}."
+    )
+
+
+def heading_cosine(heading) -> float:
+    """cos χ [-] of a heading (`heading_angle`), exactly −1 for head, 1 for following and 0 for beam seas."""
+    c = math.cos(heading_angle(heading))
+    return 0.0 if abs(c) < _BEAM_COS else c
+
+
+def encounter_frequency(omega, speed, heading="head"):
+    """Encounter frequency ω_e [rad/s] of waves of frequency ω [rad/s] at ship speed U [m/s] and heading χ.
+
+    ω_e = |ω − ω²U cos χ/g| (deep water, k = ω²/g): head seas (χ = π, `"head"`) ω + ω²U/g; following seas
+    (χ = 0, `"following"`) |ω − ω²U/g|; beam seas ω. `heading`: `"head"`, `"following"` or χ [rad] in [0, π].
+    """
+    cos_chi = heading_cosine(heading)
     omega = jnp.asarray(omega, dtype=float)
-    shift = omega**2 * speed / GRAVITY
-    if heading == "head":
+    shift = omega**2 * (speed * abs(cos_chi)) / GRAVITY
+    if cos_chi <= 0:
         return omega + shift
-    if heading == "following":
-        return jnp.abs(omega - shift)
-    raise ValueError(f"`heading` must be 'head' or 'following'; got {heading!r}.")
+    return jnp.abs(omega - shift)
 
 
-def wave_frequencies_from_encounter(omega_e, speed, heading: str = "head"):
+def wave_frequencies_from_encounter(omega_e, speed, heading="head"):
     """All absolute wave frequencies ω ≥ 0 that meet the ship at encounter frequency ω_e.
+
+    Only the speed component along the wave direction, U|cos χ|, matters: head-going headings (χ ≥ π/2) have one
+    branch, following-going ones (χ < π/2) up to three. `heading`: `"head"`, `"following"` or χ [rad] in [0, π].
 
     **Returns:** `(omega, weight)`, each of shape `omega_e.shape + (3,)`: up to three branches (following seas);
     `weight` = 1/|dω_e/dω| for a valid branch and 0 otherwise (the Jacobian of the variance-preserving transform).
     """
-    omega_e = jnp.asarray(omega_e, dtype=float)
+    cos_chi = heading_cosine(heading)
     speed = jnp.asarray(speed, dtype=float)
-    if heading not in ("head", "following"):
-        raise ValueError(f"`heading` must be 'head' or 'following'; got {heading!r}.")
-    c = speed / GRAVITY  # [s²/m]
+    return encounter_branches(omega_e, speed if abs(cos_chi) == 1 else speed * abs(cos_chi), cos_chi > 0)
+
+
+def encounter_branches(omega_e, projected_speed, following: bool):
+    """`wave_frequencies_from_encounter` given the projected speed U|cos χ| [m/s] (an array, so that headings of one
+    kind share a compiled function) and whether the heading is following-type (cos χ > 0: up to three branches)."""
+    omega_e = jnp.asarray(omega_e, dtype=float)
+    c = projected_speed / GRAVITY  # [s²/m]
     small = c * jnp.maximum(omega_e, 1e-12) < 1e-9
     safe_c = jnp.where(small, 1.0, c)
     zero = jnp.zeros_like(omega_e)
-    if heading == "head":
+    if not following:
         # c ω² + ω − ω_e = 0 → ω = 2ω_e / (1 + √(1 + 4cω_e)) (stable for c → 0).
         w = 2 * omega_e / (1 + jnp.sqrt(1 + 4 * c * omega_e))
         jac = 1 / (1 + 2 * c * w)
@@ -179,13 +221,19 @@ def wave_frequencies_from_encounter(omega_e, speed, heading: str = "head"):
     jac = lambda w: 1 / jnp.maximum(jnp.abs(1 - 2 * c * w), 1e-12)
     omegas = jnp.stack([w1, jnp.where(valid_p, w2, 0.0), jnp.where(small, 0.0, w3)], -1)
     weights = jnp.stack(
-        [jnp.where(small | valid_p, jac(w1), 0.0), jnp.where(valid_p, jac(w2), 0.0), jnp.where(small, 0.0, jac(w3))],
+        [
+            jnp.where(small | valid_p, jac(w1), 0.0),
+            jnp.where(valid_p, jac(w2), 0.0),
+            jnp.where(small, 0.0, jac(w3)),
+        ],
         -1,
     )
     return omegas, weights
 
 
-def encounter_spectrum(spectrum: AbstractWaveSpectrum, omega_e, speed=0.0, heading: str = "head"):
-    """One-sided spectrum in encounter frequency S_e(ω_e) = Σ_branches S(ω)/|dω_e/dω| [m² s/rad] (variance kept)."""
+def encounter_spectrum(spectrum: AbstractWaveSpectrum, omega_e, speed=0.0, heading="head"):
+    """One-sided spectrum in encounter frequency S_e(ω_e) = Σ_branches S(ω)/|dω_e/dω| [m² s/rad] (variance kept).
+
+    `heading`: `"head"`, `"following"` or χ [rad] in [0, π] (long-crested; docs/conventions.md)."""
     omegas, weights = wave_frequencies_from_encounter(omega_e, speed, heading)
     return jnp.sum(spectrum(omegas) * weights, axis=-1)

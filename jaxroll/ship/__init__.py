@@ -28,6 +28,12 @@ from ._hydrostatics import (
     loading_condition as loading_condition,
     metacentric_height as metacentric_height,
 )
+from ._ikeda import (
+    IKEDA_SOURCE as IKEDA_SOURCE,
+    IkedaDamping as IkedaDamping,
+    ikeda_damping as ikeda_damping,
+    simplified_ikeda as simplified_ikeda,
+)
 from ._restoring import (
     delta_gm as delta_gm,
     parametric_excitation as parametric_excitation,

@@ -3,6 +3,7 @@
 Every theory returns an amplitude law (`jaxroll.AbstractAmplitudeLaw`, radians) of the estimator asked for:
 stochastic averaging (Roberts' SAM, energy-based ESAM) in `_averaging.py` with the parametric-excitation spectrum
 in `_excitation.py`; the moment method in `_moments.py`.
+Coloured-noise averaging (the envelope Fokker–Planck method) in `_envelope_fpk.py`.
 """
 
 # --- excitation spectrum S_P and stochastic averaging (Roberts' SAM, ESAM) ---
@@ -20,6 +21,15 @@ from ._averaging import (
     roberts_pdf as roberts_pdf,
     undamped_orbits as undamped_orbits,
 )
+from ._envelope_fpk import (  # coloured-noise averaging: the envelope Fokker–Planck method
+    envelope_fpk_pdf as envelope_fpk_pdf,
+    envelope_lyapunov_exponent as envelope_lyapunov_exponent,
+    fit_envelope as fit_envelope,
+)
+from ._envelope_fpk_law import (
+    EnvelopeExcitation as EnvelopeExcitation,
+    EnvelopeFPKLaw as EnvelopeFPKLaw,
+)
 from ._excitation import (
     ParametricSpectrum as ParametricSpectrum,
     hermite_coefficients as hermite_coefficients,
@@ -27,6 +37,7 @@ from ._excitation import (
     parametric_spectrum as parametric_spectrum,
     welch_parametric_spectrum as welch_parametric_spectrum,
 )
+from ._moment_branch import MomentBranch as MomentBranch, moment_branch as moment_branch
 
 # --- moment equations ---
 from ._moment_equations import (

@@ -144,7 +144,7 @@ def parametric_spectrum(
     r_zeta = jnp.real(jnp.fft.ifft(s_two)) * num * domega
     variance = r_zeta[0]
     sigma = jnp.sqrt(variance)
-    rho = r_zeta / variance
+    rho = r_zeta / jnp.where(variance > 0, variance, 1.0)  # beam seas: ζ_G ≡ 0, no 0/0
     hermite = hermite_coefficients(ship.delta_gm, sigma)
     scale = ship.gm_correction * ship.omega0**2 / ship.gm0
     r_p = scale**2 * hermite_covariance(hermite, rho)

@@ -302,6 +302,27 @@ class _Levels:
     coef: np.ndarray
 
 
+class _TableArrays(eqx.Module):
+    """The numeric tables of `_Tables` (NumPy arrays), passed to compiled programs as *arguments*, not constants.
+
+    As arguments they keep the traced program small (its size does not grow with the number of terms), so it
+    compiles in seconds, is shared by every structure with the same table shapes, and goes into JAX's
+    persistent compilation cache.
+    """
+
+    levels: tuple[tuple[np.ndarray, ...], ...]  # per group of orders: (idx, tgt, kap, mom, coef)
+    kind: np.ndarray
+    unknowns: np.ndarray
+    gauss_cov_idx: np.ndarray
+    gauss_pairs: np.ndarray
+    rhs_tgt: np.ndarray
+    rhs_cid: np.ndarray
+    rhs_mult: np.ndarray
+    rhs_src: np.ndarray
+    drift_powers: np.ndarray
+    noise_pairs: np.ndarray
+
+
 @dataclasses.dataclass(frozen=True, eq=False)
 class _Tables:
     """Index tables of the moment equations of one SDE structure and closure order (hashed by identity)."""
@@ -314,7 +335,7 @@ class _Tables:
     index: dict
     unknowns: np.ndarray  # table indices of the unknown moments
     kind: np.ndarray  # 0 constant, 1 unknown, 2 Gaussian block, 3 closure (order > N)
-    levels: tuple[_Levels, ...]  # consecutive groups of orders, each padded to its own width
+    levels: tuple[_Levels, ...]  # the orders, padded to a common width (one group: one scan)
     gauss_cov_idx: np.ndarray  # table index of z_a z_b for the Gaussian block (a ≤ b), and (a, b)
     gauss_pairs: np.ndarray
     rhs_tgt: np.ndarray  # generator terms: unknown index, coefficient id, multiplier, source table index
@@ -324,6 +345,23 @@ class _Tables:
     drift_powers: np.ndarray
     noise_pairs: np.ndarray  # (n_pairs, 2) noise-term indices with the same Wiener process
     scale_index: int  # table index of x_s²
+
+    @functools.cached_property
+    def arrays(self) -> _TableArrays:
+        """The numeric tables, to pass into a compiled program as an argument."""
+        return _TableArrays(
+            levels=tuple((lv.idx, lv.tgt, lv.kap, lv.mom, lv.coef) for lv in self.levels),
+            kind=self.kind,
+            unknowns=self.unknowns,
+            gauss_cov_idx=self.gauss_cov_idx,
+            gauss_pairs=self.gauss_pairs,
+            rhs_tgt=self.rhs_tgt,
+            rhs_cid=self.rhs_cid,
+            rhs_mult=self.rhs_mult,
+            rhs_src=self.rhs_src,
+            drift_powers=self.drift_powers,
+            noise_pairs=self.noise_pairs,
+        )
 
 
 def _recursion_terms(beta: Monomial, order: int, even, gauss_only):
@@ -452,17 +490,15 @@ def _build_tables(structure, order: int, extra: tuple[Monomial, ...]) -> _Tables
             coef=np.stack([pad(r[4], n_terms, 0.0, float) for r in rs]),
         )
 
-    # split the orders into ≤ 3 consecutive groups (one scan each) minimising the padded work
+    # split the orders into ≤ 2 consecutive groups (one scan each) minimising the padded work: each scan body
+    # costs compile time (3 groups compiled ~2.6x slower than 1), padding costs run time (1 group: 2.3x the
+    # work of 3 at order 6, 2 groups: 1.2x)
     sizes = [max(len(r[1]), 1) + len(r[0]) for r in rows]
-    best, splits = None, None
     n_rows = len(rows)
-    for a in range(1, n_rows + 1):
-        for b in range(a, n_rows + 1):
-            parts = [(0, a), (a, b), (b, n_rows)]
-            used = [(i, j) for i, j in parts if j > i]
-            cost = sum((j - i) * max(sizes[i:j]) for i, j in used) + 2000 * len(used)
-            if best is None or cost < best:
-                best, splits = cost, used
+    splits = min(
+        ([(0, a), (a, n_rows)] if 0 < a < n_rows else [(0, n_rows)] for a in range(n_rows)),
+        key=lambda parts: sum((j - i) * max(sizes[i:j]) for i, j in parts) + 2000 * len(parts),
+    )
     levels = tuple(group(rows[i:j]) for i, j in splits)
     gl = list(gaussian)
     gpairs = [(a, b) for a in range(len(gl)) for b in range(a, len(gl))]
@@ -513,17 +549,18 @@ def _gaussian_covariance(sde: PolynomialSDE) -> Float[Array, "g g"]:
     return lyapunov(a, b @ b.T)
 
 
-def _complete(tables: _Tables, m_given, k_given, moment_given):
+def _complete(tables: _Tables, arr: _TableArrays, m_given, k_given, moment_given):
     """All table moments and cumulants from given moments (where `moment_given`), given cumulants elsewhere.
 
     Level by level in total order (a `lax.scan`): S = Σ_{γ≠β} C κ_γ m_{β−γ}; then κ_β = m_β − S (moment given)
-    or m_β = κ_β + S (cumulant given).
+    or m_β = κ_β + S (cumulant given). `arr` is `tables.arrays` (passed as an argument of the compiled
+    program).
     """
     given = jnp.concatenate([jnp.asarray(moment_given, dtype=bool), jnp.zeros(1, bool)])
     m = jnp.concatenate([m_given, jnp.zeros(1)])
     k = jnp.concatenate([k_given, jnp.zeros(1)])
-    for lv in tables.levels:
-        width = lv.idx.shape[1]
+    for rows in arr.levels:
+        width = rows[0].shape[1]
 
         def body(carry, row, width=width):
             m, k = carry
@@ -534,41 +571,39 @@ def _complete(tables: _Tables, m_given, k_given, moment_given):
             kk = jnp.where(g, m[idx] - s, k[idx])
             return (m.at[idx].set(mk), k.at[idx].set(kk)), None
 
-        rows = (lv.idx, lv.tgt, lv.kap, lv.mom, lv.coef)
         (m, k), _ = jax.lax.scan(body, (m, k), rows)
     return m[:-1], k[:-1]
 
 
-def _base_cumulants(tables: _Tables, sde: PolynomialSDE):
+def _base_cumulants(tables: _Tables, arr: _TableArrays, sde: PolynomialSDE):
     """Known cumulants: the Gaussian block's covariance at its second-order monomials, zero elsewhere."""
     k = jnp.zeros(len(tables.monomials))
     if tables.gauss_cov_idx.size:
         cov = _gaussian_covariance(sde)
-        k = k.at[tables.gauss_cov_idx].set(cov[tables.gauss_pairs[:, 0], tables.gauss_pairs[:, 1]])
+        k = k.at[arr.gauss_cov_idx].set(cov[arr.gauss_pairs[:, 0], arr.gauss_pairs[:, 1]])
     return k
 
 
-def _full_moments(tables: _Tables, sde: PolynomialSDE, unknown_values, base_kappa=None):
+def _full_moments(tables: _Tables, arr: _TableArrays, sde: PolynomialSDE, unknown_values, base_kappa=None):
     if base_kappa is None:
-        base_kappa = _base_cumulants(tables, sde)
-    m = jnp.zeros(len(tables.monomials)).at[0].set(1.0).at[tables.unknowns].set(unknown_values)
-    return _complete(tables, m, base_kappa, tables.kind == 1)
+        base_kappa = _base_cumulants(tables, arr, sde)
+    m = jnp.zeros(len(tables.monomials)).at[0].set(1.0).at[arr.unknowns].set(unknown_values)
+    return _complete(tables, arr, m, base_kappa, arr.kind == 1)
 
 
-def _rhs(tables: _Tables, sde: PolynomialSDE, unknown_values, base_kappa):
-    m, _ = _full_moments(tables, sde, unknown_values, base_kappa)
+def _rhs(tables: _Tables, arr: _TableArrays, sde: PolynomialSDE, unknown_values, base_kappa):
+    m, _ = _full_moments(tables, arr, sde, unknown_values, base_kappa)
     s2 = jnp.maximum(m[tables.scale_index], 1e-300)
-    theta_d = sde.drift_coefficients * s2 ** jnp.asarray(tables.drift_powers)
+    theta_d = sde.drift_coefficients * s2 ** jnp.asarray(arr.drift_powers)
     if tables.noise_pairs.size:
         theta_n = (
-            sde.noise_coefficients[tables.noise_pairs[:, 0]]
-            * sde.noise_coefficients[tables.noise_pairs[:, 1]]
+            sde.noise_coefficients[arr.noise_pairs[:, 0]] * sde.noise_coefficients[arr.noise_pairs[:, 1]]
         )
         theta = jnp.concatenate([theta_d, theta_n])
     else:
         theta = theta_d
-    contrib = tables.rhs_mult * theta[tables.rhs_cid] * m[tables.rhs_src]
-    return jax.ops.segment_sum(contrib, tables.rhs_tgt, num_segments=tables.unknowns.size)
+    contrib = arr.rhs_mult * theta[arr.rhs_cid] * m[arr.rhs_src]
+    return jax.ops.segment_sum(contrib, arr.rhs_tgt, num_segments=tables.unknowns.size)
 
 
 class MomentEquations(eqx.Module):
@@ -608,22 +643,22 @@ class MomentEquations(eqx.Module):
 
     def rhs(self, sde: PolynomialSDE, m: Float[Array, " unknowns"]) -> Float[Array, " unknowns"]:
         """dm/dt for the unknown moments `m` (in the order of `unknowns`)."""
-        return _rhs_jit(self.tables, sde, m)
+        return _rhs_jit(self.tables, self.tables.arrays, sde, m)
 
     def complete(self, sde: PolynomialSDE, m: Float[Array, " unknowns"]) -> dict[Monomial, Array]:
         """Every tabulated moment (unknowns, Gaussian block, closure) from the unknowns `m`."""
-        full = _full_jit(self.tables, sde, m)
+        full = _full_jit(self.tables, self.tables.arrays, sde, m)
         return {b: full[i] for i, b in enumerate(self.tables.monomials)}
 
 
 @eqx.filter_jit
-def _rhs_jit(tables: _Tables, sde: PolynomialSDE, m):
-    return _rhs(tables, sde, m, _base_cumulants(tables, sde))
+def _rhs_jit(tables: _Tables, arr: _TableArrays, sde: PolynomialSDE, m):
+    return _rhs(tables, arr, sde, m, _base_cumulants(tables, arr, sde))
 
 
 @eqx.filter_jit
-def _full_jit(tables: _Tables, sde: PolynomialSDE, m):
-    return _full_moments(tables, sde, m)[0]
+def _full_jit(tables: _Tables, arr: _TableArrays, sde: PolynomialSDE, m):
+    return _full_moments(tables, arr, sde, m)[0]
 
 
 def _extra_monomials(dim: int, symmetric: tuple[int, ...]) -> tuple[Monomial, ...]:
@@ -644,11 +679,12 @@ def moment_equations(sde: PolynomialSDE, closure_order: int) -> MomentEquations:
     """Generate the moment equations of `sde` with cumulant-neglect closure of order `closure_order` (≥ 2)."""
     if not (isinstance(closure_order, int) and closure_order >= 2):
         raise ValueError(f"`closure_order` must be an integer >= 2; got {closure_order!r}.")
+    from ._moment_cache import cached_tables  # the tables, generated once (memory, then disk when cached)
+
     extra = _extra_monomials(sde.dim, sde.symmetric)
-    return MomentEquations(_build_tables(sde._structure(), closure_order, extra))
+    return MomentEquations(cached_tables(sde._structure(), closure_order, extra))
 
 
 # ============================================================================================================
 # Stationary moments: relax (diffrax Tsit5), polish (optimistix Newton), check
 # ============================================================================================================
-

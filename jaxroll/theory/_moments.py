@@ -3,6 +3,7 @@ and the user entry points `roll_moments`, `moment_pdf`, `moment_pdf_first_stable
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import equinox as eqx
@@ -19,7 +20,7 @@ from ..sea._grim import EffectiveWave
 from ..ship._ship import Ship
 from ._averaging import _harmonic_frequency2
 from ._moment_equations import roll_sde
-from ._moment_solver import RESULTS, StationaryMoments, stationary_moments
+from ._moment_solver import RESULTS, StationaryMoments, raise_if_failed, stationary_moments
 
 # ============================================================================================================
 # Amplitude family p(A) = C A^ν exp(−c2 A − c3 A²): quadrature, fit, statistics
@@ -236,6 +237,7 @@ class MomentSolution(AbstractAmplitudeLaw):
     damping: str = eqx.field(static=True)
     envelope: str = eqx.field(static=True)
     estimator: str = eqx.field(static=True)
+    requested_closure_order: int | None = eqx.field(static=True, default=None)
 
     def _logpdf(self, a):
         return self.law._logpdf(a)
@@ -271,11 +273,18 @@ class MomentSolution(AbstractAmplitudeLaw):
         """E[φ̇²] [rad²/s²]."""
         return self._phi(0, 2)
 
+    @property
+    def closure_fallback(self) -> bool:
+        """True when `moment_pdf_first_stable` used a lower closure order than the first one asked for."""
+        return self.requested_closure_order is not None and self.requested_closure_order != self.closure_order
+
     def details(self) -> dict:
         """The method's own numbers for JSON (closure, moments, fitted family; radians)."""
         return {
             "method": "moment method (cumulant neglect)",
             "closure_order": self.closure_order,
+            "requested_closure_order": self.requested_closure_order or self.closure_order,
+            "closure_fallback": self.closure_fallback,
             "filter_order": self.filter_order,
             "damping_closure": self.damping,
             "envelope": self.envelope,
@@ -321,7 +330,9 @@ def _shaping_filter(ship: Ship, wave, shaping_filter, filter_order: int) -> Shap
         if isinstance(shaping_filter, FilterFit):
             shaping_filter = shaping_filter.filter
         if not isinstance(shaping_filter, ShapingFilter):
-            raise TypeError(f"`shaping_filter` must be a ShapingFilter or FilterFit; got {type(shaping_filter).__name__}.")
+            raise TypeError(
+                f"`shaping_filter` must be a ShapingFilter or FilterFit; got {type(shaping_filter).__name__}."
+            )
         return shaping_filter
     if not isinstance(wave, EffectiveWave):
         raise TypeError(
@@ -433,7 +444,7 @@ def moment_pdf(
         RESULTS.where(fit_ok, RESULTS.successful, RESULTS.fit_failed),
     )
     if throw:
-        family = result.error_if(family, result != RESULTS.successful)
+        family = raise_if_failed(result, family)
     law = _tabulated_law(family, ship, estimator)
     return MomentSolution(
         mom, amp, family, law, res, result, closure_order, filter_order, damping, envelope, estimator
@@ -447,24 +458,34 @@ def _amplitude_law(mom: StationaryMoments, omega0, envelope: str):
     return amp, family, res, fit_result
 
 
-def moment_pdf_first_stable(ship: Ship, wave, *, filter_order: int = 4, closure_orders=(6, 4), **kwargs) -> MomentSolution:
+def moment_pdf_first_stable(
+    ship: Ship, wave, *, filter_order: int = 4, closure_orders=(6, 4), **kwargs
+) -> MomentSolution:
     """`moment_pdf` at the first closure order in `closure_orders` that has a stable non-trivial fixed point.
 
     Order 6 is the more accurate on the default ship at H1/3 = 7 m, but its branch of fixed points ends near
-    H1/3 ≈ 6.3 m (docs/theory.md); order 4 exists there. The order used is `result.closure_order`, and a
-    `UserWarning` says when a fallback was taken.
+    H1/3 ≈ 6.26 m (docs/theory.md; `moment_branch` locates the fold); order 4 exists there. The order used is
+    `result.closure_order`, the one asked for `result.requested_closure_order`, `details()` records both
+    (`closure_fallback`), and a `UserWarning` says when a fallback was taken. The result is discontinuous
+    across the switch, so no derivative is offered across it: under `jax.grad`/`jit`/`vmap` only the first
+    order is tried (differentiate `moment_pdf` at the order chosen at the nominal point).
 
-    **Raises:** the last order's error when none of them has a stable solution.
+    **Raises:** the last order's error when none of them has a stable solution (the first order's when traced).
     """
     import warnings
 
+    from ._moment_cache import is_concrete
+
     error = None
     for i, order in enumerate(closure_orders):
+        if i > 0 and not is_concrete((ship, wave, kwargs.get("shaping_filter"))):
+            raise error  # traced: never switch closure inside a derivative (the law jumps there)
         try:
             out = moment_pdf(ship, wave, filter_order=filter_order, closure_order=order, **kwargs)
         except (ValueError, RuntimeError) as e:
             error = e
             continue
+        out = dataclasses.replace(out, requested_closure_order=closure_orders[0])
         if i > 0:
             warnings.warn(
                 f"moment method: closure order {closure_orders[0]} has no stable solution here "
@@ -483,4 +504,3 @@ def _first_message(error: Exception) -> str:
     if marker in text:
         text = text.split(marker, 1)[1]
     return text.strip().splitlines()[0] if text.strip() else type(error).__name__
-

@@ -1,0 +1,376 @@
+"""`jaxroll sgisc HULL`: IMO parametric-roll vulnerability (MSC.1/Circ.1627 2.5) of a loading condition."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+from ._common import CLIError, OutputFolder, atomic_write_text, save_figure, write_json
+
+DEFAULT_OUT = Path("jaxroll-out") / "sgisc"
+MESH_UNITS = ("m", "mm", "cm", "dm", "hm", "in", "ft")
+AXES = ("+x", "-x", "+y", "-y", "+z", "-z")
+
+
+def add_hull_options(p) -> None:
+    """The STL/CSV reading options shared with `jaxroll hydrostatics`."""
+    g = p.add_argument_group("hull files in STL or CSV (ignored for TOML hull files)")
+    g.add_argument("--lpp", type=float, metavar="M", help="length between perpendiculars L [m, full scale]")
+    g.add_argument("--x-ap", type=float, metavar="M", help="x of the AP [m, full scale] (default: aft end)")
+    g.add_argument("--units", choices=MESH_UNITS, default="m", help="length unit of the file (default: m)")
+    g.add_argument(
+        "--scale", type=float, default=1.0, metavar="S", help="model scale (100 for 1:100; default 1)"
+    )
+    g.add_argument("--forward", choices=AXES, default="+x", help="file axis pointing forward (default: +x)")
+    g.add_argument("--up", choices=AXES, default="+z", help="file axis pointing up (default: +z)")
+    g.add_argument("--stations", type=int, default=61, metavar="N", help="stations sliced from an STL (61)")
+    g.add_argument(
+        "--waterlines", type=int, default=41, metavar="N", help="waterlines sliced from an STL (41)"
+    )
+
+
+def check_hull_options(args) -> None:
+    """Check the STL/CSV options and that the hull file exists (before any computation)."""
+    for flag, value in (("--lpp", args.lpp), ("--scale", args.scale)):
+        if value is not None and not (math.isfinite(value) and value > 0):
+            raise CLIError(f"{flag} must be a finite number > 0; got {value}.")
+    if args.x_ap is not None and not math.isfinite(args.x_ap):
+        raise CLIError(f"--x-ap must be a finite number; got {args.x_ap}.")
+    if args.forward[1] == args.up[1]:
+        raise CLIError(f"--forward {args.forward} and --up {args.up} must be different axes.")
+    for flag, value, least in (("--stations", args.stations, 5), ("--waterlines", args.waterlines, 5)):
+        if value < least:
+            raise CLIError(f"{flag} must be at least {least}; got {value}.")
+    if args.hull.lower() != "c11" and not Path(args.hull).is_file():
+        raise CLIError(
+            f"hull file {args.hull!r} does not exist (give a TOML hull file, an STL or offsets CSV, or `c11`)."
+        )
+    mesh = Path(args.hull).suffix.lower() in (".stl", ".csv")
+    changed = [
+        flag
+        for flag, value, default in (
+            ("--lpp", args.lpp, None), ("--x-ap", args.x_ap, None), ("--units", args.units, "m"),
+            ("--scale", args.scale, 1.0), ("--forward", args.forward, "+x"), ("--up", args.up, "+z"),
+        )
+        if value != default
+    ]  # fmt: skip
+    if changed and not mesh:
+        raise CLIError(
+            f"{', '.join(changed)} apply to STL and CSV hull files only; a TOML hull file is full scale, in "
+            "metres and jaxroll's axes."
+        )
+
+
+def read_hull_arg(args):
+    """(hull, file loading, is_c11) of the HULL argument (TOML, STL, CSV or `c11`)."""
+    from ..io import read_hull
+    from ..ship import c11_hull_path
+
+    if args.hull.lower() == "c11":
+        return (*read_hull(c11_hull_path()), True)
+    hull, loading = read_hull(
+        args.hull, lpp=args.lpp, x_ap=args.x_ap, units=args.units, scale=args.scale, forward=args.forward,
+        up=args.up, stations=args.stations, waterlines=args.waterlines,
+    )  # fmt: skip
+    return hull, loading, False
+
+
+def register(subparsers) -> None:
+    p = subparsers.add_parser(
+        "sgisc",
+        help="IMO parametric-roll vulnerability (Circ.1627 2.5): Level 1, Level 2 C1 and C2 of a hull",
+        description=(
+            "Check a loading condition against the IMO second generation intact stability criteria for "
+            "parametric rolling (MSC.1/Circ.1627 section 2.5): Level 1 (ΔGM1/GM against R_PR), Level 2 first "
+            "check C1 (16 wave cases) and second check C2 (roll in the scatter table's regular waves, jaxroll's "
+            "roll equation with the simplified Ikeda damping). Prints the values with their standards and a "
+            "verdict, writes sgisc.json (every intermediate) and figures. HULL is a hull file (TOML), an STL "
+            "(ascii or binary), an offsets CSV, or `c11` (the REPRESENTATIVE C11-like hull). The Level-2 "
+            "standards are transcribed, not verified against the guideline's text: see docs/sgisc.md."
+        ),
+    )
+    add = p.add_argument
+    add("hull", metavar="HULL", help="hull file (TOML, STL, CSV) or `c11`")
+    m = p.add_mutually_exclusive_group()
+    m.add_argument("--draught", type=float, metavar="M", help="even-keel draught d [m]")
+    m.add_argument("--displacement", type=float, metavar="KG", help="displacement mass [kg]")
+    add(
+        "--kg", type=float, metavar="M", help="KG [m] above the baseline (default: the hull file's [loading])"
+    )
+    add("--water-density", type=float, metavar="RHO", help="water density [kg/m³] (default: 1025)")
+    add("--speed-kn", type=float, metavar="KN", help="service speed V_S [kn] (required)")
+    r = p.add_mutually_exclusive_group()
+    r.add_argument("--roll-period", type=float, metavar="S", help="natural roll period Tφ [s]")
+    r.add_argument("--roll-gyradius", type=float, metavar="M", help="roll radius of gyration k_xx [m]")
+    b = p.add_mutually_exclusive_group()
+    b.add_argument(
+        "--bilge-keel",
+        type=float,
+        nargs=2,
+        metavar=("LENGTH_M", "BREADTH_M"),
+        help="bilge keels, length and breadth of each [m] (R_PR with A_k = 2 l b, and the Ikeda damping)",
+    )
+    b.add_argument(
+        "--bilge-keel-area",
+        type=float,
+        metavar="M2",
+        help="total projected bilge-keel area A_k [m²] (R_PR only)",
+    )
+    add("--sharp-bilge", action="store_true", help="the ship has a sharp bilge (R_PR = 1.87)")
+    add("--full-load-draught", type=float, metavar="M", help="d_full for Level 1's δd_L [m] (default: d)")
+    add(
+        "--damping",
+        type=float,
+        nargs=3,
+        metavar=("B1", "B2", "B3"),
+        help="roll damping for C2 instead of the Ikeda estimate: b1 [1/s], b2 [1/rad], b3 [s/rad²]",
+    )
+    add("--skip-c2", action="store_true", help="stop after C1 (no roll model, no simulation)")
+    add(
+        "--kgmax",
+        type=float,
+        nargs=3,
+        metavar=("D_MIN", "D_MAX", "N"),
+        help="also compute KGmax (Level 1 and C1) at N draughts in [D_MIN, D_MAX] m",
+    )
+    add_hull_options(p)
+    add(
+        "--out",
+        type=Path,
+        default=DEFAULT_OUT,
+        metavar="DIR",
+        help="output folder (default: jaxroll-out/sgisc)",
+    )
+    p.set_defaults(func=run)
+
+
+def _check_options(args) -> None:
+    positive = {
+        "--kg": args.kg, "--draught": args.draught, "--displacement": args.displacement,
+        "--water-density": args.water_density, "--roll-period": args.roll_period,
+        "--roll-gyradius": args.roll_gyradius, "--full-load-draught": args.full_load_draught,
+    }  # fmt: skip
+    for flag, value in positive.items():
+        if value is not None and not (math.isfinite(value) and value > 0):
+            raise CLIError(f"{flag} must be a finite number > 0; got {value}.")
+    if args.speed_kn is None:
+        raise CLIError("--speed-kn is required: the service speed V_S [kn] enters C1 (V_PR) and C2 (K V_S).")
+    if not (math.isfinite(args.speed_kn) and args.speed_kn >= 0):
+        raise CLIError(f"--speed-kn must be a finite number >= 0; got {args.speed_kn}.")
+    if args.bilge_keel is not None and not all(math.isfinite(v) and v >= 0 for v in args.bilge_keel):
+        raise CLIError(
+            f"--bilge-keel: LENGTH_M BREADTH_M must be finite numbers >= 0; got {args.bilge_keel}."
+        )
+    if args.bilge_keel_area is not None and not (
+        math.isfinite(args.bilge_keel_area) and args.bilge_keel_area >= 0
+    ):
+        raise CLIError(f"--bilge-keel-area must be a finite number >= 0; got {args.bilge_keel_area}.")
+    if args.damping is not None and not all(math.isfinite(v) and v >= 0 for v in args.damping):
+        raise CLIError(f"--damping: B1 B2 B3 must be finite numbers >= 0; got {args.damping}.")
+    if args.kgmax is not None:
+        lo, hi, n = args.kgmax
+        if not (
+            math.isfinite(lo) and math.isfinite(hi) and 0 < lo <= hi and n >= 1 and float(n).is_integer()
+        ):
+            raise CLIError(
+                f"--kgmax D_MIN D_MAX N: need 0 < D_MIN <= D_MAX and an integer N >= 1; got {args.kgmax}."
+            )
+    if args.out.exists() and not args.out.is_dir():
+        raise CLIError(f"--out {str(args.out)!r} exists and is not a folder.")
+    check_hull_options(args)
+
+
+def _summary(hull, calm, a, kn) -> list[str]:
+    l1, c1, c2 = a.level1, a.c1, a.c2
+    lines = [
+        f"SGISC parametric rolling — {hull.name}  (MSC.1/Circ.1627 2.5; constants' status in docs/sgisc.md)",
+        f"  L = {float(hull.lpp):.2f} m, d = {l1.draught:.3f} m, KG = {float(calm.kg):.3f} m, GM = {l1.gm:.4f} m, "
+        f"C_m = {float(calm.midship_coefficient):.3f}, A_k = {a.bilge_keel_area:.1f} m², V_S = {kn:g} kn, "
+        f"T_φ = {a.roll_period:.2f} s ({a.roll_period_source})",
+        f"  Level 1: ΔGM1/GM = {l1.ratio:.3f} ({l1.method} method; waterplane ΔGM1 {l1.delta_gm1_waterplane:.3f} m, "
+        f"GM-in-waves ΔGM1 {l1.delta_gm1_waves:.3f} m) vs R_PR = {l1.r_pr:.3f} -> "
+        f"{'VULNERABLE' if l1.vulnerable else 'not vulnerable'}",
+        f"  Level 2 C1 = {c1.c1:.4f} vs R_PR1 = {c1.standard:g} -> {'fails' if c1.vulnerable else 'passes'}",
+    ]
+    d = a.damping
+    if c2 is not None:
+        lines.append(
+            f"  Level 2 C2 = {c2.c2:.4f} vs R_PR2 = {c2.standard:g} -> {'fails' if c2.vulnerable else 'passes'}"
+            f"  (damping b1 = {d['b1']:.3g} 1/s, b2 = {d['b2']:.3g} 1/rad: {d['source']})"
+        )
+    else:
+        lines.append("  Level 2 C2: not computed (--skip-c2)")
+    lines.append(f"  Verdict: {a.verdict}")
+    return lines + [f"  Note: {n}" for n in (a.level1.notes + a.notes)]
+
+
+def run(args) -> int:
+    import numpy as np
+
+    from ..criteria import (
+        ROLL_ANGLE_LIMIT_DEG,
+        assess_parametric_roll,
+        kg_max_curve,
+        roll_versus_speed,
+    )
+    from ..io import hull_to_toml, loading_from_dict, ship_to_dict, ship_to_toml
+    from ..plotting import plot_c1_cases, plot_c2_cases, plot_kg_max, plot_roll_versus_speed
+    from ..ship import C11_HULL_NOTE, hydrostatic_particulars
+
+    _check_options(args)
+    kn = args.speed_kn
+    vs = kn * 1852.0 / 3600.0
+    hull, file_loading, is_c11 = read_hull_arg(args)
+    loading = loading_from_dict(
+        hull, file_loading, kg=args.kg, draught=args.draught, displacement=args.displacement,
+        water_density=args.water_density,
+    )  # fmt: skip
+    calm = hydrostatic_particulars(hull, loading)
+    if not float(calm.gm) > 0:
+        raise CLIError(
+            f"KG = {float(loading.kg):.4g} m gives GM = {float(calm.gm):.4g} m <= 0 (KM = "
+            f"{float(calm.km):.4g} m): the ship is not initially stable. Lower --kg."
+        )
+    if args.kgmax is not None and args.kgmax[1] >= float(hull.depth):
+        raise CLIError(
+            f"--kgmax: D_MAX = {args.kgmax[1]:g} m must be below the depth {float(hull.depth):g} m."
+        )
+    lbk, bbk = args.bilge_keel if args.bilge_keel is not None else (0.0, 0.0)
+    a = assess_parametric_roll(
+        hull,
+        loading,
+        service_speed=vs,
+        roll_period=args.roll_period,
+        roll_gyradius=args.roll_gyradius,
+        bilge_keel_length=lbk,
+        bilge_keel_breadth=bbk,
+        bilge_keel_area=args.bilge_keel_area,
+        sharp_bilge=args.sharp_bilge,
+        full_load_draught=args.full_load_draught,
+        damping=args.damping,
+        damping_source="given on the command line (--damping)" if args.damping is not None else None,
+        skip_c2=args.skip_c2,
+    )
+    lines = _summary(hull, calm, a, kn)
+    speed = None
+    if a.c2 is not None:
+        worst = np.unravel_index(np.argmax(np.max(a.c2.max_roll, axis=0)), a.c2.max_roll.shape[1:])
+        h_worst = float(a.c2.effective_wave_height[worst])
+        speed = roll_versus_speed(a.ship, wave_height=h_worst, speeds=np.linspace(0.0, vs, 25))
+    curve = None
+    if args.kgmax is not None:
+        lo, hi, n = args.kgmax
+        curve = kg_max_curve(
+            hull,
+            np.linspace(lo, hi, int(n)),
+            service_speed=vs,
+            roll_gyradius=args.roll_gyradius,
+            bilge_keel_area=a.bilge_keel_area,
+            sharp_bilge=args.sharp_bilge,
+        )
+
+    final: Path = args.out
+    with OutputFolder(final) as out:
+        save_figure(plot_c1_cases(a.c1).figure, out / "c1_cases.png")
+        files = ["sgisc.json", "c1_cases.png"]
+        if a.c2 is not None:
+            save_figure(plot_c2_cases(a.c2).figure, out / "c2_cases.png")
+            ax = plot_roll_versus_speed(speed, limit_deg=ROLL_ANGLE_LIMIT_DEG, service_speed=vs)
+            ax.set_title(
+                f"regular wave λ = L, H = {h_worst:.2f} m (the worst C2 sea state)", fontsize="medium"
+            )
+            save_figure(ax.figure, out / "roll_vs_speed.png")
+            atomic_write_text(out / "ship.toml", ship_to_toml(a.ship, damping_source=a.damping["source"]))
+            files += ["c2_cases.png", "roll_vs_speed.png", "ship.toml"]
+        if curve is not None:
+            ax = plot_kg_max(curve, kg=float(loading.kg), draught=float(calm.draught))
+            save_figure(ax.figure, out / "kgmax.png")
+            files.append("kgmax.png")
+        if not is_c11 and Path(args.hull).suffix.lower() in (".stl", ".csv"):
+            atomic_write_text(out / "hull.toml", hull_to_toml(hull, header=f"sliced from {args.hull}"))
+            files.append("hull.toml")
+        c2 = a.c2
+        payload = {
+            "command": "sgisc",
+            "notes": ([C11_HULL_NOTE] if is_c11 else [])
+            + [
+                "Level-2 standards R_PR1, R_PR2, the 25° angle, the speed factors, h_eff and the 7-case average "
+                "are transcribed, not verified against MSC.1/Circ.1627: see docs/sgisc.md.",
+                "C2 rolls with jaxroll's model: GZ_calm(φ) + ΔGM(ζ_mid(t)) φ (non-memory ΔGM of the hull).",
+            ]
+            + a.level1.notes
+            + a.notes,
+            "config": {
+                "hull": "c11" if is_c11 else str(args.hull),
+                "service_speed_kn": kn,
+                "service_speed_m_s": vs,
+                "roll_period_s": a.roll_period,
+                "roll_period_source": a.roll_period_source,
+                "bilge_keel_length_m": lbk,
+                "bilge_keel_breadth_m": bbk,
+                "bilge_keel_area_m2": a.bilge_keel_area,
+                "sharp_bilge": args.sharp_bilge,
+                "full_load_draught_m": args.full_load_draught,
+                "mesh_options": {
+                    "lpp_m": args.lpp,
+                    "x_ap_m": args.x_ap,
+                    "units": args.units,
+                    "scale": args.scale,
+                    "forward": args.forward,
+                    "up": args.up,
+                    "stations": args.stations,
+                    "waterlines": args.waterlines,
+                },  # fmt: skip
+            },
+            "hull": {
+                "name": hull.name,
+                "provenance": hull.provenance,
+                "lpp_m": float(hull.lpp),
+                "depth_m": float(hull.depth),
+            },  # fmt: skip
+            "calm_water": calm.as_dict(),
+            "level1": vars(a.level1),
+            "level2_c1": {k: v for k, v in vars(a.c1).items()},
+            "damping": a.damping,
+            "level2_c2": None
+            if c2 is None
+            else {
+                "c2": c2.c2,
+                "standard": c2.standard,
+                "vulnerable": c2.vulnerable,
+                "per_case": c2.per_case,
+                "hs_m": np.arange(0.5, 17.0, 1.0),
+                "tz_s": np.arange(1.5, 19.0, 1.0),
+                "effective_wave_height_m": c2.effective_wave_height,
+                "max_roll_deg": np.degrees(c2.max_roll),
+                "roll_versus_speed": {
+                    "wave_height_m": h_worst,
+                    "speed_m_s": speed["speed_m_s"],
+                    "head_max_roll_deg": np.degrees(speed["head"]),
+                    "following_max_roll_deg": np.degrees(speed["following"]),
+                },
+            },
+            "ship": None if a.ship is None else ship_to_dict(a.ship, damping_source=a.damping["source"]),
+            "kg_max": None
+            if curve is None
+            else {
+                "draught_m": curve.draught,
+                "km_m": curve.km,
+                "kg_max_level1_m": curve.kg_max_level1,
+                "kg_max_c1_m": curve.kg_max_c1,
+                "delta_gm1_m": curve.delta_gm1,
+                "r_pr": curve.r_pr,
+                "roll_period_model": "2π k/√(g GM) with --roll-gyradius"
+                if args.roll_gyradius is not None
+                else "IS Code 2008 formula at each KG (a given --roll-period holds for one GM only)",
+            },
+            "verdict": a.verdict,
+            "vulnerable": a.vulnerable,
+            "summary": lines,
+        }
+        write_json(out / "sgisc.json", payload)
+    print("\n".join(lines))
+    if is_c11:
+        print("Note: the c11 hull is REPRESENTATIVE (parametric), not the real C11 lines.")
+    print(f"wrote {final / 'sgisc.json'}, {', '.join(files[1:])}")
+    return 0

@@ -1,0 +1,129 @@
+"""The polar risk chart: probability of exceeding a roll angle (and of capsize) over speed × heading."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+import numpy as np
+
+__all__ = ["polar_risk_chart", "sweep_polar_figure"]
+
+_HEADING_TICKS_DEG = (0, 30, 60, 90, 120, 150, 180)
+_HEADING_NAMES = {0: "following", 90: "beam", 180: "head"}
+
+
+def _edges(x: np.ndarray, lo: float, hi: float) -> np.ndarray:
+    """Cell edges around sorted centres `x`, clipped to [lo, hi]."""
+    if x.size == 1:
+        half = 0.5 * max(hi - lo, 1.0) / 6
+        return np.clip(np.array([x[0] - half, x[0] + half]), lo, hi)
+    mid = (x[1:] + x[:-1]) / 2
+    return np.clip(np.concatenate([[2 * x[0] - mid[0]], mid, [2 * x[-1] - mid[-1]]]), lo, hi)
+
+
+def _setup_polar(ax, r_max: float) -> None:
+    """Head seas (χ = 180°) at the top, beam seas to the right, following seas at the bottom; radius = speed."""
+    ax.set_theta_zero_location("N")
+    ax.set_theta_direction(-1)
+    ax.set_thetamin(0)
+    ax.set_thetamax(180)
+    ax.set_xticks(np.radians([180 - c for c in _HEADING_TICKS_DEG]))
+    ax.set_xticklabels(
+        [f"{c}°" + (f"\n{_HEADING_NAMES[c]}" if c in _HEADING_NAMES else "") for c in _HEADING_TICKS_DEG]
+    )
+    ax.set_ylim(0, r_max)
+    ax.set_rorigin(-0.3 * r_max)  # a hole in the middle: zero speed is a ring of cells, not a crowded point
+    ax.set_rlabel_position(180)
+    ax.tick_params(labelsize=7)
+
+
+def polar_risk_chart(
+    ax,
+    heading_deg,
+    speed_m_s,
+    probability,
+    *,
+    label: str = "probability",
+    cmap: str = "magma_r",
+    annotate: bool = True,
+):
+    """Draw one polar risk chart on the polar axes `ax`: `probability` [-], shaped (heading, speed), as cells over
+    heading χ [deg] (angle; 180° head seas at the top, 0° following at the bottom) × speed U [m/s] (radius).
+
+    **Arguments:** `ax` (made with `projection="polar"`); `heading_deg` in [0, 180] and `speed_m_s` ≥ 0, the
+    grid's values in any order; `probability`; `label`: the panel's title; `annotate`: write each cell's value.
+
+    **Returns:** the `QuadMesh` (for a colour bar; values in [0, 1]).
+    """
+    chi = np.asarray(heading_deg, float)
+    speed = np.asarray(speed_m_s, float)
+    p = np.asarray(probability, float).reshape(chi.size, speed.size)
+    i, j = np.argsort(chi), np.argsort(speed)
+    chi, speed, p = chi[i], speed[j], p[np.ix_(i, j)]
+    r_edges = _edges(speed, 0.0, np.inf)
+    r_max = float(r_edges[-1]) if r_edges[-1] > 0 else 1.0
+    theta_edges = np.radians(180.0 - _edges(chi, 0.0, 180.0))
+    _setup_polar(ax, r_max)
+    mesh = ax.pcolormesh(theta_edges, r_edges, p.T, cmap=cmap, vmin=0.0, vmax=1.0, shading="flat")
+    ax.plot(*np.meshgrid(np.radians(180.0 - chi), speed, indexing="ij"), "k.", ms=2, alpha=0.4)
+    if annotate:  # at the cells' centres (a speed-0 cell is a wedge from the centre)
+        r_mid = (r_edges[1:] + r_edges[:-1]) / 2
+        theta_mid = (theta_edges[1:] + theta_edges[:-1]) / 2
+        for a in range(chi.size):
+            for b in range(speed.size):
+                ax.text(
+                    theta_mid[a],
+                    r_mid[b],
+                    f"{p[a, b]:.2f}",
+                    ha="center",
+                    va="center",
+                    fontsize=6,
+                    color="w" if p[a, b] > 0.5 else "k",
+                )
+    ax.set_title(label, fontsize=9, pad=12)
+    ax.grid(True, alpha=0.4)
+    return mesh
+
+
+def sweep_polar_figure(payload: Mapping):
+    """Polar risk charts of a `jaxroll sweep` result: one row per sea state (H1/3, T01), P(max |φ| > angle) and
+    P(capsize) over speed (radius) × heading (angle).
+
+    `payload` is what `jaxroll sweep` writes (`sweep.json`): `grid` (axes heading, speed_m_s, hs_m, t01_s),
+    `heading_deg` (one angle per heading of the grid), `exceedance_probability` and `capsize_probability` shaped
+    like the grid, `config` with `angle_deg`, `realizations`, `duration_s` and the ship's name.
+
+    **Returns:** the matplotlib `Figure`.
+    """
+    import matplotlib.pyplot as plt
+
+    grid = payload["grid"]
+    chi = np.asarray(payload["heading_deg"], float)
+    speed = np.asarray(grid["speed_m_s"], float)
+    hs, t01 = grid["hs_m"], grid["t01_s"]
+    cfg = payload["config"]
+    angle = float(cfg["angle_deg"])
+    states = [(a, b) for a in range(len(hs)) for b in range(len(t01))]
+    fig, axes = plt.subplots(
+        len(states),
+        2,
+        subplot_kw={"projection": "polar"},
+        figsize=(8.6, 3.9 * len(states) + 0.6),
+        squeeze=False,
+        layout="constrained",
+    )
+    mesh = None
+    for row, (a, b) in enumerate(states):
+        sea = f"H1/3 = {hs[a]:g} m, T01 = {t01[b]:g} s"
+        for col, (name, what) in enumerate(
+            (("exceedance_probability", f"P(max |φ| > {angle:g}°)"), ("capsize_probability", "P(capsize)"))
+        ):
+            values = np.asarray(payload[name], float)[:, :, a, b]
+            mesh = polar_risk_chart(axes[row, col], chi, speed, values, label=f"{what}\n{sea}")
+    fig.colorbar(mesh, ax=axes, label="probability per trial", shrink=0.6)
+    fig.suptitle(
+        f"{cfg['ship']['name']}: N = {cfg['realizations']} trials × {cfg['duration_s']:g} s per point\n"
+        "heading χ (angle): 180° head seas at the top, 0° following at the bottom; radius: speed U [m/s]",
+        fontsize=9,
+    )
+    return fig
