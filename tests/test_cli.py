@@ -326,7 +326,7 @@ def test_options_are_checked_before_any_computation(argv, message, tmp_path, mon
     assert not out.exists() and not list(tmp_path.iterdir())
 
 
-@pytest.mark.parametrize("command", ["pdf", "theory", "tank", "maxima", "risk", "sensitivity"])
+@pytest.mark.parametrize("command", ["pdf", "theory", "tank", "maxima", "risk", "sensitivity", "sweep"])
 def test_out_that_is_a_file_is_refused_first(command, tmp_path, monkeypatch, capsys):
     _refuse_computation(monkeypatch)
     target = tmp_path / "file"

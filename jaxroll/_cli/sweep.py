@@ -10,7 +10,7 @@ import math
 import time
 from pathlib import Path
 
-from ._common import CLIError, Progress, load_ship_arg, save_figure, write_json
+from ._common import CLIError, OutputFolder, Progress, load_ship_arg, save_figure, write_json
 from ._sea import heading_for_api, heading_number, heading_phrase
 
 
@@ -234,6 +234,10 @@ def run(args) -> int:
             f"--devices must be between 1 and {jax.device_count()} (the devices JAX sees); "
             f"got {args.devices}."
         )
+    if jax.process_index() == 0:
+        from .pdf import check_out
+
+        check_out(Path(args.out))
     ship = load_ship_arg(args.ship)
     capsize_deg = float(jnp.rad2deg(vanishing_angle(ship)))
     if args.angle >= capsize_deg:
@@ -344,11 +348,12 @@ def run(args) -> int:
     if not main:
         return 0
     out = Path(args.out)
-    save_figure(sweep_figure(payload), out / "sweep.png")
     polar = len(heading_deg) > 1 and len(speed) > 1
-    if polar:
-        save_figure(sweep_polar_figure(payload), out / "sweep_polar.png")
-    write_json(out / "sweep.json", payload)
+    with OutputFolder(out) as tmp:
+        save_figure(sweep_figure(payload), tmp / "sweep.png")
+        if polar:
+            save_figure(sweep_polar_figure(payload), tmp / "sweep_polar.png")
+        write_json(tmp / "sweep.json", payload)
     w = points[int(np.argmax(result.capsize_probability))]
     print(
         f"done in {elapsed:.1f} s: largest P(capsize) {w['capsize_probability']:.3f} in "

@@ -61,10 +61,13 @@ def rk4_step(ship: Ship, y, p, m, h):
 # ----------------------------------------------------------------------------------------------------------------
 
 
+_spectrum = eqx.filter_jit(lambda wave, omega: wave.spectrum(omega))  # one compiled program, not op by op
+
+
 def excitation_bandwidth(wave: EffectiveWave, fraction: float = 0.999) -> float:
     """Encounter frequency [rad/s] below which `fraction` of the effective-wave variance lies."""
     w = np.linspace(0.0, 6.0, 12001)
-    s = np.asarray(wave.spectrum(w))
+    s = np.asarray(_spectrum(wave, w))
     cum = np.concatenate([[0.0], np.cumsum((s[1:] + s[:-1]) / 2 * np.diff(w))])
     if not cum[-1] > 0:
         return 0.0  # beam seas: ζ_G ≡ 0, no excitation bandwidth

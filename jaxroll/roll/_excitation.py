@@ -62,20 +62,15 @@ class FilterExcitation(AbstractExcitation):
         """**Arguments:** `shaping_filter` (e.g. `fit_filter(...).filter`); `dt`: time step [s]; `coarse`: the
         batched kernel's filter grid in steps (None: `choose_coarse`)."""
         self.dt = float(dt)
-        self.phi, self.chol = shaping_filter.discretise(self.dt)
-        sigma = shaping_filter.stationary_covariance()
-        self.stationary_chol = psd_sqrt(sigma)
+        self.phi, self.chol, sigma, self.stationary_chol, half = _discretisation(shaping_filter, self.dt)
         self.c = shaping_filter.c
         self.c_a = shaping_filter.c @ shaping_filter.a
-        half, _ = shaping_filter.discretise(self.dt / 2)
         if coarse is None:
             coarse = choose_coarse(half, sigma, self.c)
         if not (isinstance(coarse, int) and coarse >= 1):
             raise ValueError(f"`coarse` must be an integer >= 1; got {coarse!r}.")
         self.coarse = coarse
-        self.coarse_phi = jnp.linalg.matrix_power(self.phi, coarse)
-        self.coarse_chol = psd_sqrt(sigma - self.coarse_phi @ sigma @ self.coarse_phi.T)
-        self.bridge = jnp.stack(bridge_weights(half, sigma, self.c, coarse))
+        self.coarse_phi, self.coarse_chol, self.bridge = _coarse_grid(self.phi, sigma, half, self.c, coarse)
 
     def init(self, key, num_steps):
         z = self.stationary_chol @ jr.normal(jr.fold_in(key, 0x7FFFFFFF), self.c.shape)
@@ -103,6 +98,22 @@ def _half_powers(half, m: int):
     for _ in range(2 * m):
         powers.append(half @ powers[-1])
     return powers
+
+
+@eqx.filter_jit
+def _discretisation(shaping_filter: ShapingFilter, dt: float):
+    """Φ, L (exact step dt), Σ, its square root and e^{A dt/2}, as one compiled program."""
+    phi, chol = shaping_filter.discretise(dt)
+    sigma = shaping_filter.stationary_covariance()
+    half, _ = shaping_filter.discretise(dt / 2)
+    return phi, chol, sigma, psd_sqrt(sigma), half
+
+
+@eqx.filter_jit
+def _coarse_grid(phi, sigma, half, c, coarse: int):
+    """The batched kernel's coarse filter step (Φ^m, its noise factor) and bridge weights, compiled once per m."""
+    coarse_phi = jnp.linalg.matrix_power(phi, coarse)
+    return coarse_phi, psd_sqrt(sigma - coarse_phi @ sigma @ coarse_phi.T), jnp.stack(bridge_weights(half, sigma, c, coarse))
 
 
 def bridge_weights(half, sigma, c, m: int):
@@ -136,6 +147,9 @@ def interpolation_error_variance(half, sigma, c, m: int, weights=None):
     return jnp.stack(out)
 
 
+_interpolation_error_variance = eqx.filter_jit(lambda half, sigma, c, m: interpolation_error_variance(half, sigma, c, m))
+
+
 def choose_coarse(half, sigma, c, tol: float = COARSE_TOLERANCE, candidates=(4, 2, 1)) -> int:
     """The largest m of `candidates` whose bridge interpolation leaves out at most `tol`·σ_G² (host side; 1 when
     the filter is traced). m = 4 (H = 2 s at dt = 0.5 s) for the paper's protocol (3.7e-7)."""
@@ -144,7 +158,7 @@ def choose_coarse(half, sigma, c, tol: float = COARSE_TOLERANCE, candidates=(4, 
     except jax.errors.TracerArrayConversionError:
         return 1
     for m in candidates:
-        err = np.asarray(interpolation_error_variance(half, sigma, c, m))
+        err = np.asarray(_interpolation_error_variance(half, sigma, c, m))
         if np.all(np.isfinite(err)) and float(err.max()) <= tol:
             return m
     return 1

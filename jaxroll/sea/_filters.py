@@ -84,15 +84,15 @@ def check_filter_fit(fit: "FilterFit", dt=None) -> list[str]:
 
     f = fit.filter
     errors, warns = [], []
-    grid = np.linspace(0.0, 20.0, 40001)[1:]
-    var_q = float(np.trapezoid(np.asarray(f.spectrum(grid)), grid))
+    var_q, s_match, sigma, phi = (np.asarray(x) for x in _fit_diagnostics(f, fit.match_frequency, dt))
+    var_q = float(var_q)
     var_t = float(fit.variance_target)
     # Beam seas: the target is ζ_G ≡ 0 and the fit a zero-gain filter (output exactly 0).
     dv = abs(var_q - var_t) / var_t if var_t > 0 else (0.0 if var_q == 0 else math.inf)
     (errors if dv > 0.10 else warns if dv > 0.03 else []).append(
         f"filter output variance {var_q:.4g} m² (by quadrature) vs target {var_t:.4g} m² ({100 * dv:.1f} % off)"
     )
-    sm, st = float(f.spectrum(fit.match_frequency)), float(fit.spectrum_target_at_match)
+    sm, st = float(s_match), float(fit.spectrum_target_at_match)
     dm = abs(sm - st) / st if st > 0 else 0.0
     (errors if dm > 0.25 else warns if dm > 0.10 else []).append(
         f"filter spectrum at {float(fit.match_frequency):.3g} rad/s (2ω0) is {sm:.4g} vs target {st:.4g} m² s "
@@ -100,12 +100,10 @@ def check_filter_fit(fit: "FilterFit", dt=None) -> list[str]:
     )
     rel = float(fit.relative_l2_error)
     (errors if rel > 0.5 else warns if rel > 0.25 else []).append(f"relative L2 error of the fit is {rel:.3g}")
-    sigma = np.asarray(f.stationary_covariance())
     ev = np.linalg.eigvalsh(sigma)
     if not (np.all(np.isfinite(ev)) and ev.min() > 0):
         errors.append(f"stationary covariance not positive definite (eigenvalues {ev.min():.3g} … {ev.max():.3g})")
     if dt is not None and not errors:
-        phi = np.asarray(jsl.expm(f.a * dt))
         rho = float(np.abs(np.linalg.eigvals(phi)).max())
         if not rho < 1.0:
             errors.append(f"discretised filter is not stable (spectral radius of Φ = {rho:.6f} ≥ 1)")
@@ -118,6 +116,16 @@ def check_filter_fit(fit: "FilterFit", dt=None) -> list[str]:
     for w in warns:
         warnings.warn(f"order-{f.order} shaping filter: {w}", stacklevel=2)
     return warns
+
+
+@eqx.filter_jit
+def _fit_diagnostics(f, match_frequency, dt):
+    """The numbers `check_filter_fit` judges, in one compiled program: output variance by quadrature of S on
+    (0, 20] rad/s [m²], S at the match frequency, Σ, and Φ = e^{A dt} (None without `dt`)."""
+    grid = jnp.linspace(0.0, 20.0, 40001)[1:]
+    var_q = jnp.trapezoid(f.spectrum(grid), grid)
+    phi = None if dt is None else jsl.expm(f.a * dt)
+    return var_q, f.spectrum(match_frequency), f.stationary_covariance(), phi
 
 
 def lyapunov(a, q):
@@ -219,6 +227,13 @@ def fit_filter(
         raise ValueError(
             f"`order` must be >= 3 (got {order}): the filter needs relative degree 2 so that ζ_G is differentiable."
         )
+    return _fit_filter(wave, order, match_frequency, match_weight, num)
+
+
+@eqx.filter_jit
+def _fit_filter(wave: EffectiveWave, order: int, match_frequency, match_weight: float, num: int) -> FilterFit:
+    """`fit_filter`'s numerics as one compiled program (one compilation, cached on disk by the CLI, instead of
+    ~100 small ones dispatched op by op)."""
     variance = wave.variance()
     grid = jnp.linspace(0.0, 3.0, num + 1)[1:]
     target = wave.spectrum(grid)
