@@ -9,6 +9,10 @@ default dt = 0.5 s. That dt is found in this run: the largest dt (halving from 0
 and (b) a deterministic parametric-resonance response over 600 s is within 1 % of a converged reference.
 The baseline is timed on a slice of the run and extrapolated linearly (its cost is exactly linear in steps).
 
+A third baseline, when numba is installed (`pip install ".[bench]"`): jaxroll's own algorithm written in numba
+(benchmarks/_numba_baseline.py: exact filter, RK4, the same statistics, realizations in parallel over the cores);
+it prints `speedup_vs_numba=<x>` just before the last line.
+
 Usage: python benchmarks/mcs.py [--quick]   (the last line is `speedup_vs_numpy=<x>`)
 """
 
@@ -23,6 +27,8 @@ import jax.numpy as jnp
 import numpy as np
 
 import jaxroll
+
+DEG = 180 / np.pi
 
 
 def numpy_em_step(state, ship_np, filt, dt, rng):
@@ -154,6 +160,25 @@ def main() -> None:
     print(f"mean_amplitude_deg zero_crossing={mean_deg['zero_crossing']:.3f} envelope={mean_deg['envelope']:.3f}"
           f"  capsized={stats.n_capsized}")
 
+    # ---- numba running jaxroll's own algorithm (optional dependency) ----
+    numba_total = None
+    try:
+        import numba  # noqa: F401
+    except ImportError:
+        print("numba_run_s=skipped  (pip install numba, or the [bench] extra)")
+    else:
+        from _numba_baseline import numba_monte_carlo
+
+        n_steps = int(duration / dt)
+        numba_monte_carlo(problem, 4, 64, chunk=4)  # compile
+        t0 = time.perf_counter()
+        hz, he, sums = numba_monte_carlo(problem, n_real, n_steps, chunk=1000)
+        numba_total = time.perf_counter() - t0
+        print(f"numba_run_s={numba_total:.2f}  (prange over 2 lanes; PCG64 normals; envelope by scipy.fft)")
+        print(f"numba_realization_steps_per_s={steps / numba_total:.3e}")
+        print(f"numba_mean_amplitude_deg zero_crossing={sums['sum_zc'] / sums['n_zc'] * DEG:.3f} "
+              f"envelope={sums['sum_env'] / sums['n_env'] * DEG:.3f}  capsized={sums['capsized']}")
+
     # ---- NumPy Euler–Maruyama baseline at the dt it needs for the same accuracy ----
     f = problem.filter_fit.filter
     filt = {"a": np.asarray(f.a), "b": np.asarray(f.b), "c": np.asarray(f.c)}
@@ -188,6 +213,8 @@ def main() -> None:
     rk4_total = per_step_rk4 * duration / dt
     print(f"numpy_same_algorithm_run_s_extrapolated={rk4_total:.1f}  (exact filter + RK4 at dt={dt} s, as jaxroll)")
     print(f"speedup_vs_numpy_same_algorithm={rk4_total / run_time:.1f}")
+    if numba_total is not None:
+        print(f"speedup_vs_numba={numba_total / run_time:.2f}")
     print(f"speedup_vs_numpy={numpy_total / run_time:.1f}")
 
 
