@@ -12,6 +12,15 @@ MESH_UNITS = ("m", "mm", "cm", "dm", "hm", "in", "ft")
 AXES = ("+x", "-x", "+y", "-y", "+z", "-z")
 
 
+
+#: Printed with every Level-2 result and written to sgisc.json: the Level-2 standards and rules could not be checked
+#: against the text of MSC.1/Circ.1627 here (docs/sgisc.md marks each constant).
+LEVEL2_CAUTION = (
+    "the Level-2 standards and rules (R_PR1 = 0.06, R_PR2 = 0.025, the 25° roll limit, the C2 speeds and "
+    "averaging) are transcribed, not verified against the guideline's text (docs/sgisc.md); check them before "
+    "statutory use. Level 1 is corroborated by an independent implementation."
+)
+
 def add_hull_options(p) -> None:
     """The STL/CSV reading options shared with `jaxroll hydrostatics`."""
     g = p.add_argument_group("hull files in STL or CSV (ignored for TOML hull files)")
@@ -201,6 +210,8 @@ def _summary(hull, calm, a, kn) -> list[str]:
     else:
         lines.append("  Level 2 C2: not computed (--skip-c2)")
     lines.append(f"  Verdict: {a.verdict}")
+    if c1 is not None or c2 is not None:
+        lines.append(f"  Caution: {LEVEL2_CAUTION}")
     return lines + [f"  Note: {n}" for n in (a.level1.notes + a.notes)]
 
 
@@ -366,6 +377,8 @@ def run(args) -> int:
             },
             "verdict": a.verdict,
             "vulnerable": a.vulnerable,
+            "level2_standards_verified": False,
+            "level2_caution": LEVEL2_CAUTION,
             "summary": lines,
         }
         write_json(out / "sgisc.json", payload)
