@@ -10,7 +10,7 @@ from pathlib import Path
 from ._common import CLIError, OutputFolder, Progress, load_ship_arg, save_figure, write_json
 from ._sea import add_sea_options, check_positive, heading_for_api, parse_heading, sea_config
 
-THEORIES = ("roberts", "esam", "moment")
+THEORIES = ("roberts", "esam", "moment", "envelope_fpk")
 DEFAULT_WRT = "gm_correction,b1,b2,gm0,hs"
 # per statistic kind: JSON key suffix and the factor from radians
 _DEG = 180 / math.pi
@@ -128,6 +128,12 @@ def theory_gradients(problem_fn, params, wrt, stats, names, filter_order):
                     env = theory.moment_pdf(ship, wave, estimator="envelope", **kw)
                     zc = theory.moment_pdf(ship, wave, estimator="zero_crossing", **kw) if need_zc else env
                     e_phi2 = env.e_phi2
+                elif name == "envelope_fpk":
+                    env = theory.envelope_fpk_pdf(ship, wave, estimator="envelope")
+                    zc = theory.envelope_fpk_pdf(ship, wave, estimator="zero_crossing") if need_zc else env
+                    lo, hi = env.support()
+                    a = jnp.linspace(lo, hi, 4001)[:-1]  # F̄ = 0 at and beyond the top edge
+                    e_phi2 = jnp.trapezoid(a * env.sf(a), a)  # E[A²]/2 = ∫ a F̄(a) da (φ = A cos ψ)
                 else:
                     law = theory.roberts_pdf if name == "roberts" else theory.esam_pdf
                     kw = dict(restoring="nonlinear") if name == "roberts" else {}
