@@ -93,10 +93,10 @@ def normalise_heading(text: str) -> str:
 
 
 def check_positive(args, *names: str) -> None:
-    """Raise CLIError unless every named option is a finite number > 0."""
+    """Raise CLIError unless every named option that is given (not None) is a finite number > 0."""
     for name in names:
         value = getattr(args, name)
-        if not (math.isfinite(value) and value > 0):
+        if value is not None and not (math.isfinite(value) and value > 0):
             raise CLIError(f"--{name.replace('_', '-')} must be a finite number > 0; got {value}.")
 
 

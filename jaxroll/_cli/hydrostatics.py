@@ -6,6 +6,7 @@ import math
 from pathlib import Path
 
 from ._common import CLIError, OutputFolder, atomic_write_text, save_figure, write_json
+from ._sea import check_positive
 from .sgisc import add_hull_options, check_hull_options, read_hull_arg
 
 DEFAULT_OUT = Path("jaxroll-out") / "hydrostatics"
@@ -72,14 +73,8 @@ def register(subparsers) -> None:
 
 def _check_options(args) -> None:
     """Every numeric option, before any hydrostatics is computed."""
-    positive = {
-        "--kg": args.kg, "--displacement": args.displacement, "--draught": args.draught,
-        "--water-density": args.water_density, "--roll-period": args.roll_period,
-        "--roll-gyradius": args.roll_gyradius, "--wavelength": args.wavelength,
-    }
-    for flag, value in positive.items():
-        if value is not None and not (math.isfinite(value) and value > 0):
-            raise CLIError(f"{flag} must be a finite number > 0; got {value}.")
+    check_positive(args, "kg", "displacement", "draught", "water_density", "roll_period", "roll_gyradius",
+                   "wavelength")
     for flag, value in (("--gm", args.gm), ("--lcg", args.lcg)):
         if value is not None and not math.isfinite(value):
             raise CLIError(f"{flag} must be a finite number; got {value}.")

@@ -115,7 +115,6 @@ def run(args) -> int:
                 curves[name] = {"exact": np.asarray(max_pdf(dist, a, n0)) * np.pi / 180,
                                 "asymptotic": np.asarray(max_pdf_asymptotic(dist, a, n0)) * np.pi / 180}
             summary = stats.summary(j, bins)
-            summary["n_trials"] = n_trials
             summary["p_exceed"] = {f"{x:g}": stats.exceedance_probability(j, x) for x in (20.0, 30.0, 40.0)}
             per_n0[str(n0)] = {**summary, "curves": curves}
             if stats.n_incomplete(j):

@@ -119,22 +119,20 @@ def run(args) -> int:
     direct_stats = monte_carlo_max_roll(problem, jax.random.key(args.seed + 1), angle_deg=angle_used,
                                         num_realizations=args.realizations, duration=args.discard + exposure,
                                         discard=args.discard, chunk_size=args.chunk_size, memory_budget=budget)
-    # A capsized trial's largest roll is beyond the vanishing angle: +inf in the order statistics, never dropped.
-    largest = np.sort(np.where(direct_stats.capsized, np.inf, direct_stats.max_abs_phi_deg))
-    with np.errstate(invalid="ignore"):
-        largest_q = {k: float(np.quantile(largest, q)) for k, q in (("50", 0.5), ("90", 0.9), ("99", 0.99))}
+    # A capsized trial's largest roll is beyond the vanishing angle: counted in the order statistics, never dropped.
+    largest_q = direct_stats.largest_roll_quantiles_deg()
     direct = {
         "probability": direct_stats.exceedance_probability(),
         "probability_ci95": list(direct_stats.exceedance_interval()),
         "capsize_probability": direct_stats.capsize_probability,
         "capsize_probability_ci95": list(direct_stats.capsize_interval()),
         "n_capsized": direct_stats.n_capsized,
-        "largest_roll_quantiles_deg": {k: v if math.isfinite(v) else None for k, v in largest_q.items()},
+        "largest_roll_quantiles_deg": largest_q,
         "n_realizations": direct_stats.n_realizations,
         "method": "trials of the exposure's length after the discard; exceedance = max |φ| > angle or capsize; "
                   "a capsized trial's largest roll counts as beyond the angle of vanishing stability",
     }
-    if any(not math.isfinite(v) for v in largest_q.values()):
+    if None in largest_q.values():
         direct["largest_roll_quantiles_reason"] = (
             f"null: beyond the angle of vanishing stability ({direct_stats.n_capsized} of "
             f"{direct_stats.n_realizations} trials capsized)")
@@ -156,8 +154,7 @@ def run(args) -> int:
         for name, tdist in theory_laws(problem, args, theories).items():
             result[name] = _risk_dict(exposure_risk(tdist, jnp.deg2rad(angle_used), rate=rate, duration=exposure))
             curves[name] = np.asarray(exceedance_probability(tdist, curve_rad, rate=rate, duration=exposure))
-    direct_curve = np.mean(direct_stats.capsized[None, :]
-                           | (direct_stats.max_abs_phi_deg[None, :] > curve_deg[:, None]), axis=1)
+    direct_curve = np.array([direct_stats.exceedance_probability(x) for x in curve_deg])
     result["curve"] = {"angle_deg": curve_deg, "direct": direct_curve, **curves}
     payload = {"config": {**sea_config(args, ship), "angle_deg": args.angle, "hours": args.hours,
                           "realizations": args.realizations, "duration_s": args.duration,

@@ -6,6 +6,7 @@ import math
 from pathlib import Path
 
 from ._common import CLIError, OutputFolder, atomic_write_text, save_figure, write_json
+from ._sea import check_positive
 
 DEFAULT_OUT = Path("jaxroll-out") / "sgisc"
 MESH_UNITS = ("m", "mm", "cm", "dm", "hm", "in", "ft")
@@ -154,14 +155,8 @@ def register(subparsers) -> None:
 
 
 def _check_options(args) -> None:
-    positive = {
-        "--kg": args.kg, "--draught": args.draught, "--displacement": args.displacement,
-        "--water-density": args.water_density, "--roll-period": args.roll_period,
-        "--roll-gyradius": args.roll_gyradius, "--full-load-draught": args.full_load_draught,
-    }  # fmt: skip
-    for flag, value in positive.items():
-        if value is not None and not (math.isfinite(value) and value > 0):
-            raise CLIError(f"{flag} must be a finite number > 0; got {value}.")
+    check_positive(args, "kg", "draught", "displacement", "water_density", "roll_period", "roll_gyradius",
+                   "full_load_draught")
     if args.speed_kn is None:
         raise CLIError("--speed-kn is required: the service speed V_S [kn] enters C1 (V_PR) and C2 (K V_S).")
     if not (math.isfinite(args.speed_kn) and args.speed_kn >= 0):

@@ -18,6 +18,7 @@ import jax.numpy as jnp
 import numpy as np
 import optimistix as optx
 
+from ..laws._checks import error_line
 from ..ship._ship import Ship
 
 # ------------------------------------------------------------------------------------------------------------
@@ -141,15 +142,6 @@ SOLVER_HINT = (
 )
 
 
-def _first_line(error: Exception) -> str:
-    """The user-facing line of a JAX/Equinox runtime error."""
-    text = str(error)
-    marker = "EquinoxRuntimeError: "
-    if marker in text:
-        text = text.split(marker, 1)[1]
-    return text.strip().splitlines()[0] if text.strip() else type(error).__name__
-
-
 def _least_squares(fn, theta0, args, *, max_steps=200, rtol=1e-8, atol=1e-10, stall_steps=None, hint=SOLVER_HINT):
     """Levenberg–Marquardt (optimistix, forward-mode Jacobian); returns θ̂, J(θ̂), residuals, info.
 
@@ -167,7 +159,7 @@ def _least_squares(fn, theta0, args, *, max_steps=200, rtol=1e-8, atol=1e-10, st
             theta, msg, steps = _solve_stepwise(fn, theta0, args, max_steps, rtol, atol, stall_steps)
         res, jac = _residual_and_jacobian(fn, theta, args)
     except eqx.EquinoxRuntimeError as e:
-        raise FitFailure(f"the roll equation could not be integrated during the fit ({_first_line(e)}). {hint}") from None
+        raise FitFailure(f"the roll equation could not be integrated during the fit ({error_line(e)}). {hint}") from None
     r = np.asarray(res, dtype=float)
     j = np.asarray(jac, dtype=float).reshape(r.size, -1)
     n, p = j.shape

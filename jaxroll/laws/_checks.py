@@ -137,3 +137,11 @@ def _check_table(grid, values, name: str, allow_neg_inf: bool = False):
     )
     return grid, values
 
+
+def error_line(error: Exception) -> str:
+    """The user-facing line of an error (the `EquinoxRuntimeError:` text under jit, else the first line)."""
+    text = str(error)
+    marker = "EquinoxRuntimeError: "
+    if marker in text:
+        text = text.split(marker, 1)[1]
+    return text.strip().splitlines()[0] if text.strip() else type(error).__name__

@@ -21,6 +21,18 @@ def wilson_interval(successes, trials, confidence: float = 0.95) -> tuple[np.nda
     return np.asarray(lo), np.asarray(hi)
 
 
+def quantiles_with_capsizes_deg(values_deg: np.ndarray, capsized: np.ndarray, levels=QUANTILE_LEVELS) -> dict:
+    """Quantiles [deg] ({"50": …}) of per-trial values in which a capsized trial counts as beyond the angle of
+    vanishing stability (+inf): `None` where a level falls among the capsizes (or no trial is given)."""
+    x = np.sort(np.where(capsized, np.inf, values_deg))
+    out = {}
+    for q in levels:
+        with np.errstate(invalid="ignore"):  # inf - inf between two capsizes
+            value = float(np.quantile(x, q)) if x.size else float("nan")
+        out[f"{100 * q:g}"] = value if np.isfinite(value) else None
+    return out
+
+
 class CapsizeCounts:
     """Capsize counts of a Monte Carlo result with a per-realization boolean array `capsized`."""
 
@@ -199,7 +211,7 @@ class MaximaStatistics(CapsizeCounts):
     `maxima_deg[i, j]` is trial i's maximum over its first `n0[j]` amplitudes after the discard, NaN where the
     trial capsized or ended before reaching n0[j] amplitudes (counted in `n_capsized_before`, `n_incomplete`).
     A capsize before the n0[j]-th amplitude is a maximum beyond the angle of vanishing stability: `summary`,
-    `exceedance_probability` and `maxima_with_capsizes_deg` count it (a defective distribution), never drop it.
+    `exceedance_probability` count it (a defective distribution), never drop it.
     `count` is the number of amplitudes each trial contributed (at most max(n0)).
     """
 
@@ -227,16 +239,12 @@ class MaximaStatistics(CapsizeCounts):
         beyond the angle of vanishing stability)."""
         return int(np.sum(self.valid(j))) + self.n_capsized_before(j)
 
-    def maxima_with_capsizes_deg(self, j: int) -> np.ndarray:
-        """The known maxima [deg] with a capsize before the n0[j]-th amplitude as +inf (sorted)."""
-        x = self.maxima_deg[self.valid(j), j]
-        return np.sort(np.concatenate([x, np.full(self.n_capsized_before(j), np.inf)]))
-
     def exceedance_probability(self, j: int, angle_deg: float) -> float:
         """P(max of the first n0[j] amplitudes > `angle_deg`, or a capsize before them) [-], over the known
         trials: the capsizes are the largest maxima and are counted, not dropped."""
         n = self.n_known(j)
-        return float(np.sum(self.maxima_with_capsizes_deg(j) > angle_deg) / n) if n else float("nan")
+        exceeded = np.sum(self.maxima_deg[self.valid(j), j] > angle_deg) + self.n_capsized_before(j)
+        return float(exceeded / n) if n else float("nan")
 
     def summary(self, j: int, bins_deg: np.ndarray, levels=QUANTILE_LEVELS) -> dict:
         """JSON-ready statistics of the maximum over the first n0[j] amplitudes, as a *defective* distribution.
@@ -249,21 +257,16 @@ class MaximaStatistics(CapsizeCounts):
         """
         n_cap, n_known = self.n_capsized_before(j), self.n_known(j)
         x = self.maxima_deg[self.valid(j), j]
-        all_x = self.maxima_with_capsizes_deg(j)
         hist = np.histogram(x, bins=bins_deg)[0] / (max(n_known, 1) * np.diff(bins_deg))
         p_cap = n_cap / n_known if n_known else float("nan")
         lo, hi = wilson_interval(n_cap, max(n_known, 1))
-        quantiles, reasons = {}, {}
-        for q in levels:
-            key = f"{100 * q:g}"
-            with np.errstate(invalid="ignore"):
-                value = float(np.quantile(all_x, q)) if n_known else float("nan")
-            quantiles[key] = value if np.isfinite(value) else None
-            if not n_known:
-                reasons[key] = "no trial reached N0 amplitudes"
-            elif not np.isfinite(value):
-                reasons[key] = (f"beyond the angle of vanishing stability: P(capsize before N0) = {p_cap:.3g} "
-                                f"exceeds 1 - {q:g}")
+        known = self.valid(j) | self.capsized
+        quantiles = quantiles_with_capsizes_deg(self.maxima_deg[known, j], ~self.valid(j)[known], levels)
+        reasons = {
+            key: "no trial reached N0 amplitudes" if not n_known
+            else f"beyond the angle of vanishing stability: P(capsize before N0) = {p_cap:.3g} exceeds 1 - {q:g}"
+            for q, (key, value) in zip(levels, quantiles.items(), strict=True) if value is None
+        }
         mean = float(x.mean()) if (x.size and not n_cap) else None
         out = {
             "n_trials": int(self.maxima_deg.shape[0]),
@@ -319,6 +322,11 @@ class MaxRollStatistics(CapsizeCounts):
         """Wilson interval of `exceedance_probability` [-]."""
         lo, hi = wilson_interval(self.exceedances(angle_deg), self.n_realizations, confidence)
         return float(lo), float(hi)
+
+    def largest_roll_quantiles_deg(self, levels=QUANTILE_LEVELS) -> dict:
+        """Quantiles [deg] of the per-trial largest |φ|, a capsized trial counting as beyond the angle of vanishing
+        stability (`None` where a level falls among the capsizes)."""
+        return quantiles_with_capsizes_deg(self.max_abs_phi_deg, self.capsized, levels)
 
 
 @dataclass

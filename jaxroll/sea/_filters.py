@@ -15,6 +15,7 @@ from __future__ import annotations
 import math
 
 import equinox as eqx
+import jax
 import jax.numpy as jnp
 import jax.scipy.linalg as jsl
 import optimistix as optx
@@ -84,7 +85,7 @@ def check_filter_fit(fit: "FilterFit", dt=None) -> list[str]:
 
     f = fit.filter
     errors, warns = [], []
-    var_q, s_match, sigma, phi = (np.asarray(x) for x in _fit_diagnostics(f, fit.match_frequency, dt))
+    var_q, s_match, sigma, phi = jax.device_get(_fit_diagnostics(f, fit.match_frequency, dt))  # numpy; phi may be None
     var_q = float(var_q)
     var_t = float(fit.variance_target)
     # Beam seas: the target is ζ_G ≡ 0 and the fit a zero-gain filter (output exactly 0).

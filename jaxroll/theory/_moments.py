@@ -14,6 +14,7 @@ import optimistix as optx
 from jaxtyping import Array, ArrayLike, Float
 
 from ..laws._abstract import AbstractAmplitudeLaw, check_estimator
+from ..laws._checks import error_line
 from ..laws._tabulated import TabulatedAmplitudeLaw
 from ..sea._filters import FilterFit, ShapingFilter, fit_filter
 from ..sea._grim import EffectiveWave
@@ -489,18 +490,10 @@ def moment_pdf_first_stable(
         if i > 0:
             warnings.warn(
                 f"moment method: closure order {closure_orders[0]} has no stable solution here "
-                f"({_first_message(error)}); using order {order}. This warning appears because the "
+                f"({error_line(error)}); using order {order}. This warning appears because the "
                 "higher-order cumulant closure lost its stable non-trivial fixed point in this sea state.",
                 stacklevel=2,
             )
         return out
     raise error
 
-
-def _first_message(error: Exception) -> str:
-    """The user-facing line of an error (the `EquinoxRuntimeError:` text under jit, else the first line)."""
-    text = str(error)
-    marker = "EquinoxRuntimeError: "
-    if marker in text:
-        text = text.split(marker, 1)[1]
-    return text.strip().splitlines()[0] if text.strip() else type(error).__name__
