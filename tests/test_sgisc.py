@@ -235,7 +235,7 @@ def test_c11_like_level1_and_c1_verdicts():
     [
         (["sgisc", "c11"], "--speed-kn is required"),
         (["sgisc", "missing.stl", "--speed-kn", "20"], "does not exist"),
-        (["sgisc", "c11", "--speed-kn", "20", "--units", "mm"], "apply to STL and CSV hull files only"),
+        (["sgisc", "c11", "--speed-kn", "20", "--units", "mm"], "apply to STL, GDF and CSV hull files only"),
         (["sgisc", "c11", "--speed-kn", "20", "--kg", "-1"], "--kg must be a finite number > 0"),
         (["sgisc", "c11", "--speed-kn", "20", "--bilge-keel", "60", "-0.4"], "--bilge-keel"),
         (["sgisc", "c11", "--speed-kn", "20", "--kgmax", "9", "8", "3"], "--kgmax D_MIN D_MAX N"),

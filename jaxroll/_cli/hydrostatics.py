@@ -7,7 +7,7 @@ from pathlib import Path
 
 from ._common import CLIError, OutputFolder, atomic_write_text, save_figure, write_json
 from ._sea import check_positive
-from .sgisc import add_hull_options, check_hull_options, read_hull_arg
+from .sgisc import MESH_SUFFIXES, add_hull_options, check_hull_options, read_hull_arg
 
 DEFAULT_OUT = Path("jaxroll-out") / "hydrostatics"
 
@@ -20,13 +20,14 @@ def register(subparsers) -> None:
             "Compute calm-water particulars, GZ curves and the GM variation ΔGM(ζ_mid) of a hull in a "
             "wave of length L with its crest or trough amidships (sinkage and trim balanced), fit the roll "
             "model's polynomials and write a ship file for `jaxroll pdf --ship FILE`. HULL is a hull "
-            "file (TOML, docs/hydrostatics.md), a closed STL surface (ascii or binary) or an offsets CSV "
+            "file (TOML, docs/hydrostatics.md), a closed STL surface (ascii or binary), a WAMIT low-order GDF "
+            "of the whole hull (not only the wetted surface) or an offsets CSV "
             "(docs/sgisc.md; sliced into stations, with --lpp, --units, --scale, --forward, --up), or the word "
             "`c11` for the shipped REPRESENTATIVE C11-like hull."
         ),
     )
     add = p.add_argument
-    add("hull", metavar="HULL", help="hull file (TOML, STL, offsets CSV) or `c11`")
+    add("hull", metavar="HULL", help="hull file (TOML, STL, WAMIT GDF, offsets CSV) or `c11`")
     g = p.add_mutually_exclusive_group()
     g.add_argument(
         "--kg", type=float, metavar="M", help="KG [m] above the baseline (default: the file's [loading])"
@@ -109,7 +110,7 @@ def run(args) -> int:
     )
 
     _check_options(args)
-    is_mesh = Path(args.hull).suffix.lower() in (".stl", ".csv")
+    is_mesh = Path(args.hull).suffix.lower() in MESH_SUFFIXES
     hull, file_loading, is_c11 = read_hull_arg(args)
 
     for flag, value in (("--zeta-max", args.zeta_max), ("--heel-max-deg", args.heel_max_deg)):

@@ -11,6 +11,7 @@ from ._sea import check_positive
 DEFAULT_OUT = Path("jaxroll-out") / "sgisc"
 MESH_UNITS = ("m", "mm", "cm", "dm", "hm", "in", "ft")
 AXES = ("+x", "-x", "+y", "-y", "+z", "-z")
+MESH_SUFFIXES = (".stl", ".gdf", ".csv")  # hull files read with the mesh options (jaxroll.io.read_hull)
 
 
 
@@ -23,24 +24,24 @@ LEVEL2_CAUTION = (
 )
 
 def add_hull_options(p) -> None:
-    """The STL/CSV reading options shared with `jaxroll hydrostatics`."""
-    g = p.add_argument_group("hull files in STL or CSV (ignored for TOML hull files)")
+    """The STL/GDF/CSV reading options shared with `jaxroll hydrostatics`."""
+    g = p.add_argument_group("hull files in STL, WAMIT GDF or CSV (ignored for TOML hull files)")
     g.add_argument("--lpp", type=float, metavar="M", help="length between perpendiculars L [m, full scale]")
     g.add_argument("--x-ap", type=float, metavar="M", help="x of the AP [m, full scale] (default: aft end)")
-    g.add_argument("--units", choices=MESH_UNITS, default="m", help="length unit of the file (default: m)")
+    g.add_argument("--units", choices=MESH_UNITS, default="m", help="length unit of the file (default: m; a GDF: the unit of its GRAV)")
     g.add_argument(
         "--scale", type=float, default=1.0, metavar="S", help="model scale (100 for 1:100; default 1)"
     )
     g.add_argument("--forward", choices=AXES, default="+x", help="file axis pointing forward (default: +x)")
     g.add_argument("--up", choices=AXES, default="+z", help="file axis pointing up (default: +z)")
-    g.add_argument("--stations", type=int, default=61, metavar="N", help="stations sliced from an STL (61)")
+    g.add_argument("--stations", type=int, default=61, metavar="N", help="stations sliced from an STL/GDF (61)")
     g.add_argument(
-        "--waterlines", type=int, default=41, metavar="N", help="waterlines sliced from an STL (41)"
+        "--waterlines", type=int, default=41, metavar="N", help="waterlines sliced from an STL/GDF (41)"
     )
 
 
 def check_hull_options(args) -> None:
-    """Check the STL/CSV options and that the hull file exists (before any computation)."""
+    """Check the STL/GDF/CSV options and that the hull file exists (before any computation)."""
     for flag, value in (("--lpp", args.lpp), ("--scale", args.scale)):
         if value is not None and not (math.isfinite(value) and value > 0):
             raise CLIError(f"{flag} must be a finite number > 0; got {value}.")
@@ -53,9 +54,9 @@ def check_hull_options(args) -> None:
             raise CLIError(f"{flag} must be at least {least}; got {value}.")
     if args.hull.lower() != "c11" and not Path(args.hull).is_file():
         raise CLIError(
-            f"hull file {args.hull!r} does not exist (give a TOML hull file, an STL or offsets CSV, or `c11`)."
+            f"hull file {args.hull!r} does not exist (give a TOML hull file, an STL, a WAMIT GDF or an offsets CSV, or `c11`)."
         )
-    mesh = Path(args.hull).suffix.lower() in (".stl", ".csv")
+    mesh = Path(args.hull).suffix.lower() in MESH_SUFFIXES
     changed = [
         flag
         for flag, value, default in (
@@ -66,13 +67,13 @@ def check_hull_options(args) -> None:
     ]  # fmt: skip
     if changed and not mesh:
         raise CLIError(
-            f"{', '.join(changed)} apply to STL and CSV hull files only; a TOML hull file is full scale, in "
+            f"{', '.join(changed)} apply to STL, GDF and CSV hull files only; a TOML hull file is full scale, in "
             "metres and jaxroll's axes."
         )
 
 
 def read_hull_arg(args):
-    """(hull, file loading, is_c11) of the HULL argument (TOML, STL, CSV or `c11`)."""
+    """(hull, file loading, is_c11) of the HULL argument (TOML, STL, GDF, CSV or `c11`)."""
     from ..io import read_hull
     from ..ship import c11_hull_path
 
@@ -95,12 +96,12 @@ def register(subparsers) -> None:
             "check C1 (16 wave cases) and second check C2 (roll in the scatter table's regular waves, jaxroll's "
             "roll equation with the simplified Ikeda damping). Prints the values with their standards and a "
             "verdict, writes sgisc.json (every intermediate) and figures. HULL is a hull file (TOML), an STL "
-            "(ascii or binary), an offsets CSV, or `c11` (the REPRESENTATIVE C11-like hull). The Level-2 "
+            "(ascii or binary), a WAMIT low-order GDF (the whole hull, not only the wetted surface), an offsets CSV, or `c11` (the REPRESENTATIVE C11-like hull). The Level-2 "
             "standards are transcribed, not verified against the guideline's text: see docs/sgisc.md."
         ),
     )
     add = p.add_argument
-    add("hull", metavar="HULL", help="hull file (TOML, STL, CSV) or `c11`")
+    add("hull", metavar="HULL", help="hull file (TOML, STL, GDF, CSV) or `c11`")
     m = p.add_mutually_exclusive_group()
     m.add_argument("--draught", type=float, metavar="M", help="even-keel draught d [m]")
     m.add_argument("--displacement", type=float, metavar="KG", help="displacement mass [kg]")
@@ -292,7 +293,7 @@ def run(args) -> int:
             ax = plot_kg_max(curve, kg=float(loading.kg), draught=float(calm.draught))
             save_figure(ax.figure, out / "kgmax.png")
             files.append("kgmax.png")
-        if not is_c11 and Path(args.hull).suffix.lower() in (".stl", ".csv"):
+        if not is_c11 and Path(args.hull).suffix.lower() in MESH_SUFFIXES:
             atomic_write_text(out / "hull.toml", hull_to_toml(hull, header=f"sliced from {args.hull}"))
             files.append("hull.toml")
         c2 = a.c2

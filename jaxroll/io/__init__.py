@@ -1,5 +1,11 @@
 """Every file format: tank records, ship files and hull files."""
 
+from ._gdf import (
+    panels_to_triangles as panels_to_triangles,
+    read_gdf as read_gdf,
+    read_gdf_hull as read_gdf_hull,
+    write_gdf as write_gdf,
+)
 from ._hull_file import (
     hull_to_toml as hull_to_toml,
     load_hull as load_hull,

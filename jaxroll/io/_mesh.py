@@ -4,7 +4,9 @@ Both readers return a [`Hull`][] (station offsets, full scale, SI), so the hydro
 GZ, ΔGM in waves) and the IMO criteria of `jaxroll.criteria` apply to the user's own hull. The STL reader is
 our own (about 30 lines of NumPy, binary and ascii): the format is trivial, and the checks that matter for a
 hull (closed, 2-manifold, symmetric, plausible ship length) are ours either way, so an optional dependency
-(numpy-stl, trimesh) would add an install step without removing any code (docs/sgisc.md).
+(numpy-stl, trimesh) would add an install step without removing any code (docs/sgisc.md); the tests read the
+same files with numpy-stl (a dev extra) and check the triangles agree. WAMIT GDF panel files (`_gdf.py`) become
+the same triangle array and take the same path ([`hull_from_triangles`][]).
 
 **Axes and units** (stated and checked). The result is in jaxroll's body frame (`docs/hydrostatics.md`): x [m]
 forward from the aft perpendicular (AP), y [m] to starboard, z [m] up from the baseline (keel). Input files may
@@ -331,6 +333,15 @@ def hull_from_triangles(
         else:
             off = bverts[~(on_plane[0] | on_plane[1])]
             bad = off[0] if off.shape[0] else bverts[0]
+            top = np.abs(bverts[:, 2] - hi[2]) <= 1e-7 * size
+            wetted = top.any() and np.all(top | on_plane[0] | on_plane[1])
+            if wetted and np.ptp(bverts[top, 0]) >= 0.9 * (hi[0] - lo[0]):
+                raise MeshError(
+                    f"{source}: the mesh is OPEN at its top: its {topo['boundary_edges'].shape[0]} boundary "
+                    f"edge(s) lie on z = {hi[2]:.6g} m [body frame], so it describes only a WETTED surface (as a "
+                    "panel-code mesh does). jaxroll's hydrostatics at heel and in waves need the hull above the "
+                    "waterline: export the whole hull, sides up to a closed deck."
+                )
             raise MeshError(
                 f"{source}: the mesh is OPEN: {topo['boundary_edges'].shape[0]} boundary edge(s) (used by one "
                 f"triangle only), e.g. at {bad.round(4).tolist()} [m, body frame]. A hull must be a closed "
@@ -563,9 +574,9 @@ def triangulate_offsets(stations, waterlines, half_breadths, *, depth: float | N
     return np.asarray(tris, dtype=float)
 
 
-MESH_SUFFIXES = (".stl", ".csv")
-"""File suffixes read by [`read_hull`][] as a mesh (STL) or an offsets table (CSV); anything else is a TOML hull
-file."""
+MESH_SUFFIXES = (".stl", ".gdf", ".csv")
+"""File suffixes read by [`read_hull`][] as a mesh (STL, WAMIT GDF) or an offsets table (CSV); anything else is a
+TOML hull file."""
 
 
 def read_hull(
@@ -580,14 +591,18 @@ def read_hull(
     stations: np.ndarray | int = 61,
     waterlines: np.ndarray | int = 41,
 ) -> tuple[Hull, dict[str, float]]:
-    """Any hull file, chosen by its suffix: `.stl` ([`read_stl_hull`][]), `.csv` ([`read_offsets_csv`][]), else
-    a TOML hull file (`read_hull_file`, whose `[loading]` table comes back too).
+    """Any hull file, chosen by its suffix: `.stl` ([`read_stl_hull`][]), `.gdf` (`read_gdf_hull`, WAMIT
+    low-order), `.csv` ([`read_offsets_csv`][]), else a TOML hull file (`read_hull_file`, whose `[loading]` table
+    comes back too).
 
-    **Arguments:** `path`; for STL/CSV the reader options (`lpp` [m], `x_ap` [m], `units`, `scale`, `forward`,
-    `up`, `stations`, `waterlines`: see [`hull_from_triangles`][]). A TOML hull file is full scale in metres, so
-    the options must keep their defaults there.
+    **Arguments:** `path`; for STL/GDF/CSV the reader options (`lpp` [m], `x_ap` [m], `units`, `scale`, `forward`,
+    `up`, `stations`, `waterlines`: see [`hull_from_triangles`][]). For a GDF, `units="m"` (the default) means the
+    unit its GRAV is given in (9.80665: m, 32.174: ft, …); another unit overrides GRAV's, with a warning. A TOML
+    hull file is full scale in metres, so the options must keep their defaults there.
 
-    **Returns:** `(hull, loading)`; `loading` is `{}` for STL and CSV (they carry no loading condition).
+    **Returns:** `(hull, loading)`; `loading` is `{}` for STL and CSV (they carry no loading condition), and for
+    a GDF `{"draught_m": T}` when its waterplane z = 0 lies inside the hull (WAMIT's frame: T above the keel), the
+    default draught of the loading.
     """
     from ._hull_file import read_hull_file
 
@@ -599,6 +614,14 @@ def read_hull(
             waterlines=waterlines,
         )  # fmt: skip
         return hull, {}
+    if suffix == ".gdf":
+        from ._gdf import _read_gdf_hull
+
+        hull, draught = _read_gdf_hull(
+            path, lpp=lpp, x_ap=x_ap, units=None if units == "m" else units, scale=scale, forward=forward, up=up,
+            stations=stations, waterlines=waterlines,
+        )  # fmt: skip
+        return hull, ({} if draught is None else {"draught_m": draught})
     if suffix == ".csv":
         n_wl = None if np.ndim(waterlines) == 0 and waterlines == 41 else waterlines
         return read_offsets_csv(path, lpp=lpp, units=units, scale=scale, waterlines=n_wl), {}
@@ -609,6 +632,6 @@ def read_hull(
     if units != "m" or scale != 1.0 or changed:
         raise ValueError(
             f"{path}: a TOML hull file is full scale, SI, in jaxroll's axes; the mesh options (units, scale, "
-            f"lpp, x_ap, forward, up) apply to .stl and .csv files only; got {changed + ['units'] * (units != 'm') + ['scale'] * (scale != 1.0)}."
+            f"lpp, x_ap, forward, up) apply to .stl, .gdf and .csv files only; got {changed + ['units'] * (units != 'm') + ['scale'] * (scale != 1.0)}."
         )
     return read_hull_file(path)

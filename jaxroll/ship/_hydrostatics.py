@@ -696,6 +696,11 @@ def hydrostatic_particulars(
     return _particulars(hull, loading, eq, gm, zeta, wavelength)
 
 
+def _at_most_one(x, tol: float = 1e-9):
+    """`x`, with values in (1, 1 + tol] (round-off of a form coefficient that is exactly 1) set to 1."""
+    return jnp.where((x > 1) & (x <= 1 + tol), 1.0, x)
+
+
 def _particulars(hull, loading, eq: Equilibrium, gm, zeta, wavelength) -> Particulars:
     zero = jnp.zeros(())
     s, t = eq.sinkage, eq.trim
@@ -721,8 +726,9 @@ def _particulars(hull, loading, eq: Equilibrium, gm, zeta, wavelength) -> Partic
     )
     b_wl = jnp.max(breadth)
     a_mid = jnp.interp(xm, hull.stations, area)
-    cb = eq.volume / (lpp * b_wl * s)
-    cm = a_mid / (b_wl * s)
+    # A box's coefficients are 1; round-off of the integrals must not push them past it (a ship file refuses > 1)
+    cb = _at_most_one(eq.volume / (lpp * b_wl * s))
+    cm = _at_most_one(a_mid / (b_wl * s))
     kb = eq.vertical_centre_of_buoyancy
     return Particulars(
         displacement=eq.volume * loading.water_density,
