@@ -1,10 +1,11 @@
 """A numba implementation of jaxroll's own Monte Carlo algorithm, the baseline of `benchmarks/mcs.py` (issue 15).
 
-The same model and algorithm as `jaxroll.monte_carlo_amplitudes` on a `FilterExcitation`: the exact discretised
-shaping filter stepped at dt, RK4 with the excitation's midpoint by cubic Hermite interpolation, capsize at the
-vanishing angle, zero-crossing amplitudes as `jaxroll`'s detector, the Hilbert envelope by FFT and 0.05° histograms.
-Realizations run in parallel over the cores (`numba.prange`). numba is an optional benchmark dependency
-(`pip install ".[bench]"`); the benchmark skips this baseline without it.
+The same model and algorithm as `jaxroll.monte_carlo_amplitudes` on a `FilterExcitation`: the shaping filter
+stepped exactly every m time steps (m = `substeps`, 4 for the paper's protocol) with ζ_G at the RK4 stage times in
+between from the same bridge weights, RK4 at dt, capsize at the vanishing angle, zero-crossing amplitudes as
+`jaxroll`'s detector, the Hilbert envelope by FFT and 0.05° histograms, in the same floating type. Realizations run
+in parallel over the cores (`numba.prange`). numba is an optional benchmark dependency (`pip install ".[bench]"`);
+the benchmark skips this baseline without it.
 """
 
 from __future__ import annotations
@@ -30,7 +31,7 @@ def ship_constants(problem):
 
 
 # ----------------------------------------------------------------------------------------------------------------
-# (3) numba: jaxroll's own algorithm (exact filter at dt, RK4, Hermite midpoint), prange over realizations
+# numba: jaxroll's own algorithm (filter every m steps + bridge, RK4 at dt), prange over realizations
 # ----------------------------------------------------------------------------------------------------------------
 
 _NUMBA = {}
@@ -41,7 +42,7 @@ def _numba_kernel():
         return _NUMBA["k"]
     import numba as nb
 
-    @nb.njit(inline="always", fastmath=False)
+    @nb.njit(inline="always")
     def pexc(pc, z):
         return pc[0] + z * (pc[1] + z * (pc[2] + z * (pc[3] + z * (pc[4] + z * (pc[5] + z * pc[6])))))
 
@@ -52,46 +53,52 @@ def _numba_kernel():
         return -dphi * (b[0] + b[1] * abs(dphi) + b[2] * dphi * dphi) - phi * rest
 
     @nb.njit
-    def one(g, i, n, n_steps, h, phid, chol, schol, c, ca, a, b, pc, cap, phi0, phi_out, amp_out, capsized):
-        if True:
-            z = np.empty(n)
-            e = np.empty(n)
-            zn = np.empty(n)
+    def one(g, i, n, m, n_steps, h, phid, chol, schol, c, wa, wb, a, b, pc, cap, phi0, phi_out, amp_out, capsized):
+        z = np.empty(n, phid.dtype)
+        e = np.empty(n, phid.dtype)
+        zn = np.empty(n, phid.dtype)
+        p = np.empty(2 * m + 1, phid.dtype)
+        for r in range(n):
+            e[r] = g.standard_normal()
+        for r in range(n):
+            s = 0.0
+            for q in range(n):
+                s += schol[r, q] * e[q]
+            z[r] = s
+        x0 = 0.0
+        for r in range(n):
+            x0 += c[r] * z[r]
+        p[2 * m] = pexc(pc, x0)
+        phi, dphi = phi0, phi0 * 0
+        alive = True
+        positive = phi >= 0
+        started = False
+        peak = abs(phi)
+        k = 0
+        while k < n_steps:
+            # one filter step of m time steps: exact transition, then the bridge at the 2m − 1 stage times
             for r in range(n):
                 e[r] = g.standard_normal()
             for r in range(n):
                 s = 0.0
                 for q in range(n):
-                    s += schol[r, q] * e[q]
-                z[r] = s
-            x0 = 0.0
-            dx0 = 0.0
+                    s += phid[r, q] * z[q] + chol[r, q] * e[q]
+                zn[r] = s
+            p[0] = p[2 * m]
+            for j in range(2 * m - 1):
+                x = 0.0
+                for r in range(n):
+                    x += wa[j, r] * z[r] + wb[j, r] * zn[r]
+                p[j + 1] = pexc(pc, x)
+            x = 0.0
             for r in range(n):
-                x0 += c[r] * z[r]
-                dx0 += ca[r] * z[r]
-            p0 = pexc(pc, x0)
-            phi, dphi = phi0, 0.0
-            alive = True
-            positive = phi >= 0
-            started = False
-            peak = abs(phi)
-            for k in range(n_steps):
-                for r in range(n):
-                    e[r] = g.standard_normal()
-                for r in range(n):
-                    s = 0.0
-                    for q in range(n):
-                        s += phid[r, q] * z[q] + chol[r, q] * e[q]
-                    zn[r] = s
-                x1 = 0.0
-                dx1 = 0.0
-                for r in range(n):
-                    z[r] = zn[r]
-                    x1 += c[r] * z[r]
-                    dx1 += ca[r] * z[r]
-                xm = (x0 + x1) / 2 + h * (dx0 - dx1) / 8
-                pm = pexc(pc, xm)
-                p1 = pexc(pc, x1)
+                z[r] = zn[r]
+                x += c[r] * z[r]
+            p[2 * m] = pexc(pc, x)
+            for sub in range(m):
+                if k >= n_steps:
+                    break
+                p0, pm, p1 = p[2 * sub], p[2 * sub + 1], p[2 * sub + 2]
                 if alive:
                     k1p = dphi
                     k1v = acc(a, b, phi, dphi, p0)
@@ -108,7 +115,6 @@ def _numba_kernel():
                     else:
                         alive = False
                         capsized[i] = True
-                x0, dx0, p0 = x1, dx1, p1
                 # zero-crossing amplitude (as jaxroll.zero_crossing_update)
                 v = abs(phi)
                 pos = phi >= 0
@@ -118,60 +124,61 @@ def _numba_kernel():
                 started = started or crossed
                 positive = pos
                 phi_out[i, k] = phi
-
+                k += 1
 
     @nb.njit(parallel=True)
-    def run(g0, g1, n_real, n_steps, h, phid, chol, schol, c, ca, a, b, pc, cap, phi0, phi_out, amp_out, capsized):
+    def run(g0, g1, n_real, m, n_steps, h, phid, chol, schol, c, wa, wb, a, b, pc, cap, phi0, phi_out, amp_out,
+            capsized):
         n = c.size
         for lane in nb.prange(2):  # one PCG64 generator (ziggurat normals) per lane = per core
             g = g0 if lane == 0 else g1
             for i in range(lane, n_real, 2):
-                one(g, i, n, n_steps, h, phid, chol, schol, c, ca, a, b, pc, cap, phi0, phi_out, amp_out, capsized)
+                one(g, i, n, m, n_steps, h, phid, chol, schol, c, wa, wb, a, b, pc, cap, phi0, phi_out, amp_out,
+                    capsized)
 
     _NUMBA["k"] = run
     return run
 
 
-def numba_monte_carlo(problem, n_real, n_steps, chunk=1000, seed=0, width=0.05, nbins=1800):
+def numba_monte_carlo(problem, n_real, n_steps, chunk=1000, seed=0, width=0.05, nbins=1800, dtype=np.float32):
     """jaxroll's statistics by the numba kernel: zero-crossing and envelope histograms, per-realization sums.
 
-    Random numbers: one PCG64 generator per core (numpy's ziggurat normals, 8x faster in numba than the legacy
+    `dtype`: the integration's floating type (float32 as jaxroll's Monte Carlo; float64 to compare). Random
+    numbers: one PCG64 generator per core (numpy's ziggurat normals, 8x faster in numba than the legacy
     np.random), so a realization depends on the chunking (a concession to the baseline's speed).
 
     Envelope by scipy.fft (2 workers) on each chunk, histograms by np.bincount.
     """
     exc = problem.excitation
     a, b, pc, cap = ship_constants(problem)
-    args = tuple(np.asarray(x, dtype=np.float64) for x in (exc.phi, exc.chol, exc.stationary_chol, exc.c, exc.c_a))
+    mats = [np.asarray(x, dtype=dtype) for x in (exc.phi, exc.chol, exc.stationary_chol, exc.c, exc.bridge[0],
+                                                   exc.bridge[1])]
+    a, b, pc = (np.asarray(x, dtype=dtype) for x in (a, b, pc))
     run = _numba_kernel()
     hz = np.zeros(nbins)
     he = np.zeros(nbins)
     sums = dict(n_zc=0.0, sum_zc=0.0, n_env=0.0, sum_env=0.0, capsized=0)
     for start in range(0, n_real, chunk):
-        m = min(chunk, n_real - start)
-        phi = np.empty((m, n_steps))
-        amp = np.empty((m, n_steps))
-        caps = np.zeros(m, dtype=np.bool_)
+        k = min(chunk, n_real - start)
+        phi = np.empty((k, n_steps), dtype)
+        amp = np.empty((k, n_steps), dtype)
+        caps = np.zeros(k, dtype=np.bool_)
         g0, g1 = (np.random.default_rng([seed, start, lane]) for lane in (0, 1))
-        run(g0, g1, m, n_steps, float(exc.dt), *args, a, b, pc, cap, float(problem.phi0), phi, amp, caps)
+        run(g0, g1, k, exc.substeps, n_steps, dtype(exc.dt), *mats, a, b, pc, dtype(cap), dtype(problem.phi0), phi,
+            amp, caps)
         keep = ~caps
-        spec = scipy.fft.fft(phi[keep], axis=-1, workers=2)
         nt = n_steps
-        hh = np.zeros(nt)
-        hh[0] = 1
-        if nt % 2 == 0:
-            hh[nt // 2] = 1
-            hh[1 : nt // 2] = 2
-        else:
-            hh[1 : (nt + 1) // 2] = 2
-        env = np.abs(scipy.fft.ifft(spec * hh, axis=-1, workers=2))
+        spec = scipy.fft.rfft(phi[keep], axis=-1, workers=2)
+        kk = np.arange(spec.shape[-1])
+        spec[:, (kk == 0) | (kk >= (nt + 1) // 2)] = 0
+        env = np.sqrt(phi[keep] ** 2 + scipy.fft.irfft(-1j * spec, n=nt, axis=-1, workers=2) ** 2)
         ak = amp[keep]
         sel = ak > 0
         hz += np.bincount(np.clip((ak[sel] * DEG / width).astype(np.int64), 0, nbins - 1), minlength=nbins)
         he += np.bincount(np.clip((env * DEG / width).astype(np.int64), 0, nbins - 1).ravel(), minlength=nbins)
         sums["n_zc"] += sel.sum()
-        sums["sum_zc"] += ak[sel].sum()
+        sums["sum_zc"] += ak[sel].astype(np.float64).sum()
         sums["n_env"] += env.size
-        sums["sum_env"] += env.sum()
+        sums["sum_env"] += env.astype(np.float64).sum()
         sums["capsized"] += int(caps.sum())
     return hz, he, sums

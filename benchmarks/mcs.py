@@ -10,8 +10,10 @@ and (b) a deterministic parametric-resonance response over 600 s is within 1 % o
 The baseline is timed on a slice of the run and extrapolated linearly (its cost is exactly linear in steps).
 
 A third baseline, when numba is installed (`pip install ".[bench]"`): jaxroll's own algorithm written in numba
-(benchmarks/_numba_baseline.py: exact filter, RK4, the same statistics, realizations in parallel over the cores);
-it prints `speedup_vs_numba=<x>` just before the last line.
+(benchmarks/_numba_baseline.py: the filter every m steps with the bridge, RK4, the same statistics, realizations
+in parallel over the cores; float32 and float64, the faster counts); it prints `speedup_vs_numba=<x>` just
+before the last line. A fourth: a plain `lax.scan` symplectic-Euler integration driven by FFT-synthesised forcing
+at the dt it needs (`speedup_vs_scan_symplectic`).
 
 Usage: python benchmarks/mcs.py [--quick]   (the last line is `speedup_vs_numpy=<x>`)
 """
@@ -50,10 +52,12 @@ def numpy_em_step(state, ship_np, filt, dt, rng):
 
 
 def numpy_rk4_run_steps(problem, n_real, n_steps, rng):
-    """The same algorithm as jaxroll (exact filter discretisation, Hermite midpoint, RK4) in vectorized NumPy."""
+    """The same algorithm as jaxroll (the filter stepped exactly every m steps with the bridge in between, RK4 at
+    dt) in vectorized NumPy float64, for `n_steps` steps (a multiple of m)."""
     exc = problem.excitation
-    phi_d, chol = np.asarray(exc.phi), np.asarray(exc.chol)
-    c, ca = np.asarray(exc.c), np.asarray(exc.c_a)
+    m = exc.substeps
+    phi_h, chol, c = np.asarray(exc.phi), np.asarray(exc.chol), np.asarray(exc.c)
+    wa, wb = np.asarray(exc.bridge[0]), np.asarray(exc.bridge[1])
     ship = problem.ship
     a = np.asarray(ship.restoring_coefficients)
     b1, b2, b3 = np.asarray(ship.damping)
@@ -70,22 +74,52 @@ def numpy_rk4_run_steps(problem, n_real, n_steps, rng):
         rest = phi * (a[0] + phi2 * (a[1] + phi2 * (a[2] + phi2 * (a[3] + phi2 * a[4]))))
         return dphi, -dphi * (b1 + b2 * np.abs(dphi) + b3 * dphi * dphi) - rest - p * phi
 
-    z = np.zeros((n_real, c.size))
+    z = rng.standard_normal((n_real, c.size)) @ np.asarray(exc.stationary_chol).T
     phi, dphi = np.full(n_real, 0.087), np.zeros(n_real)
-    zeta, dzeta = z @ c, z @ ca
-    for _ in range(n_steps):
-        z = z @ phi_d.T + rng.standard_normal(z.shape) @ chol.T
-        zeta1, dzeta1 = z @ c, z @ ca
-        zm = (zeta + zeta1) / 2 + h * (dzeta - dzeta1) / 8
-        p0, pm, p1 = pexc(zeta), pexc(zm), pexc(zeta1)
-        k1 = f(phi, dphi, p0)
-        k2 = f(phi + h / 2 * k1[0], dphi + h / 2 * k1[1], pm)
-        k3 = f(phi + h / 2 * k2[0], dphi + h / 2 * k2[1], pm)
-        k4 = f(phi + h * k3[0], dphi + h * k3[1], p1)
-        phi = phi + h / 6 * (k1[0] + 2 * k2[0] + 2 * k3[0] + k4[0])
-        dphi = dphi + h / 6 * (k1[1] + 2 * k2[1] + 2 * k3[1] + k4[1])
-        zeta, dzeta = zeta1, dzeta1
+    p_end = pexc(z @ c)
+    for _ in range(n_steps // m):
+        z1 = z @ phi_h.T + rng.standard_normal(z.shape) @ chol.T
+        ps = [p_end, *(pexc(z @ wa[j] + z1 @ wb[j]) for j in range(2 * m - 1)), pexc(z1 @ c)]
+        for s_ in range(m):
+            p0, pm, p1 = ps[2 * s_], ps[2 * s_ + 1], ps[2 * s_ + 2]
+            k1 = f(phi, dphi, p0)
+            k2 = f(phi + h / 2 * k1[0], dphi + h / 2 * k1[1], pm)
+            k3 = f(phi + h / 2 * k2[0], dphi + h / 2 * k2[1], pm)
+            k4 = f(phi + h * k3[0], dphi + h * k3[1], p1)
+            phi = phi + h / 6 * (k1[0] + 2 * k2[0] + 2 * k3[0] + k4[0])
+            dphi = dphi + h / 6 * (k1[1] + 2 * k2[1] + 2 * k3[1] + k4[1])
+        z, p_end = z1, ps[-1]
     return phi
+
+
+def scan_symplectic_baseline(problem, n_real, duration, dt, chunk=100):
+    """A plain `lax.scan` symplectic-Euler integration of the roll (float64), driven by P(t) from Method-1 FFT
+    synthesis (`jaxroll.superpose`) on its own grid of step `dt`, vmapped over a chunk of realizations: the
+    straightforward JAX implementation. Timed on one chunk after compilation and extrapolated linearly to
+    `n_real` (its cost is exactly linear in realizations). **Returns:** (seconds for n_real, mean |φ| [deg])."""
+    ship, wave = problem.ship, problem.wave
+    n = int(round(duration / dt))
+
+    def one(key):
+        zeta, _ = jaxroll.superpose(wave, key, n, dt)
+        p = jaxroll.parametric_excitation(ship, zeta)
+
+        def step(y, pk):
+            phi, dphi = y
+            dphi = dphi + dt * jaxroll.roll_acceleration(ship, phi, dphi, pk)
+            phi = phi + dt * dphi
+            return (phi, dphi), jnp.abs(phi)
+
+        _, absphi = jax.lax.scan(step, (problem.phi0, problem.dphi0), p)
+        return jnp.mean(absphi)
+
+    run = jax.jit(jax.vmap(one))
+    keys = jax.random.split(jax.random.key(1), chunk)
+    jax.block_until_ready(run(keys))
+    t0 = time.perf_counter()
+    out = jax.block_until_ready(run(keys))
+    per_chunk = time.perf_counter() - t0
+    return per_chunk * n_real / chunk, float(np.rad2deg(np.nanmean(np.asarray(out))))
 
 
 def em_filter_variance(filt, dt):
@@ -135,7 +169,7 @@ def main() -> None:
     ship = jaxroll.c11_representative()
     sea = jaxroll.ITTC(7.0, 10.0)
     problem = jaxroll.RollProblem.from_sea(ship, sea, dt=dt)
-    print(f"device={jax.devices()[0].device_kind} ({jax.default_backend()}), dtype=float64")
+    print(f"device={jax.devices()[0].device_kind} ({jax.default_backend()}), integration float32 (sums float64)")
     print(f"protocol: {n_real} realizations x {duration:g} s, dt={dt} s, steps/realization={int(duration / dt)}")
 
     key = jax.random.key(0)
@@ -170,11 +204,16 @@ def main() -> None:
         from _numba_baseline import numba_monte_carlo
 
         n_steps = int(duration / dt)
-        numba_monte_carlo(problem, 4, 64, chunk=4)  # compile
-        t0 = time.perf_counter()
-        hz, he, sums = numba_monte_carlo(problem, n_real, n_steps, chunk=1000)
-        numba_total = time.perf_counter() - t0
-        print(f"numba_run_s={numba_total:.2f}  (prange over 2 lanes; PCG64 normals; envelope by scipy.fft)")
+        timings = {}
+        for dtype in (np.float32, np.float64):  # the baseline gets the faster of the two
+            numba_monte_carlo(problem, 4, 64, chunk=4, dtype=dtype)  # compile
+            t0 = time.perf_counter()
+            hz, he, sums = numba_monte_carlo(problem, n_real, n_steps, chunk=1000, dtype=dtype)
+            timings[dtype.__name__] = (time.perf_counter() - t0, sums)
+            print(f"numba_{dtype.__name__}_run_s={timings[dtype.__name__][0]:.2f}")
+        best = min(timings, key=lambda k: timings[k][0])
+        numba_total, sums = timings[best]
+        print(f"numba_run_s={numba_total:.2f}  ({best}; prange over 2 lanes; PCG64 normals; envelope by scipy.fft)")
         print(f"numba_realization_steps_per_s={steps / numba_total:.3e}")
         print(f"numba_mean_amplitude_deg zero_crossing={sums['sum_zc'] / sums['n_zc'] * DEG:.3f} "
               f"envelope={sums['sum_env'] / sums['n_env'] * DEG:.3f}  capsized={sums['capsized']}")
@@ -194,6 +233,14 @@ def main() -> None:
             break
         dt_np /= 2
     print(f"numpy_em_dt_s={dt_np:.4g}  (filter variance error {var_err:.2%}, deterministic error {det_err:.2%})")
+    # FFT synthesis is exact at any step, so the symplectic-Euler scan needs only the integrator's accuracy
+    dt_se = 0.4
+    while dt_se > 1e-3 and deterministic_error(ship, dt_se, ship_np) >= 0.01:
+        dt_se /= 2
+    scan_total, scan_mean = scan_symplectic_baseline(problem, n_real, duration, dt_se, chunk=20 if args.quick else 100)
+    print(f"scan_symplectic_dt_s={dt_se:.4g}  (deterministic error {deterministic_error(ship, dt_se, ship_np):.2%})")
+    print(f"scan_symplectic_run_s_extrapolated={scan_total:.1f}  (lax.scan, FFT-synthesised forcing; mean |φ| "
+          f"{scan_mean:.2f}°)")
 
     rng = np.random.default_rng(0)
     n_timed_steps = 400 if args.quick else 200
@@ -213,6 +260,7 @@ def main() -> None:
     rk4_total = per_step_rk4 * duration / dt
     print(f"numpy_same_algorithm_run_s_extrapolated={rk4_total:.1f}  (exact filter + RK4 at dt={dt} s, as jaxroll)")
     print(f"speedup_vs_numpy_same_algorithm={rk4_total / run_time:.1f}")
+    print(f"speedup_vs_scan_symplectic={scan_total / run_time:.1f}")
     if numba_total is not None:
         print(f"speedup_vs_numba={numba_total / run_time:.2f}")
     print(f"speedup_vs_numpy={numpy_total / run_time:.1f}")

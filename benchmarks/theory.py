@@ -2,19 +2,26 @@
 vmapped sweep of the moment method over sea states; then the Monte Carlo of the same case.
 
 Default ship, ITTC H1/3 = 7 m, T01 = 10 s. Targets on the 2-core CPU (issue 14): `jaxroll theory` ≤ 10 s cold
-and ≤ 3 s warm per theory; a vmapped sweep of 50 sea states costing little more than one. "cold" is a new
-process with an empty compilation cache (JAXROLL_CACHE_DIR a fresh folder), "warm" a second new process with the
-cache the first one filled. Before issue 14 the moment method took 28 s cold and 34 s warm (`jaxroll theory
---theory moment`, same machine, idle; measured at the start of the work, the old code path no longer exists).
+and ≤ 3 s warm for the paper's three theories (Roberts, ESAM, moment method); a vmapped sweep of 50 sea states
+costing little more than one. "cold" is a new process with an empty compilation cache (JAXROLL_CACHE_DIR a fresh
+folder), "warm" a second new process with the cache the first one filled; both are wall times of the whole
+command (import, set-up, theories, figures, JSON), with the process's CPU time and the load average beside them
+(the machine is shared: compare CPU times when the load is high). Before issue 14 the moment method took 28 s cold
+and 34 s warm (`jaxroll theory --theory moment`, same machine, idle).
+
+`--sweep N` times `jax.vmap` of the moment method's E[φ²] (order `--sweep-order`, default 4) over N sea states
+(H1/3 6.5–8 m) against the same vmapped program on one sea state and against one unbatched call.
 The Monte Carlo line is the paper's 10⁴ × 3600 s protocol (`--quick`: 10³ × 1800 s; `--skip-mc`: none).
 
-Usage: python benchmarks/theory.py [--quick] [--skip-mc] [--skip-cli] [--sweep N] [--sweep-order 4]
+Usage: python benchmarks/theory.py [--quick] [--skip-mc] [--skip-cli] [--cli-sets roberts,esam,moment;...]
+                                   [--sweep N] [--sweep-order 4]
 """
 
 from __future__ import annotations
 
 import argparse
 import os
+import resource
 import subprocess
 import sys
 import tempfile
@@ -26,6 +33,8 @@ import numpy as np
 
 import jaxroll
 from jaxroll import theory
+
+CLI_SETS = ("roberts,esam,moment", "roberts,esam,moment,envelope_fpk", "roberts", "esam", "moment", "envelope_fpk")
 
 
 def timed(fn, repeat: int = 3):
@@ -40,31 +49,29 @@ def timed(fn, repeat: int = 3):
     return out, first, min(runs)
 
 
-def cli_times(name: str) -> tuple[float, float]:
-    """Wall time of `jaxroll theory --theory NAME` in a new process: cold (empty cache), then warm."""
+def _child_cpu() -> float:
+    r = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return r.ru_utime + r.ru_stime
+
+
+def cli_times(names: str, warm_runs: int = 2) -> dict:
+    """Wall and CPU time of `jaxroll theory --theory NAMES` in new processes: cold (empty cache), then warm
+    (`warm_runs` times, the least kept)."""
     with tempfile.TemporaryDirectory() as tmp:
         env = {**os.environ, "JAXROLL_CACHE_DIR": os.path.join(tmp, "xla")}
         out = []
-        for i in range(2):
-            cmd = [
-                sys.executable,
-                "-c",
-                "import sys; from jaxroll._cli import main; sys.exit(main())",
-                "theory",
-                "--theory",
-                name,
-                "--out",
-                os.path.join(tmp, f"o{i}"),
-            ]
-            t0 = time.perf_counter()
+        for i in range(1 + warm_runs):
+            cmd = [sys.executable, "-m", "jaxroll", "theory", "--theory", names, "--out", os.path.join(tmp, f"o{i}")]
+            t0, c0 = time.perf_counter(), _child_cpu()
             subprocess.run(cmd, env=env, check=True, capture_output=True)
-            out.append(time.perf_counter() - t0)
-    return out[0], out[1]
+            out.append((time.perf_counter() - t0, _child_cpu() - c0))
+    warm = min(out[1:])
+    return {"cold_s": out[0][0], "cold_cpu_s": out[0][1], "warm_s": warm[0], "warm_cpu_s": warm[1]}
 
 
-def sweep_times(ship, n: int, order: int) -> tuple[float, float, float]:
-    """Moment method E[φ²] for one sea state and for `n` (H1/3 from 6.5 to 8 m) in one vmapped call [s]:
-    (one, n vmapped, one again after compilation); compile included in neither of the last two."""
+def sweep_times(ship, n: int, order: int) -> dict:
+    """Moment method E[φ²] for `n` sea states (H1/3 from 6.5 to 8 m) in one vmapped call, the same vmapped program
+    on one sea state, and one unbatched jitted call [s], after compilation."""
     hs = np.linspace(6.5, 8.0, n)
     filters = [
         jaxroll.fit_filter(jaxroll.EffectiveWave(jaxroll.ITTC(float(h), 10.0), ship.lpp), order=4,
@@ -73,16 +80,19 @@ def sweep_times(ship, n: int, order: int) -> tuple[float, float, float]:
     ]  # fmt: skip
     stacked = jax.tree.map(lambda *x: jnp.stack(x), *filters)
 
-    @jax.jit
     def e_phi2(f):
         sol = theory.roll_moments(ship, None, shaping_filter=f, closure_order=order, throw=False)
         return sol.moment((2,) + (0,) * (sol.equations.tables.dim - 1))
 
+    single = jax.jit(e_phi2)
     batched = jax.jit(jax.vmap(e_phi2))
     one = jax.tree.map(lambda x: x[:1], stacked)
-    _, _, t_one = timed(lambda: batched(one), repeat=2)
-    _, _, t_n = timed(lambda: batched(stacked), repeat=1)
-    return t_one, t_n, n
+    _, _, t_single = timed(lambda: single(filters[0]), repeat=3)
+    _, _, t_one = timed(lambda: batched(one), repeat=3)
+    values, _, t_n = timed(lambda: batched(stacked), repeat=2)
+    loop = np.array([float(single(f)) for f in filters[:: max(1, n // 5)]])
+    np.testing.assert_allclose(np.asarray(values)[:: max(1, n // 5)], loop, rtol=1e-10)
+    return {"single_s": t_single, "vmap_one_s": t_one, "vmap_n_s": t_n, "n": n}
 
 
 def main() -> None:
@@ -92,6 +102,8 @@ def main() -> None:
     parser.add_argument("--quick", action="store_true")
     parser.add_argument("--skip-mc", action="store_true")
     parser.add_argument("--skip-cli", action="store_true")
+    parser.add_argument("--cli-sets", default=";".join(CLI_SETS[:2]),
+                        help="';'-separated --theory values to time (default: the paper's three; all four)")
     parser.add_argument("--sweep", type=int, default=50)
     parser.add_argument("--sweep-order", type=int, default=4)
     args = parser.parse_args()
@@ -101,21 +113,24 @@ def main() -> None:
     print(f"device={jax.devices()[0].device_kind}, cores={os.cpu_count()}, case: default ship, H1/3 = 7 m, "
           f"T01 = 10 s; load average {os.getloadavg()[0]:.1f}")  # fmt: skip
     if not args.skip_cli:
-        for name in ("roberts", "esam", "moment"):
-            cold, warm = cli_times(name)
-            print(f"cli_{name}_cold_s={cold:.1f} cli_{name}_warm_s={warm:.1f}")
+        for names in args.cli_sets.split(";"):
+            t = cli_times(names)
+            print(f"cli[{names}] cold {t['cold_s']:.1f} s (CPU {t['cold_cpu_s']:.1f} s), warm {t['warm_s']:.1f} s "
+                  f"(CPU {t['warm_cpu_s']:.1f} s); load average {os.getloadavg()[0]:.1f}")  # fmt: skip
     cases = {
         "roberts": lambda: theory.roberts_pdf(ship, wave, restoring="nonlinear").log_density,
         "esam": lambda: theory.esam_pdf(ship, wave).log_density,
         "moment": lambda: theory.moment_pdf(ship, wave, closure_order=6).e_phi2,
+        "envelope_fpk": lambda: theory.envelope_fpk_pdf(ship, wave).mass,
     }
     for name, fn in cases.items():
         _, first, run = timed(fn, repeat=3)
         print(f"{name}_first_call_s={first:.2f} {name}_run_s={run:.3f}")
     if args.sweep > 0:
-        t_one, t_n, n = sweep_times(ship, args.sweep, args.sweep_order)
-        print(f"moment_sweep_order{args.sweep_order}: one sea state {t_one:.2f} s, {n} vmapped {t_n:.2f} s "
-              f"(x{t_n / t_one:.1f} for x{n} the work)")  # fmt: skip
+        t = sweep_times(ship, args.sweep, args.sweep_order)
+        print(f"moment_sweep_order{args.sweep_order}: one sea state {t['single_s']:.3f} s (vmapped program on one: "
+              f"{t['vmap_one_s']:.3f} s), {t['n']} vmapped {t['vmap_n_s']:.2f} s = x{t['vmap_n_s'] / t['single_s']:.1f}"
+              f" one call (a loop: x{t['n']}); load average {os.getloadavg()[0]:.1f}")  # fmt: skip
     if args.skip_mc:
         return
     n, duration = (1000, 1800.0) if args.quick else (10_000, 3600.0)

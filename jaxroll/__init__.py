@@ -3,14 +3,45 @@
 Pipeline: sea spectrum → Grim's effective wave (superposition or a shaping filter) → ΔGM(ζ_mid) → roll equation
 → Monte Carlo → amplitudes → PDFs, theory, maxima, calibration.
 
-jaxroll enables float64 in JAX on import: its statistics, moment equations and tail probabilities need it.
+jaxroll enables float64 in JAX on import: its statistics, moment equations and tail probabilities need it. It
+also asks XLA:CPU for platform-independent math (`--xla_cpu_enable_platform_dependent_math=false` in XLA_FLAGS,
+unless set), without which a realization's float32 arithmetic depends on the batch it is compiled in
+(docs/architecture.md, "Process-wide settings").
 """
 
 import importlib.metadata
+import os
 
-import jax
+_MATH_FLAG = "xla_cpu_enable_platform_dependent_math"
+_USER_SET_FLAG = _MATH_FLAG in os.environ.get("XLA_FLAGS", "")
+if not _USER_SET_FLAG:
+    os.environ["XLA_FLAGS"] = f"{os.environ.get('XLA_FLAGS', '')} --{_MATH_FLAG}=false".strip()
+
+import jax  # noqa: E402
 
 jax.config.update("jax_enable_x64", True)
+
+
+def _warn_if_started_without_math_flag() -> None:
+    """XLA_FLAGS is read when JAX starts its backends: warn when that happened before jaxroll set the flag."""
+    try:
+        from jax._src import xla_bridge
+
+        started = xla_bridge.backends_are_initialized()
+    except (ImportError, AttributeError):  # pragma: no cover - private API moved
+        return
+    if started and not _USER_SET_FLAG:
+        import warnings
+
+        warnings.warn(
+            "JAX was started before jaxroll was imported, so jaxroll could not ask XLA:CPU for platform-independent "
+            "math: Monte Carlo results may then differ (to float round-off) with the chunk size. Import jaxroll "
+            f"first, or set XLA_FLAGS=--{_MATH_FLAG}=false before starting Python.",
+            stacklevel=3,
+        )
+
+
+_warn_if_started_without_math_flag()
 
 from . import criteria as criteria, theory as theory
 from .calibration import (

@@ -8,7 +8,7 @@ import scipy.signal
 import scipy.stats
 
 import jaxroll
-from jaxroll.roll._amplitudes import histogram_counts, pdf_from_counts
+from jaxroll.roll._amplitudes import envelope_rfft, integer_counts, pdf_from_counts
 
 
 def test_hilbert_envelope_matches_scipy(getkey):
@@ -16,6 +16,14 @@ def test_hilbert_envelope_matches_scipy(getkey):
         x = jr.normal(getkey(), (3, n))
         np.testing.assert_allclose(
             jaxroll.hilbert_envelope(x), np.abs(scipy.signal.hilbert(np.asarray(x), axis=-1)), rtol=1e-10, atol=1e-12
+        )
+
+
+def test_envelope_rfft_matches_scipy(getkey):
+    for n in (1000, 1001):
+        x = jr.normal(getkey(), (3, n))
+        np.testing.assert_allclose(
+            envelope_rfft(x), np.abs(scipy.signal.hilbert(np.asarray(x), axis=-1)), rtol=1e-10, atol=1e-12
         )
 
 
@@ -67,8 +75,10 @@ def test_envelope_of_a_sine_is_constant():
 
 def test_histogram_and_pdf_normalisation():
     values = jnp.array([0.1, 0.5, 0.5, 2.9, 10.0])
-    counts = histogram_counts(values, jnp.ones(5), 1.0, 3)
+    counts = integer_counts(values, jnp.array([True, True, True, True, True]), 1.0, 3)
     np.testing.assert_array_equal(counts, [3, 0, 2])  # larger values in the last bin
+    kept = integer_counts(values, jnp.array([True, False, True, True, False]), 1.0, 3)
+    np.testing.assert_array_equal(kept, [2, 0, 1])  # left-out values are not counted anywhere
     edges = jnp.arange(4.0)
     np.testing.assert_allclose(jnp.sum(pdf_from_counts(counts, edges) * jnp.diff(edges)), 1.0, rtol=1e-15)
     jax.block_until_ready(counts)

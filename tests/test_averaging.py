@@ -476,3 +476,56 @@ def test_esam_tail_derivative_forward_mode():
     h = 1e-3
     fd = (float(tails(x0 + h * e)) - float(tails(x0 - h * e))) / (2 * h)
     np.testing.assert_allclose(float(slope), fd, rtol=1e-5)
+
+
+# ------------------------------------------------------------------------------------------------------------
+# The command line's path: each theory in one compiled program (`theory_summary`), stored between runs
+# ------------------------------------------------------------------------------------------------------------
+
+BINS = np.arange(0.0, 73.0, 1.0)  # the command line's bins for the default ship (vanishing angle 71.6°)
+
+
+def _same(got, ref, rtol=1e-12):
+    assert got.keys() == ref.keys()
+    for key, value in ref.items():
+        if isinstance(value, dict):
+            _same(got[key], value, rtol)
+        elif isinstance(value, str | bool):
+            assert got[key] == value, key
+        else:  # the PDF per degree is a difference of the CDF: 1 ulp of 1 in its tail
+            np.testing.assert_allclose(got[key], value, rtol=rtol, atol=1e-15, err_msg=key)
+
+
+@pytest.mark.parametrize("name", ["roberts", "esam"])
+def test_theory_summary_is_the_public_law_and_summary(name):
+    """`theory_summary(name, …)`: the law of `roberts_pdf(restoring="nonlinear")` / `esam_pdf` and its `summary` and
+    `details`, computed in one program (law, mean, quantiles, CDF on the bins), to 1e-12."""
+    wave = _wave(7.0)
+    ref = roberts_pdf(SHIP, wave, restoring="nonlinear") if name == "roberts" else esam_pdf(SHIP, wave)
+    law, summary = jxr.theory.theory_summary(name, SHIP, wave, BINS)
+    _same(summary, ref.summary(BINS))
+    _same(law.details(), ref.details())
+    assert summary["mean_amplitude_deg"] == pytest.approx({"roberts": 14.69, "esam": 14.26}[name], abs=0.005)
+
+
+def test_stored_program_is_read_back_with_the_same_numbers(tmp_path, monkeypatch):
+    """With the persistent cache on (as the `jaxroll` command runs), the program is exported to disk once and a new
+    process (here: the loaded programs forgotten) reads it back instead of tracing: the same numbers; a theory that
+    has no law raises the public function's error from the stored program too."""
+    pytest.importorskip("flatbuffers")
+    from jaxroll import _compiled
+
+    monkeypatch.setattr(_compiled, "cache_dir", lambda: tmp_path)
+    monkeypatch.setattr(_compiled, "_LOADED", {})
+    wave = _wave(7.0)
+    first = jxr.theory.theory_summary("roberts", SHIP, wave, BINS)[1]
+    stored = sorted(tmp_path.glob("*.bin"))
+    assert stored and all(p.stat().st_size > 1000 for p in stored)  # programs, not "cannot export" markers
+    _compiled._LOADED.clear()
+    again = jxr.theory.theory_summary("roberts", SHIP, wave, BINS)[1]
+    assert sorted(tmp_path.glob("*.bin")) == stored  # read, not exported again
+    _same(again, first, rtol=0)
+    with pytest.raises(ValueError, match=r"roll dies out.*K = .* below b1/2"):
+        jxr.theory.theory_summary("roberts", SHIP, _wave(1.0), BINS)
+    with pytest.raises(ValueError, match="unknown theory"):
+        jxr.theory.theory_law("magic", SHIP, wave)

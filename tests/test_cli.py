@@ -38,10 +38,14 @@ def test_pdf_writes_figures_and_json(tmp_path, capsys):
         assert d["mean_amplitude_deg"][method] > 0
     assert d["n_realizations"] == 6 and d["n_capsized"] + 0 == d["capsize_probability"] * 6
     assert d["filter_fit"]["order"] == 4
+    # the paper's figure by default: Roberts, ESAM and the moment method overlaid, each a normalised envelope law
+    assert set(d["theory"]) == {"roberts", "esam", "moment"} and d["config"]["theory"] == ["roberts", "esam", "moment"]
+    for t in d["theory"].values():
+        np.testing.assert_allclose(np.sum(np.array(t["pdf"]) * np.diff(edges)), 1 - t["mass_beyond_grid"], atol=2e-3)
     assert "C11 (representative)" in capsys.readouterr().out
     # Same seed → same result.
     main(["pdf", "--realizations", "6", "--duration", "600", "--out", str(tmp_path / "again"), "--seed", "3",
-          "--quiet", "--chunk-size", "4"])
+          "--quiet", "--chunk-size", "4", "--theory", "none"])
     d2 = json.loads((tmp_path / "again" / "pdf.json").read_text())
     assert d2["pdf_envelope"] == d["pdf_envelope"]
 
@@ -51,7 +55,7 @@ def test_pdf_with_ship_file_and_superposition(tmp_path):
     text = jaxroll.ship_to_toml(jaxroll.c11_representative()).replace("gm_ratio = 1.0", "gm_ratio = 0.8")
     ship.write_text(text)
     code = main(["pdf", "--ship", str(ship), "--method", "superposition", "--realizations", "4", "--duration",
-                 "600", "--hs", "5", "--out", str(tmp_path), "--quiet"])
+                 "600", "--hs", "5", "--out", str(tmp_path), "--quiet", "--theory", "none"])
     assert code == 0
     d = json.loads((tmp_path / "pdf.json").read_text())
     assert d["config"]["ship"]["correction"]["gm_ratio"] == 0.8 and "ship_note" not in d["config"]
@@ -148,7 +152,12 @@ def test_risk_command(tmp_path, capsys):
     direct = d["direct"]
     assert direct["n_realizations"] == 8
     assert 0 <= direct["probability_ci95"][0] <= direct["probability"] <= direct["probability_ci95"][1] <= 1
-    assert direct["largest_roll_quantiles_deg"]["50"] <= direct["largest_roll_quantiles_deg"]["99"]
+    # the largest roll's quantiles count a capsize as a roll beyond the vanishing angle: null above 1 − P(capsize)
+    q = direct["largest_roll_quantiles_deg"]
+    known = [q[k] for k in ("50", "90", "99") if q[k] is not None]
+    assert known == sorted(known)
+    for k in ("50", "90", "99"):
+        assert (q[k] is None) == (1 - int(k) / 100 < direct["capsize_probability"])
     assert "P(roll > 20° within 3 h)" in capsys.readouterr().out
     # The risk curve: the direct one is P(largest roll > x or capsize), non-increasing, equal to the headline
     # probability at the threshold; the figure is written with the JSON.
@@ -220,7 +229,7 @@ def test_summary_of_nothing_is_null_with_a_reason():
 def test_pdf_all_capsized_reports_null_not_invented_numbers(tmp_path, monkeypatch, capsys):
     _patch_monte_carlo(monkeypatch, _fake_stats(n_realizations=5, n_capsized=5))
     out = tmp_path / "run"
-    assert main(["pdf", "--realizations", "5", "--duration", "600", "--out", str(out), "--quiet"]) == 0
+    assert main(["pdf", "--realizations", "5", "--duration", "600", "--out", str(out), "--quiet", "--theory", "none"]) == 0
     text = (out / "pdf.json").read_text()
     assert "NaN" not in text
     d = json.loads(text)
@@ -247,7 +256,7 @@ def test_pdf_states_capsizes_and_mass_beyond_grid(tmp_path, monkeypatch, capsys)
 
     monkeypatch.setattr(plotting, "amplitude_pdf_figures", spy)
     out = tmp_path / "run"
-    assert main(["pdf", "--realizations", "10", "--duration", "600", "--out", str(out), "--quiet"]) == 0
+    assert main(["pdf", "--realizations", "10", "--duration", "600", "--out", str(out), "--quiet", "--theory", "none"]) == 0
     d = json.loads((out / "pdf.json").read_text())
     assert d["n_capsized"] == 9 and d["n_survivors"] == 1 and d["conditional_on_no_capsize"] is True
     assert d["mass_beyond_grid"]["zero_crossing"] == pytest.approx(1 / 4)
@@ -338,7 +347,7 @@ def test_out_that_is_a_file_is_refused_first(command, tmp_path, monkeypatch, cap
 def test_interrupted_run_leaves_the_previous_set_untouched(tmp_path, monkeypatch, capsys):
     _patch_monte_carlo(monkeypatch, _fake_stats(zc=[5.0, 6.0], env=[4.0, 5.0]))
     out = tmp_path / "run"
-    assert main(["pdf", "--realizations", "10", "--duration", "600", "--out", str(out), "--quiet"]) == 0
+    assert main(["pdf", "--realizations", "10", "--duration", "600", "--out", str(out), "--quiet", "--theory", "none"]) == 0
     (out / "notes.txt").write_text("the user's own file")
     before = {p.name: p.read_bytes() for p in out.iterdir()}
     _patch_monte_carlo(monkeypatch, _fake_stats(zc=[15.0, 16.0], env=[14.0, 15.0]))
@@ -349,21 +358,21 @@ def test_interrupted_run_leaves_the_previous_set_untouched(tmp_path, monkeypatch
 
     monkeypatch.setattr(pdf, "write_json", killed)
     capsys.readouterr()
-    assert main(["pdf", "--realizations", "10", "--duration", "600", "--out", str(out), "--quiet"]) == 130
+    assert main(["pdf", "--realizations", "10", "--duration", "600", "--out", str(out), "--quiet", "--theory", "none"]) == 130
     err = capsys.readouterr().err
     assert len(err.strip().splitlines()) == 1 and "interrupted" in err and "Traceback" not in err
     assert {p.name: p.read_bytes() for p in out.iterdir()} == before  # the old set, whole
     assert sorted(p.name for p in tmp_path.iterdir()) == ["run"]  # no partial folder left behind
     monkeypatch.undo()
     _patch_monte_carlo(monkeypatch, _fake_stats(zc=[15.0, 16.0], env=[14.0, 15.0]))
-    assert main(["pdf", "--realizations", "10", "--duration", "600", "--out", str(out), "--quiet"]) == 0
+    assert main(["pdf", "--realizations", "10", "--duration", "600", "--out", str(out), "--quiet", "--theory", "none"]) == 0
     d = json.loads((out / "pdf.json").read_text())
     assert d["mean_amplitude_deg"]["zero_crossing"] == pytest.approx(15.5)
     assert (out / "notes.txt").read_text() == "the user's own file"  # files it does not write are kept
 
 
 def test_resumed_run_says_so_and_reports_total_time(tmp_path, capsys):
-    args = ["pdf", "--realizations", "4", "--duration", "300", "--chunk-size", "2", "--quiet",
+    args = ["pdf", "--realizations", "4", "--duration", "300", "--chunk-size", "2", "--quiet", "--theory", "none",
             "--checkpoint", str(tmp_path / "ck")]
     assert main([*args, "--out", str(tmp_path / "a")]) == 0
     first = json.loads((tmp_path / "a" / "pdf.json").read_text())
@@ -385,9 +394,9 @@ def test_docs_promise_only_what_the_code_does(capsys):
     readme = (root / "README.md").read_text()
     with pytest.raises(SystemExit):
         main(["pdf", "--help"])
-    assert "(default: none)" in capsys.readouterr().out
+    assert "(default: roberts,esam,moment" in " ".join(capsys.readouterr().out.split())
     row = next(line for line in readme.splitlines() if line.startswith("| `jaxroll pdf"))
-    assert "--theory roberts,esam,moment --" not in row and "default: none" in row
+    assert "Roberts, ESAM and the moment method by default" in row and "`--theory none`" in row
     tank_row = next(line for line in readme.splitlines() if line.startswith("| `jaxroll tank"))
     assert "no figure" in tank_row
     # Every document the command line's help cites exists (and THEORY.md is not one: it is not in the repository).

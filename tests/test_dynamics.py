@@ -11,7 +11,6 @@ import pytest
 from scipy import integrate
 
 import jaxroll
-from jaxroll.roll._excitation import BLOCK
 
 
 def white_noise_filter(intensity, omega_f=8.0, zeta_f=0.7):
@@ -106,18 +105,19 @@ def test_time_step_convergence_with_common_random_numbers(getkey):
     wave = jaxroll.EffectiveWave(jaxroll.ITTC(7.0, 10.0), ship.lpp)
     f = jaxroll.fit_filter(wave, order=4, match_frequency=2 * ship.omega0).filter
     dt, duration = 0.5, 1800.0
-    fine = jaxroll.FilterExcitation(f, dt / 2)
     n_fine = int(duration / (dt / 2))
-    n_blocks = -(-n_fine // BLOCK)
+    phi_f, chol_f = f.discretise(dt / 2)  # the exact one-step law at dt/2
+    sigma_chol = jnp.linalg.cholesky(f.stationary_covariance())
 
     def path(key):
-        z, zeta0, dzeta0 = fine.init(key, n_fine)
-        def body(z, i):
-            z, a, b = fine.block(key, z, i)
-            return z, (a, b)
-        _, (a, b) = jax.lax.scan(body, z, jnp.arange(n_blocks))
-        return (jnp.concatenate([zeta0[None], a.reshape(-1)])[: n_fine + 1],
-                jnp.concatenate([dzeta0[None], b.reshape(-1)])[: n_fine + 1])
+        def step(z, e):
+            z = phi_f @ z + chol_f @ e
+            return z, z
+
+        z0 = sigma_chol @ jr.normal(jr.fold_in(key, 1), (f.order,))
+        _, zs = jax.lax.scan(step, z0, jr.normal(key, (n_fine, f.order)))
+        zs = jnp.concatenate([z0[None], zs])
+        return zs @ f.c, zs @ (f.a.T @ f.c)  # ζ_G and dζ_G/dt = cᵀA z
 
     def mean_amp(key):
         zeta, dzeta = path(key)

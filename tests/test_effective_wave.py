@@ -95,24 +95,29 @@ def test_filter_fit_variance_and_lyapunov(order):
 def test_filter_exact_discretisation_statistics(getkey):
     wave = jaxroll.EffectiveWave(jaxroll.ITTC(7.0, 10.0), L)
     f = jaxroll.fit_filter(wave, order=4).filter
-    exc = jaxroll.FilterExcitation(f, 0.5)
-    # Exact one-step covariance: stationary Σ is invariant under z' = Φz + Lε.
-    sigma = f.stationary_covariance()
-    np.testing.assert_allclose(exc.phi @ sigma @ exc.phi.T + exc.chol @ exc.chol.T, sigma, rtol=1e-9,
-                               atol=1e-12 * float(jnp.abs(sigma).max()))
+    for m in (1, 4):
+        exc = jaxroll.FilterExcitation(f, 0.5, m)
+        # Exact step of H = m·dt: the stationary Σ is invariant under z' = Φz + Lε.
+        sigma = f.stationary_covariance()
+        np.testing.assert_allclose(exc.phi @ sigma @ exc.phi.T + exc.chol @ exc.chol.T, sigma, rtol=1e-9,
+                                   atol=1e-12 * float(jnp.abs(sigma).max()))
 
-    def run(key):
-        z, zeta0, _ = exc.init(key, 0)
-        def body(z, i):
-            z, zetas, dzetas = exc.block(key, z, i)
-            return z, (zetas, dzetas)
-        _, (zetas, dzetas) = jax.lax.scan(body, z, jnp.arange(28))
-        return zetas.reshape(-1), dzetas.reshape(-1)
+        def run(key, exc=exc, m=m):
+            z, _ = exc.init(key, 0, m, jnp.float64)
 
-    zs, dzs = jax.vmap(run)(jr.split(getkey(), 64))
-    np.testing.assert_allclose(jnp.var(zs), wave.variance(), rtol=0.06, atol=0)  # ≈ 4 standard errors
-    var_dz = f.c @ f.a @ sigma @ f.a.T @ f.c
-    np.testing.assert_allclose(jnp.var(dzs), var_dz, rtol=0.06, atol=0)
+            def body(z, i):
+                return jax.lax.scan(lambda z, e: exc.advance(z, e, m), z, exc.block_inputs(key, z, i, m))
+
+            _, values = jax.lax.scan(body, z, jnp.arange(7 if m == 4 else 28))
+            return jnp.stack(values, -1)  # ζ_G at every half step
+
+        zs = jax.vmap(run)(jr.split(getkey(), 64))
+        np.testing.assert_allclose(jnp.var(zs), wave.variance(), rtol=0.06, atol=0)  # ≈ 4 standard errors
+        # the lag-dt/2 autocovariance of the bridged series is the filter's own, cᵀ e^{A dt/2} Σ c
+        half, _ = f.discretise(0.25)
+        flat = zs.reshape(64, -1)
+        lag = jnp.mean(flat[:, 1:] * flat[:, :-1])
+        np.testing.assert_allclose(lag, f.c @ half @ sigma @ f.c, rtol=0.06, atol=0)
 
 
 def test_filter_errors():
@@ -121,7 +126,7 @@ def test_filter_errors():
         jaxroll.fit_filter(wave, order=2)
     with pytest.raises(ValueError, match="`heading` must be 'head' or 'following'"):
         jaxroll.EffectiveWave(jaxroll.ITTC(7.0, 10.0), L, 0.0, "beam")
-    with pytest.raises(RuntimeError, match="`speed` must be >= 0"):
+    with pytest.raises(ValueError, match="`speed` must be >= 0"):
         jaxroll.EffectiveWave(jaxroll.ITTC(7.0, 10.0), L, -1.0)
 
 

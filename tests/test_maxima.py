@@ -1,5 +1,6 @@
 """The Monte Carlo maxima protocol: exact nesting, reproducibility, capsize and completeness bookkeeping."""
 
+import jax.numpy as jnp
 import jax.random as jr
 import numpy as np
 import pytest
@@ -32,13 +33,14 @@ def test_maxima_equal_the_largest_of_the_first_n0_zero_crossing_amplitudes(probl
     key = jr.key(11)
     discard, n0 = 100.0, (10, 25)
     stats = jaxroll.monte_carlo_maxima(problem, key, n0=n0, num_realizations=1, discard=discard, duration=1400.0)
-    phi, _, end = jaxroll.roll_time_series(problem, jr.fold_in(key, 0), 1400.0)
+    phi, _, end = jaxroll.roll_time_series(problem, jr.fold_in(key, 0), 1400.0, dtype=jnp.float32)
     assert not bool(end.capsized)
     amps = np.asarray(jaxroll.zero_crossing_amplitudes(phi))
     t = np.arange(phi.size) * problem.dt
     amps = amps[(amps > 0) & (t > discard + 1e-9)]
     for j, n in enumerate(n0):
-        np.testing.assert_allclose(stats.maxima_deg[0, j], np.rad2deg(amps[:n].max()), rtol=1e-12, atol=0)
+        # the Monte Carlo integrates in float32 like this series, but compiled vmapped: equal to float32 round-off
+        np.testing.assert_allclose(stats.maxima_deg[0, j], np.rad2deg(amps[:n].max()), rtol=1e-5, atol=0)
 
 
 def test_incomplete_trials_are_reported_not_hidden(problem):

@@ -447,6 +447,7 @@ def test_cache_key_changes_when_the_generator_changes(monkeypatch):
         key, tkey = mc.generator_key(), mc.tables_key(structure, 4, extra)
         assert mc.generator_key() == key  # deterministic
         sources = mc._generator_sources()
+        assert "def _build_tables(" in sources[0] and "def _recursion_terms(" in sources[0]
         edited = (sources[0].replace("yield", "yield  "),) + sources[1:]
         monkeypatch.setattr(mc, "_generator_sources", lambda: edited)
         mc.generator_key.cache_clear()
@@ -456,29 +457,89 @@ def test_cache_key_changes_when_the_generator_changes(monkeypatch):
     finally:
         monkeypatch.undo()
         mc.generator_key.cache_clear()
-        mc.solver_key.cache_clear()
 
 
-def test_exported_solve_equals_traced_solve(tmp_path, monkeypatch):
-    """The disk-cached `jax.export` of the stationary solve gives the traced solve's numbers."""
+def _stored_programs(monkeypatch, path):
+    """Store `cached_program`s in `path` (as with JAX's persistent cache on) and forget the ones loaded so far."""
+    from jaxroll import _compiled
+
+    monkeypatch.setattr(_compiled, "cache_dir", lambda: path)
+    monkeypatch.setattr(_compiled, "_LOADED", {})
+    return _compiled
+
+
+def test_stored_solve_equals_traced_solve(tmp_path, monkeypatch):
+    """The stationary solve as a stored program (`cached_program`, exported and read back) gives the numbers of
+    the traced solve."""
     pytest.importorskip("flatbuffers")
-    from jaxroll.theory import _moment_cache as mc, _moment_solver as ms
-
     sde = _duffing_sde()
     kw = dict(closure_order=4, initial_variances=[0.01, 0.01], time_scale=2 * np.pi)
-    monkeypatch.setattr(ms, "cache_dir", lambda: None)
     traced = stationary_moments(sde, **kw)
-    monkeypatch.setattr(ms, "cache_dir", lambda: tmp_path)
-    monkeypatch.setattr(mc, "cache_dir", lambda: tmp_path)
-    mc._EXPORTED.clear()
-    exported = stationary_moments(sde, **kw)  # exported, serialized to disk
-    mc._EXPORTED.clear()
+    compiled = _stored_programs(monkeypatch, tmp_path)
+    stored = stationary_moments(sde, **kw)  # exported, serialized to disk
+    compiled._LOADED.clear()
     reread = stationary_moments(sde, **kw)  # deserialized
-    mc._EXPORTED.clear()
-    assert len(list(tmp_path.glob("solve-*.bin"))) == 1
-    for sol in (exported, reread):
+    files = list(tmp_path.glob("*.bin"))
+    assert len(files) == 1 and files[0].stat().st_size > 1000  # a program, not the "cannot export" marker
+    for sol in (stored, reread):
         np.testing.assert_allclose(sol.values, traced.values, rtol=1e-12, atol=0)
-        assert bool(sol.converged)
+        assert bool(sol.converged) and sol.equations.tables is traced.equations.tables
+
+
+def test_equations_pickle_by_their_key():
+    """A `MomentEquations` (in a stored program's output) pickles as its tables' key: small, and read back to the
+    same tables (from the tables cache)."""
+    import pickle
+
+    eqs = moment_equations(roll_sde(SHIP, _filter()), 6)
+    blob = pickle.dumps(eqs)
+    assert len(blob) < 5_000 < len(pickle.dumps(eqs.tables))
+    back = pickle.loads(blob)
+    assert back.tables is eqs.tables and back.unknowns == eqs.unknowns
+
+
+def test_zero_pattern_keeps_the_concrete_structure_under_tracing():
+    """`roll_sde` drops the terms whose coefficients are concrete zeros (a7 = a9 = 0, C4 … = 0 on the default
+    ship); traced, every term is kept. With the concrete ship's `zero_pattern`, the SDE built from a traced ship
+    (as in a compiled program) has the concrete structure and the same coefficients."""
+    from jaxroll.theory._moment_equations import _roll_sde, zero_pattern
+
+    filt = _filter()
+    concrete = roll_sde(SHIP, filt)
+    pattern = zero_pattern(SHIP, filt)
+    assert pattern[1] == (False, False, False, True, True)  # a1, a3, a5 kept; a7 = a9 = 0 dropped
+    traced_all = jax.eval_shape(lambda s, f: roll_sde(s, f), SHIP, filt)
+    assert len(traced_all.drift_terms) > len(concrete.drift_terms)
+    built = jax.jit(lambda s, f: _roll_sde(s, f, "cubic", pattern))(SHIP, filt)
+    assert built._structure() == concrete._structure()
+    np.testing.assert_allclose(built.drift_coefficients, concrete.drift_coefficients, rtol=1e-15, atol=0)
+    np.testing.assert_array_equal(built.noise_coefficients, concrete.noise_coefficients)
+
+
+def _same_summary(got: dict, ref: dict, rtol: float):
+    assert got.keys() == ref.keys()
+    for key in got:
+        if isinstance(ref[key], dict):
+            assert got[key].keys() == ref[key].keys()
+            np.testing.assert_allclose(list(got[key].values()), list(ref[key].values()), rtol=rtol, atol=0)
+        elif isinstance(ref[key], str):
+            assert got[key] == ref[key]
+        else:  # the PDF per degree is a difference of the CDF: 1 ulp of 1 in its tail
+            np.testing.assert_allclose(got[key], ref[key], rtol=rtol, atol=1e-15)
+
+
+def test_theory_summary_is_the_moment_methods_law_and_summary(ship_solutions):
+    """`theory_summary("moment", …)` (one compiled program: SDE, order-4 relaxation, order-6 Newton, the amplitude
+    law and its summary) gives `moment_pdf_first_stable`'s law (order 6 at 7 m) and `law.summary`."""
+    bins = np.arange(0.0, 73.0, 1.0)
+    ref = ship_solutions[6]
+    law, summary = jxr.theory.theory_summary("moment", SHIP, _wave(7.0), bins)
+    assert law.closure_order == 6 and law.requested_closure_order == 6 and not law.closure_fallback
+    _same_summary(summary, ref.summary(bins), rtol=1e-10)
+    got, want = law.details(), ref.details()
+    assert got.pop("requested_closure_order") == want.pop("requested_closure_order") == 6
+    _same_summary(got, want, rtol=1e-10)
+    assert summary["mean_amplitude_deg"] == pytest.approx(11.2077, abs=1e-4)  # docs/theory.md §5
 
 
 def test_vmap_over_sea_states_equals_loop():

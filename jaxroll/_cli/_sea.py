@@ -6,6 +6,7 @@ Headings: degrees here (0° following, 90° beam, 180° head; `head`/`following`
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import math
 
 from ._common import CLIError
@@ -123,9 +124,9 @@ def sea_config(args, ship) -> dict:
     return cfg
 
 
-def build_problem(args, ship, *, phi0_deg: float = 5.0):
-    """`RollProblem.from_sea` from the parsed options. **Returns:** `(problem, filter_fit, sea)`."""
-    from .. import ITTC, RollProblem
+def _sea_from_args(args):
+    """The ITTC sea and the heading [deg] of the options, checked (the beam-sea note printed)."""
+    from .. import ITTC
 
     heading_deg = parse_heading(args.heading)
     check_positive(args, "hs", "t01", "dt")
@@ -133,15 +134,22 @@ def build_problem(args, ship, *, phi0_deg: float = 5.0):
         raise CLIError(f"--speed must be >= 0 [m/s] (use --heading for direction); got {args.speed}.")
     if args.method == "filter" and args.filter_order < 3:
         raise CLIError(f"--filter-order must be >= 3 (4 recommended); got {args.filter_order}.")
-    sea = ITTC(args.hs, args.t01)
-    if not math.isfinite(phi0_deg):
-        raise CLIError(f"--phi0-deg must be finite; got {phi0_deg}.")
     if heading_deg == 90.0:
         print(
             "Beam seas (χ = 90°): the wave number projected on the ship's axis, k·cos χ, is 0, so Grim's effective "
             "wave and the parametric excitation vanish in this model: no parametric roll (the roll only decays "
             "from its initial angle)."
         )
+    return ITTC(args.hs, args.t01), heading_deg
+
+
+def build_problem(args, ship, *, phi0_deg: float = 5.0):
+    """`RollProblem.from_sea` from the parsed options. **Returns:** `(problem, filter_fit, sea)`."""
+    from .. import RollProblem
+
+    if not math.isfinite(phi0_deg):
+        raise CLIError(f"--phi0-deg must be finite; got {phi0_deg}.")
+    sea, heading_deg = _sea_from_args(args)
     problem = RollProblem.from_sea(
         ship,
         sea,
@@ -153,3 +161,29 @@ def build_problem(args, ship, *, phi0_deg: float = 5.0):
         phi0=math.radians(phi0_deg),
     )
     return problem, problem.filter_fit, sea
+
+
+@dataclasses.dataclass(frozen=True)
+class TheoryInputs:
+    """What the theories take from a sea state — the ship, Grim's effective wave and the shaping-filter fit (None
+    with --method superposition) — as `RollProblem.from_sea` builds them, without the Monte Carlo's time stepping."""
+
+    ship: object
+    wave: object
+    filter_fit: object
+
+
+def build_theory_inputs(args, ship) -> TheoryInputs:
+    """The theories' inputs from the parsed options: the same wave and filter fit (gated by the same checks) as
+    `build_problem`, without the time-step check and the excitation's discretisation, which only the Monte Carlo
+    needs."""
+    from .. import EffectiveWave
+    from ..sea import check_filter_fit, fit_filter
+
+    sea, heading_deg = _sea_from_args(args)
+    wave = EffectiveWave(sea, ship.lpp, args.speed, heading_for_api(heading_deg))
+    fit = None
+    if args.method == "filter":
+        fit = fit_filter(wave, order=args.filter_order, match_frequency=2 * ship.omega0)
+        check_filter_fit(fit)
+    return TheoryInputs(ship, wave, fit)

@@ -18,41 +18,69 @@ def first_line(error: Exception) -> str:
     return text.strip().splitlines()[0] if text.strip() else type(error).__name__
 
 
+def _call(name: str, fn):
+    try:
+        return fn()
+    except (ValueError, RuntimeError) as e:
+        raise CLIError(f"{name}: {first_line(e)}") from None
+
+
 def compute(problem, args, name: str, *, estimator: str = "envelope"):
     """One theory's amplitude law for the Monte Carlo's own problem (same effective wave, same filter fit):
     Roberts (nonlinear restoring), ESAM, the moment method (order-6 closure, order 4 where 6 has no stable
     fixed point — the closure used is recorded in the law's `details()`), or the envelope Fokker–Planck method
-    (coloured-noise averaging; its grid and fitted envelope are recorded in `details()`)."""
+    (coloured-noise averaging; its grid and fitted envelope are recorded in `details()`). One compiled program
+    per theory, loaded from the cache on a warm run (`jaxroll.theory.theory_law`)."""
     from .. import theory
 
-    ship, wave = problem.ship, problem.wave
-    try:
-        if name == "roberts":
-            return theory.roberts_pdf(ship, wave, restoring="nonlinear", estimator=estimator)
-        if name == "esam":
-            return theory.esam_pdf(ship, wave, estimator=estimator)
-        if name == "moment":
-            return theory.moment_pdf_first_stable(
-                ship, wave, shaping_filter=problem.filter_fit, filter_order=args.filter_order, estimator=estimator
-            )
-        if name == "envelope_fpk":
-            return theory.envelope_fpk_pdf(ship, wave, estimator=estimator)
-    except (ValueError, RuntimeError) as e:
-        raise CLIError(f"{name}: {first_line(e)}") from None
-    raise CLIError(f"unknown theory {name!r}")
+    if name not in theory.THEORIES:
+        raise CLIError(f"unknown theory {name!r}")
+    return _call(name, lambda: theory.theory_law(
+        name, problem.ship, problem.wave, shaping_filter=problem.filter_fit, filter_order=args.filter_order,
+        estimator=estimator))  # fmt: skip
+
+
+def start_theory_summaries(problem, args, names, bins_deg, *, skip_failed: bool = False, warn: bool = True):
+    """Dispatch the theories' programs now (JAX runs them in the background) and return `finish() -> dict`: per
+    theory (envelope law) `pdf` per degree on `bins_deg`, the law's summary, its details, and `time_s`, the wall
+    time it cost this command (dispatching it, and waiting for its result after the previous one's). Each theory
+    is one compiled program (`jaxroll.theory.iter_theory_summaries`). A theory that has no law is an error
+    (`CLIError`), or with `skip_failed` is left out and `finish()` returns `(summaries, {name: reason})`;
+    `warn=False`: no `UserWarning` for the moment method's closure fallback (its details record it)."""
+    from .. import theory
+
+    for name in names:
+        if name not in theory.THEORIES:
+            raise CLIError(f"unknown theory {name!r}")
+    t0 = time.time()
+    results = theory.iter_theory_summaries(
+        names, problem.ship, problem.wave, bins_deg, shaping_filter=problem.filter_fit,
+        filter_order=args.filter_order, return_exceptions=True, warn=warn,
+    )  # fmt: skip
+    dispatch = time.time() - t0
+
+    def finish():
+        out, failed = {}, {}
+        t1 = time.time()
+        for name, result in results:
+            if isinstance(result, Exception):
+                if not skip_failed:
+                    raise CLIError(f"{name}: {first_line(result)}")
+                failed[name] = first_line(result)
+                continue
+            law, summary = result
+            summary = {**summary, **law.details()}
+            summary["pdf"] = np.asarray(summary.pop("pdf_per_degree"), dtype=float)
+            summary.pop("bins_deg", None)
+            out[name] = {**summary, "time_s": dispatch + time.time() - t1}
+        return (out, failed) if skip_failed else out
+
+    return finish
 
 
 def theory_summaries(problem, args, names, bins_deg) -> dict:
-    """Per theory (envelope law): `pdf` per degree on `bins_deg`, the law's summary, its details, timing."""
-    out = {}
-    for name in names:
-        t0 = time.time()
-        law = compute(problem, args, name)
-        summary = {**law.summary(bins_deg), **law.details()}
-        summary["pdf"] = np.asarray(summary.pop("pdf_per_degree"), dtype=float)
-        summary.pop("bins_deg", None)
-        out[name] = {**summary, "time_s": time.time() - t0}
-    return out
+    """`start_theory_summaries(...)()`: the theories' summaries now (a theory that has no law is an error)."""
+    return start_theory_summaries(problem, args, names, bins_deg)()
 
 
 def theory_laws(problem, args, names) -> dict:

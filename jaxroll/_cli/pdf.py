@@ -1,4 +1,4 @@
-"""`jaxroll pdf`: the paper's Monte Carlo amplitude PDFs (and, with --theory, the theoretical PDFs)."""
+"""`jaxroll pdf`: the paper's Monte Carlo amplitude PDFs with the theoretical PDFs overlaid (the paper's figure)."""
 
 from __future__ import annotations
 
@@ -19,6 +19,8 @@ from ._common import (
 from ._sea import add_sea_options, build_problem, check_positive, heading_phrase, parse_heading, sea_config
 
 THEORIES = ("roberts", "esam", "moment", "envelope_fpk")
+# the theories `jaxroll pdf` overlays unless --theory says otherwise (docs/theory.md, "Speed": what they cost)
+DEFAULT_OVERLAY = ("roberts", "esam", "moment")
 
 
 def register(sub) -> None:
@@ -39,8 +41,9 @@ def register(sub) -> None:
     m.add_argument("--bin-width-deg", type=float, default=1.0, help="PDF bin width [deg] (1)")
     m.add_argument(
         "--theory",
-        default="",
-        help=f"comma-separated theories to overlay: {','.join(THEORIES)} (default: none)",
+        default=None,
+        help=f"comma-separated theories to overlay: {','.join(THEORIES)}, or none (default: "
+        f"{','.join(DEFAULT_OVERLAY)}, the paper's figure; a default theory that has no law here is left out)",
     )
     m.add_argument("--checkpoint", metavar="DIR", default=None, help="save progress in DIR; a rerun resumes")
     p.add_argument("--out", default="jaxroll-out/pdf", help="output folder (default ./jaxroll-out/pdf)")
@@ -49,6 +52,9 @@ def register(sub) -> None:
 
 
 def parse_theories(text: str) -> list[str]:
+    """The theory names of a --theory option (comma-separated; `none` or empty: none)."""
+    if text.strip().lower() == "none":
+        return []
     names = [t.strip().lower() for t in text.split(",") if t.strip()]
     unknown = sorted(set(names) - set(THEORIES))
     if unknown:
@@ -126,7 +132,7 @@ def run(args) -> int:
     from ._common import OutputFolder
 
     # Check everything first: no filter fit, compilation or simulation before every option is known good.
-    theories = parse_theories(args.theory)
+    theories = parse_theories(",".join(DEFAULT_OVERLAY) if args.theory is None else args.theory)
     check_positive(args, "hs", "t01", "dt", "duration", "bin_width_deg")
     if args.realizations < 1:
         raise CLIError(f"--realizations must be >= 1; got {args.realizations}.")
@@ -166,6 +172,13 @@ def run(args) -> int:
         except (OSError, ValueError, KeyError, TypeError):
             earlier = 0.0
         print(f"resuming from the checkpoint in {args.checkpoint} ({earlier:.1f} s of earlier run time)")
+    finish_theories = None
+    if theories:  # loaded and dispatched before the Monte Carlo (not in its run time): they compute while it runs
+        from ._theory import start_theory_summaries
+
+        default = args.theory is None  # the default overlay: a theory without a law, or a fallback, is noted
+        finish_theories = start_theory_summaries(problem, args, theories, bins, skip_failed=default,
+                                                 warn=not default)  # fmt: skip
     shown = Progress(args.realizations, "realizations", enabled=None if not args.quiet else False)
     t0 = time.time()
 
@@ -188,10 +201,13 @@ def run(args) -> int:
         )
         elapsed = time.time() - t0
         summary = stats.summary(bins)
-        if theories:
-            from ._theory import theory_summaries
-
-            summary["theory"] = theory_summaries(problem, args, theories, bins)
+        theories_failed = {}
+        if finish_theories is not None:
+            summary["theory"] = finish_theories()
+            if args.theory is None:  # the default overlay: a theory that has no law here is left out
+                summary["theory"], theories_failed = summary["theory"]
+                if theories_failed:
+                    summary["theory_left_out"] = theories_failed
         config = {
             **sea_config(args, ship),
             "realizations": args.realizations,
@@ -229,5 +245,14 @@ def run(args) -> int:
               + (f", {beyond:.2g} of the amplitudes beyond {bins[-1]:g}°" if beyond else ""))
     if summary["reason"]:
         print(f"no statistics: {summary['reason']}")
+    if summary.get("theory"):
+        print("theory overlay: " + ", ".join(
+            f"{name} (mean {t['mean_amplitude_deg']:.2f}°"
+            + (f", closure order {t['closure_order']}: order {t['requested_closure_order']} has no stable fixed "
+               "point here" if t.get("closure_fallback") else "") + ")"
+            for name, t in summary["theory"].items())
+            + ("" if args.theory is not None else "; --theory none leaves them out"))  # fmt: skip
+    for name, reason in theories_failed.items():
+        print(f"theory overlay: {name} left out: {reason}")
     print(f"wrote {out / 'pdf_linear.png'}, {out / 'pdf_log.png'}, {out / 'pdf.json'}")
     return 0

@@ -68,7 +68,6 @@ from ._time_domain_results import (
     TimeDomainFit as TimeDomainFit,
 )
 from ._virtual_tank import (
-    GivenExcitation as GivenExcitation,
     virtual_captive_record as virtual_captive_record,
     virtual_decay_record as virtual_decay_record,
     virtual_roll_record as virtual_roll_record,

@@ -15,30 +15,10 @@ import numpy as np
 
 from ..io._records import Record, make_record
 from ..roll._equation import RollProblem, roll_time_series
-from ..roll._excitation import BLOCK, AbstractExcitation
+from ..roll._excitation import SampledExcitation
 from ..sea._grim import grim_transfer, superposition_length
 from ..sea._spectra import GRAVITY, wave_frequencies_from_encounter
 from ..ship._restoring import delta_gm
-
-
-class GivenExcitation(AbstractExcitation):
-    """ζ_G [m] and dζ_G/dt [m/s] given as arrays on t_k = k·dt (length ≥ blocks·BLOCK + 1): a recorded or
-    synthesised effective wave fed to the project's integrator (`jaxroll.RollProblem`)."""
-
-    zeta: Any
-    dzeta: Any
-    dt: float = eqx.field(static=True)
-
-    def init(self, key, num_steps):
-        return (self.zeta, self.dzeta), self.zeta[0], self.dzeta[0]
-
-    def block(self, key, state, index):
-        start = index * BLOCK + 1
-        return (
-            state,
-            jax.lax.dynamic_slice_in_dim(self.zeta, start, BLOCK),
-            jax.lax.dynamic_slice_in_dim(self.dzeta, start, BLOCK),
-        )
 
 
 def virtual_sea(
@@ -97,17 +77,8 @@ def _simulate_roll(
     """Roll (φ, φ̇) on t_k = k·dt, k ≤ num_steps, from the project's RK4 integrator driven by the given
     ζ_G (and, if given, an external roll moment `moment` = (M_w [rad/s²], dM_w/dt) on the same grid)."""
 
-    num_blocks = -(-num_steps // BLOCK)
-    need = num_blocks * BLOCK + 1
-
-    def given(x, dx):
-        pad = need - x.shape[0]
-        if pad > 0:
-            x, dx = jnp.concatenate([x, jnp.zeros(pad)]), jnp.concatenate([dx, jnp.zeros(pad)])
-        return GivenExcitation(zeta=x, dzeta=dx, dt=float(dt))
-
-    exc = given(zeta_g, dzeta_g)
-    moment_exc = None if moment is None else given(*moment)
+    exc = SampledExcitation(zeta_g, dzeta_g, dt)
+    moment_exc = None if moment is None else SampledExcitation(*moment, dt)
     problem = RollProblem(ship, exc, phi0, dphi0, moment_excitation=moment_exc)
     phi, dphi, end = _roll_time_series_jit(problem, jr.key(0), num_steps * dt)
     return np.asarray(phi), np.asarray(dphi), bool(end.capsized)

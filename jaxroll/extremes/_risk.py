@@ -7,6 +7,7 @@ import jax.scipy.special as jsp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
+from .._compiled import require
 from ..laws._abstract import (
     AbstractAmplitudeLaw,
     _bracket_targets,
@@ -14,7 +15,7 @@ from ..laws._abstract import (
     _solve_levels,
     require_zero_crossing,
 )
-from ..laws._checks import _is_traced, _positive, _require, _scalar
+from ..laws._checks import _is_traced, _positive, _scalar
 from ..laws._tabulated import TabulatedAmplitudeLaw
 from ._maxima import _mode_in
 
@@ -37,7 +38,7 @@ def _exposure_cycles(rate, duration):
 def _check_angle(angle):
     angle = jnp.asarray(angle, dtype=float)
     shown = "a traced value" if _is_traced(angle) else f"{np.asarray(angle)!r}"
-    return _require(
+    return require(
         angle, ~(angle >= 0), f"`angle` must be >= 0 [rad]; got {shown}. Convert degrees with jnp.deg2rad."
     )
 
@@ -99,7 +100,7 @@ def wilson_interval(
         raise ValueError(f"`confidence` must be in (0, 1); got {confidence!r}.")
     k = jnp.asarray(n_exceed, dtype=float)
     n = jnp.asarray(n_total, dtype=float)
-    k = _require(k, (n < 1) | (k < 0) | (k > n),
+    k = require(k, (n < 1) | (k < 0) | (k > n),
                  f"need 0 <= successes <= trials and trials >= 1; got {n_exceed!r} of {n_total!r}.")
     z = jsp.ndtri(1.0 - 0.5 * (1.0 - confidence))
     p = k / n
@@ -250,7 +251,7 @@ def exposure_risk(
     else:
         k = _scalar(n_exceed, "n_exceed")
         shown = "a traced value" if _is_traced(k) else f"{float(k)!r}"
-        k = _require(k, ~((k >= 0) & (k <= n_amp)), f"`n_exceed` must lie in [0, n_amplitudes]; got {shown}.")
+        k = require(k, ~((k >= 0) & (k <= n_amp)), f"`n_exceed` must lie in [0, n_amplitudes]; got {shown}.")
     rate = jnp.asarray(rate, dtype=float)
     duration = jnp.asarray(duration, dtype=float)
     return _exposure_risk(dist, angle, n, rate, duration, n_amp, k, confidence)

@@ -2,11 +2,12 @@
 
 import math
 
-import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
+
+from .._compiled import require
 
 _LOG_HALF = -math.log(2.0)
 _GL_NODES, _GL_WEIGHTS = (np.asarray(v) for v in np.polynomial.legendre.leggauss(8))
@@ -35,28 +36,16 @@ def _scalar(value, name: str) -> Float[Array, ""]:
     return arr
 
 
-def _require(value, bad, message: str):
-    """Raise `ValueError(message)` when `bad` holds (concrete values), or attach `eqx.error_if` under tracing.
-
-    The return value must be used: it carries the run-time check when tracing.
-    """
-    if _is_traced(bad):
-        return eqx.error_if(value, bad, message)
-    if bool(np.any(np.asarray(bad))):
-        raise ValueError(message)
-    return value
-
-
 def _positive(value, name: str, unit: str, hint: str = ""):
     arr = _scalar(value, name)
     shown = "a traced value" if _is_traced(arr) else f"{float(arr)!r}"
-    return _require(arr, ~(arr > 0), f"`{name}` must be > 0 {unit}; got {shown}.{hint}")
+    return require(arr, ~(arr > 0), f"`{name}` must be > 0 {unit}; got {shown}.{hint}")
 
 
 def _count_n0(n0, name: str = "n0"):
     arr = _scalar(n0, name)
     shown = "a traced value" if _is_traced(arr) else f"{float(arr)!r}"
-    return _require(
+    return require(
         arr,
         ~(arr >= 1),
         f"`{name}` (the number of amplitudes whose maximum is taken) must be >= 1; got {shown}.",
@@ -66,7 +55,7 @@ def _count_n0(n0, name: str = "n0"):
 def _probability_levels(q, name: str = "q"):
     arr = jnp.asarray(q, dtype=float)
     shown = "a traced value" if _is_traced(arr) else f"{np.asarray(arr)!r}"
-    return _require(
+    return require(
         arr, ~((arr > 0) & (arr < 1)), f"`{name}` must lie strictly between 0 and 1; got {shown}."
     )
 
@@ -112,12 +101,12 @@ def _check_table(grid, values, name: str, allow_neg_inf: bool = False):
             "on a grid of a few hundred points that reaches far into the tail."
         )
     bad = ~jnp.isfinite(grid)
-    grid = _require(grid, bad, _first_bad_message(grid, bad, "grid", "must be finite"))
+    grid = require(grid, bad, _first_bad_message(grid, bad, "grid", "must be finite"))
     bad = jnp.isnan(values) | (values == jnp.inf) if allow_neg_inf else ~jnp.isfinite(values)
     req = "must not be NaN or +inf" if allow_neg_inf else "must be finite (no NaN or inf)"
-    values = _require(values, bad, _first_bad_message(values, bad, name, req))
+    values = require(values, bad, _first_bad_message(values, bad, name, req))
     d = jnp.diff(grid)
-    grid = _require(
+    grid = require(
         grid,
         d <= 0,
         _first_bad_message(
@@ -128,7 +117,7 @@ def _check_table(grid, values, name: str, allow_neg_inf: bool = False):
             " The grid must be strictly increasing: sort it and remove duplicate points.",
         ),
     )
-    grid = _require(
+    grid = require(
         grid,
         grid[0] < 0,
         f"Amplitudes are non-negative, but grid[0] = "

@@ -8,8 +8,9 @@ import jax.numpy as jnp
 import jax.scipy.special as jsp
 from jaxtyping import Array, ArrayLike, Float
 
+from .._compiled import require
 from ._abstract import AbstractAmplitudeLaw, check_estimator
-from ._checks import _is_traced, _log1mexp, _positive, _require, _scalar
+from ._checks import _is_traced, _log1mexp, _positive, _scalar
 
 
 class RayleighLaw(AbstractAmplitudeLaw):
@@ -122,7 +123,7 @@ class RobertsLaw(AbstractAmplitudeLaw):
         self.estimator = check_estimator(estimator)
         nu = _scalar(nu, "nu")
         shown = "a traced value" if _is_traced(nu) else f"{float(nu)!r}"
-        self.nu = _require(nu, ~(nu > -1), f"`nu` must be > -1 so that A^nu is integrable at 0; got {shown}.")
+        self.nu = require(nu, ~(nu > -1), f"`nu` must be > -1 so that A^nu is integrable at 0; got {shown}.")
         self.c3 = _positive(c3, "c3", "[1/rad²]", " The PDF must decay like exp(-c3 A²).")
 
     @property

@@ -7,8 +7,9 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
+from .._compiled import require
 from ._abstract import AbstractAmplitudeLaw, check_estimator
-from ._checks import _NEG_PDF_HINT, _check_table, _first_bad_message, _is_traced, _require
+from ._checks import _NEG_PDF_HINT, _check_table, _first_bad_message, _is_traced
 
 
 @jax.jit
@@ -107,7 +108,7 @@ class TabulatedAmplitudeLaw(AbstractAmplitudeLaw):
         **Raises:** `ValueError` naming the offending index and value for a bad grid or PDF.
         """
         grid, pdf = _check_table(grid, pdf, "pdf")
-        pdf = _require(pdf, pdf < 0, _first_bad_message(pdf, pdf < 0, "pdf", "must be >= 0", _NEG_PDF_HINT))
+        pdf = require(pdf, pdf < 0, _first_bad_message(pdf, pdf < 0, "pdf", "must be >= 0", _NEG_PDF_HINT))
         log_pdf = jnp.log(pdf)
         return cls._from_log_nodes(grid, log_pdf, estimator)
 
@@ -132,7 +133,7 @@ class TabulatedAmplitudeLaw(AbstractAmplitudeLaw):
         log_mass = jnp.log(0.5 * h) + jnp.logaddexp(log_pdf[:-1], log_pdf[1:])
         total = jax.scipy.special.logsumexp(log_mass)
         shown = "" if _is_traced(total) else " (every value is 0 or −inf)"
-        log_mass = _require(
+        log_mass = require(
             log_mass,
             ~jnp.isfinite(total),
             f"The PDF integrates to 0 on the grid{shown}; tabulate it where the amplitudes actually lie.",
@@ -169,13 +170,13 @@ class TabulatedAmplitudeLaw(AbstractAmplitudeLaw):
             raise ValueError(f"`amplitudes` needs at least 2 samples to build a distribution; got {n}.")
         bad = ~jnp.isfinite(x)
         count = "some" if _is_traced(bad) else str(int(np.sum(np.asarray(bad))))
-        x = _require(
+        x = require(
             x,
             bad,
             f"`amplitudes` contains {count} non-finite value(s) (capsized or failed trials?). Drop them "
             "first, e.g. `a[jnp.isfinite(a)]`, and count them separately as capsizes.",
         )
-        x = _require(
+        x = require(
             x, x < 0, _first_bad_message(x, x < 0, "amplitudes", "must be >= 0", " Pass absolute values |φ|.")
         )
         xs = jax.jit(jnp.sort)(x)
@@ -184,7 +185,7 @@ class TabulatedAmplitudeLaw(AbstractAmplitudeLaw):
                 raise ValueError(
                     f"`bins` must be a positive number of bins or an array of edges; got {bins}."
                 )
-            top = _require(xs[-1], xs[-1] <= 0, "All amplitudes are 0; there is no distribution to tabulate.")
+            top = require(xs[-1], xs[-1] <= 0, "All amplitudes are 0; there is no distribution to tabulate.")
             edges = jnp.linspace(0.0, top, bins + 1)
         else:
             edges = jnp.asarray(bins, dtype=float)
@@ -193,7 +194,7 @@ class TabulatedAmplitudeLaw(AbstractAmplitudeLaw):
                     f"`bins` as edges must be 1-D with at least 2 values; got shape {edges.shape}."
                 )
             d = jnp.diff(edges)
-            edges = _require(
+            edges = require(
                 edges,
                 d <= 0,
                 _first_bad_message(
@@ -202,7 +203,7 @@ class TabulatedAmplitudeLaw(AbstractAmplitudeLaw):
             )
             outside = (xs[0] < edges[0]) | (xs[-1] > edges[-1])
             shown = "" if _is_traced(outside) else f" [{float(xs[0])!r}, {float(xs[-1])!r}]"
-            edges = _require(
+            edges = require(
                 edges,
                 outside,
                 f"The samples{shown} reach outside the bin edges [edges[0], edges[-1]]; widen the edges: "

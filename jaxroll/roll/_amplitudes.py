@@ -83,10 +83,30 @@ def hilbert_envelope(x: Float[Array, "... n"]) -> Float[Array, "... n"]:
     return jnp.abs(jnp.fft.ifft(spec * h.astype(spec.dtype), axis=-1))
 
 
-def histogram_counts(values, weights, width: float, num_bins: int) -> Float[Array, " num_bins"]:
-    """Weighted counts of `values` in bins [k·width, (k+1)·width), k < num_bins; larger values in the last bin."""
-    idx = jnp.clip(jnp.floor(values / width).astype(jnp.int32), 0, num_bins - 1)
-    return jnp.zeros(num_bins).at[idx.reshape(-1)].add(weights.reshape(-1))
+def envelope_rfft(x):
+    """|x + i·H[x]| along the last axis by rfft/irfft in x's dtype: the same as `hilbert_envelope` (which uses
+    fft/ifft) with half the FFT work, and float32 stays float32. Each row is transformed alone (its result does
+    not depend on the other rows: tested)."""
+    nt = x.shape[-1]
+    spec = jnp.fft.rfft(x, axis=-1)
+    k = jnp.arange(spec.shape[-1])
+    mask = (k > 0) & (k < (nt + 1) // 2)  # H = 0 at DC and Nyquist (as scipy's h)
+    hx = jnp.fft.irfft(jnp.where(mask, -1j * spec, 0), n=nt, axis=-1)
+    return jnp.sqrt(x * x + hx * hx)
+
+
+def integer_counts(values, keep, width: float, num_bins: int):
+    """Histogram (float64 of integer counts) of `values` where `keep`: bins [k·width, (k+1)·width), larger values
+    in the last bin; integer scatter-adds with the dropped entries left out (exact in any order)."""
+    return bin_counts(jnp.clip(jnp.floor(values / width).astype(jnp.int32), 0, num_bins - 1), keep, num_bins)
+
+
+def bin_counts(index, keep, num_bins: int):
+    """Histogram (float64 of integer counts) of the bin indices `index` (integers in [0, num_bins)) where `keep`."""
+    idx = jnp.where(keep, index.astype(jnp.int32), num_bins)  # out of range: dropped
+    itype = jnp.int32 if idx.size < 2**31 else jnp.int64
+    counts = jnp.zeros(num_bins, itype).at[idx.reshape(-1)].add(jnp.ones((), itype), mode="drop")
+    return counts.astype(jnp.float64)
 
 
 def pdf_from_counts(counts, edges):

@@ -2,11 +2,13 @@
 
     φ̈ + b1 φ̇ + b2 φ̇|φ̇| + b3 φ̇³ + a1φ + a3φ³ + … + a9φ⁹ + P(t) φ = 0,   P = r (ω0²/GM0) ΔGM(−ζ_G(t)).
 
-Time stepping: classical RK4 at step h. The excitation ζ_G is known exactly at the step ends (exact filter
-discretisation or FFT superposition) together with dζ_G/dt, and at the RK4 midpoint by cubic Hermite
-interpolation (error O(h⁴), far below the RK4 error for this smooth excitation). Noise for time block j of
-realization i comes from `fold_in(fold_in(key, i), j)`, so a realization is the same whatever the chunking,
-the device count or the number of steps simulated after it.
+Time stepping: classical RK4 at step h = dt. The excitation sources advance m steps at a time (`substeps`): the
+shaping filter is stepped exactly every m·dt and ζ_G at the RK4 stage times in between is its Gaussian bridge
+(conditional mean, error variance ≤ 1e-6 σ_G²); a record or an FFT superposition gives ζ_G at the step ends with
+dζ_G/dt, and at the midpoint by cubic Hermite interpolation (error O(h⁴)). Noise for block j of realization i
+comes from `fold_in(fold_in(key, i), j)`, so a realization is the same whatever the chunking, the device count or
+the number of steps simulated after it. One realization is written once (`simulate`) and vmapped by the Monte
+Carlo (docs/numerics.md, "Monte Carlo kernel").
 """
 
 from __future__ import annotations
@@ -21,6 +23,7 @@ import jax.random as jr
 import numpy as np
 from jaxtyping import Array, Float, PRNGKeyArray
 
+from .._compiled import cached_program
 from ..sea._filters import FilterFit, check_filter_fit, fit_filter
 from ..sea._grim import EffectiveWave
 from ..sea._spectra import AbstractWaveSpectrum
@@ -43,17 +46,17 @@ def roll_vector_field(t, y, args):
 
 
 def rk4_step(ship: Ship, y, p, m, h):
-    """One RK4 step of (φ, φ̇) over h [s]; `p`, `m` = (start, middle, end) values of P [1/s²] and M_w [rad/s²]."""
-
-    def f(y, i):
-        return jnp.stack([y[1], roll_acceleration(ship, y[0], y[1], p[i], m[i])])
-
-    k1 = f(y, 0)
-    k2 = f(y + h / 2 * k1, 1)
-    k3 = f(y + h / 2 * k2, 1)
-    k4 = f(y + h * k3, 2)
-    return y + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
-
+    """One RK4 step of y = (φ, φ̇) over h [s]; `p`, `m` = (start, middle, end) values of P [1/s²] and M_w
+    [rad/s²]. **Returns:** the new (φ, φ̇) as a tuple (or a stacked array when `y` is one)."""
+    phi, dphi = y[0], y[1]
+    h2, h6 = h / 2, h / 6
+    k1p, k1v = dphi, roll_acceleration(ship, phi, dphi, p[0], m[0])
+    k2p, k2v = dphi + h2 * k1v, roll_acceleration(ship, phi + h2 * k1p, dphi + h2 * k1v, p[1], m[1])
+    k3p, k3v = dphi + h2 * k2v, roll_acceleration(ship, phi + h2 * k2p, dphi + h2 * k2v, p[1], m[1])
+    k4p, k4v = dphi + h * k3v, roll_acceleration(ship, phi + h * k3p, dphi + h * k3v, p[2], m[2])
+    phi1 = phi + h6 * (k1p + 2 * k2p + 2 * k3p + k4p)
+    dphi1 = dphi + h6 * (k1v + 2 * k2v + 2 * k3v + k4v)
+    return jnp.stack([phi1, dphi1]) if isinstance(y, jax.Array) else (phi1, dphi1)
 
 
 # ----------------------------------------------------------------------------------------------------------------
@@ -61,13 +64,16 @@ def rk4_step(ship: Ship, y, p, m, h):
 # ----------------------------------------------------------------------------------------------------------------
 
 
-_spectrum = eqx.filter_jit(lambda wave, omega: wave.spectrum(omega))  # one compiled program, not op by op
+@cached_program
+def _bandwidth_spectrum(wave: EffectiveWave):
+    """S_G on the bandwidth grid, one stored program."""
+    return wave.spectrum(jnp.linspace(0.0, 6.0, 12001))
 
 
 def excitation_bandwidth(wave: EffectiveWave, fraction: float = 0.999) -> float:
     """Encounter frequency [rad/s] below which `fraction` of the effective-wave variance lies."""
     w = np.linspace(0.0, 6.0, 12001)
-    s = np.asarray(_spectrum(wave, w))
+    s = np.asarray(_bandwidth_spectrum(wave))
     cum = np.concatenate([[0.0], np.cumsum((s[1:] + s[:-1]) / 2 * np.diff(w))])
     if not cum[-1] > 0:
         return 0.0  # beam seas: ζ_G ≡ 0, no excitation bandwidth
@@ -147,6 +153,13 @@ class RollProblem(eqx.Module):
             raise ValueError(
                 f"`moment_excitation.dt` ({moment_excitation.dt}) must equal `excitation.dt` ({excitation.dt})."
             )
+        if moment_excitation is not None and isinstance(moment_excitation, FilterExcitation) and (
+            moment_excitation.substeps != excitation.substeps
+        ):
+            raise ValueError(
+                f"`moment_excitation` steps its filter every {moment_excitation.substeps} time steps and "
+                f"`excitation` every {excitation.substeps}: build both with the same `substeps`."
+            )
         self.moment_excitation = moment_excitation
         self.wave = wave
         self.filter_fit = filter_fit
@@ -164,6 +177,7 @@ class RollProblem(eqx.Module):
         filter_order: int = 4,
         phi0: float = math.radians(5.0),
         dphi0: float = 0.0,
+        substeps: int | None = None,
         validate: bool = True,
     ) -> "RollProblem":
         """The roll problem of `ship` in the sea state `sea`: Grim's effective wave, its excitation, initial roll.
@@ -178,6 +192,8 @@ class RollProblem(eqx.Module):
         - `dt`: time step [s] (checked against the roll period and the excitation bandwidth).
         - `filter_order`: order of the shaping filter (Method 2).
         - `phi0` [rad], `dphi0` [rad/s]: initial condition (the paper's 5°, 0).
+        - `substeps`: time steps per shaping-filter step (None: chosen from the bridge's interpolation error,
+          `FilterExcitation`); give it when the construction is traced, to keep the nominal problem's random stream.
         - `validate`: check the inputs and gate the filter fit (default). `False` skips those concrete checks so
           that the construction can be traced (e.g. differentiated in the ship or sea parameters); validate the
           nominal problem first.
@@ -203,7 +219,7 @@ class RollProblem(eqx.Module):
             fit = fit_filter(wave, order=filter_order, match_frequency=2 * ship.omega0)
             if validate:
                 check_filter_fit(fit, dt)
-            source = FilterExcitation(fit.filter, dt)
+            source = FilterExcitation(fit.filter, dt, substeps)
         else:
             fit = None
             source = SuperpositionExcitation(wave, dt)
@@ -222,81 +238,143 @@ class RealizationEnd(eqx.Module):
     capsize_time: Array
 
 
-def simulate(problem: RollProblem, key: PRNGKeyArray, num_steps: int, observe, obs_state):
-    """Integrate one realization for `num_steps` steps, feeding every new state to an observer.
+MOMENT_KEY = 0x7FFFFFFE  # the moment excitation of a realization keyed k draws from fold_in(k, MOMENT_KEY)
 
-    `observe(obs_state, k, y, alive) -> (obs_state, output)` is called after step k (1-based) with
-    y = (φ, φ̇); its per-step outputs are stacked (length `num_steps`). After a capsize the state is frozen
-    and `alive` is False, so observers can ignore it.
 
-    **Returns:** `(obs_state, outputs, RealizationEnd)`.
+def as_dtype(tree, dtype):
+    """`tree` with its floating array leaves cast to `dtype` (Grim's effective wave is left as it is: Method 1
+    synthesises in float64)."""
+
+    def cast(x):
+        if isinstance(x, jax.Array | np.ndarray) and jnp.issubdtype(x.dtype, jnp.floating):
+            return jnp.asarray(x).astype(dtype)
+        return x
+
+    return jax.tree.map(cast, tree, is_leaf=lambda x: isinstance(x, EffectiveWave))
+
+
+def _drive(problem: RollProblem, key, num_steps: int, dtype, per_source_step, inner):
+    """Run the problem's excitation sources for `num_steps` time steps in source steps of m = substeps, a block of
+    `BLOCK` source steps at a time, calling `per_source_step(inner, xs) -> (inner, out)` with xs [sources, 2m + 1]:
+    each source's value at the 2m + 1 half steps of the source step (its start included).
+
+    **Returns:** `(inner, outs)` with outs stacked over the ⌈num_steps/m⌉ source steps.
     """
-    ship, h = problem.ship, problem.dt
+    m = problem.excitation.substeps
     sources = [problem.excitation]
     if problem.moment_excitation is not None:
         sources.append(problem.moment_excitation)
-    keys = [key, jr.fold_in(key, 0x7FFFFFFE)]
-    inits = [src.init(k, num_steps) for src, k in zip(sources, keys, strict=False)]
-    src_states = tuple(i[0] for i in inits)
-    x0 = jnp.stack([i[1] for i in inits])
-    dx0 = jnp.stack([i[2] for i in inits])
-    y0 = jnp.stack([problem.phi0, problem.dphi0])
+    keys = [key, jr.fold_in(key, MOMENT_KEY)][: len(sources)]
+    inits = [src.init(k, num_steps, m, dtype) for src, k in zip(sources, keys, strict=True)]
 
-    def forcing(x0, dx0, x1, dx1):
-        xm = (x0 + x1) / 2 + h * (dx0 - dx1) / 8  # cubic Hermite midpoint
-        p = parametric_excitation(ship, jnp.stack([x0[0], xm[0], x1[0]]))
-        m = jnp.stack([x0[1], xm[1], x1[1]]) if len(sources) > 1 else jnp.zeros(3)
-        return p, m
-
-    def step(carry, inp):
-        y, x, dx, alive, k_cap, obs, k = carry
-        x1, dx1 = inp
-        y1 = rk4_step(ship, y, *forcing(x, dx, x1, dx1), h)
-        ok = jnp.all(jnp.isfinite(y1)) & (jnp.abs(y1[0]) < problem.capsize_angle)
-        newly = alive & ~ok
-        k_cap = jnp.where(newly, k + 1, k_cap)
-        alive = alive & ok
-        y1 = jnp.where(alive, y1, y)
-        obs, out = observe(obs, k + 1, y1, alive)
-        return (y1, x1, dx1, alive, k_cap, obs, k + 1), out
+    def source_step(carry, inputs):
+        states, x_start, inner = carry
+        new, values = [], []
+        for src, st, inp in zip(sources, states, inputs, strict=True):
+            st, v = src.advance(st, inp, m)
+            new.append(st)
+            values.append(v)
+        xs = [(x0, *v) for x0, v in zip(x_start, values, strict=True)]
+        inner, out = per_source_step(inner, xs)
+        return (tuple(new), tuple(v[-1] for v in values), inner), out
 
     def block(carry, index, length=BLOCK):
-        src_states, inner = carry
-        new_states, xs, dxs = [], [], []
-        for src, st, k in zip(sources, src_states, keys, strict=False):
-            st, x, dx = src.block(k, st, index)
-            new_states.append(st)
-            xs.append(x[:length])
-            dxs.append(dx[:length])
-        inner, outs = jax.lax.scan(step, inner, (jnp.stack(xs, -1), jnp.stack(dxs, -1)))
-        return (tuple(new_states), inner), outs
+        inputs = tuple(
+            jax.tree.map(lambda x: x[:length], src.block_inputs(k, st, index, m))
+            for src, st, k in zip(sources, carry[0], keys, strict=True)
+        )
+        return jax.lax.scan(source_step, carry, inputs)
 
-    # Whole blocks, then the first `rest` steps of one more: no step past num_steps is simulated, observed or
-    # checked for capsize (a trial of 7200 steps used to run 29 whole blocks, 7424 steps, and count capsizes up
-    # to 3712 s of a 3600 s trial). The noise of the steps simulated is unchanged.
-    num_full, rest = divmod(num_steps, BLOCK)
-    carry = (src_states, (y0, x0, dx0, jnp.array(True), jnp.array(-1), obs_state, jnp.array(0)))
+    # Whole blocks, then the first `rest` source steps of one more: no source step past num_steps is simulated
+    # (and the time steps of the last one beyond num_steps are masked by the caller). The noise of the steps
+    # simulated does not depend on how many follow.
+    num_full, rest = divmod(-(-num_steps // m), BLOCK)
+    carry = (tuple(i[0] for i in inits), tuple(i[1] for i in inits), inner)
     pieces = []
     if num_full:
         carry, outs = jax.lax.scan(block, carry, jnp.arange(num_full))
-        pieces.append(jax.tree_util.tree_map(lambda o: o.reshape(num_full * BLOCK, *o.shape[2:]), outs))
+        pieces.append(jax.tree.map(lambda o: o.reshape(num_full * BLOCK, *o.shape[2:]), outs))
     if rest:
         carry, outs = block(carry, jnp.array(num_full), rest)
         pieces.append(outs)
-    _, inner = carry
-    _, _, _, alive, k_cap, obs_state, _ = inner
-    outs = jax.tree_util.tree_map(lambda *o: jnp.concatenate(o), *pieces)
+    return carry[2], jax.tree.map(lambda *o: jnp.concatenate(o), *pieces)
+
+
+def simulate(problem: RollProblem, key: PRNGKeyArray, num_steps: int, observe, obs_state, *, dtype=jnp.float64):
+    """Integrate one realization for `num_steps` steps of dt, feeding every new state to an observer.
+
+    Classical RK4 at dt with P(t) (and M_w(t)) at each step's start, midpoint and end from the excitation sources,
+    which advance m = `problem.excitation.substeps` time steps at a time (the shaping filter exactly on H = m·dt,
+    bridged in between: `FilterExcitation`). `observe(obs_state, k, y, alive) -> (obs_state, output)` is called
+    after step k (1-based) with y = (φ, φ̇); its per-step outputs are stacked (length `num_steps`). After a
+    capsize (|φ| at or beyond the vanishing angle, or a non-finite state) the state is frozen and `alive` is
+    False, so observers can ignore it (their floating state is kept in `dtype`). `dtype`: the floating type of the integration (float64; the Monte Carlo
+    of amplitude statistics runs float32, docs/numerics.md). Written for one realization: vmap it over keys.
+
+    **Returns:** `(obs_state, outputs, RealizationEnd)`.
+    """
+    problem = as_dtype(problem, dtype)
+    ship, h, m = problem.ship, problem.dt, problem.excitation.substeps
+    two_sources = problem.moment_excitation is not None
+    ragged = num_steps % m != 0  # the last source step runs past num_steps: mask its extra time steps
+
+    def per_source_step(inner, xs):
+        phi, dphi, alive, k_cap, obs, k = inner
+        p = [parametric_excitation(ship, x) for x in xs[0]]
+        mw = xs[1] if two_sources else [0.0] * len(p)
+        outs = []
+        for s in range(m):
+            phi1, dphi1 = rk4_step(ship, (phi, dphi), p[2 * s : 2 * s + 3], mw[2 * s : 2 * s + 3], h)
+            ok = jnp.isfinite(phi1) & jnp.isfinite(dphi1) & (jnp.abs(phi1) < problem.capsize_angle)
+            inside = k < num_steps
+            newly = alive & ~ok & inside if ragged else alive & ~ok
+            k_cap = jnp.where(newly, k + 1, k_cap)
+            alive = alive & ~newly
+            phi, dphi = jnp.where(alive, phi1, phi), jnp.where(alive, dphi1, dphi)
+            new_obs, out = observe(obs, k + 1, jnp.stack([phi, dphi]), alive)
+            new_obs = jax.tree.map(lambda new, old: new.astype(old.dtype), new_obs, obs)  # the carry keeps its type
+            if ragged:
+                new_obs = jax.tree.map(lambda x, y: jnp.where(inside, x, y), new_obs, obs)
+            obs = new_obs
+            outs.append(out)
+            k = k + 1
+        return (phi, dphi, alive, k_cap, obs, k), jax.tree.map(lambda *o: jnp.stack(o), *outs)
+
+    obs_state = as_dtype(obs_state, dtype)
+    inner = (problem.phi0, problem.dphi0, jnp.array(True), jnp.array(-1), obs_state, jnp.array(0))
+    inner, outs = _drive(problem, key, num_steps, dtype, per_source_step, inner)
+    _, _, alive, k_cap, obs_state, _ = inner
+    outs = jax.tree.map(lambda o: o.reshape(-1, *o.shape[2:])[:num_steps], outs)
     end = RealizationEnd(~alive, jnp.where(alive, jnp.inf, k_cap * h))
     return obs_state, outs, end
 
 
-def roll_time_series(problem: RollProblem, key: PRNGKeyArray, duration: float):
-    """φ(t) and φ̇(t) [rad, rad/s] of one realization on t = 0, dt, …, duration [s], and its `RealizationEnd`."""
+def forcing_series(problem: RollProblem, key: PRNGKeyArray, num_steps: int, *, dtype=jnp.float64):
+    """P [1/s²] and M_w [rad/s²] at the (start, middle, end) of each of `num_steps` steps, [num_steps, 3] each,
+    exactly as `simulate` forms them for the realization keyed `key` (M_w = 0 without a moment excitation)."""
+    problem = as_dtype(problem, dtype)
+    m = problem.excitation.substeps
+
+    def per_source_step(inner, xs):
+        p = parametric_excitation(problem.ship, jnp.stack(xs[0]))
+        mw = jnp.stack(xs[1]) if problem.moment_excitation is not None else jnp.zeros_like(p)
+        idx = np.arange(m)[:, None] * 2 + np.arange(3)  # [m, 3]: each time step's start, middle, end
+        return inner, (p[idx], mw[idx])
+
+    _, (p, mw) = _drive(problem, key, num_steps, dtype, per_source_step, None)
+    return p.reshape(-1, 3)[:num_steps], mw.reshape(-1, 3)[:num_steps]
+
+
+def roll_time_series(problem: RollProblem, key: PRNGKeyArray, duration: float, *, dtype=jnp.float64):
+    """φ(t) and φ̇(t) [rad, rad/s] of one realization on t = 0, dt, …, duration [s], and its `RealizationEnd`.
+
+    The realization keyed `fold_in(key, i)` is trial i of `monte_carlo(problem, key, ...)` (which integrates in
+    float32: the two agree to ~1e-5 deg)."""
     num_steps = int(round(duration / problem.dt))
 
     def observe(obs, k, y, alive):
         return obs, y
 
-    _, ys, end = simulate(problem, key, num_steps, observe, None)
-    ys = jnp.concatenate([jnp.stack([problem.phi0, problem.dphi0])[None], ys])
+    _, ys, end = simulate(problem, key, num_steps, observe, None, dtype=dtype)
+    ys = jnp.concatenate([jnp.stack([problem.phi0, problem.dphi0]).astype(dtype)[None], ys])
     return ys[:, 0], ys[:, 1], end

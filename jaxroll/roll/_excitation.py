@@ -1,13 +1,17 @@
 """Sources of Grim's effective wave ζ_G(t) for one realization: shaping filter, superposition, or a record.
 
-Each source delivers ζ_G [m] and dζ_G/dt [m/s] at the step ends, one block of `BLOCK` steps at a time; noise
-for block j of a realization keyed `key` comes from `fold_in(key, j)`, so a realization is the same whatever the
-chunking, the device count or the number of steps simulated after it.
+The integrator (`jaxroll.simulate`) advances in *source steps* of m time steps (m = `excitation.substeps`): the
+shaping filter is stepped exactly once per source step of H = m·dt, and every source delivers ζ_G [m] at the 2m
+half steps t + j·dt/2, j = 1 … 2m, of each source step (the RK4 stage times), a block of `BLOCK` source steps at
+a time. `block_inputs` draws or slices a block's inputs before the block's scan; `advance` consumes one source
+step's inputs. Noise for block j of a realization keyed `key` comes from `fold_in(key, j)`, so a realization is
+the same whatever the chunking, the device count or the number of steps simulated after it.
 """
 
 from __future__ import annotations
 
 import abc
+import math
 
 import equinox as eqx
 import jax
@@ -16,80 +20,154 @@ import jax.random as jr
 import numpy as np
 from jaxtyping import Array, Float, PRNGKeyArray
 
+from .._compiled import cached_program
 from ..sea._filters import ShapingFilter, psd_sqrt
 from ..sea._grim import EffectiveWave, superpose, superposition_length
 
-BLOCK = 256  # time steps per noise block
+BLOCK = 128  # source steps per noise block (block j of a realization keyed k draws from fold_in(k, j))
+START_KEY = 0x7FFFFFFF  # the filter's stationary start draws from fold_in(k, START_KEY)
 
 
 class AbstractExcitation(eqx.Module):
-    """Source of Grim's effective wave ζ_G [m] and dζ_G/dt [m/s] on the time grid t_k = k·dt."""
+    """Source of Grim's effective wave ζ_G [m] for the integrator, one source step (m time steps) at a time."""
 
     dt: eqx.AbstractVar[float]
+    substeps: eqx.AbstractVar[int]
 
     @abc.abstractmethod
-    def init(self, key: PRNGKeyArray, num_steps: int):
-        """State before the first block, and (ζ_G, dζ_G/dt) at t = 0."""
+    def init(self, key: PRNGKeyArray, num_steps: int, m: int, dtype):
+        """`(state, ζ_G(0))` before the first of `num_steps` time steps of a run in source steps of `m` steps, in
+        the run's floating `dtype` (the integrator has cast the source's arrays to it)."""
 
     @abc.abstractmethod
-    def block(self, key: PRNGKeyArray, state, index):
-        """Advance one block: returns (state, ζ_G[BLOCK], dζ_G/dt[BLOCK]) at steps index·BLOCK + 1 … + BLOCK."""
+    def block_inputs(self, key: PRNGKeyArray, state, index, m: int):
+        """Inputs of the `BLOCK` source steps of block `index` (leading axis `BLOCK`), drawn or sliced at once."""
+
+    @abc.abstractmethod
+    def advance(self, state, inputs, m: int):
+        """One source step: `(state, values)`, values a tuple of the 2m scalars ζ_G(t + j·dt/2), j = 1 … 2m, from
+        that step's `inputs` (a tuple, not a stacked array: vmapped, each stays one vector)."""
+
+
+# ----------------------------------------------------------------------------------------------------------------
+# Random numbers: jax.random.normal's stream, computed in one fused elementwise pass
+# ----------------------------------------------------------------------------------------------------------------
+
+
+def _rotl(x, r: int):
+    return (x << np.uint32(r)) | (x >> np.uint32(32 - r))
+
+
+def threefry2x32(k0, k1, x0, x1):
+    """Threefry-2x32 (20 rounds), unrolled, elementwise on uint32 arrays: `jax.random`'s default hash.
+
+    JAX lowers its own on CPU as a 5-iteration loop over whole arrays; unrolled, XLA fuses it into one pass
+    (2.3–2.6× faster) with bit-identical results.
+    """
+    rot = ((13, 15, 26, 6), (17, 29, 16, 24))
+    ks = (k0, k1, k0 ^ k1 ^ np.uint32(0x1BD11BDA))
+    x0, x1 = x0 + ks[0], x1 + ks[1]
+    for i in range(5):
+        for r in rot[i % 2]:
+            x0 = x0 + x1
+            x1 = _rotl(x1, r) ^ x0
+        x0 = x0 + ks[(i + 1) % 3]
+        x1 = x1 + ks[(i + 2) % 3] + np.uint32(i + 1)
+    return x0, x1
+
+
+def _bits_to_normal(bits):
+    """Standard normal (float32) from 32 random bits exactly as `jax.random.normal`: √2·erf⁻¹(u), u ∈ (−1, 1)."""
+    f = jax.lax.bitcast_convert_type((bits >> np.uint32(9)) | np.uint32(0x3F800000), jnp.float32)  # [1, 2)
+    lo = np.nextafter(np.float32(-1), np.float32(0))
+    u = jnp.maximum((f - np.float32(1)) * (np.float32(1) - lo) + lo, lo)
+    return np.float32(math.sqrt(2)) * jax.lax.erf_inv(u)
+
+
+def block_normals(key: PRNGKeyArray, index, shape) -> Float[Array, "..."]:
+    """Standard normals (float32) of shape `shape` for block `index` of the realization keyed `key`.
+
+    Threefry-2x32 (JAX's default hash, 20 rounds) of `fold_in(key, index)` on counters 0, 1, …, both 32-bit output
+    words used (two normals per hash: `jax.random` XORs them into one), each mapped to a normal exactly as
+    `jax.random.normal` maps its bits (√2·erf⁻¹ of a uniform on (−1, 1)). Unrolled so that XLA fuses it into one
+    pass."""
+    if jr.key_impl(key) != jr.key_impl(jr.key(0)):  # another PRNG than threefry: its own normals
+        return jr.normal(jr.fold_in(key, index), shape, jnp.float32)
+    kd = jr.key_data(jr.fold_in(key, index))
+    size = math.prod(shape)
+    ctr = jnp.arange(-(-size // 2), dtype=jnp.uint32)
+    b0, b1 = threefry2x32(kd[0], kd[1], jnp.zeros_like(ctr), ctr)
+    bits = jnp.stack([b0, b1], -1).reshape(-1)[:size]
+    return _bits_to_normal(bits).reshape(shape)
+
+
+# ----------------------------------------------------------------------------------------------------------------
+# Method 2: the shaping filter, stepped exactly every H = m·dt, bridged in between
+# ----------------------------------------------------------------------------------------------------------------
+
+
+COARSE_TOLERANCE = 1e-6  # largest bridge interpolation error variance / σ_G² accepted for the filter step
 
 
 class FilterExcitation(AbstractExcitation):
-    """Method 2: exact discretisation of a shaping filter, started from its stationary law (no transient).
+    """Method 2: exact discretisation of a shaping filter on a step H = m·dt, started from its stationary law.
 
-    Besides the step-dt discretisation (`phi`, `chol`, used by `jaxroll.simulate`), it carries the coarse grid
-    of the batched Monte Carlo kernel (`jaxroll.roll._batched`, docs/numerics.md): the filter stepped exactly
-    every H = `coarse`·dt (`coarse_phi`, `coarse_chol`) and the conditional-mean ("bridge") weights that give
-    ζ_G at the 2·`coarse` − 1 RK4 stage times in between, E[ζ_G(τ) | z(0), z(H)] = a·z(0) + b·z(H).
-    `coarse` is the largest of (4, 2, 1) whose bridge leaves out at most `COARSE_TOLERANCE`·σ_G² of the
-    variance at every stage time (1 when the filter is traced, i.e. built inside `jit`).
+    Per source step the filter state moves exactly, z(t+H) = Φ z(t) + L ε (Φ = e^{AH}, L Lᵀ = Σ − ΦΣΦᵀ, ε ~ N(0, I),
+    n normals per m time steps), and ζ_G at the 2m − 1 RK4 stage times in between is its conditional mean given
+    the filter state at both ends, E[ζ_G(τ) | z(t), z(t+H)] = a·z(t) + b·z(t+H) (the Gaussian bridge, the best
+    interpolant: `bridge`). m (`substeps`) is the largest of (4, 2, 1) whose bridge leaves out at most
+    `COARSE_TOLERANCE`·σ_G² of the variance at every stage time (m = 4, H = 2 s, for the paper's sea at dt = 0.5 s:
+    3.7e-7); pass `substeps` to fix it (e.g. when the filter is traced, inside `jit` or a derivative).
     """
 
     phi: Float[Array, "n n"]
     chol: Float[Array, "n n"]
     stationary_chol: Float[Array, "n n"]
     c: Float[Array, " n"]
-    c_a: Float[Array, " n"]
-    coarse_phi: Float[Array, "n n"]
-    coarse_chol: Float[Array, "n n"]
     bridge: Float[Array, "2 s n"]
     dt: float = eqx.field(static=True)
-    coarse: int = eqx.field(static=True)
+    substeps: int = eqx.field(static=True)
 
-    def __init__(self, shaping_filter: ShapingFilter, dt: float, coarse: int | None = None):
-        """**Arguments:** `shaping_filter` (e.g. `fit_filter(...).filter`); `dt`: time step [s]; `coarse`: the
-        batched kernel's filter grid in steps (None: `choose_coarse`)."""
+    def __init__(self, shaping_filter: ShapingFilter, dt: float, substeps: int | None = None):
+        """**Arguments:** `shaping_filter` (e.g. `fit_filter(...).filter`); `dt`: time step [s]; `substeps`: time
+        steps per filter step m (None: the largest of 4, 2, 1 within `COARSE_TOLERANCE`; 1 when traced)."""
         self.dt = float(dt)
-        self.phi, self.chol, sigma, self.stationary_chol, half = _discretisation(shaping_filter, self.dt)
+        if substeps is None:
+            substeps = choose_substeps(shaping_filter, self.dt)
+        if not (isinstance(substeps, int) and not isinstance(substeps, bool) and substeps >= 1):
+            raise ValueError(f"`substeps` must be an integer >= 1; got {substeps!r}.")
+        self.substeps = substeps
+        self.phi, self.chol, self.stationary_chol, self.bridge = filter_grid(shaping_filter, self.dt, substeps)
         self.c = shaping_filter.c
-        self.c_a = shaping_filter.c @ shaping_filter.a
-        if coarse is None:
-            coarse = choose_coarse(half, sigma, self.c)
-        if not (isinstance(coarse, int) and coarse >= 1):
-            raise ValueError(f"`coarse` must be an integer >= 1; got {coarse!r}.")
-        self.coarse = coarse
-        self.coarse_phi, self.coarse_chol, self.bridge = _coarse_grid(self.phi, sigma, half, self.c, coarse)
 
-    def init(self, key, num_steps):
-        z = self.stationary_chol @ jr.normal(jr.fold_in(key, 0x7FFFFFFF), self.c.shape)
-        return z, self.c @ z, self.c_a @ z
+    def init(self, key, num_steps, m, dtype):
+        _check_substeps(self, m)
+        z = self.stationary_chol @ jr.normal(jr.fold_in(key, START_KEY), self.c.shape).astype(dtype)
+        z = tuple(z[i] for i in range(self.c.size))
+        return z, _dot(self.c, z)
 
-    def block(self, key, state, index):
-        # float32 normals (cast to float64) are ~25 % faster to draw; their ±5.4σ tail limit does not matter
-        # after the filter sums many innovations (its output is Gaussian to that precision).
-        eps = jr.normal(jr.fold_in(key, index), (BLOCK, self.c.size), jnp.float32).astype(float)
+    def block_inputs(self, key, state, index, m):
+        return block_normals(key, index, (BLOCK, self.c.size)).astype(self.c.dtype)
 
-        def step(z, e):
-            z = self.phi @ z + self.chol @ e
-            return z, z
-
-        z, zs = jax.lax.scan(step, state, eps)
-        return z, zs @ self.c, zs @ self.c_a
+    def advance(self, z, eps, m):
+        # Scalar algebra on the n filter states (not 4×4 matrix products): vmapped over realizations, each line
+        # becomes one fused vector operation.
+        n = self.c.size
+        z1 = tuple(_dot(self.phi[i], z) + _dot(self.chol[i], eps) for i in range(n))
+        values = [_dot(self.bridge[0, j], z) + _dot(self.bridge[1, j], z1) for j in range(2 * m - 1)]
+        return z1, (*values, _dot(self.c, z1))
 
 
-COARSE_TOLERANCE = 1e-6  # largest bridge interpolation error variance / σ_G² accepted for the coarse grid
+def _dot(row, z):
+    return sum(row[i] * z[i] for i in range(len(z)))
+
+
+def _check_substeps(source, m: int) -> None:
+    if m != source.substeps:
+        raise ValueError(
+            f"this {type(source).__name__} steps its filter every {source.substeps} time steps; the run asks "
+            f"for {m}. Build every filter of one problem with the same `substeps`."
+        )
 
 
 def _half_powers(half, m: int):
@@ -100,26 +178,11 @@ def _half_powers(half, m: int):
     return powers
 
 
-@eqx.filter_jit
-def _discretisation(shaping_filter: ShapingFilter, dt: float):
-    """Φ, L (exact step dt), Σ, its square root and e^{A dt/2}, as one compiled program."""
-    phi, chol = shaping_filter.discretise(dt)
-    sigma = shaping_filter.stationary_covariance()
-    half, _ = shaping_filter.discretise(dt / 2)
-    return phi, chol, sigma, psd_sqrt(sigma), half
-
-
-@eqx.filter_jit
-def _coarse_grid(phi, sigma, half, c, coarse: int):
-    """The batched kernel's coarse filter step (Φ^m, its noise factor) and bridge weights, compiled once per m."""
-    coarse_phi = jnp.linalg.matrix_power(phi, coarse)
-    return coarse_phi, psd_sqrt(sigma - coarse_phi @ sigma @ coarse_phi.T), jnp.stack(bridge_weights(half, sigma, c, coarse))
-
-
 def bridge_weights(half, sigma, c, m: int):
     """(a, b), each [2m − 1, n]: E[ζ_G(τ_j) | z(0), z(H)] = a_j·z(0) + b_j·z(H) at τ_j = j·dt/2, j = 1 … 2m − 1,
     H = m·dt (the Gaussian bridge of the stationary filter: cᵀ[Φ_τ z(0) + Q_τ Φ_{H−τ}ᵀ Q_H⁻¹ (z(H) − Φ_H z(0))],
-    Q_τ = Σ − Φ_τ Σ Φ_τᵀ). `half` = e^{A dt/2}, `sigma`: stationary covariance, `c`: output vector."""
+    Q_τ = Σ − Φ_τ Σ Φ_τᵀ). `half` = e^{A dt/2}, `sigma`: stationary covariance, `c`: output vector. m = 1 has
+    one interior point, the step's midpoint."""
     powers = _half_powers(half, m)
     q = [sigma - p @ sigma @ p.T for p in powers]
     phi_h, q_h = powers[2 * m], q[2 * m]
@@ -147,37 +210,72 @@ def interpolation_error_variance(half, sigma, c, m: int, weights=None):
     return jnp.stack(out)
 
 
-_interpolation_error_variance = eqx.filter_jit(lambda half, sigma, c, m: interpolation_error_variance(half, sigma, c, m))
+SUBSTEP_CANDIDATES = (4, 2, 1)
 
 
-def choose_coarse(half, sigma, c, tol: float = COARSE_TOLERANCE, candidates=(4, 2, 1)) -> int:
-    """The largest m of `candidates` whose bridge interpolation leaves out at most `tol`·σ_G² (host side; 1 when
-    the filter is traced). m = 4 (H = 2 s at dt = 0.5 s) for the paper's protocol (3.7e-7)."""
+@cached_program
+def _bridge_errors(shaping_filter: ShapingFilter, dt: float):
+    """The largest relative bridge interpolation error variance for each m of `SUBSTEP_CANDIDATES` (one program)."""
+    half, _ = shaping_filter.discretise(dt / 2)
+    sigma = shaping_filter.stationary_covariance()
+    return jnp.stack([jnp.max(interpolation_error_variance(half, sigma, shaping_filter.c, m))
+                      for m in SUBSTEP_CANDIDATES])
+
+
+def choose_substeps(shaping_filter: ShapingFilter, dt: float, tol: float = COARSE_TOLERANCE) -> int:
+    """The largest m of `SUBSTEP_CANDIDATES` whose bridge leaves out at most `tol`·σ_G² (host side; 1 when the
+    filter is traced). m = 4 (H = 2 s at dt = 0.5 s) for the paper's protocol (3.7e-7)."""
     try:
-        half, sigma, c = (np.asarray(x) for x in (half, sigma, c))
+        errors = np.asarray(_bridge_errors(shaping_filter, float(dt)))
     except jax.errors.TracerArrayConversionError:
         return 1
-    for m in candidates:
-        err = np.asarray(_interpolation_error_variance(half, sigma, c, m))
-        if np.all(np.isfinite(err)) and float(err.max()) <= tol:
+    for m, err in zip(SUBSTEP_CANDIDATES, errors, strict=True):
+        if np.isfinite(err) and err <= tol:
             return m
     return 1
 
 
-def _slice_block(series, index):
-    return jax.lax.dynamic_slice_in_dim(series, index * BLOCK + 1, BLOCK)
+@cached_program
+def filter_grid(shaping_filter: ShapingFilter, dt: float, m: int):
+    """Φ = e^{A m dt} and L (L Lᵀ = Σ − ΦΣΦᵀ), a square root of Σ, and the bridge weights [2, 2m − 1, n]."""
+    sigma = shaping_filter.stationary_covariance()
+    half, _ = shaping_filter.discretise(dt / 2)
+    phi = _half_powers(half, m)[2 * m]
+    return phi, psd_sqrt(sigma - phi @ sigma @ phi.T), psd_sqrt(sigma), jnp.stack(
+        bridge_weights(half, sigma, shaping_filter.c, m))
+
+
+# ----------------------------------------------------------------------------------------------------------------
+# Sources on the time-step grid: a record, or Method 1
+# ----------------------------------------------------------------------------------------------------------------
+
+
+def _padded_length(num_steps: int, m: int) -> int:
+    """Samples t_0 … t_K covering whole blocks: K = (number of blocks) · BLOCK · m."""
+    return -(-num_steps // (BLOCK * m)) * BLOCK * m + 1
+
+
+def _half_step_values(zeta, dzeta, index, m: int, dt):
+    """ζ at the 2m half steps of each of the BLOCK source steps of block `index`, [BLOCK, 2m], from samples at the
+    time steps (the midpoint by cubic Hermite interpolation with the exact derivative, error O(dt⁴))."""
+    n = BLOCK * m
+    x = jax.lax.dynamic_slice_in_dim(zeta, index * n, n + 1)
+    dx = jax.lax.dynamic_slice_in_dim(dzeta, index * n, n + 1)
+    mid = (x[:-1] + x[1:]) / 2 + dt * (dx[:-1] - dx[1:]) / 8
+    return jnp.stack([mid, x[1:]], -1).reshape(BLOCK, 2 * m)
 
 
 class SampledExcitation(AbstractExcitation):
     """A given record of ζ_G [m] and dζ_G/dt [m/s] on t_k = k·dt (e.g. a measured or precomputed wave).
 
-    The record must cover the simulated time: at least `num_steps + 1` samples (padded with zeros to a whole
-    number of blocks).
+    The record must cover the simulated time: at least `num_steps + 1` samples (padded with zeros to whole blocks).
+    It serves any number of time steps per source step (`substeps` = 1).
     """
 
     zeta: Float[Array, " n"]
     dzeta: Float[Array, " n"]
     dt: float = eqx.field(static=True)
+    substeps: int = eqx.field(static=True, default=1)
 
     def __init__(self, zeta, dzeta, dt: float):
         """**Arguments:** `zeta` [m], `dzeta` [m/s]: 1-D records of equal length; `dt`: their sampling step [s]."""
@@ -186,41 +284,47 @@ class SampledExcitation(AbstractExcitation):
             raise ValueError(f"`zeta` and `dzeta` must be 1-D of equal length; got {zeta.shape} and {dzeta.shape}.")
         self.zeta, self.dzeta, self.dt = zeta, dzeta, float(dt)
 
-    def init(self, key, num_steps):
+    def init(self, key, num_steps, m, dtype):
         if self.zeta.size < num_steps + 1:
             raise ValueError(
                 f"the excitation record has {self.zeta.size} samples; {num_steps + 1} are needed "
                 f"({num_steps} steps of {self.dt} s)."
             )
-        pad = -(-num_steps // BLOCK) * BLOCK + 1 - self.zeta.size
-        padded = [jnp.pad(x, (0, max(pad, 0))) for x in (self.zeta, self.dzeta)]
-        return tuple(padded), self.zeta[0], self.dzeta[0]
+        pad = max(_padded_length(num_steps, m) - self.zeta.size, 0)
+        zeta, dzeta = (jnp.pad(x, (0, pad)).astype(dtype) for x in (self.zeta, self.dzeta))
+        return (zeta, dzeta), zeta[0]
 
-    def block(self, key, state, index):
-        return state, _slice_block(state[0], index), _slice_block(state[1], index)
+    def block_inputs(self, key, state, index, m):
+        return _half_step_values(*state, index, m, jnp.asarray(self.dt, self.zeta.dtype))
+
+    def advance(self, state, values, m):
+        return state, tuple(values[j] for j in range(2 * m))
 
 
 class SuperpositionExcitation(AbstractExcitation):
-    """Method 1: component superposition synthesised by FFT over the whole trial (see `jaxroll.superpose`)."""
+    """Method 1: component superposition synthesised by FFT over the whole trial (see `jaxroll.superpose`).
+    The synthesis runs in float64 whatever the run's dtype (the integrator leaves `wave` as it is)."""
 
     wave: EffectiveWave
     dt: float = eqx.field(static=True)
+    substeps: int = eqx.field(static=True, default=1)
 
     def __init__(self, wave: EffectiveWave, dt: float):
         """**Arguments:** `wave`: Grim's effective wave; `dt`: time step [s]."""
         self.wave = wave
         self.dt = float(dt)
 
-    def init(self, key, num_steps):
-        n = -(-num_steps // BLOCK) * BLOCK + 1
+    def init(self, key, num_steps, m, dtype):
+        n = _padded_length(num_steps, m)
         if superposition_length(n) > 2**24:
             raise ValueError(
                 f"superposition of {n} samples is too long for one FFT; use the filter method for long trials."
             )
-        zeta, dzeta = superpose(self.wave, key, n, self.dt)
-        return (zeta, dzeta), zeta[0], dzeta[0]
+        zeta, dzeta = (x.astype(dtype) for x in superpose(self.wave, key, n, self.dt))  # synthesised in float64
+        return (zeta, dzeta), zeta[0]
 
-    def block(self, key, state, index):
-        return state, _slice_block(state[0], index), _slice_block(state[1], index)
+    def block_inputs(self, key, state, index, m):
+        return _half_step_values(*state, index, m, jnp.asarray(self.dt, state[0].dtype))
 
-
+    def advance(self, state, values, m):
+        return state, tuple(values[j] for j in range(2 * m))

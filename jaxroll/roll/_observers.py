@@ -24,10 +24,12 @@ import numpy as np
 
 from ._amplitudes import (
     ZeroCrossingState,
+    bin_counts,
+    envelope_rfft,
+    integer_counts,
     zero_crossing_init,
     zero_crossing_update,
 )
-from ._batched import envelope_rfft, integer_counts, sum_last
 from ._statistics import AmplitudeStatistics, MaximaStatistics, MaxRollStatistics
 
 
@@ -61,6 +63,13 @@ class AbstractObserver(eqx.Module):
         return 64 * num_steps + 65_536
 
 
+class _HistogramState(eqx.Module):
+    zc: ZeroCrossingState
+    n: jnp.ndarray  # zero-crossing amplitudes after the discard
+    s1: jnp.ndarray  # their sum [rad]
+    s2: jnp.ndarray  # and sum of squares [rad²]
+
+
 class AmplitudeHistogram(AbstractObserver):
     """Zero-crossing (per half cycle) and envelope (per time sample) amplitude histograms after `discard` [s], on
     a fine grid of `bin_width_deg` up to `max_deg` [deg] (amplitudes beyond it are counted in the last bin), with
@@ -75,44 +84,50 @@ class AmplitudeHistogram(AbstractObserver):
         return int(round(self.max_deg / self.bin_width_deg))
 
     def init(self, problem, key):
-        return zero_crossing_init(problem.phi0)
+        zero = jnp.zeros(())
+        return _HistogramState(zero_crossing_init(problem.phi0), jnp.array(0), zero, zero)
 
     def observe(self, problem, state, k, y, alive):
-        state, amp = zero_crossing_update(state, y[0])
-        return state, (y[0], amp)
+        # Per step only the roll (for the envelope) and the zero-crossing amplitude's histogram bin (-1: none) are
+        # kept; the amplitudes' count and sums run in the state.
+        zc, amp = zero_crossing_update(state.zc, y[0])
+        on = (amp > 0) & (k > _steps(self.discard, problem.dt))
+        itype = jnp.int16 if self.num_bins < 2**15 else jnp.int32
+        index = jnp.clip(jnp.floor(amp * (180 / math.pi / self.bin_width_deg)), 0, self.num_bins - 1)
+        kept = jnp.where(on, amp, 0)
+        new = _HistogramState(zc, state.n + on.astype(state.n.dtype), state.s1 + kept, state.s2 + kept * kept)
+        return new, (y[0], jnp.where(on, index, -1).astype(itype))
 
     def reduce(self, problem, states, outputs, end, valid):
-        # In the outputs' dtype (float32 from the batched kernel, float64 from `simulate`): rfft envelope, integer
-        # histograms, time sums in float32 groups and float64 across (`_batched`; docs/numerics.md).
-        # float64 (exact from float32): float32 FFTs/sums were ~4e-8 dependent on the chunk size (to revisit)
-        phi, amp = (x.astype(jnp.float64) for x in outputs)
+        # The envelope (rfft) and its histogram bins in the run's dtype (float32 in the Monte Carlo: each row's FFT
+        # is independent of the others, so the counts do not depend on the chunk); the sums over time in float64.
+        phi, zc_bin = outputs
         start = _steps(self.discard, problem.dt)
         keep = valid & ~end.capsized
-        phi, amp = phi[:, start:], amp[:, start:]
-        zc_on = (amp > 0) & keep[:, None]
+        phi, zc_bin = phi[:, start:], zc_bin[:, start:]
         env = envelope_rfft(phi)
         deg = 180 / math.pi
         summed = {
-            "counts_zero_crossing": integer_counts(amp * deg, zc_on, self.bin_width_deg, self.num_bins),
+            "counts_zero_crossing": bin_counts(zc_bin, keep[:, None] & (zc_bin >= 0), self.num_bins),
             "counts_envelope": integer_counts(
                 env * deg, jnp.broadcast_to(keep[:, None], env.shape), self.bin_width_deg, self.num_bins
             ),
         }
         kf = keep.astype(jnp.float64)
-        amp = jnp.where(zc_on, amp, 0)
+        phi, env = (x.astype(jnp.float64) for x in (phi, env))
         phi2 = phi * phi
         per = {
             "capsized": end.capsized & valid,
             "capsize_time": end.capsize_time,
-            "n_zc": jnp.sum(zc_on, 1, dtype=jnp.float64),
-            "sum_zc": sum_last(amp),
-            "sumsq_zc": sum_last(amp * amp),
+            "n_zc": kf * states.n.astype(jnp.float64),
+            "sum_zc": kf * states.s1.astype(jnp.float64),
+            "sumsq_zc": kf * states.s2.astype(jnp.float64),
             "n_env": kf * phi.shape[1],
-            "sum_env": kf * sum_last(env),
-            "sumsq_env": kf * sum_last(env * env),
+            "sum_env": kf * jnp.sum(env, 1),
+            "sumsq_env": kf * jnp.sum(env * env, 1),
             "n_samples": kf * phi.shape[1],
-            "sum_phi2": kf * sum_last(phi2),
-            "sum_phi4": kf * sum_last(phi2 * phi2),
+            "sum_phi2": kf * jnp.sum(phi2, 1),
+            "sum_phi4": kf * jnp.sum(phi2 * phi2, 1),
         }
         return summed, per
 
@@ -134,7 +149,7 @@ class _MaximaState(eqx.Module):
     zc: ZeroCrossingState
     count: jnp.ndarray
     running_max: jnp.ndarray
-    maxima: jnp.ndarray
+    maxima: tuple  # one scalar per N0 (not an [N0] array: vmapped, each stays one contiguous vector)
 
 
 class FirstMaxima(AbstractObserver):
@@ -152,7 +167,7 @@ class FirstMaxima(AbstractObserver):
 
     def init(self, problem, key):
         return _MaximaState(
-            zero_crossing_init(problem.phi0), jnp.array(0), jnp.array(0.0), jnp.full(len(self.n0), -1.0)
+            zero_crossing_init(problem.phi0), jnp.array(0), jnp.array(0.0), tuple(jnp.array(-1.0) for _ in self.n0)
         )
 
     def observe(self, problem, state, k, y, alive):
@@ -161,12 +176,12 @@ class FirstMaxima(AbstractObserver):
         counted = (amp > 0) & (k > _steps(self.discard, problem.dt)) & (state.count < n_max) & alive
         count = state.count + counted.astype(state.count.dtype)
         running = jnp.where(counted, jnp.maximum(state.running_max, amp), state.running_max)
-        maxima = jnp.where(counted & (count == jnp.asarray(self.n0)), running, state.maxima)
+        maxima = tuple(jnp.where(counted & (count == n), running, m) for n, m in zip(self.n0, state.maxima, strict=True))
         return _MaximaState(zc, count, running, maxima), None
 
     def reduce(self, problem, states, outputs, end, valid):
         per = {
-            "maxima": jnp.where(valid[:, None], states.maxima, -1.0),
+            "maxima": jnp.where(valid[:, None], jnp.stack(states.maxima, -1).astype(jnp.float64), -1.0),
             "count": jnp.where(valid, states.count, 0),
             "capsized": end.capsized & valid,
             "capsize_time": end.capsize_time,

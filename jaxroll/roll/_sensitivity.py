@@ -42,11 +42,10 @@ import numpy as np
 from jax.scipy.stats import norm
 
 from ..sea._spectra import ITTC
-from ..ship._restoring import parametric_excitation
 from ..ship._ship import Ship
 from ._amplitudes import hilbert_envelope, zero_crossing_init, zero_crossing_update
-from ._equation import RollProblem, rk4_step
-from ._excitation import BLOCK, FilterExcitation
+from ._equation import RollProblem, forcing_series, rk4_step
+from ._excitation import FilterExcitation
 
 DEFAULT_SENSITIVITY_STATISTICS = ("E_phi2", "mean_envelope", "mean_zero_crossing", "P_exceed_20deg")
 # the parameters of `sensitivity_problem` and their units
@@ -148,29 +147,8 @@ def _parts(problem: RollProblem) -> _Parts:
 
 def _forcing(parts: _Parts, key, num_steps: int, dt: float):
     """P [1/s²] and M_w [rad/s²] at (start, middle, end) of each of `num_steps` steps, exactly as `simulate`
-    forms them (same keys, same blocks, same Hermite midpoint)."""
-    sources = [parts.excitation] + ([parts.moment_excitation] if parts.moment_excitation is not None else [])
-    keys = [key, jr.fold_in(key, 0x7FFFFFFE)]
-    num_blocks = -(-num_steps // BLOCK)
-    xs, dxs = [], []
-    for src, k in zip(sources, keys, strict=False):
-        state, x0, dx0 = src.init(k, num_steps)
-
-        def block(state, j, src=src, k=k):
-            state, x, dx = src.block(k, state, j)
-            return state, (x, dx)
-
-        _, (x, dx) = jax.lax.scan(block, state, jnp.arange(num_blocks))
-        xs.append(jnp.concatenate([x0[None], x.reshape(-1)])[: num_steps + 1])
-        dxs.append(jnp.concatenate([dx0[None], dx.reshape(-1)])[: num_steps + 1])
-    x, dx = jnp.stack(xs), jnp.stack(dxs)
-    xm = (x[:, :-1] + x[:, 1:]) / 2 + dt * (dx[:, :-1] - dx[:, 1:]) / 8
-    p = parametric_excitation(parts.ship, jnp.stack([x[0, :-1], xm[0], x[0, 1:]], -1))
-    if len(sources) > 1:
-        m = jnp.stack([x[1, :-1], xm[1], x[1, 1:]], -1)
-    else:
-        m = jnp.zeros_like(p)
-    return p, m
+    forms them (`forcing_series`: same keys, same blocks, same bridge and Hermite midpoints), in float64."""
+    return forcing_series(parts, key, num_steps)
 
 
 def _roll(parts: _Parts, p, m, dt: float):
@@ -338,7 +316,9 @@ def sensitivity_problem(
     √S_G of the FFT synthesis, which has no derivative where S_G = 0 — not supported.
     """
     options = dict(heading=heading, excitation=excitation, dt=dt, filter_order=filter_order, phi0=phi0, dphi0=dphi0)
-    RollProblem.from_sea(ship, ITTC(hs, t01), speed=speed, **options)  # every check of the nominal problem
+    nominal = RollProblem.from_sea(ship, ITTC(hs, t01), speed=speed, **options)  # every check of the nominal problem
+    if excitation == "filter":  # the traced problems step the filter as the nominal one (same random stream)
+        options["substeps"] = nominal.excitation.substeps
     gm0_nominal = float(ship.gm0)
     kappa = float(ship.omega0) ** 2 / gm0_nominal  # a1/GM0 = gΔ/I44, held fixed
     params = {

@@ -21,6 +21,8 @@ import jax.numpy as jnp
 import jax.random as jr
 import numpy as np
 
+from .._compiled import cached_program
+
 REALIZATION_AXIS = "realizations"
 CHECKPOINT_FILE = "checkpoint.npz"
 CHECKPOINT_SECONDS = 60.0  # default checkpoint interval [s] of wall time when `checkpoint_every` is None
@@ -225,9 +227,9 @@ def run_chunks(
     processes too after `jax.distributed.initialize()`: the chunk is rounded up to a multiple of the device
     count, `summed` is reduced across devices by XLA inside the compiled chunk, and `per_realization` is
     gathered to every process. Realization i uses `fold_in(key, i)` whatever the device, so results do not
-    depend on the number of devices, processes or chunks: bit for bit when every device gets the same number
-    of realizations per chunk, otherwise to round-off (XLA on CPU compiles a batch-size-dependent matrix
-    product, ~1e-15 in φ). `summed` entries should be integer-valued (counts), which any reduction order adds
+    depend on the number of devices, processes or chunks, bit for bit (XLA:CPU with platform-independent math,
+    which `import jaxroll` requests, and at least two realizations per device and chunk; a lone realization is
+    padded). `summed` entries should be integer-valued (counts), which any reduction order adds
     exactly; float sums belong in `per_realization` (added on the host in index order).
 
     **Arguments:**
@@ -252,7 +254,9 @@ def run_chunks(
         raise ValueError(f"`checkpoint_every` must be None or an integer >= 1; got {checkpoint_every!r}.")
     mesh = realization_mesh(devices)
     num_devices = mesh.devices.size
-    chunk = -(-min(chunk_size, num_realizations) // num_devices) * num_devices
+    # At least two realizations per device: XLA compiles a batch of one differently (another rounding in float32),
+    # so padding a lone realization keeps every trial bit for bit the same whatever the chunking.
+    chunk = max(2, -(-min(chunk_size, num_realizations) // num_devices)) * num_devices
     sharding = jax.sharding.NamedSharding(mesh, jax.sharding.PartitionSpec(REALIZATION_AXIS))
     fn = _compiled(chunk_fn, mesh)
 
@@ -312,10 +316,13 @@ _COMPILED: dict = {}
 
 def _compiled(fn, mesh: jax.sharding.Mesh | None = None):
     """`fn` under `eqx.filter_jit`, with its outputs' shardings fixed on `mesh` (summed replicated,
-    per-realization sharded along the realization axis), cached per (function, mesh)."""
+    per-realization sharded along the realization axis), cached per (function, mesh); on one device, a stored
+    program (`jaxroll._compiled.cached_program`)."""
     if (fn, mesh) not in _COMPILED:
-        if mesh is None:
-            _COMPILED[fn, mesh] = eqx.filter_jit(fn)
+        if mesh is None or (mesh.devices.size == 1 and jax.process_count() == 1):
+            # one device: a stored program (`cached_program`), so a warm command neither traces nor lowers the
+            # Monte Carlo body (~0.7 s for the paper's chunk on a 2-core CPU)
+            _COMPILED[fn, mesh] = cached_program(fn)
         else:
             replicated = jax.sharding.NamedSharding(mesh, jax.sharding.PartitionSpec())
             along = jax.sharding.NamedSharding(mesh, jax.sharding.PartitionSpec(REALIZATION_AXIS))

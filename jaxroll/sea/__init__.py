@@ -3,6 +3,7 @@
 from ._filters import (
     FilterFit as FilterFit,
     ShapingFilter as ShapingFilter,
+    check_filter_fit as check_filter_fit,
     fit_filter as fit_filter,
 )
 from ._grim import (

@@ -21,6 +21,7 @@ import jax.scipy.linalg as jsl
 import optimistix as optx
 from jaxtyping import Array, Float
 
+from .._compiled import cached_program
 from ._grim import EffectiveWave
 
 
@@ -119,7 +120,7 @@ def check_filter_fit(fit: "FilterFit", dt=None) -> list[str]:
     return warns
 
 
-@eqx.filter_jit
+@cached_program
 def _fit_diagnostics(f, match_frequency, dt):
     """The numbers `check_filter_fit` judges, in one compiled program: output variance by quadrature of S on
     (0, 20] rad/s [m²], S at the match frequency, Σ, and Φ = e^{A dt} (None without `dt`)."""
@@ -201,7 +202,6 @@ class FilterFit(eqx.Module):
         }
 
 
-@eqx.filter_jit
 def fit_filter(
     wave: EffectiveWave, *, order: int = 4, match_frequency=None, match_weight: float = 10.0, num: int = 400
 ) -> FilterFit:
@@ -231,10 +231,10 @@ def fit_filter(
     return _fit_filter(wave, order, match_frequency, match_weight, num)
 
 
-@eqx.filter_jit
+@cached_program
 def _fit_filter(wave: EffectiveWave, order: int, match_frequency, match_weight: float, num: int) -> FilterFit:
-    """`fit_filter`'s numerics as one compiled program (one compilation, cached on disk by the CLI, instead of
-    ~100 small ones dispatched op by op)."""
+    """`fit_filter`'s numerics as one compiled program (kept on disk by the CLI: a warm run neither traces nor
+    compiles it; ~100 small programs dispatched op by op before)."""
     variance = wave.variance()
     grid = jnp.linspace(0.0, 3.0, num + 1)[1:]
     target = wave.spectrum(grid)

@@ -20,6 +20,7 @@ import jax.numpy as jnp
 import jax.random as jr
 from jaxtyping import Array, Float, PRNGKeyArray
 
+from .._compiled import require
 from ._spectra import (
     GRAVITY,
     AbstractWaveSpectrum,
@@ -58,11 +59,9 @@ class EffectiveWave(eqx.Module):
         chi, cos_chi = heading_angle(heading), heading_cosine(heading)  # validates
         self.sea = sea
         length = jnp.asarray(length, dtype=float)
-        self.length = eqx.error_if(length, ~(length > 0), "ship length must be > 0 [m].")
+        self.length = require(length, ~(length > 0), "ship length must be > 0 [m].")
         speed = jnp.asarray(speed, dtype=float)
-        self.speed = eqx.error_if(
-            speed, ~(speed >= 0), "`speed` must be >= 0 [m/s]; use `heading` for direction."
-        )
+        self.speed = require(speed, ~(speed >= 0), "`speed` must be >= 0 [m/s]; use `heading` for direction.")
         self.heading = jnp.asarray(chi, dtype=float)
         self.cos_heading = jnp.asarray(cos_chi, dtype=float)
         self.following = cos_chi > 0

@@ -13,6 +13,8 @@ import equinox as eqx
 import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float
 
+from .._compiled import require
+
 GRAVITY = 9.80665  # [m/s²]
 
 # B T01⁴ for the ITTC (H1/3, T01) spectrum: (2π/Γ(3/4))⁴ = 691.17…, so that 2π m0/m1 = T01 exactly.
@@ -36,9 +38,7 @@ def _check_positive(name: str, value, unit: str):
     value = jnp.asarray(value, dtype=float)
     if value.shape != ():
         raise ValueError(f"`{name}` must be a scalar; got shape {value.shape}.")
-    return eqx.error_if(
-        value, ~(value > 0) | ~jnp.isfinite(value), f"`{name}` must be a finite number > 0 [{unit}]."
-    )
+    return require(value, ~(value > 0) | ~jnp.isfinite(value), f"`{name}` must be a finite number > 0 [{unit}].")
 
 
 class ITTC(AbstractWaveSpectrum):
@@ -90,7 +90,7 @@ class JONSWAP(AbstractWaveSpectrum):
         self.hs = _check_positive("hs", hs, "m")
         self.tp = _check_positive("tp", tp, "s")
         gamma = jnp.asarray(gamma, dtype=float)
-        self.gamma = eqx.error_if(gamma, ~(gamma >= 1), "`gamma` must be >= 1 (3.3 is the usual value).")
+        self.gamma = require(gamma, ~(gamma >= 1), "`gamma` must be >= 1 (3.3 is the usual value).")
         # Normalise on a dimensionless grid x = ω/ω_p, so that ∫S dω = Hs²/16.
         x, weight = log_quadrature()
         integral = jnp.sum(weight * self._shape(x))

@@ -5,12 +5,20 @@ from __future__ import annotations
 import jax.numpy as jnp
 from jaxtyping import Array, Float
 
+from .._compiled import cached_program
 from ._ship import Ship
+
+
+def _floating(x):
+    """`x` as a JAX array of its own floating dtype (float32 stays float32: the Monte Carlo integrates in it);
+    integers and Python numbers become float64."""
+    x = jnp.asarray(x)
+    return x if jnp.issubdtype(x.dtype, jnp.floating) else x.astype(float)
 
 
 def restoring_moment(ship: Ship, phi) -> Float[Array, "..."]:
     """Calm-water restoring per unit roll inertia a1φ + a3φ³ + … + a9φ⁹ [1/s²] at roll angle φ [rad]."""
-    phi = jnp.asarray(phi, dtype=float)
+    phi = _floating(phi)
     a = ship.restoring_coefficients
     phi2 = phi * phi
     poly = a[0] + phi2 * (a[1] + phi2 * (a[2] + phi2 * (a[3] + phi2 * a[4])))
@@ -22,11 +30,8 @@ def righting_lever(ship: Ship, phi) -> Float[Array, "..."]:
     return ship.gm0 * restoring_moment(ship, phi) / ship.omega0**2
 
 
-def vanishing_angle(ship: Ship, *, num: int = 4096) -> Float[Array, ""]:
-    """Angle of vanishing stability [rad]: the first φ > 0 where GZ returns to zero (π if it never does).
-
-    Found on a grid over (0, π] and refined by bisection; trajectories beyond it count as capsized.
-    """
+@cached_program
+def _vanishing_angle(ship: Ship, num: int) -> Float[Array, ""]:
     phi = jnp.linspace(0.0, jnp.pi, num + 1)[1:]
     gz = restoring_moment(ship, phi)
     negative = gz <= 0
@@ -41,9 +46,17 @@ def vanishing_angle(ship: Ship, *, num: int = 4096) -> Float[Array, ""]:
     return jnp.where(found, (lo + hi) / 2, jnp.pi)
 
 
+def vanishing_angle(ship: Ship, *, num: int = 4096) -> Float[Array, ""]:
+    """Angle of vanishing stability [rad]: the first φ > 0 where GZ returns to zero (π if it never does).
+
+    Found on a grid over (0, π] and refined by bisection; trajectories beyond it count as capsized.
+    """
+    return _vanishing_angle(ship, num)
+
+
 def delta_gm(ship: Ship, zeta_mid) -> Float[Array, "..."]:
     """Non-memory GM variation ΔGM(ζ_mid) = Σ_k C_k ζ_midᵏ [m]; ζ_mid [m] > 0 when a trough is amidships."""
-    zeta_mid = jnp.asarray(zeta_mid, dtype=float)
+    zeta_mid = _floating(zeta_mid)
     c = ship.delta_gm
     out = jnp.zeros_like(zeta_mid) + c[-1]
     for k in range(c.size - 2, -1, -1):
@@ -53,4 +66,4 @@ def delta_gm(ship: Ship, zeta_mid) -> Float[Array, "..."]:
 
 def parametric_excitation(ship: Ship, zeta_g) -> Float[Array, "..."]:
     """P(t) = r · (ω0²/GM0) · ΔGM(ζ_mid) [1/s²] from Grim's effective wave ζ_G [m] (ζ_mid = −ζ_G), r = σ_obs/σ_thr."""
-    return ship.gm_correction * ship.omega0**2 / ship.gm0 * delta_gm(ship, -jnp.asarray(zeta_g, dtype=float))
+    return ship.gm_correction * ship.omega0**2 / ship.gm0 * delta_gm(ship, -_floating(zeta_g))

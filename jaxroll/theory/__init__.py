@@ -3,7 +3,8 @@
 Every theory returns an amplitude law (`jaxroll.AbstractAmplitudeLaw`, radians) of the estimator asked for:
 stochastic averaging (Roberts' SAM, energy-based ESAM) in `_averaging.py` with the parametric-excitation spectrum
 in `_excitation.py`; the moment method in `_moments.py`.
-Coloured-noise averaging (the envelope Fokker–Planck method) in `_envelope_fpk.py`.
+Coloured-noise averaging (the envelope Fokker–Planck method) in `_envelope_fpk.py`. `theory_law` and
+`theory_summary` (`_named.py`) call any of them by name, each as one compiled program kept between runs.
 """
 
 # --- excitation spectrum S_P and stochastic averaging (Roberts' SAM, ESAM) ---
@@ -59,4 +60,10 @@ from ._moments import (
     moment_pdf as moment_pdf,
     moment_pdf_first_stable as moment_pdf_first_stable,
     roll_moments as roll_moments,
+)
+from ._named import (  # the theories by name, each in one compiled program (the command line's entry)
+    THEORIES as THEORIES,
+    iter_theory_summaries as iter_theory_summaries,
+    theory_law as theory_law,
+    theory_summary as theory_summary,
 )

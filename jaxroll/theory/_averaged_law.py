@@ -8,6 +8,7 @@ import math
 import equinox as eqx
 import jax
 import jax.numpy as jnp
+import numpy as np
 from jaxtyping import Array, Bool, Float
 
 from ..laws._abstract import AbstractAmplitudeLaw
@@ -166,10 +167,11 @@ class AveragedAmplitudeLaw(AbstractAmplitudeLaw):
 
     def details(self) -> dict:
         """The method's own numbers for JSON: method, existence, support top [deg], parameters."""
+        top = np.asarray(self.log_amplitude)[-1]  # on the host: no compiled program per number
         return {
             "method": self.method,
             "exists": bool(self.exists),
-            "support_max_deg": float(jnp.rad2deg(self.support_max)),
+            "support_max_deg": float(np.rad2deg(np.exp(top))),
             "parameters": {k: float(v) for k, v in self.parameters.items()},
         }
 

@@ -552,12 +552,7 @@ def envelope_fpk_pdf(
         if isinstance(exists, jax.core.Tracer):
             mass = eqx.error_if(mass, ~exists, _DIES_OUT)
         elif not bool(exists):
-            raise ValueError(
-                f"envelope FPK: no sustained parametric roll: the Lyapunov exponent of the linearised roll is "
-                f"λ = {float(lyap):.3g} 1/s <= 0 (coloured excitation, envelope correlation time "
-                f"{float(1 / exc.gamma):.3g} s), so A → 0 almost surely. Increase H1/3 or r, or reduce b1; "
-                "throw=False returns the finite-grid law."
-            )
+            raise dies_out_error(lyap, exc)
     return EnvelopeFPKLaw(
         edges=edges,
         mass=mass,
@@ -568,6 +563,16 @@ def envelope_fpk_pdf(
         method=method,
         grid=record,
         estimator=estimator,
+    )
+
+
+def dies_out_error(lyapunov_exponent, excitation: EnvelopeExcitation) -> ValueError:
+    """The error `envelope_fpk_pdf` raises (concrete inputs, `throw=True`) when λ ≤ 0: the roll dies out."""
+    return ValueError(
+        f"envelope FPK: no sustained parametric roll: the Lyapunov exponent of the linearised roll is "
+        f"λ = {float(lyapunov_exponent):.3g} 1/s <= 0 (coloured excitation, envelope correlation time "
+        f"{1 / float(excitation.gamma):.3g} s), so A → 0 almost surely. Increase H1/3 or r, or reduce b1; "
+        "throw=False returns the finite-grid law."
     )
 
 

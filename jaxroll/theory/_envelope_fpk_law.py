@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import equinox as eqx
 import jax.numpy as jnp
+import numpy as np
 from jaxtyping import Array, Bool, Float
 
 from ..laws._abstract import AbstractAmplitudeLaw
@@ -143,16 +144,16 @@ class EnvelopeFPKLaw(AbstractAmplitudeLaw):
     def details(self) -> dict:
         """What produced the law, for JSON: method, existence, Lyapunov exponent [1/s], top-cell mass, the fitted
         envelope (γ [1/s], Δ [rad/s], v, σ [m], ω [rad/s]) and the grid."""
-        x = self.excitation
+        x = self.excitation  # numbers read on the host (NumPy): no compiled program per number
         return {
             "method": self.method,
             "exists": bool(self.exists),
-            "support_max_deg": float(jnp.rad2deg(self.support_max)),
+            "support_max_deg": float(np.rad2deg(np.asarray(self.edges)[-1])),
             "parameters": {
                 "lyapunov_exponent": float(self.lyapunov_exponent),
                 "mass_top_cell": float(self.mass_top_cell),
                 "envelope_gamma": float(x.gamma),
-                "envelope_correlation_time_s": float(1 / x.gamma),
+                "envelope_correlation_time_s": 1 / float(x.gamma),
                 "envelope_shift": float(x.shift),
                 "envelope_variance": float(x.variance),
                 "sigma_zeta": float(x.sigma),

@@ -181,14 +181,6 @@ class PolynomialSDE(eqx.Module):
         )
 
 
-def _is_zero(x) -> bool:
-    """True only for a concrete value equal to 0 (a traced value is never known to be zero)."""
-    try:
-        return bool(np.asarray(x) == 0)
-    except (jax.errors.TracerArrayConversionError, jax.errors.ConcretizationTypeError, TypeError):
-        return False
-
-
 def _compositions(k: int, n: int):
     """All exponent tuples of length n with sum k."""
     if n == 1:
@@ -215,8 +207,40 @@ def roll_sde(ship: Ship, shaping_filter: ShapingFilter, *, damping: str = "cubic
     Terms whose coefficient is a concrete zero (a7 = a9 = 0, C4 = C5 = C6 = 0 on the default ship) are
     dropped; traced coefficients (under `jax.grad`) are always kept, so derivatives are complete.
     """
+    return _roll_sde(ship, shaping_filter, damping, zero_pattern(ship, shaping_filter))
+
+
+def zero_pattern(ship: Ship, shaping_filter: ShapingFilter) -> tuple:
+    """Which coefficients of `roll_sde` are a concrete zero (its terms are dropped): (b1, b2, b3), (a1 … a9),
+    ΔGM's (C0 …), the filter's c, A (rows) and b; a traced value is never zero. Read on the host (no compiled
+    program), hashable: a compiled program that builds the SDE from a traced ship takes it as static data, so
+    that its system has the terms `roll_sde` of the concrete ship has."""
+
+    def zeros(x):
+        try:
+            return tuple(bool(v) for v in np.ravel(np.asarray(x) == 0))
+        except (jax.errors.TracerArrayConversionError, jax.errors.ConcretizationTypeError, TypeError):
+            return (False,) * int(np.size(x))
+
+    try:
+        a1_zero = bool((2 * np.pi / np.asarray(ship.roll_period)) ** 2 == 0)  # a1 = ω0² = (2π/Tφ)²
+    except (jax.errors.TracerArrayConversionError, jax.errors.ConcretizationTypeError, TypeError):
+        a1_zero = False
+    return (
+        zeros(ship.damping),
+        (a1_zero, *zeros(ship.restoring)),
+        zeros(ship.delta_gm),
+        zeros(shaping_filter.c),
+        zeros(shaping_filter.a),
+        zeros(shaping_filter.b),
+    )
+
+
+def _roll_sde(ship: Ship, shaping_filter: ShapingFilter, damping: str, pattern: tuple) -> PolynomialSDE:
+    """`roll_sde` with the terms whose coefficients `pattern` (`zero_pattern`) marks as zero dropped."""
     if damping not in ("cubic", "linear"):
         raise ValueError(f"`damping` must be 'cubic' or 'linear'; got {damping!r}.")
+    z_b, z_a, z_dgm, z_c, z_fa, z_fb = pattern
     n = shaping_filter.order
     dim = n + 2
 
@@ -232,26 +256,26 @@ def roll_sde(ship: Ship, shaping_filter: ShapingFilter, *, damping: str = "cubic
 
     add(0, e(1), 1.0)
     b1, b2, b3 = ship.damping[0], ship.damping[1], ship.damping[2]
-    if not _is_zero(b1):
+    if not z_b[0]:
         add(1, e(1), -b1)
-    if not _is_zero(b2):
+    if not z_b[1]:
         if damping == "cubic":
             add(1, e(1), -b2 * math.sqrt(2 / math.pi), 0.5)
             add(1, e(1, 3), -b2 * math.sqrt(2 / math.pi) / 3, -0.5)
         else:
             add(1, e(1), -b2 * math.sqrt(8 / math.pi), 0.5)
-    if not _is_zero(b3):
+    if not z_b[2]:
         add(1, e(1, 3), -b3)
     a = ship.restoring_coefficients
     for i, power in enumerate((1, 3, 5, 7, 9)):
-        if not _is_zero(a[i]):
+        if not z_a[i]:
             add(1, e(0, power), -a[i])
     kappa = ship.gm_correction * ship.omega0**2 / ship.gm0
     c = shaping_filter.c
-    c_zero = [_is_zero(c[i]) for i in range(n)]
+    c_zero = z_c
     for k in range(ship.delta_gm.shape[0]):
         ck = ship.delta_gm[k]
-        if _is_zero(ck):
+        if z_dgm[k]:
             continue
         for alpha in _compositions(k, n):
             if any(alpha[i] and c_zero[i] for i in range(n)):
@@ -261,11 +285,11 @@ def roll_sde(ship: Ship, shaping_filter: ShapingFilter, *, damping: str = "cubic
             add(1, (1, 0, *alpha), -kappa * ck * (-1) ** k * multinomial * cz)
     for i in range(n):
         for j in range(n):
-            if not _is_zero(shaping_filter.a[i, j]):
+            if not z_fa[i * n + j]:
                 add(2 + i, e(2 + j), shaping_filter.a[i, j])
     noise_terms, noise_values = [], []
     for i in range(n):
-        if not _is_zero(shaping_filter.b[i]):
+        if not z_fb[i]:
             noise_terms.append((2 + i, 0, (0,) * dim))
             noise_values.append(shaping_filter.b[i])
     names = ("phi", "dphi", *(f"z{i + 1}" for i in range(n)))
@@ -345,22 +369,29 @@ class _Tables:
     drift_powers: np.ndarray
     noise_pairs: np.ndarray  # (n_pairs, 2) noise-term indices with the same Wiener process
     scale_index: int  # table index of x_s²
+    key: tuple = ()  # (structure, order, extra): the arguments of `_build_tables` that generated these tables
 
     @functools.cached_property
     def arrays(self) -> _TableArrays:
-        """The numeric tables, to pass into a compiled program as an argument."""
+        """The numeric tables, to pass into a compiled program as an argument. Indices are unsigned: indexing with
+        them needs no wrap-around of negative indices (a signed index array costs 3x the operations in the
+        compiled program, which then compiles slower)."""
+
+        def u(x):
+            return np.asarray(x).astype(np.uint32)
+
         return _TableArrays(
-            levels=tuple((lv.idx, lv.tgt, lv.kap, lv.mom, lv.coef) for lv in self.levels),
+            levels=tuple((u(lv.idx), u(lv.tgt), u(lv.kap), u(lv.mom), lv.coef) for lv in self.levels),
             kind=self.kind,
-            unknowns=self.unknowns,
-            gauss_cov_idx=self.gauss_cov_idx,
-            gauss_pairs=self.gauss_pairs,
-            rhs_tgt=self.rhs_tgt,
-            rhs_cid=self.rhs_cid,
+            unknowns=u(self.unknowns),
+            gauss_cov_idx=u(self.gauss_cov_idx),
+            gauss_pairs=u(self.gauss_pairs),
+            rhs_tgt=u(self.rhs_tgt),
+            rhs_cid=u(self.rhs_cid),
             rhs_mult=self.rhs_mult,
-            rhs_src=self.rhs_src,
+            rhs_src=u(self.rhs_src),
             drift_powers=self.drift_powers,
-            noise_pairs=self.noise_pairs,
+            noise_pairs=u(self.noise_pairs),
         )
 
 
@@ -529,6 +560,7 @@ def _build_tables(structure, order: int, extra: tuple[Monomial, ...]) -> _Tables
         drift_powers=np.array([p for _, _, p in drift_terms], float),
         noise_pairs=np.array(pairs, np.int32).reshape(-1, 2),
         scale_index=index[scale_mono],
+        key=(structure, order, extra),
     )
 
 
@@ -616,6 +648,11 @@ class MomentEquations(eqx.Module):
 
     tables: _Tables = eqx.field(static=True)
 
+    def __reduce__(self):
+        # pickled by the tables' key (a few kB instead of megabytes): unpickling looks the tables up in the tables
+        # cache (memory, disk) or generates them again; they are a pure function of the key
+        return _equations_from_key, self.tables.key
+
     @property
     def order(self) -> int:
         return self.tables.order
@@ -649,6 +686,12 @@ class MomentEquations(eqx.Module):
         """Every tabulated moment (unknowns, Gaussian block, closure) from the unknowns `m`."""
         full = _full_jit(self.tables, self.tables.arrays, sde, m)
         return {b: full[i] for i, b in enumerate(self.tables.monomials)}
+
+
+def _equations_from_key(structure, order: int, extra) -> MomentEquations:
+    from ._moment_cache import cached_tables
+
+    return MomentEquations(cached_tables(structure, order, extra))
 
 
 @eqx.filter_jit

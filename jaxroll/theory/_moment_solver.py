@@ -4,9 +4,9 @@ See `_moment_equations.py` for the equations and the closure."""
 
 from __future__ import annotations
 
+import contextlib
 from collections.abc import Sequence
 
-import diffrax as dfx
 import equinox as eqx
 import jax
 import jax.numpy as jnp
@@ -15,18 +15,18 @@ import numpy as np
 import optimistix as optx
 from jaxtyping import Array, ArrayLike, Float
 
-from ._moment_cache import cache_dir, exported_call, is_concrete
+from .._compiled import cached_program, is_concrete
 from ._moment_equations import (
     MomentEquations,
     PolynomialSDE,
     _base_cumulants,
     _complete,
     _full_moments,
-    _rhs,
     _TableArrays,
     _Tables,
     moment_equations,
 )
+from ._moment_jacobian import rhs_with_fast_jacobian
 
 
 class RESULTS(eqx.Enumeration):
@@ -157,9 +157,11 @@ def _solve_impl(
     y0 = m_start / scale
     tau = time_scale
 
+    rhs = rhs_with_fast_jacobian(tables)
+
     def fn(y, args):
         s, kap = args
-        return _rhs(tables, arr, s, y * scale, kap) / scale * tau
+        return rhs(y * scale, s, kap, arr) / scale * tau
 
     def steady(t, y, args, **kwargs):
         return jnp.max(jnp.abs(fn(y, args))) < tol_relax * jnp.maximum(jnp.max(jnp.abs(y)), 1e-30)
@@ -173,6 +175,8 @@ def _solve_impl(
         return jnp.abs(y[lead_pos]) < 1e-6 * jnp.abs(y0[lead_pos])
 
     def relax(y_start):
+        import diffrax as dfx  # imported here: a stored program (the `jaxroll` command) never needs it
+
         sol = dfx.diffeqsolve(
             dfx.ODETerm(lambda t, y, args: fn(y, args)),
             dfx.Tsit5(),
@@ -282,48 +286,30 @@ def _solve_impl(
     return values, full, residual, max_re, n_relax, root.stats["num_steps"], result
 
 
-_solve = eqx.filter_jit(_solve_impl)
+_INPUT_TABLES: dict[int, tuple[_Tables, _TableArrays]] = {}
 
 
-def _solve_exported(
-    tables: _Tables,
-    sde: PolynomialSDE,
-    start,
-    time_scale,
-    relax_periods,
-    lead,
-    tol_relax,
-    relax_fallback=True,
-):
-    """`_solve` through a disk-cached `jax.export` (no tracing in a new process); concrete inputs only."""
-    kind, data = start
-    arr_leaves, arr_def = jax.tree.flatten(tables.arrays)
-    low_tables = data[0] if kind == "lift" else None
-    data_arrays = data[1] if kind == "lift" else data
+@contextlib.contextmanager
+def tables_as_inputs(tables: Sequence[_Tables], arrays: Sequence[_TableArrays]):
+    """While a program that takes `arrays` (the `tables`' arrays, traced) as inputs is traced: solve with them
+    instead of the tables' own NumPy arrays, which would be embedded in the program as constants (megabytes)."""
+    saved = dict(_INPUT_TABLES)
+    _INPUT_TABLES.update({id(t): (t, a) for t, a in zip(tables, arrays, strict=True)})
+    try:
+        yield
+    finally:
+        _INPUT_TABLES.clear()
+        _INPUT_TABLES.update(saved)
 
-    def fn(arr_leaves, drift, noise, data_arrays, time_scale):
-        arr = jax.tree.unflatten(arr_def, arr_leaves)
-        s = eqx.tree_at(lambda s: (s.drift_coefficients, s.noise_coefficients), sde, (drift, noise))
-        st = (kind, (low_tables, data_arrays)) if kind == "lift" else (kind, data_arrays)
-        *out, result = _solve_impl(
-            tables, arr, s, st, time_scale, relax_periods, lead, tol_relax, relax_fallback
-        )
-        return (*out, result._value)
 
-    key = (
-        sde._structure(),
-        tables.order,
-        len(tables.monomials),
-        kind,
-        None if low_tables is None else (low_tables.order, low_tables.monomials),
-        relax_periods,
-        lead,
-        tol_relax,
-        relax_fallback,
-    )
-    args = (arr_leaves, sde.drift_coefficients, sde.noise_coefficients, data_arrays, time_scale)
-    *out, value = exported_call(key, fn, args)
-    return (*out, eqx.tree_at(lambda r: r._value, RESULTS.successful, value))
+def _table_arrays(tables: _Tables) -> _TableArrays:
+    hit = _INPUT_TABLES.get(id(tables))
+    return hit[1] if hit is not None and hit[0] is tables else tables.arrays
+
+
+# One compiled program per structure; with JAX's persistent cache on (the `jaxroll` command), a concrete call runs
+# the program stored on disk by `cached_program` (no Python tracing in a new process); traced calls are jitted.
+_solve = cached_program(_solve_impl)
 
 
 def raise_if_failed(result, x):
@@ -333,10 +319,15 @@ def raise_if_failed(result, x):
     cache on disk: ~2 s per call in a new process); traced ones through `error_if` as usual.
     """
     if is_concrete(result):
-        if not bool(result == RESULTS.successful):
+        if not succeeded(result):
             raise eqx.EquinoxRuntimeError(RESULTS[result])
         return x
     return result.error_if(x, result != RESULTS.successful)
+
+
+def succeeded(result) -> bool:
+    """True when the concrete `RESULTS` item `result` is `successful` (read on the host: no compiled comparison)."""
+    return RESULTS[result] == RESULTS[RESULTS.successful]
 
 
 def _concrete_ratio(relax_time, time_scale) -> float:
@@ -390,6 +381,11 @@ def stationary_moments(
     tables = eqs.tables
     if isinstance(initial, tuple) and initial[0] == "guess":  # continuation: Newton from these unknowns only
         start, relax_fallback = initial, False
+    elif isinstance(initial, tuple) and initial[0] == "lift-newton":  # Newton from the lifted start only
+        low = initial[1]
+        if low.equations.tables.dim != sde.dim:
+            raise ValueError("`initial` belongs to a system of another dimension.")
+        start, relax_fallback = ("lift", (low.equations.tables, low.full)), False
     elif initial is not None:
         if initial.equations.tables.dim != sde.dim:
             raise ValueError("`initial` belongs to a system of another dimension.")
@@ -406,15 +402,16 @@ def stationary_moments(
     time_scale = jnp.asarray(time_scale, dtype=float)
     relax_periods = 400.0 if relax_time is None else _concrete_ratio(relax_time, time_scale)
     lead = next(i for i in range(sde.dim) if i not in sde.gaussian)
-    config = (relax_periods, lead, float(tol_relax), relax_fallback)
-    solved = None
-    if cache_dir() is not None and is_concrete((sde, start, time_scale)):
-        try:
-            solved = _solve_exported(tables, sde, start, time_scale, *config)
-        except Exception:  # export unavailable for this program or JAX version: trace it as usual
-            solved = None
-    if solved is None:
-        solved = _solve(tables, tables.arrays, sde, start, time_scale, *config)
+    config = (relax_periods, lead, float(tol_relax))
+    if start[0] == "lift" and relax_fallback and is_concrete((sde, start, time_scale)):
+        # Newton from the lifted start in a program without the relaxation (smaller: faster to compile and to
+        # load); the relaxation only where that fails. The same numbers as the single program, which takes its
+        # relaxation branch only when Newton from the lifted start fails.
+        solved = _solve(tables, tables.arrays, sde, start, time_scale, *config, False)
+        if not succeeded(solved[-1]):
+            solved = _solve(tables, tables.arrays, sde, start, time_scale, *config, True)
+    else:
+        solved = _solve(tables, _table_arrays(tables), sde, start, time_scale, *config, relax_fallback)
     values, full, residual, max_re, n_relax, n_newton, result = solved
     if throw:
         values = raise_if_failed(result, values)

@@ -21,7 +21,7 @@ from ..sea._grim import EffectiveWave
 from ..ship._ship import Ship
 from ._averaging import _harmonic_frequency2
 from ._moment_equations import roll_sde
-from ._moment_solver import RESULTS, StationaryMoments, raise_if_failed, stationary_moments
+from ._moment_solver import RESULTS, StationaryMoments, raise_if_failed, stationary_moments, succeeded
 
 # ============================================================================================================
 # Amplitude family p(A) = C A^ν exp(−c2 A − c3 A²): quadrature, fit, statistics
@@ -281,6 +281,15 @@ class MomentSolution(AbstractAmplitudeLaw):
 
     def details(self) -> dict:
         """The method's own numbers for JSON (closure, moments, fitted family; radians)."""
+        # read on the host (NumPy): indexing the device arrays would compile one small program per number
+        tables = self.moments.equations.tables
+        full = np.asarray(self.moments.full)
+
+        def phi(i, j):
+            return float(full[tables.index[(i, j) + (0,) * (tables.dim - 2)]])
+
+        amp = np.asarray(self.amplitude_moments)
+        converged = succeeded(self.result)
         return {
             "method": "moment method (cumulant neglect)",
             "closure_order": self.closure_order,
@@ -289,14 +298,14 @@ class MomentSolution(AbstractAmplitudeLaw):
             "filter_order": self.filter_order,
             "damping_closure": self.damping,
             "envelope": self.envelope,
-            "converged": bool(self.result == RESULTS.successful),
-            "message": RESULTS[self.result] if not bool(self.result == RESULTS.successful) else "",
-            "E_phi2_rad2": float(self.e_phi2),
-            "E_phi4_rad4": float(self.e_phi4),
-            "E_dphi2_rad2_s2": float(self.e_dphi2),
-            "E_A2_rad2": float(self.amplitude_moments[0]),
-            "E_A4_rad4": float(self.amplitude_moments[1]),
-            "E_A6_rad6": float(self.amplitude_moments[2]),
+            "converged": converged,
+            "message": "" if converged else RESULTS[self.result],
+            "E_phi2_rad2": phi(2, 0),
+            "E_phi4_rad4": phi(4, 0),
+            "E_dphi2_rad2_s2": phi(0, 2),
+            "E_A2_rad2": float(amp[0]),
+            "E_A4_rad4": float(amp[1]),
+            "E_A6_rad6": float(amp[2]),
             "nu": float(self.family.nu),
             "c2_per_rad": float(self.family.c2),
             "c3_per_rad2": float(self.family.c3),
@@ -321,7 +330,12 @@ def _tabulated_law(family: AmplitudeFamily, ship: Ship, estimator: str) -> Tabul
     log_pdf = family.nu * jnp.log(safe) - family.c2 * safe - family.c3 * safe**2
     if estimator == "zero_crossing":
         log_pdf = log_pdf + jnp.log(_harmonic_frequency(ship, grid))
-    return TabulatedAmplitudeLaw.from_logpdf(grid, log_pdf - jnp.max(log_pdf), estimator=estimator)
+    log_pdf = log_pdf - jnp.max(log_pdf)
+    # `TabulatedAmplitudeLaw.from_logpdf(grid, log_pdf)` without its input checks (the grid is increasing and
+    # positive by construction): the same numbers, and no host callback when traced, so that a program holding
+    # the law can be stored (`jaxroll._compiled`)
+    log_mass = jnp.log(0.5 * jnp.diff(grid)) + jnp.logaddexp(log_pdf[:-1], log_pdf[1:])
+    return TabulatedAmplitudeLaw(grid, log_pdf, log_mass, estimator=estimator)
 
 
 def _shaping_filter(ship: Ship, wave, shaping_filter, filter_order: int) -> ShapingFilter:
@@ -360,23 +374,41 @@ def roll_moments(
     σ_φ̇ = ω0 σ_φ), then each higher even order from the one below (docs/theory.md: order 6 from a deterministic
     small-roll start blew up).
     """
-    sde = roll_sde(ship, _shaping_filter(ship, wave, shaping_filter, filter_order), damping=damping)
+    return _roll_moments(
+        ship, wave, shaping_filter, filter_order, closure_order, damping, initial_roll_deg, throw, lift_relax=True
+    )
+
+
+def closure_sequence(closure_order: int) -> tuple[int, ...]:
+    """The closure orders `roll_moments` solves in turn to reach `closure_order`: 4, then each higher even order
+    (and `closure_order` itself last)."""
+    if closure_order <= 4:
+        return (closure_order,)
+    orders = [4, *range(6, closure_order + 1, 2)]
+    if orders[-1] != closure_order:
+        orders.append(closure_order)
+    return tuple(orders)
+
+
+def _roll_moments(
+    ship, wave, shaping_filter, filter_order, closure_order, damping, initial_roll_deg, throw, *, lift_relax,
+    sde=None,
+) -> StationaryMoments:  # fmt: skip
+    """`roll_moments`; with `lift_relax=False` each order above 4 is Newton from the lifted lower order only (no
+    relaxation where that fails: the result then says so, and the caller runs `lift_relax=True`). `sde`: the
+    roll SDE when built already (on the host, where terms with zero coefficients are dropped)."""
+    if sde is None:
+        sde = roll_sde(ship, _shaping_filter(ship, wave, shaping_filter, filter_order), damping=damping)
     s0 = math.radians(initial_roll_deg)
     w0 = jax.lax.stop_gradient(ship.omega0)
     variances = jnp.zeros(sde.dim).at[0].set(s0**2).at[1].set((w0 * s0) ** 2)
     tau = 2 * jnp.pi / w0
-    if closure_order <= 4:
-        orders = [closure_order]
-    else:
-        orders = [4, *range(6, closure_order + 1, 2)]
-        if orders[-1] != closure_order:
-            orders.append(closure_order)
     sol = None
-    for k in orders:
+    for k in closure_sequence(closure_order):
         sol = stationary_moments(
             sde,
             closure_order=k,
-            initial=sol,
+            initial=sol if sol is None or lift_relax else ("lift-newton", sol),
             initial_variances=variances if sol is None else None,
             time_scale=tau,
             throw=throw and k == closure_order,
@@ -427,16 +459,21 @@ def moment_pdf(
         raise ValueError(
             f"`closure_order` must be an integer >= 4 (E[φ⁴] is needed for the PDF); got {closure_order!r}."
         )
-    mom = roll_moments(
-        ship,
-        wave,
-        shaping_filter=shaping_filter,
-        filter_order=filter_order,
-        closure_order=closure_order,
-        damping=damping,
-        initial_roll_deg=initial_roll_deg,
-        throw=throw,
-    )
+    return _moment_pdf(
+        ship, wave, shaping_filter, estimator, filter_order, closure_order, damping, envelope, initial_roll_deg,
+        throw, lift_relax=True,
+    )  # fmt: skip
+
+
+def _moment_pdf(
+    ship, wave, shaping_filter, estimator, filter_order, closure_order, damping, envelope, initial_roll_deg, throw,
+    *, lift_relax, sde=None,
+) -> MomentSolution:  # fmt: skip
+    """`moment_pdf` (arguments checked there); `lift_relax` and `sde` as for `_roll_moments`."""
+    mom = _roll_moments(
+        ship, wave, shaping_filter, filter_order, closure_order, damping, initial_roll_deg, throw,
+        lift_relax=lift_relax, sde=sde,
+    )  # fmt: skip
     amp, family, res, fit_result = _amplitude_law(mom, ship.omega0, envelope)
     fit_ok = (fit_result == optx.RESULTS.successful) & (res < 1e-6)
     result = RESULTS.where(
@@ -473,9 +510,7 @@ def moment_pdf_first_stable(
 
     **Raises:** the last order's error when none of them has a stable solution (the first order's when traced).
     """
-    import warnings
-
-    from ._moment_cache import is_concrete
+    from .._compiled import is_concrete
 
     error = None
     for i, order in enumerate(closure_orders):
@@ -488,12 +523,20 @@ def moment_pdf_first_stable(
             continue
         out = dataclasses.replace(out, requested_closure_order=closure_orders[0])
         if i > 0:
-            warnings.warn(
-                f"moment method: closure order {closure_orders[0]} has no stable solution here "
-                f"({error_line(error)}); using order {order}. This warning appears because the "
-                "higher-order cumulant closure lost its stable non-trivial fixed point in this sea state.",
-                stacklevel=2,
-            )
+            warn_closure_fallback(closure_orders[0], error, order)
         return out
     raise error
+
+
+def warn_closure_fallback(requested: int, error: Exception, used: int, stacklevel: int = 2) -> None:
+    """The `UserWarning` of a closure fallback (order `requested` failed with `error`; `used` is used instead),
+    attributed to the caller of the function that calls this (`stacklevel=2`)."""
+    import warnings
+
+    warnings.warn(
+        f"moment method: closure order {requested} has no stable solution here ({error_line(error)}); using "
+        f"order {used}. This warning appears because the higher-order cumulant closure lost its stable "
+        "non-trivial fixed point in this sea state.",
+        stacklevel=stacklevel + 1,
+    )
 

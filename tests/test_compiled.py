@@ -1,0 +1,109 @@
+"""Stored programs (`jaxroll._compiled.cached_program`) and concrete-or-traced checks (`require`)."""
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+import jaxroll
+from jaxroll import _compiled
+
+
+@pytest.fixture
+def program_cache(tmp_path, monkeypatch):
+    """The store in a temporary folder (the suite runs with JAX's persistent cache off, and leaves it off: only
+    jaxroll's store is redirected), and an empty in-memory table."""
+    folder = tmp_path / "jaxroll-programs"
+    monkeypatch.setattr(_compiled, "cache_dir", lambda: folder)
+    monkeypatch.setattr(_compiled, "_LOADED", {})
+    return folder
+
+
+class _Params(eqx.Module):
+    scale: jax.Array
+    label: str = eqx.field(static=True)
+
+
+calls = []
+
+
+@_compiled.cached_program
+def _program(params: _Params, x, power: int):
+    calls.append(power)  # runs only when traced
+    return {"y": params.scale * x**power, "label": params.label, "n": power}
+
+
+def test_a_stored_program_gives_the_same_numbers_without_tracing(program_cache):
+    params, x = _Params(jnp.asarray(2.0), "a"), jnp.linspace(0.0, 1.0, 5)
+    calls.clear()
+    first = _program(params, x, 3)
+    assert calls == [3]  # traced once, to export it
+    assert len(list(program_cache.glob("*.bin"))) == 1
+    _compiled._LOADED.clear()  # as a new process: the program comes from disk
+    second = _program(params, x, 3)
+    assert calls == [3]  # not traced again
+    np.testing.assert_array_equal(second["y"], first["y"])
+    np.testing.assert_allclose(second["y"], 2.0 * np.linspace(0.0, 1.0, 5) ** 3, rtol=1e-15)
+    assert second["label"] == "a" and second["n"] == 3  # static outputs come back too
+    # another static configuration or another shape is another program
+    _program(params, x, 2)
+    _program(params, jnp.linspace(0.0, 1.0, 6), 3)
+    _program(_Params(jnp.asarray(2.0), "b"), x, 3)
+    assert len(list(program_cache.glob("*.bin"))) == 4
+
+
+def test_traced_calls_and_a_cache_that_is_off_trace_as_usual(program_cache, monkeypatch):
+    params, x = _Params(jnp.asarray(2.0), "a"), jnp.arange(3.0)
+    calls.clear()
+    g = jax.grad(lambda s: jnp.sum(_program(_Params(s, "a"), x, 2)["y"]))(jnp.asarray(2.0))
+    np.testing.assert_allclose(g, np.sum(np.arange(3.0) ** 2))
+    assert calls and not list(program_cache.glob("*.bin"))  # a derivative never touches the store
+    monkeypatch.setattr(_compiled, "cache_dir", lambda: None)
+    np.testing.assert_allclose(_program(params, x, 2)["y"], 2.0 * np.arange(3.0) ** 2)
+    assert not list(program_cache.glob("*.bin"))
+
+
+def test_a_program_that_cannot_be_exported_runs_the_usual_way(program_cache):
+    @_compiled.cached_program
+    def checked(x):
+        return eqx.error_if(x, x < 0, "negative")  # a host callback: not exportable
+
+    np.testing.assert_array_equal(checked(jnp.arange(3.0)), np.arange(3.0))
+    marker = list(program_cache.glob("*.bin"))
+    assert len(marker) == 1 and marker[0].stat().st_size < 100  # remembered as not exportable
+    with pytest.raises(Exception, match="negative"):
+        checked(-jnp.ones(3))
+
+
+def test_a_corrupt_stored_program_is_replaced(program_cache):
+    params, x = _Params(jnp.asarray(3.0), "c"), jnp.arange(4.0)
+    ref = _program(params, x, 1)["y"]
+    (path,) = program_cache.glob("*.bin")
+    path.write_bytes(b"not a program")
+    _compiled._LOADED.clear()
+    np.testing.assert_array_equal(_program(params, x, 1)["y"], ref)
+    assert path.stat().st_size > 100
+
+
+def test_set_up_from_stored_programs_equals_a_fresh_one(program_cache, monkeypatch):
+    """The CLI's set-up (filter fit, its checks, the filter grid, the vanishing angle) from stored programs gives
+    the problem a traced set-up gives, bit for bit."""
+    ship, sea = jaxroll.c11_representative(), jaxroll.ITTC(7.0, 10.0)
+    stored = jaxroll.RollProblem.from_sea(ship, sea)  # runs the exported programs (as a warm run loads them)
+    assert len(list(program_cache.glob("*.bin"))) >= 5
+    monkeypatch.setattr(_compiled, "cache_dir", lambda: None)
+    fresh = jaxroll.RollProblem.from_sea(ship, sea)
+    for a, b in zip(jax.tree.leaves(stored), jax.tree.leaves(fresh), strict=True):
+        np.testing.assert_array_equal(np.asarray(a), np.asarray(b))
+
+
+def test_require_raises_at_once_or_checks_at_run_time():
+    x = jnp.asarray(-1.0)
+    with pytest.raises(ValueError, match="must be positive"):
+        _compiled.require(x, x <= 0, "must be positive")
+    assert _compiled.require(jnp.asarray(2.0), jnp.asarray(False), "never") == 2.0
+    f = jax.jit(lambda v: _compiled.require(v, v <= 0, "must be positive"))
+    assert f(jnp.asarray(1.0)) == 1.0
+    with pytest.raises(Exception, match="must be positive"):
+        jax.block_until_ready(f(x))
