@@ -28,6 +28,21 @@ def test_maxima_nested_reproducible_and_chunk_invariant(problem):
     assert np.all(a.count <= 40)
 
 
+class _RunToTheEnd(jaxroll.FirstMaxima):
+    finished = None  # no early stop: every trial runs the whole duration
+
+
+def test_early_stop_changes_nothing(problem):
+    """A trial stops once it has its max(n0) amplitudes: its maxima and counts are those of the full run."""
+    kw = dict(num_realizations=5, duration=3000.0, chunk_size=5)
+    obs = dict(n0=(10, 60), discard=100.0)
+    early = jaxroll.monte_carlo(problem, jr.key(4), jaxroll.FirstMaxima(**obs), **kw)
+    full = jaxroll.monte_carlo(problem, jr.key(4), _RunToTheEnd(**obs), **kw)
+    assert np.all(early.count == 60)
+    np.testing.assert_array_equal(early.maxima_deg, full.maxima_deg)
+    np.testing.assert_array_equal(early.count, full.count)
+
+
 def test_maxima_equal_the_largest_of_the_first_n0_zero_crossing_amplitudes(problem):
     """Cross-check of the streaming reduction with the stored-series route on the same realization."""
     key = jr.key(11)

@@ -33,7 +33,7 @@ def register(sub) -> None:
     m.add_argument("--realizations-large", type=int, default=5000, help="trials for N0 ≥ 10⁴ (default 5000)")
     m.add_argument("--discard", type=float, default=500.0, help="initial time left out [s] (500)")
     m.add_argument("--duration", type=float, default=None, help="simulated time per trial [s] (default: enough)")
-    m.add_argument("--chunk-size", type=int, default=1000, help="trials per compiled batch")
+    m.add_argument("--chunk-size", type=int, default=5000, help="trials per compiled batch (5000)")
     add_memory_option(m)
     m.add_argument("--theory", default="", help="comma-separated amplitude PDFs for P*: roberts,esam,moment,envelope_fpk")
     m.add_argument("--checkpoint", metavar="DIR", default=None,

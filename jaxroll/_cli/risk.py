@@ -32,7 +32,7 @@ def register(sub) -> None:
     p.add_argument("--realizations", type=int, default=2000, help="Monte Carlo trials (2000)")
     p.add_argument("--duration", type=float, default=3600.0, help="simulated time per trial [s] (3600)")
     p.add_argument("--discard", type=float, default=500.0, help="initial transient left out [s] (500)")
-    p.add_argument("--chunk-size", type=int, default=1000, help="trials per compiled batch")
+    p.add_argument("--chunk-size", type=int, default=5000, help="trials per compiled batch (5000)")
     add_memory_option(p)
     p.add_argument("--theory", default="", help="also from theory: roberts,esam,moment,envelope_fpk")
     p.add_argument("--out", default="jaxroll-out/risk", help="output folder for risk.json and risk.png")

@@ -56,7 +56,7 @@ def register(sub) -> None:
     )
     s = p.add_argument_group("scale-out")
     s.add_argument(
-        "--chunk-size", type=int, default=1000, help="realizations per compiled batch (memory bound)"
+        "--chunk-size", type=int, default=5000, help="realizations per compiled batch (memory bound; 5000)"
     )
     s.add_argument("--devices", type=int, default=None, help="use the first N devices (default: all)")
     s.add_argument("--checkpoint", metavar="DIR", default=None, help="save progress in DIR; a rerun resumes")

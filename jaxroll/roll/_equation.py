@@ -253,12 +253,16 @@ def as_dtype(tree, dtype):
     return jax.tree.map(cast, tree, is_leaf=lambda x: isinstance(x, EffectiveWave))
 
 
-def _drive(problem: RollProblem, key, num_steps: int, dtype, per_source_step, inner):
+def _drive(problem: RollProblem, key, num_steps: int, dtype, per_source_step, inner, done=None):
     """Run the problem's excitation sources for `num_steps` time steps in source steps of m = substeps, a block of
     `BLOCK` source steps at a time, calling `per_source_step(inner, xs) -> (inner, out)` with xs [sources, 2m + 1]:
     each source's value at the 2m + 1 half steps of the source step (its start included).
 
-    **Returns:** `(inner, outs)` with outs stacked over the ⌈num_steps/m⌉ source steps.
+    `done(inner) -> bool`, if given, stops the run after the first block at whose end it holds (the blocks run in
+    a while loop; `per_source_step` must then output nothing). Vmapped, the batch runs until every member is done,
+    the done ones frozen.
+
+    **Returns:** `(inner, outs)` with outs stacked over the ⌈num_steps/m⌉ source steps (None with `done`).
     """
     m = problem.excitation.substeps
     sources = [problem.excitation]
@@ -290,6 +294,15 @@ def _drive(problem: RollProblem, key, num_steps: int, dtype, per_source_step, in
     # simulated does not depend on how many follow.
     num_full, rest = divmod(-(-num_steps // m), BLOCK)
     carry = (tuple(i[0] for i in inits), tuple(i[1] for i in inits), inner)
+    if done is not None:
+        carry = jax.lax.while_loop(
+            lambda c: (c[0] < num_full) & ~done(c[1][2]),
+            lambda c: (c[0] + 1, block(c[1], c[0])[0]),
+            (jnp.array(0), carry),
+        )[1]
+        if rest:
+            carry = jax.lax.cond(done(carry[2]), lambda c: c, lambda c: block(c, jnp.array(num_full), rest)[0], carry)
+        return carry[2], None
     pieces = []
     if num_full:
         carry, outs = jax.lax.scan(block, carry, jnp.arange(num_full))
@@ -300,7 +313,9 @@ def _drive(problem: RollProblem, key, num_steps: int, dtype, per_source_step, in
     return carry[2], jax.tree.map(lambda *o: jnp.concatenate(o), *pieces)
 
 
-def simulate(problem: RollProblem, key: PRNGKeyArray, num_steps: int, observe, obs_state, *, dtype=jnp.float64):
+def simulate(
+    problem: RollProblem, key: PRNGKeyArray, num_steps: int, observe, obs_state, *, dtype=jnp.float64, finished=None
+):
     """Integrate one realization for `num_steps` steps of dt, feeding every new state to an observer.
 
     Classical RK4 at dt with P(t) (and M_w(t)) at each step's start, midpoint and end from the excitation sources,
@@ -308,8 +323,12 @@ def simulate(problem: RollProblem, key: PRNGKeyArray, num_steps: int, observe, o
     bridged in between: `FilterExcitation`). `observe(obs_state, k, y, alive) -> (obs_state, output)` is called
     after step k (1-based) with y = (φ, φ̇); its per-step outputs are stacked (length `num_steps`). After a
     capsize (|φ| at or beyond the vanishing angle, or a non-finite state) the state is frozen and `alive` is
-    False, so observers can ignore it (their floating state is kept in `dtype`). `dtype`: the floating type of the integration (float64; the Monte Carlo
-    of amplitude statistics runs float32, docs/numerics.md). Written for one realization: vmap it over keys.
+    False, so observers can ignore it (their floating state is kept in `dtype`). `dtype`: the floating type of the
+    integration (float64; the Monte Carlo of amplitude statistics runs float32, docs/numerics.md). Written for one
+    realization: vmap it over keys.
+
+    `finished(obs_state) -> bool`, for observers without per-step outputs: the realization stops (at the end of a
+    block of `BLOCK`·m steps) once it holds or the roll capsized; what follows is not simulated (outputs None).
 
     **Returns:** `(obs_state, outputs, RealizationEnd)`.
     """
@@ -342,7 +361,8 @@ def simulate(problem: RollProblem, key: PRNGKeyArray, num_steps: int, observe, o
 
     obs_state = as_dtype(obs_state, dtype)
     inner = (problem.phi0, problem.dphi0, jnp.array(True), jnp.array(-1), obs_state, jnp.array(0))
-    inner, outs = _drive(problem, key, num_steps, dtype, per_source_step, inner)
+    done = None if finished is None else (lambda inner: ~inner[2] | finished(inner[4]))
+    inner, outs = _drive(problem, key, num_steps, dtype, per_source_step, inner, done)
     _, _, alive, k_cap, obs_state, _ = inner
     outs = jax.tree.map(lambda o: o.reshape(-1, *o.shape[2:])[:num_steps], outs)
     end = RealizationEnd(~alive, jnp.where(alive, jnp.inf, k_cap * h))

@@ -47,6 +47,7 @@ def simulate_chunk(
             lambda state, step, y, alive: observer.observe(problem, state, step, y, alive),
             observer.init(problem, k),
             dtype=dtype,
+            finished=None if observer.finished is None else lambda state: observer.finished(problem, state),
         )
 
     states, outputs, end = jax.vmap(jax.checkpoint(one) if remat else one)(indices)
@@ -185,13 +186,14 @@ def monte_carlo_maxima(
     num_realizations: int = 10_000,
     discard: float = 500.0,
     duration: float | None = None,
-    chunk_size: int = 1000,
+    chunk_size: int = 5000,
     **run_options,
 ) -> MaximaStatistics:
     """The paper's maxima protocol: per trial, the largest of the first N0 zero-crossing amplitudes after `discard`
     [s] (500), for each N0 in `n0`, from the same trials: `monte_carlo` with a `FirstMaxima` observer.
 
-    `duration` [s] defaults to `default_duration` (1.6 × max(n0) half roll periods); the rest as in `monte_carlo`.
+    `duration` [s] defaults to `default_duration` (1.6 × max(n0) half roll periods); the rest as in `monte_carlo`
+    (`chunk_size` 5000: nothing per step is kept, and wide chunks run ~1.9× faster per step than chunks of 500).
 
     **Returns:** `MaximaStatistics`.
     """
@@ -223,7 +225,7 @@ def monte_carlo_max_roll(
     num_realizations: int = 1000,
     duration: float = 1800.0,
     discard: float = 0.0,
-    chunk_size: int = 1000,
+    chunk_size: int = 5000,
     **run_options,
 ) -> MaxRollStatistics:
     """Per-trial maximum |φ| after `discard` [s] and capsizes of `problem`, and the trials beyond `angle_deg`

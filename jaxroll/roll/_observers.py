@@ -56,6 +56,10 @@ class AbstractObserver(eqx.Module):
     def result(self, summed: dict, per: dict, config: dict):
         """The host-side result (numpy) from the totals over all chunks."""
 
+    # `finished(problem, state) -> bool`: the realization has recorded all it needs and its run may stop (observers
+    # without per-step outputs only; `simulate`). None: every realization runs its whole duration.
+    finished = None
+
     def bytes_per_realization(self, num_steps: int) -> int:
         """Peak working memory of one realization of a compiled chunk [bytes] for `num_steps` steps, used to size
         chunks to a memory budget. The default assumes the whole time series is kept (64 B per step, the
@@ -178,6 +182,10 @@ class FirstMaxima(AbstractObserver):
         running = jnp.where(counted, jnp.maximum(state.running_max, amp), state.running_max)
         maxima = tuple(jnp.where(counted & (count == n), running, m) for n, m in zip(self.n0, state.maxima, strict=True))
         return _MaximaState(zc, count, running, maxima), None
+
+    def finished(self, problem, state):
+        """All max(n0) amplitudes recorded: the trial stops (a later capsize would not change its maxima)."""
+        return state.count >= max(self.n0)
 
     def reduce(self, problem, states, outputs, end, valid):
         per = {

@@ -220,8 +220,8 @@ def run_chunks(
 
     `summed` (dict of arrays reduced over the chunk's realization axis) is added over chunks;
     `per_realization` (dict of arrays with a leading chunk axis) is placed at the realizations' indices. The
-    last chunk is padded with invalid realizations (`valid` False) so that every chunk has the same shape and
-    compiles once.
+    chunks are balanced (⌈N / chunk_size⌉ chunks of equal size) and the last is padded with invalid realizations
+    (`valid` False) so that every chunk has the same shape and compiles once.
 
     The realization axis of every chunk is sharded over a 1-D mesh of devices (axis `"realizations"`), across
     processes too after `jax.distributed.initialize()`: the chunk is rounded up to a multiple of the device
@@ -256,7 +256,11 @@ def run_chunks(
     num_devices = mesh.devices.size
     # At least two realizations per device: XLA compiles a batch of one differently (another rounding in float32),
     # so padding a lone realization keeps every trial bit for bit the same whatever the chunking.
-    chunk = max(2, -(-min(chunk_size, num_realizations) // num_devices)) * num_devices
+    # Balanced chunks: the last one is padded to the chunk's size, so 5000 realizations in chunks of at most 4000
+    # run as two of 2500, not two of 4000. Results do not depend on the chunk.
+    num_chunks = -(-num_realizations // min(chunk_size, num_realizations))
+    per_chunk = -(-num_realizations // num_chunks)
+    chunk = max(2, -(-per_chunk // num_devices)) * num_devices
     sharding = jax.sharding.NamedSharding(mesh, jax.sharding.PartitionSpec(REALIZATION_AXIS))
     fn = _compiled(chunk_fn, mesh)
 

@@ -212,7 +212,8 @@ class MaximaStatistics(CapsizeCounts):
     trial capsized or ended before reaching n0[j] amplitudes (counted in `n_capsized_before`, `n_incomplete`).
     A capsize before the n0[j]-th amplitude is a maximum beyond the angle of vanishing stability: `summary`,
     `exceedance_probability` count it (a defective distribution), never drop it.
-    `count` is the number of amplitudes each trial contributed (at most max(n0)).
+    `count` is the number of amplitudes each trial contributed (at most max(n0)). A trial stops once it has
+    max(n0) amplitudes, so `capsized` means capsized before that.
     """
 
     n0: tuple[int, ...]
