@@ -40,8 +40,9 @@ def run(argv: list[str], cache: str, out: str) -> float:
     return elapsed
 
 
-def setup_times() -> tuple[float, float]:
-    """`RollProblem.from_sea` for the paper's sea, first and second call in one process (cache as the CLI's)."""
+def setup_times(cache: str) -> tuple[float, float]:
+    """`RollProblem.from_sea` for the paper's sea, first and second call in a process whose cache (the CLI's, in
+    `cache`) a previous process filled."""
     code = """
 import time, jax, jaxroll
 from jaxroll._cli import _enable_compilation_cache
@@ -53,7 +54,9 @@ for _ in range(2):
     out.append(time.perf_counter() - t0)
 print(*out)
 """
-    res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    env = {**os.environ, "JAXROLL_CACHE_DIR": cache}
+    for _ in range(2):  # the first process fills the cache
+        res = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True)
     first, second = map(float, res.stdout.split())
     return first, second
 
@@ -67,14 +70,13 @@ def main() -> None:
     if args.commands:
         commands = {k: v for k, v in COMMANDS.items() if k in args.commands.split(",")}
     with tempfile.TemporaryDirectory() as tmp:
-        cache = os.path.join(tmp, "cache")
         for name, argv in commands.items():
-            out = os.path.join(tmp, name)
+            out, cache = os.path.join(tmp, name), os.path.join(tmp, f"cache-{name}")  # cold: a cache of its own
             cold = run(argv, cache, out)
             warm = run(argv, cache, out)
             print(f"{name}_cold_s={cold:.2f}")
             print(f"{name}_warm_s={warm:.2f}", flush=True)
-        first, second = setup_times()
+        first, second = setup_times(os.path.join(tmp, "cache-setup"))
         print(f"setup_from_sea_first_call_s={first:.2f}")
         print(f"setup_from_sea_second_call_s={second:.2f}")
 

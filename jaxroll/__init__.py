@@ -6,7 +6,8 @@ Pipeline: sea spectrum → Grim's effective wave (superposition or a shaping fil
 jaxroll enables float64 in JAX on import: its statistics, moment equations and tail probabilities need it. It
 also asks XLA:CPU for platform-independent math (`--xla_cpu_enable_platform_dependent_math=false` in XLA_FLAGS,
 unless set), without which a realization's float32 arithmetic depends on the batch it is compiled in
-(docs/architecture.md, "Process-wide settings").
+(docs/architecture.md, "Process-wide settings"). On a CPU it makes every core a JAX device (`jax_num_cpu_devices`,
+unless set), so that the Monte Carlo's realizations run on all cores: XLA runs one device's loop on one core.
 """
 
 import importlib.metadata
@@ -20,6 +21,28 @@ if not _USER_SET_FLAG:
 import jax  # noqa: E402
 
 jax.config.update("jax_enable_x64", True)
+
+
+def _use_every_cpu_core() -> None:
+    """One JAX CPU device per core this process may use (unless the user chose: JAX_NUM_CPU_DEVICES, the config
+    or XLA's device-count flag), before JAX starts its backends; later it cannot change."""
+    chosen = (
+        "JAX_NUM_CPU_DEVICES" in os.environ
+        or "xla_force_host_platform_device_count" in os.environ.get("XLA_FLAGS", "")
+        or jax.config.jax_num_cpu_devices != -1
+    )
+    try:
+        from jax._src import xla_bridge
+
+        started = xla_bridge.backends_are_initialized()
+    except (ImportError, AttributeError):  # pragma: no cover - private API moved
+        started = True
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+    if not chosen and not started and cores > 1:
+        jax.config.update("jax_num_cpu_devices", cores)
+
+
+_use_every_cpu_core()
 
 
 def _warn_if_started_without_math_flag() -> None:

@@ -19,6 +19,7 @@ libraries, the backend and the float64 flag —, so editing any module invalidat
 Only concrete calls are cached; under `jax.jit`, `jax.grad` or `jax.vmap` (or with the persistent cache off) the
 function is traced as usual — it is the same function. A program that cannot be exported (e.g. one with a host
 callback such as `eqx.error_if`'s) is simply run through `eqx.filter_jit`, and remembered as such.
+Arguments laid out over several devices (the Monte Carlo's realization axis) are keyed by their layout too.
 """
 
 from __future__ import annotations
@@ -119,6 +120,14 @@ def _export(flat_fn, leaves):
     raise ValueError("too many custom calls to allow")
 
 
+def _placement(x) -> str:
+    """How an argument is laid out over devices (a program exported for one layout runs only with it)."""
+    sharding = getattr(x, "sharding", None)
+    if isinstance(sharding, jax.sharding.NamedSharding):
+        return f"{dict(sharding.mesh.shape)} {sharding.spec} {sharding.mesh.devices.flat[0].platform}"
+    return "one device" if sharding is None or len(sharding.device_set) == 1 else repr(sharding)
+
+
 class _Slot:
     """Placeholder for the i-th array output in a stored program's output skeleton."""
 
@@ -150,8 +159,8 @@ def cached_program(fn: Callable) -> Callable:
             static_bytes = pickle.dumps(static, protocol=4) + str(in_tree).encode()
         except Exception:  # an unpicklable static argument: no stored program
             return jitted(*args)
-        key = _sha(package_key(), name, static_bytes, [(x.shape, str(x.dtype), getattr(x, "weak_type", False))
-                                                      for x in leaves])
+        key = _sha(package_key(), name, static_bytes, [(x.shape, str(x.dtype), getattr(x, "weak_type", False),
+                                                       _placement(x)) for x in leaves])
         entry = _LOADED.get(key, False)
         if entry is False:
             entry = _load_or_export(d / f"{key}.bin", fn, leaves, in_tree, static)

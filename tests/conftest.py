@@ -4,6 +4,10 @@ os.environ.setdefault("MPLBACKEND", "Agg")
 # The CLI keeps compiled programs in a persistent cache (~/.cache/jaxroll); the tests run it in-process, and must
 # neither write into the user's cache nor depend on what it holds. Tests of the cache give it a temporary folder.
 os.environ["JAXROLL_CACHE_DIR"] = ""
+# Under pytest-xdist the workers already use every core: one JAX CPU device each (not one per core, which
+# `import jaxroll` would choose). Multi-device runs are tested in child processes (test_scaling, test_compiled).
+if "PYTEST_XDIST_WORKER" in os.environ:
+    os.environ.setdefault("JAX_NUM_CPU_DEVICES", "1")
 
 import gc
 

@@ -107,3 +107,50 @@ def test_require_raises_at_once_or_checks_at_run_time():
     assert f(jnp.asarray(1.0)) == 1.0
     with pytest.raises(Exception, match="must be positive"):
         jax.block_until_ready(f(x))
+
+
+_SHARDED_CHILD = """
+import sys
+import jax, numpy as np
+import jaxroll
+from jaxroll import _compiled
+from jaxroll.roll import _sharding
+
+assert jax.device_count() == 2, jax.devices()
+jax.config.update("jax_compilation_cache_dir", sys.argv[1])
+problem = jaxroll.RollProblem.from_sea(jaxroll.c11_representative(), jaxroll.ITTC(7.0, 10.0))
+folder = _compiled.pathlib.Path(sys.argv[1]) / "jaxroll-programs"
+before = sum(1 for p in folder.glob("*.bin") if p.stat().st_size > 100)
+
+def run():
+    _sharding._COMPILED.clear()
+    return jaxroll.monte_carlo_amplitudes(problem, jax.random.key(2), num_realizations=7, duration=300.0,
+                                          chunk_size=4)
+
+stored = run()  # exported, stored, then run from the export
+_compiled._LOADED.clear()
+loaded = run()  # as a new process: from disk
+_compiled.cache_dir = lambda: None
+traced = run()
+for a in (stored, loaded):
+    np.testing.assert_array_equal(a.counts_zero_crossing, traced.counts_zero_crossing)
+    np.testing.assert_array_equal(a.counts_envelope, traced.counts_envelope)
+    for k, v in traced.per_realization.items():
+        np.testing.assert_array_equal(a.per_realization[k], v)
+print("new programs", sum(1 for p in folder.glob("*.bin") if p.stat().st_size > 100) - before)
+"""
+
+
+def test_stored_monte_carlo_program_over_two_devices_equals_a_traced_one(tmp_path):
+    """The Monte Carlo chunk sharded over two CPU devices (as `import jaxroll` makes of two cores), from a
+    stored program: the same numbers as traced, also when loaded from disk (in a child process: the devices are
+    fixed when JAX starts)."""
+    import os
+    import subprocess
+    import sys
+
+    env = {**os.environ, "JAX_NUM_CPU_DEVICES": "2", "JAX_PLATFORMS": "cpu"}
+    res = subprocess.run([sys.executable, "-c", _SHARDED_CHILD, str(tmp_path)], env=env, capture_output=True,
+                         text=True)
+    assert res.returncode == 0, res.stderr[-3000:]
+    assert int(res.stdout.split()[-1]) == 1  # the sharded chunk program was stored

