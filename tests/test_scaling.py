@@ -1,6 +1,6 @@
 """Scale-out: sharding over devices and processes, checkpoint/resume, and the `jaxroll sweep` map.
 
-Multi-device runs happen in child processes: `--xla_force_host_platform_device_count` must be set before JAX
+Multi-device runs happen in child processes: `JAX_NUM_CPU_DEVICES` must be set before JAX
 initialises, and this process already has one CPU device. The problem is built once here and pickled to them.
 """
 
@@ -65,10 +65,8 @@ CHILD = textwrap.dedent(
 
 
 def _child_env(devices_per_process: int) -> dict:
-    env = dict(os.environ)
-    env["XLA_FLAGS"] = (
-        f"{env.get('XLA_FLAGS', '')} --xla_force_host_platform_device_count={devices_per_process}"
-    )
+    env = {k: v for k, v in os.environ.items() if k != "JAX_NUM_CPU_DEVICES"}  # set for xdist workers (conftest)
+    env["JAX_NUM_CPU_DEVICES"] = str(devices_per_process)
     env["JAX_PLATFORMS"] = "cpu"
     return env
 
