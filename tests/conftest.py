@@ -1,9 +1,19 @@
+import atexit
 import os
+import shutil
+import tempfile
 
 os.environ.setdefault("MPLBACKEND", "Agg")
-# The CLI keeps compiled programs in a persistent cache (~/.cache/jaxroll); the tests run it in-process, and must
-# neither write into the user's cache nor depend on what it holds. Tests of the cache give it a temporary folder.
-os.environ["JAXROLL_CACHE_DIR"] = ""
+# The CLI keeps compiled programs in a persistent cache (~/.cache/jaxroll). The tests must neither write into the
+# user's cache nor depend on what it holds, but they may share compiled kernels among themselves: one fresh
+# temporary cache per test session, made by the first process (pytest, or xdist's controller) and inherited by
+# the workers and every child process (notebooks, CLI subprocesses), removed at the end. Tests of the cache give
+# it a folder of their own.
+if "JAXROLL_TEST_SESSION_CACHE" not in os.environ:
+    _session_cache = tempfile.mkdtemp(prefix="jaxroll-test-cache-")
+    os.environ["JAXROLL_TEST_SESSION_CACHE"] = _session_cache
+    atexit.register(shutil.rmtree, _session_cache, True)
+os.environ["JAXROLL_CACHE_DIR"] = os.environ["JAXROLL_TEST_SESSION_CACHE"]
 # Under pytest-xdist the workers already use every core: one JAX CPU device each (not one per core, which
 # `import jaxroll` would choose). Multi-device runs are tested in child processes (test_scaling, test_compiled).
 if "PYTEST_XDIST_WORKER" in os.environ:
@@ -19,6 +29,8 @@ import jaxroll  # noqa: F401  (enables float64)
 from jaxroll import _compiled
 
 jax.config.update("jax_enable_x64", True)
+jax.config.update("jax_compilation_cache_dir", os.environ["JAXROLL_CACHE_DIR"])
+jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.2)
 # Strict dtype promotion (as diffrax/equinox test): an implicit float32 → float64 or int → float mix is an error,
 # so a silent precision loss in the library cannot hide behind the tests.
 jax.config.update("jax_numpy_dtype_promotion", "strict")

@@ -12,8 +12,8 @@ from jaxroll import _compiled
 
 @pytest.fixture
 def program_cache(tmp_path, monkeypatch):
-    """The store in a temporary folder (the suite runs with JAX's persistent cache off, and leaves it off: only
-    jaxroll's store is redirected), and an empty in-memory table."""
+    """The store in a folder of its own (not the suite's session cache: only jaxroll's store is redirected), and
+    an empty in-memory table."""
     folder = tmp_path / "jaxroll-programs"
     monkeypatch.setattr(_compiled, "cache_dir", lambda: folder)
     monkeypatch.setattr(_compiled, "_LOADED", {})
