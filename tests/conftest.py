@@ -14,6 +14,10 @@ if "JAXROLL_TEST_SESSION_CACHE" not in os.environ:
     os.environ["JAXROLL_TEST_SESSION_CACHE"] = _session_cache
     atexit.register(shutil.rmtree, _session_cache, True)
 os.environ["JAXROLL_CACHE_DIR"] = os.environ["JAXROLL_TEST_SESSION_CACHE"]
+# JAX's own persistent cache in the same folder, for this process and — through the environment — for the
+# notebooks' kernels and the other child processes (the library does not turn it on by itself; the CLI does).
+os.environ["JAX_COMPILATION_CACHE_DIR"] = os.environ["JAXROLL_CACHE_DIR"]
+os.environ["JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS"] = "0.2"
 # Under pytest-xdist the workers already use every core: one JAX CPU device each (not one per core, which
 # `import jaxroll` would choose). Multi-device runs are tested in child processes (test_scaling, test_compiled).
 if "PYTEST_XDIST_WORKER" in os.environ:
@@ -29,8 +33,6 @@ import jaxroll  # noqa: F401  (enables float64)
 from jaxroll import _compiled
 
 jax.config.update("jax_enable_x64", True)
-jax.config.update("jax_compilation_cache_dir", os.environ["JAXROLL_CACHE_DIR"])
-jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.2)
 # Strict dtype promotion (as diffrax/equinox test): an implicit float32 → float64 or int → float mix is an error,
 # so a silent precision loss in the library cannot hide behind the tests.
 jax.config.update("jax_numpy_dtype_promotion", "strict")
@@ -69,3 +71,4 @@ def _bounded_compiled_code():
         jax.clear_caches()
         _compiled._LOADED.clear()
         gc.collect()
+
