@@ -62,8 +62,8 @@ class AbstractObserver(eqx.Module):
 
     def bytes_per_realization(self, num_steps: int) -> int:
         """Peak working memory of one realization of a compiled chunk [bytes] for `num_steps` steps, used to size
-        chunks to a memory budget. The default assumes the whole time series is kept (64 B per step, the
-        histogram observer's measured peak rounded up); observers that reduce step by step override it."""
+        chunks to a memory budget. The default assumes the whole time series is kept (64 B per step: the
+        histogram observer's measured peak, 32 B, with a factor 2); observers that reduce step by step override it."""
         return 64 * num_steps + 65_536
 
 
