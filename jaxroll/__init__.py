@@ -23,6 +23,20 @@ import jax  # noqa: E402
 jax.config.update("jax_enable_x64", True)
 
 
+def _backends_started() -> bool | None:
+    """Whether JAX has started its backends (after which XLA_FLAGS and the CPU device count are fixed); None when
+    JAX's private API to ask has moved."""
+    try:
+        from jax._src import xla_bridge
+
+        return xla_bridge.backends_are_initialized()
+    except (ImportError, AttributeError):  # pragma: no cover - private API moved
+        return None
+
+
+_STARTED = _backends_started()
+
+
 def _use_every_cpu_core() -> None:
     """One JAX CPU device per core this process may use (unless the user chose: JAX_NUM_CPU_DEVICES, the config
     or XLA's device-count flag), before JAX starts its backends; later it cannot change."""
@@ -31,14 +45,8 @@ def _use_every_cpu_core() -> None:
         or "xla_force_host_platform_device_count" in os.environ.get("XLA_FLAGS", "")
         or jax.config.jax_num_cpu_devices != -1
     )
-    try:
-        from jax._src import xla_bridge
-
-        started = xla_bridge.backends_are_initialized()
-    except (ImportError, AttributeError):  # pragma: no cover - private API moved
-        started = True
     cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
-    if not chosen and not started and cores > 1:
+    if not chosen and _STARTED is False and cores > 1:
         jax.config.update("jax_num_cpu_devices", cores)
 
 
@@ -47,13 +55,7 @@ _use_every_cpu_core()
 
 def _warn_if_started_without_math_flag() -> None:
     """XLA_FLAGS is read when JAX starts its backends: warn when that happened before jaxroll set the flag."""
-    try:
-        from jax._src import xla_bridge
-
-        started = xla_bridge.backends_are_initialized()
-    except (ImportError, AttributeError):  # pragma: no cover - private API moved
-        return
-    if started and not _USER_SET_FLAG:
+    if _STARTED and not _USER_SET_FLAG:
         import warnings
 
         warnings.warn(

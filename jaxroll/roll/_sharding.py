@@ -324,8 +324,9 @@ def _compiled(fn, mesh: jax.sharding.Mesh | None = None):
     (`jaxroll._compiled.cached_program`), so a warm command neither traces nor lowers the Monte Carlo body (~0.7 s
     for the paper's chunk on a 2-core CPU); across processes, `eqx.filter_jit`."""
     if (fn, mesh) not in _COMPILED:
+        compile_ = cached_program if jax.process_count() == 1 else eqx.filter_jit
         if mesh is None or mesh.devices.size == 1:
-            _COMPILED[fn, mesh] = cached_program(fn) if jax.process_count() == 1 else eqx.filter_jit(fn)
+            _COMPILED[fn, mesh] = compile_(fn)
         else:
             replicated = jax.sharding.NamedSharding(mesh, jax.sharding.PartitionSpec())
             along = jax.sharding.NamedSharding(mesh, jax.sharding.PartitionSpec(REALIZATION_AXIS))
@@ -338,5 +339,5 @@ def _compiled(fn, mesh: jax.sharding.Mesh | None = None):
 
             sharded.__module__ = fn.__module__
             sharded.__name__ = sharded.__qualname__ = f"{getattr(fn, '__qualname__', 'chunk_fn')}[sharded]"
-            _COMPILED[fn, mesh] = (cached_program if jax.process_count() == 1 else eqx.filter_jit)(sharded)
+            _COMPILED[fn, mesh] = compile_(sharded)
     return _COMPILED[fn, mesh]
