@@ -115,8 +115,9 @@ def test_bad_input(problem):
     with pytest.raises(ValueError, match="beyond the angle of vanishing stability"):
         jxr.sensitivity_problem(SHIP, hs=7.0, t01=10.0, phi0=math.radians(80.0))
     assert set(params) == set(jxr.SENSITIVITY_PARAMETERS)
-    # the problem function is differentiable: d(filter gain)/d(H1/3) is finite
-    g = jax.grad(lambda hs: jnp.sum(problem_fn({**params, "hs": hs}).excitation.chol))(7.0)
+    # the problem function is differentiable in reverse mode too: d(filter gain)/d(H1/3) is finite (jitted: one
+    # compilation, 5 s instead of 8.5 s op by op)
+    g = jax.jit(jax.grad(lambda hs: jnp.sum(problem_fn({**params, "hs": hs}).excitation.chol)))(7.0)
     assert np.isfinite(float(g))
 
 

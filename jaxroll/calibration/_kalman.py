@@ -112,15 +112,18 @@ class KalmanObjective(eqx.Module):
                 ll = 0.5 * (jnp.log(2 * jnp.pi * s) + e**2 / s) * use
                 return m, pc, ll, e * use, s
 
-            def predict(m, pc, pk):
-                for i in range(sub):
+            def substep(carry, p):  # one RK4 sub-step of the mean, its Jacobian carrying the covariance
+                m, pc = carry
 
-                    def f(y, i=i):
-                        return rk4_step(ship, y, pk[i], m0, h)
+                def f(y):
+                    y1 = rk4_step(ship, y, p, m0, h)
+                    return y1, y1
 
-                    m, fj = f(m), jax.jacfwd(f)(m)
-                    pc = fj @ pc @ fj.T + qh
-                return m, pc
+                fj, m = jax.jacfwd(f, has_aux=True)(m)  # the Jacobian and the step itself, in one pass
+                return (m, fj @ pc @ fj.T + qh), None
+
+            def predict(m, pc, pk):  # a loop, not unrolled: `sub` copies of RK4 and its Jacobian compile slowly
+                return jax.lax.scan(substep, (m, pc), pk)[0]
 
             m, pc, ll0, e0, n0 = update(y0, p0, phi[0], mask[0])
 
