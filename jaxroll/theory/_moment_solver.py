@@ -221,9 +221,11 @@ def _solve_impl(
 
     newton = optx.Newton(rtol=1e-11, atol=1e-13, linear_solver=lx.LU())
     jac = None
-    if kind != "gaussian" and not relax_fallback:
-        # Newton from a good start only (a lower order's solution lifted, or the neighbouring point of a branch):
-        # one root find, whose value must also pass the start checks below (no relaxation to fall back on).
+    if not relax_fallback:
+        # Newton from the start only (a lower order's solution lifted, the neighbouring point of a branch, or the
+        # Gaussian start, from which Newton finds the relaxation's fixed point in 18 of 21 points of the default
+        # ship's map, docs/theory.md): one root find, whose value must also pass the start checks below; where it
+        # fails the caller runs the relaxation's program.
         root = optx.root_find(fn, newton, y0, args=(sde, base_kappa), max_steps=30, throw=False)
         y1 = jax.lax.stop_gradient(root.value)
         jac = jax.jacfwd(fn)(y1, (sde_c, kappa_c))
@@ -387,6 +389,9 @@ def stationary_moments(
         if low.equations.tables.dim != sde.dim:
             raise ValueError("`initial` belongs to a system of another dimension.")
         start, relax_fallback = ("lift", (low.equations.tables, low.full)), False
+    elif isinstance(initial, tuple) and initial[0] == "gaussian-newton":  # Newton from the Gaussian start only
+        v = jnp.asarray(initial[1], dtype=float)
+        start, relax_fallback = ("gaussian", v), False
     elif initial is not None:
         if initial.equations.tables.dim != sde.dim:
             raise ValueError("`initial` belongs to a system of another dimension.")

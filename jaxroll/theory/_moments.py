@@ -394,8 +394,9 @@ def _roll_moments(
     ship, wave, shaping_filter, filter_order, closure_order, damping, initial_roll_deg, throw, *, lift_relax,
     sde=None,
 ) -> StationaryMoments:  # fmt: skip
-    """`roll_moments`; with `lift_relax=False` each order above 4 is Newton from the lifted lower order only (no
-    relaxation where that fails: the result then says so, and the caller runs `lift_relax=True`). `sde`: the
+    """`roll_moments`; with `lift_relax=False` every order is Newton only — order 4 from the Gaussian start, each
+    higher order from the lifted lower one — with no relaxation where that fails: the result then says so, and
+    the caller runs `lift_relax=True` (the relaxation first at order 4, as `roll_moments`). `sde`: the
     roll SDE when built already (on the host, where terms with zero coefficients are dropped)."""
     if sde is None:
         sde = roll_sde(ship, _shaping_filter(ship, wave, shaping_filter, filter_order), damping=damping)
@@ -405,10 +406,14 @@ def _roll_moments(
     tau = 2 * jnp.pi / w0
     sol = None
     for k in closure_sequence(closure_order):
+        if lift_relax:
+            initial = sol
+        else:
+            initial = ("gaussian-newton", variances) if sol is None else ("lift-newton", sol)
         sol = stationary_moments(
             sde,
             closure_order=k,
-            initial=sol if sol is None or lift_relax else ("lift-newton", sol),
+            initial=initial,
             initial_variances=variances if sol is None else None,
             time_scale=tau,
             throw=throw and k == closure_order,

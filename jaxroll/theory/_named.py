@@ -127,8 +127,9 @@ def _filter(shaping_filter) -> ShapingFilter | None:
 
 def _start(name, ship, wave, shaping_filter, filter_order, estimator, edges, levels, warn=True) -> Callable:
     """Dispatch theory `name`'s program (JAX runs it asynchronously) and return `finish() -> (law, numbers)`, which
-    waits for it and makes the checks of the named public function (the moment method: its fallbacks, each a
-    program of its own: the relaxation's variant where Newton from the order-4 solution fails, then order 4)."""
+    waits for it and makes the checks of the named public function (the moment method: Newton only, from the
+    Gaussian start at order 4 and the lifted order-4 solution at order 6; its fallbacks, each a program of its own:
+    the relaxation's variant where that fails, then order 4 the same way)."""
     if name != "moment":
         law, numbers = _program(name, ship, wave, None, estimator, 0, True, (), edges, levels)
 
@@ -153,7 +154,7 @@ def _start(name, ship, wave, shaping_filter, filter_order, estimator, edges, lev
         error = None
         for i, order in enumerate(MOMENT_CLOSURE_ORDERS):
             law, numbers = first if i == 0 else run(order, False)
-            if order > 4 and not succeeded(law.result):  # Newton from order 4 failed: relax from it
+            if not succeeded(law.result):  # Newton from the Gaussian or the lifted start failed: relax
                 law, numbers = run(order, True)
             if succeeded(law.result):
                 law = dataclasses.replace(law, requested_closure_order=MOMENT_CLOSURE_ORDERS[0])
