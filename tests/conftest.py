@@ -71,4 +71,3 @@ def _bounded_compiled_code():
         jax.clear_caches()
         _compiled._LOADED.clear()
         gc.collect()
-

@@ -232,18 +232,15 @@ def _solve_impl(
         first_ok = _newton_start_ok(root.result, y1, y0, jac, lead_pos)
         y_relaxed, relaxed_ok, n_relax = jnp.where(first_ok, y1, y0), first_ok, jnp.array(0)
     else:
-        if kind == "gaussian":
-            y_relaxed, relaxed_ok, n_relax = relax(y0)
-        else:
-            # Newton straight from the lifted lower order; the relaxation runs only if that fails or lands on the
-            # unstable side of a fold (the sign of det J flips where one real eigenvalue crosses zero). Same
-            # fixed point, ~100x less work at order 6.
-            first = optx.root_find(fn, newton, y0, args=(sde_c, kappa_c), max_steps=30, throw=False)
-            y1 = first.value
-            first_ok = _newton_start_ok(first.result, y1, y0, jax.jacfwd(fn)(y1, (sde_c, kappa_c)), lead_pos)
-            y_relaxed, relaxed_ok, n_relax = jax.lax.cond(
-                first_ok, lambda: (y1, jnp.array(True), jnp.array(0)), lambda: relax(y0)
-            )
+        # Newton straight from the start (lifted, Gaussian or a guess); the relaxation runs only if that fails or
+        # lands on the unstable side of a fold (the sign of det J flips where one real eigenvalue crosses zero).
+        # Same fixed point, ~100x less work at order 6.
+        first = optx.root_find(fn, newton, y0, args=(sde_c, kappa_c), max_steps=30, throw=False)
+        y1 = first.value
+        first_ok = _newton_start_ok(first.result, y1, y0, jax.jacfwd(fn)(y1, (sde_c, kappa_c)), lead_pos)
+        y_relaxed, relaxed_ok, n_relax = jax.lax.cond(
+            first_ok, lambda: (y1, jnp.array(True), jnp.array(0)), lambda: relax(y0)
+        )
         root = optx.root_find(fn, newton, y_relaxed, args=(sde, base_kappa), max_steps=60, throw=False)
     values = root.value * scale
     full, _ = _full_moments(tables, arr, sde, values, base_kappa)
@@ -360,11 +357,13 @@ def stationary_moments(
 ) -> StationaryMoments:
     """Stationary moments of `sde` under cumulant neglect of order `closure_order`.
 
-    Concrete calls first try optimistix Newton straight from the start (a program without the relaxation);
-    where that fails, and always under tracing, the moment ODEs are relaxed in time with diffrax (Tsit5,
-    adaptive) from the non-trivial start until the relative rate of change per `time_scale` drops below
-    `tol_relax` (or `relax_time` passes), then polished with Newton to a residual ~1e-13; the fixed point must have every Jacobian eigenvalue in the
-    left half plane and E[x_i²] > 0, E[x_i⁴] ≥ E[x_i²]² for every non-Gaussian-block variable.
+    Optimistix Newton straight from the start first (concrete calls: a program without the relaxation); where
+    that fails, the moment ODEs are relaxed in time with diffrax (Tsit5, adaptive) from the non-trivial start
+    until the relative rate of change per `time_scale` drops below `tol_relax` (or `relax_time` passes), then
+    polished with Newton to a residual ~1e-13 (from the Gaussian start Newton alone reaches the relaxation's
+    fixed point to ≤ 3e-12 in 18 of 21 points of the default ship's map, docs/theory.md). The fixed point must
+    have every Jacobian eigenvalue in the left half plane and E[x_i²] > 0, E[x_i⁴] ≥ E[x_i²]² for every
+    non-Gaussian-block variable.
 
     **Arguments:**
 
@@ -412,10 +411,8 @@ def stationary_moments(
     config = (relax_periods, lead, float(tol_relax))
     if start[0] in ("lift", "gaussian") and relax_fallback and is_concrete((sde, start, time_scale)):
         # Newton from the start in a program without the relaxation (smaller: faster to compile and to load);
-        # the relaxation only where that fails. From the lifted start: the same numbers as the single program,
-        # which takes its relaxation branch only when that Newton fails. From the Gaussian start: the fixed point
-        # the relaxation reaches, to ≤ 3e-12, in 18 of 21 points of the default ship's map (docs/theory.md); the
-        # other three need the relaxation (or have no fixed point) and get it.
+        # the relaxation only where that fails: the same numbers as the single program (traced calls), which
+        # takes its relaxation branch only when that Newton fails.
         solved = _solve(tables, tables.arrays, sde, start, time_scale, *config, False)
         if not succeeded(solved[-1]):
             solved = _solve(tables, tables.arrays, sde, start, time_scale, *config, True)
