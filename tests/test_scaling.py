@@ -59,6 +59,17 @@ CHILD = textwrap.dedent(
         results[f"{tag}_phi"] = m.max_abs_phi_deg
         results[f"{tag}_n_exceeded"] = m.n_exceeded
         results[f"{tag}_capsized"] = m.capsized
+    if nproc == 1:  # the sharded histogram chunk as compiled: each device keeps to its own realizations
+        import jax.numpy as jnp
+        from jaxroll.roll._monte_carlo import simulate_chunk
+        from jaxroll.roll._observers import AmplitudeHistogram
+        from jaxroll.roll._sharding import _compiled, _global_array, realization_mesh
+        mesh = realization_mesh(4)
+        along = jax.sharding.NamedSharding(mesh, jax.sharding.PartitionSpec("realizations"))
+        args = (_global_array(np.arange(8), along), _global_array(np.ones(8, bool), along))
+        text = _compiled(simulate_chunk, mesh).jitted.lower(
+            problem, key, *args, AmplitudeHistogram(), 600, jnp.float32).compile().compiled.as_text()
+        results["hlo_collectives"] = np.array([text.count(" all-gather("), text.count(" all-reduce(")])
     np.savez(f"{out}/results_{pid}.npz", **results)
     """
 )
@@ -132,6 +143,10 @@ def _assert_same(results, tag, ref="amp_1_2", float_rtol=0.0):
 def test_sharded_equals_single_device(four_devices):
     r = four_devices
     assert r["device_count"] == 4
+    # no device gathers the others' roll histories (the envelope FFT of the whole chunk on every device, as XLA's
+    # sharding propagation once chose); the statistics are added across devices by all-reduces
+    all_gather, all_reduce = r["hlo_collectives"]
+    assert all_gather == 0 and all_reduce >= 1
     assert r["amp_1_2_counts_zero_crossing"].sum() > 0 and r["amp_1_2_counts_envelope"].sum() > 0
     # Two realizations per device per chunk, as in the 1-device run with chunks of 2: bit for bit, except the
     # float64 envelope sums, which XLA may reduce in another order once partitioned (≤ 1e-13 relative).

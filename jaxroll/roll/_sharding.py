@@ -225,7 +225,8 @@ def run_chunks(
 
     The realization axis of every chunk is sharded over a 1-D mesh of devices (axis `"realizations"`), across
     processes too after `jax.distributed.initialize()`: the chunk is rounded up to a multiple of the device
-    count, `summed` is reduced across devices by XLA inside the compiled chunk, and `per_realization` is
+    count, each device runs `chunk_fn` on its own slice (`jax.shard_map`), `summed` is added across devices
+    (`psum`) inside the compiled chunk, and `per_realization` is
     gathered to every process. Realization i uses `fold_in(key, i)` whatever the device, so results do not
     depend on the number of devices, processes or chunks, bit for bit (XLA:CPU with platform-independent math,
     which `import jaxroll` requests, and at least two realizations per device and chunk; a lone realization is
@@ -319,23 +320,31 @@ _COMPILED: dict = {}
 
 
 def _compiled(fn, mesh: jax.sharding.Mesh | None = None):
-    """`fn` with its outputs' shardings fixed on `mesh` (summed replicated, per-realization sharded along the
-    realization axis), cached per (function, mesh); in one process, a stored program
+    """`fn` run by every device of `mesh` on its own slice of the realization axis (`jax.shard_map`): `summed`
+    added over the devices (`psum`: integer-valued counts, exact in any order), `per_realization` left sharded
+    along the axis; cached per (function, mesh). In one process, a stored program
     (`jaxroll._compiled.cached_program`), so a warm command neither traces nor lowers the Monte Carlo body (~0.7 s
-    for the paper's chunk on a 2-core CPU); across processes, `eqx.filter_jit`."""
+    for the paper's chunk on a 2-core CPU); across processes, `eqx.filter_jit`.
+
+    Each device computes only its own realizations: left to XLA's sharding propagation (a `jit` with output
+    shardings), the envelope's FFT was gathered and done in full on every device (2× the work and two
+    all-gathers of the chunk's roll history), so the histogram Monte Carlo gained little from a second device."""
     if (fn, mesh) not in _COMPILED:
         compile_ = cached_program if jax.process_count() == 1 else eqx.filter_jit
         if mesh is None or mesh.devices.size == 1:
             _COMPILED[fn, mesh] = compile_(fn)
         else:
-            replicated = jax.sharding.NamedSharding(mesh, jax.sharding.PartitionSpec())
-            along = jax.sharding.NamedSharding(mesh, jax.sharding.PartitionSpec(REALIZATION_AXIS))
+            spec, along = jax.sharding.PartitionSpec(), jax.sharding.PartitionSpec(REALIZATION_AXIS)
 
             def sharded(problem, key, indices, valid, *static):
-                summed, per = fn(problem, key, indices, valid, *static)
-                summed = jax.lax.with_sharding_constraint(summed, replicated)
-                per = jax.lax.with_sharding_constraint(per, along)
-                return summed, per
+                arrays, rest = eqx.partition(problem, eqx.is_array)
+
+                def local(arrays, key, indices, valid):
+                    summed, per = fn(eqx.combine(arrays, rest), key, indices, valid, *static)
+                    return jax.lax.psum(summed, REALIZATION_AXIS), per
+
+                return jax.shard_map(local, mesh=mesh, in_specs=(spec, spec, along, along),
+                                     out_specs=(spec, along), check_vma=False)(arrays, key, indices, valid)
 
             sharded.__module__ = fn.__module__
             sharded.__name__ = sharded.__qualname__ = f"{getattr(fn, '__qualname__', 'chunk_fn')}[sharded]"
