@@ -475,3 +475,49 @@ def test_chunk_size_from_memory_budget():
         assert streaming.bytes_per_realization(steps) < hist / 20
     assert chunk_size_for_memory(1000, steps, 2**30, MaxRoll().bytes_per_realization(steps)) == 1000
     assert chunk_size_for_memory(1000, steps, 2**30, hist) == 2**30 // hist
+
+
+class _FakeAccelerator:
+    """A GPU as `default_chunk_size` and `default_memory_budget` see it: a platform and memory statistics [bytes]."""
+
+    platform = "gpu"
+
+    def __init__(self, limit, in_use):
+        self.stats = None if limit is None else {"bytes_limit": limit, "bytes_in_use": in_use}
+
+    def memory_stats(self):
+        return self.stats
+
+
+def test_chunks_are_sized_for_the_devices(monkeypatch):
+    """Issue 15: on GPUs a chunk is wide enough to fill every device (2.5e4 realizations per device with the
+    histogram observer, 2.5e5 streaming) and is cut to half the smallest free device memory × the device count,
+    not to the host's memory; on a CPU the defaults stay 1000 / 5000 per chunk and a quarter of the host's memory."""
+    import types
+
+    from jaxroll import default_chunk_size, default_memory_budget
+    from jaxroll.roll import _sharding
+    from jaxroll.roll._observers import AmplitudeHistogram, FirstMaxima, MaxRoll
+    from jaxroll.roll._sharding import chunk_size_for_memory
+
+    assert jax.devices()[0].platform == "cpu"
+    assert default_chunk_size(AmplitudeHistogram.keeps_history) == 1000
+    assert default_chunk_size(FirstMaxima.keeps_history) == default_chunk_size(MaxRoll.keeps_history) == 5000
+    host = default_memory_budget()
+    assert 0 < host < 2**50
+
+    gpus = [_FakeAccelerator(60e9, 20e9), _FakeAccelerator(80e9, 10e9)]  # free 40 and 70 GB
+    mesh = types.SimpleNamespace(devices=np.array(gpus, dtype=object))
+    monkeypatch.setattr(_sharding, "realization_mesh", lambda devices=None: mesh)
+    assert default_chunk_size(True) == 2 * 25_000 and default_chunk_size(False) == 2 * 250_000
+    budget = default_memory_budget()
+    assert budget == 0.5 * 40e9 * 2  # the fuller device bounds both shares
+    assert default_memory_budget(0.8) == 0.8 * 40e9 * 2
+    # the paper protocol (7200 steps) fits whole; at dt = 0.05 s (72 000 steps) the histogram chunk is cut
+    hist = AmplitudeHistogram()
+    assert chunk_size_for_memory(default_chunk_size(True), 7200, None, hist.bytes_per_realization(7200)) == 50_000
+    cut = chunk_size_for_memory(default_chunk_size(True), 72_000, None, hist.bytes_per_realization(72_000))
+    assert cut == int(budget // hist.bytes_per_realization(72_000)) and cut < 50_000
+    # a device that reports no memory statistics: the host's memory, as on a CPU
+    mesh.devices = np.array([_FakeAccelerator(None, None)] * 2, dtype=object)
+    assert default_memory_budget() == pytest.approx(host, rel=0.2)

@@ -98,7 +98,21 @@ def add_memory_option(parser) -> None:
     """--memory-gb: the memory a compiled chunk of realizations may use."""
     parser.add_argument("--memory-gb", type=float, default=None,
                         help="memory a chunk of realizations may use [GiB] (default: a quarter of the available "
-                        "memory); the chunk is cut to fit, so any --dt runs")
+                        "memory; on GPUs half their free memory); the chunk is cut to fit, so any --dt runs")
+
+
+def add_chunk_option(parser, streaming: bool, what: str = "realizations") -> None:
+    """--chunk-size: realizations per compiled batch (default: `jaxroll.default_chunk_size` for the devices)."""
+    cpu, gpu = (5000, "2.5e5") if streaming else (1000, "2.5e4")
+    parser.add_argument("--chunk-size", type=int, default=None,
+                        help=f"{what} per compiled batch (default: {cpu} on a CPU, {gpu} per GPU; cut to the "
+                        "memory budget)")
+
+
+def check_chunk_size(args) -> None:
+    """--chunk-size, when given, is a positive integer."""
+    if args.chunk_size is not None and args.chunk_size < 1:
+        raise CLIError(f"--chunk-size must be >= 1; got {args.chunk_size}.")
 
 
 def memory_budget(args) -> float | None:

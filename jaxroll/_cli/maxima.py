@@ -10,7 +10,9 @@ from ._common import (
     CLIError,
     OutputFolder,
     Progress,
+    add_chunk_option,
     add_memory_option,
+    check_chunk_size,
     load_ship_arg,
     memory_budget,
     save_figure,
@@ -33,7 +35,7 @@ def register(sub) -> None:
     m.add_argument("--realizations-large", type=int, default=5000, help="trials for N0 ≥ 10⁴ (default 5000)")
     m.add_argument("--discard", type=float, default=500.0, help="initial time left out [s] (500)")
     m.add_argument("--duration", type=float, default=None, help="simulated time per trial [s] (default: enough)")
-    m.add_argument("--chunk-size", type=int, default=5000, help="trials per compiled batch (5000)")
+    add_chunk_option(m, streaming=True, what="trials")
     add_memory_option(m)
     m.add_argument("--theory", default="", help="comma-separated amplitude PDFs for P*: roberts,esam,moment,envelope_fpk")
     m.add_argument("--checkpoint", metavar="DIR", default=None,
@@ -63,7 +65,8 @@ def run(args) -> int:
 
     n0_all = parse_n0(args.n0)
     theories = parse_theories(args.theory)
-    for name in ("realizations", "realizations_large", "chunk_size"):
+    check_chunk_size(args)
+    for name in ("realizations", "realizations_large"):
         if getattr(args, name) < 1:
             raise CLIError(f"--{name.replace('_', '-')} must be >= 1; got {getattr(args, name)}.")
     if not (math.isfinite(args.discard) and args.discard >= 0):

@@ -9,8 +9,10 @@ from pathlib import Path
 from ._common import (
     CLIError,
     Progress,
+    add_chunk_option,
     add_memory_option,
     atomic_write_text,
+    check_chunk_size,
     load_ship_arg,
     memory_budget,
     save_figure,
@@ -36,7 +38,7 @@ def register(sub) -> None:
     m.add_argument("--duration", type=float, default=3600.0, help="simulated time per realization [s] (3600)")
     m.add_argument("--discard", type=float, default=0.0, help="initial transient left out of the PDFs [s] (0)")
     m.add_argument("--phi0-deg", type=float, default=5.0, help="initial roll angle [deg] (5)")
-    m.add_argument("--chunk-size", type=int, default=1000, help="realizations per compiled batch (memory bound)")
+    add_chunk_option(m, streaming=False)
     add_memory_option(m)
     m.add_argument("--bin-width-deg", type=float, default=1.0, help="PDF bin width [deg] (1)")
     m.add_argument(
@@ -136,8 +138,10 @@ def run(args) -> int:
     check_positive(args, "hs", "t01", "dt", "duration", "bin_width_deg")
     if args.realizations < 1:
         raise CLIError(f"--realizations must be >= 1; got {args.realizations}.")
-    if args.chunk_size < 1:
-        raise CLIError(f"--chunk-size must be >= 1; got {args.chunk_size}.")
+    check_chunk_size(args)
+    from ..roll import default_chunk_size
+
+    chunk = args.chunk_size if args.chunk_size is not None else default_chunk_size(True)
     if not (math.isfinite(args.speed) and args.speed >= 0):
         raise CLIError(f"--speed must be >= 0 [m/s] (use --heading for direction); got {args.speed}.")
     if args.method == "filter" and args.filter_order < 3:
@@ -195,7 +199,7 @@ def run(args) -> int:
             num_realizations=args.realizations,
             duration=args.duration,
             discard=args.discard,
-            chunk_size=args.chunk_size, memory_budget=budget,
+            chunk_size=chunk, memory_budget=budget,
             progress=progress,
             checkpoint=args.checkpoint,
         )
@@ -214,7 +218,7 @@ def run(args) -> int:
             "duration_s": args.duration,
             "discard_s": args.discard,
             "phi0_deg": args.phi0_deg,
-            "chunk_size": args.chunk_size,
+            "chunk_size": chunk,
             "bin_width_deg": args.bin_width_deg,
             "theory": theories,
             "capsize_angle_deg": capsize_deg,

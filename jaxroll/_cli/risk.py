@@ -10,7 +10,9 @@ from ._common import (
     CLIError,
     OutputFolder,
     Progress,
+    add_chunk_option,
     add_memory_option,
+    check_chunk_size,
     load_ship_arg,
     memory_budget,
     save_figure,
@@ -32,7 +34,7 @@ def register(sub) -> None:
     p.add_argument("--realizations", type=int, default=2000, help="Monte Carlo trials (2000)")
     p.add_argument("--duration", type=float, default=3600.0, help="simulated time per trial [s] (3600)")
     p.add_argument("--discard", type=float, default=500.0, help="initial transient left out [s] (500)")
-    p.add_argument("--chunk-size", type=int, default=5000, help="trials per compiled batch (5000)")
+    add_chunk_option(p, streaming=True, what="trials")
     add_memory_option(p)
     p.add_argument("--theory", default="", help="also from theory: roberts,esam,moment,envelope_fpk")
     p.add_argument("--out", default="jaxroll-out/risk", help="output folder for risk.json and risk.png")
@@ -82,6 +84,7 @@ def run(args) -> int:
         raise CLIError(f"--angle must be in (0, 90) degrees; got {args.angle}.")
     if args.realizations < 1:
         raise CLIError(f"--realizations must be >= 1; got {args.realizations}.")
+    check_chunk_size(args)
     if not (math.isfinite(args.discard) and 0 <= args.discard < args.duration):
         raise CLIError(f"--discard must be in [0, --duration) = [0, {args.duration:g}) s; got {args.discard:g}.")
     budget = memory_budget(args)

@@ -10,7 +10,16 @@ import math
 import time
 from pathlib import Path
 
-from ._common import CLIError, OutputFolder, Progress, load_ship_arg, save_figure, write_json
+from ._common import (
+    CLIError,
+    OutputFolder,
+    Progress,
+    add_chunk_option,
+    check_chunk_size,
+    load_ship_arg,
+    save_figure,
+    write_json,
+)
 from ._sea import heading_for_api, heading_number, heading_phrase
 
 
@@ -55,9 +64,7 @@ def register(sub) -> None:
         "--seed", type=int, default=0, help="random seed (default 0; the same trials at every point)"
     )
     s = p.add_argument_group("scale-out")
-    s.add_argument(
-        "--chunk-size", type=int, default=5000, help="realizations per compiled batch (memory bound; 5000)"
-    )
+    add_chunk_option(s, streaming=True)
     s.add_argument("--devices", type=int, default=None, help="use the first N devices (default: all)")
     s.add_argument("--checkpoint", metavar="DIR", default=None, help="save progress in DIR; a rerun resumes")
     s.add_argument(
@@ -214,9 +221,9 @@ def run(args) -> int:
     speed = parse_list(args.speed, "--speed", minimum=0, strict=False)
     heading_deg = parse_headings(args.heading)
     heading = [heading_for_api(d) for d in heading_deg]
-    for name in ("realizations", "chunk_size"):
-        if getattr(args, name) < 1:
-            raise CLIError(f"--{name.replace('_', '-')} must be >= 1; got {getattr(args, name)}.")
+    check_chunk_size(args)
+    if args.realizations < 1:
+        raise CLIError(f"--realizations must be >= 1; got {args.realizations}.")
     for name in ("duration", "angle", "dt"):
         value = getattr(args, name)
         if not (math.isfinite(value) and value > 0):
@@ -234,6 +241,9 @@ def run(args) -> int:
             f"--devices must be between 1 and {jax.device_count()} (the devices JAX sees); "
             f"got {args.devices}."
         )
+    from ..roll import default_chunk_size
+
+    chunk = args.chunk_size if args.chunk_size is not None else default_chunk_size(False, args.devices)
     if jax.process_index() == 0:
         from .pdf import check_out
 
@@ -279,7 +289,7 @@ def run(args) -> int:
         dt=args.dt,
         filter_order=args.filter_order,
         phi0=math.radians(args.phi0_deg),
-        chunk_size=args.chunk_size,
+        chunk_size=chunk,
         devices=args.devices,
         checkpoint=args.checkpoint,
         progress=progress,
@@ -301,7 +311,7 @@ def run(args) -> int:
         "filter_order": args.filter_order,
         "seed": args.seed,
         "common_random_numbers": True,
-        "chunk_size": args.chunk_size,
+        "chunk_size": chunk,
         "devices": args.devices or jax.device_count(),
         "processes": jax.process_count(),
         "capsize_angle_deg": capsize_deg,

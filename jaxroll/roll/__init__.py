@@ -42,7 +42,11 @@ from ._sensitivity import (
     monte_carlo_sensitivity as monte_carlo_sensitivity,
     sensitivity_problem as sensitivity_problem,
 )
-from ._sharding import realization_mesh as realization_mesh
+from ._sharding import (
+    default_chunk_size as default_chunk_size,
+    default_memory_budget as default_memory_budget,
+    realization_mesh as realization_mesh,
+)
 from ._statistics import (
     AmplitudeStatistics as AmplitudeStatistics,
     CapsizeCounts as CapsizeCounts,

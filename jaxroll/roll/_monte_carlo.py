@@ -16,7 +16,7 @@ import jax.random as jr
 
 from ._equation import RollProblem, simulate
 from ._observers import AbstractObserver, AmplitudeHistogram, FirstMaxima, MaxRoll
-from ._sharding import chunk_size_for_memory, run_chunks
+from ._sharding import chunk_size_for_memory, default_chunk_size, run_chunks
 from ._statistics import AmplitudeStatistics, MaximaStatistics, MaxRollStatistics
 
 
@@ -66,7 +66,7 @@ def monte_carlo(
     *,
     num_realizations: int = 10_000,
     duration: float = 3600.0,
-    chunk_size: int = 1000,
+    chunk_size: int | None = None,
     progress: Callable[[int], None] | None = None,
     devices=None,
     checkpoint: str | os.PathLike | None = None,
@@ -83,9 +83,12 @@ def monte_carlo(
       observer, so different observers see the same trials.
     - `observer`: `AmplitudeHistogram(...)`, `FirstMaxima(...)`, `MaxRoll(...)` or your own `AbstractObserver`.
     - `num_realizations`: trials; `duration`: simulated time per trial [s].
-    - `chunk_size`: realizations per compiled batch (bounds the memory).
-    - `memory_budget`: bytes a chunk may use (None: a quarter of the machine's available memory); the chunk is
-      cut to fit it, so a small `dt` cannot exhaust memory. Results do not depend on the chunk.
+    - `chunk_size`: realizations per compiled batch; None: `default_chunk_size` (on a CPU 1000 for observers
+      that keep each realization's history, 5000 for streaming ones; on GPUs/TPUs 2.5·10⁴ and 2.5·10⁵ per
+      device, to fill them).
+    - `memory_budget`: bytes a chunk may use (None: `default_memory_budget`, a quarter of the host's available
+      memory on a CPU, half the devices' free memory on GPUs/TPUs); the chunk is cut to fit it, so a small `dt`
+      cannot exhaust memory. Results do not depend on the chunk.
     - `progress`: called with the number of realizations done after each chunk.
     - `devices`: None (every device of every process), an int n (the first n) or a sequence of devices: the
       realization axis is sharded over them (`docs/scaling.md`).
@@ -97,6 +100,8 @@ def monte_carlo(
     **Returns:** `observer.result(...)` (e.g. `AmplitudeStatistics`), with `config` recording the run.
     """
     _check_count("num_realizations", num_realizations)
+    if chunk_size is None:
+        chunk_size = default_chunk_size(observer.keeps_history, devices)
     _check_count("chunk_size", chunk_size)
     if not isinstance(observer, AbstractObserver):
         raise TypeError(
@@ -105,7 +110,7 @@ def monte_carlo(
     _check_duration(duration)
     num_steps = int(round(duration / problem.dt))
     chunk_size = chunk_size_for_memory(chunk_size, num_steps, memory_budget,
-                                      observer.bytes_per_realization(num_steps))
+                                      observer.bytes_per_realization(num_steps), devices)
     summed, per = run_chunks(
         simulate_chunk,
         problem,
@@ -118,7 +123,8 @@ def monte_carlo(
         checkpoint=checkpoint,
         checkpoint_every=checkpoint_every,
     )
-    config = {"num_realizations": num_realizations, "duration_s": float(duration), "dt_s": problem.dt}
+    config = {"num_realizations": num_realizations, "duration_s": float(duration), "dt_s": problem.dt,
+              "chunk_size": chunk_size}
     return observer.result(summed, per, config)
 
 
@@ -145,7 +151,7 @@ def monte_carlo_amplitudes(
     num_realizations: int = 10_000,
     duration: float = 3600.0,
     discard: float = 0.0,
-    chunk_size: int = 1000,
+    chunk_size: int | None = None,
     bin_width_deg: float = 0.05,
     max_deg: float = 90.0,
     **run_options,
@@ -186,14 +192,15 @@ def monte_carlo_maxima(
     num_realizations: int = 10_000,
     discard: float = 500.0,
     duration: float | None = None,
-    chunk_size: int = 5000,
+    chunk_size: int | None = None,
     **run_options,
 ) -> MaximaStatistics:
     """The paper's maxima protocol: per trial, the largest of the first N0 zero-crossing amplitudes after `discard`
     [s] (500), for each N0 in `n0`, from the same trials: `monte_carlo` with a `FirstMaxima` observer.
 
     `duration` [s] defaults to `default_duration` (1.6 × max(n0) half roll periods); the rest as in `monte_carlo`
-    (`chunk_size` 5000: nothing per step is kept, and wide chunks run ~1.9× faster per step than chunks of 500).
+    (`chunk_size` None: 5000 on a CPU — nothing per step is kept, and wide chunks run ~1.9× faster per step than
+    chunks of 500).
 
     **Returns:** `MaximaStatistics`.
     """
@@ -225,7 +232,7 @@ def monte_carlo_max_roll(
     num_realizations: int = 1000,
     duration: float = 1800.0,
     discard: float = 0.0,
-    chunk_size: int = 5000,
+    chunk_size: int | None = None,
     **run_options,
 ) -> MaxRollStatistics:
     """Per-trial maximum |φ| after `discard` [s] and capsizes of `problem`, and the trials beyond `angle_deg`

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import abc
 import math
+from typing import ClassVar
 
 import equinox as eqx
 import jax.numpy as jnp
@@ -55,6 +56,10 @@ class AbstractObserver(eqx.Module):
     @abc.abstractmethod
     def result(self, summed: dict, per: dict, config: dict):
         """The host-side result (numpy) from the totals over all chunks."""
+
+    # Whether a realization's per-step history is kept until the chunk is reduced (its memory grows with the
+    # duration); streaming observers set False (a wider default chunk: `default_chunk_size`).
+    keeps_history: ClassVar[bool] = True
 
     # `finished(problem, state) -> bool`: the realization has recorded all it needs and its run may stop (observers
     # without per-step outputs only; `simulate`). None: every realization runs its whole duration.
@@ -163,6 +168,7 @@ class FirstMaxima(AbstractObserver):
 
     n0: tuple[int, ...] = (20, 50, 100, 1000)
     discard: float = 500.0
+    keeps_history: ClassVar[bool] = False
 
     def bytes_per_realization(self, num_steps: int) -> int:
         """Streaming: ~53 kB per realization measured at 72 000 steps (0.74 B per step), whatever the length;
@@ -213,6 +219,7 @@ class MaxRoll(AbstractObserver):
 
     angle_deg: float = 30.0
     discard: float = 0.0
+    keeps_history: ClassVar[bool] = False
 
     def bytes_per_realization(self, num_steps: int) -> int:
         """Streaming: ~53 kB per realization measured at 72 000 steps (0.74 B per step), whatever the length;

@@ -174,8 +174,49 @@ def _save_checkpoint(path: Path, fingerprint: dict, next_start: int, summed: dic
 BYTES_PER_REALIZATION_STEP = 64
 
 
-def default_memory_budget(fraction: float = 0.25) -> float:
-    """`fraction` of the machine's available memory [bytes] (MemAvailable of /proc/meminfo, else sysconf)."""
+#: Realizations per chunk when `chunk_size` is None, for observers that keep each realization's history (the
+#: amplitude histograms) and for streaming ones (maxima, max roll): on a CPU per chunk (the sizes measured best on
+#: it, docs/numerics.md); on a GPU or TPU per device, wide enough to fill it (one H100, 2026-11-23: a chunk's time
+#: flat in N up to 2.5·10⁴ realizations with the histogram observer and 2.5·10⁵ streaming, benchmarks/README.md).
+#: Either is then cut to the memory budget.
+DEFAULT_CHUNK_CPU = (1000, 5000)
+DEFAULT_CHUNK_PER_ACCELERATOR = (25_000, 250_000)
+
+
+def default_chunk_size(keeps_history: bool, devices=None) -> int:
+    """Realizations per chunk for `chunk_size=None` on the mesh of `devices` (as `realization_mesh`):
+    `DEFAULT_CHUNK_CPU` on CPU devices, `DEFAULT_CHUNK_PER_ACCELERATOR` × the device count on GPUs/TPUs."""
+    mesh_devices = list(realization_mesh(devices).devices.flat)
+    i = 0 if keeps_history else 1
+    if mesh_devices[0].platform == "cpu":
+        return DEFAULT_CHUNK_CPU[i]
+    return DEFAULT_CHUNK_PER_ACCELERATOR[i] * len(mesh_devices)
+
+
+def _device_free_bytes(device) -> int | None:
+    """Free memory of an accelerator device [bytes] (its allocator's limit less what is in use), None if unknown."""
+    try:
+        stats = device.memory_stats()
+    except Exception:  # pragma: no cover  (a backend without memory statistics)
+        return None
+    if not stats or "bytes_limit" not in stats:
+        return None
+    return int(stats["bytes_limit"]) - int(stats.get("bytes_in_use", 0))
+
+
+def default_memory_budget(fraction: float | None = None, devices=None) -> float:
+    """The memory a chunk may use [bytes] on the mesh of `devices` (as `realization_mesh`; None: all).
+
+    On GPUs/TPUs, where each device holds its share of the chunk: `fraction` (default 0.5) of the smallest free
+    device memory (`memory_stats()`: the allocator's limit less what is in use) × the device count. On a CPU
+    (or where a device reports no memory): `fraction` (default 0.25) of the host's available memory
+    (MemAvailable of /proc/meminfo, else sysconf)."""
+    mesh_devices = list(realization_mesh(devices).devices.flat)
+    if mesh_devices[0].platform != "cpu":
+        free = [_device_free_bytes(d) for d in mesh_devices]
+        if all(f is not None for f in free):
+            return (0.5 if fraction is None else fraction) * min(free) * len(mesh_devices)
+    fraction = 0.25 if fraction is None else fraction
     try:
         with open("/proc/meminfo") as fh:
             for line in fh:
@@ -190,11 +231,11 @@ def default_memory_budget(fraction: float = 0.25) -> float:
 
 
 def chunk_size_for_memory(chunk_size: int, num_steps: int, memory_budget: float | None,
-                          bytes_per_realization: int | None = None) -> int:
+                          bytes_per_realization: int | None = None, devices=None) -> int:
     """The largest chunk ≤ `chunk_size` whose peak memory fits `memory_budget` [bytes] (None:
-    `default_memory_budget()`): `bytes_per_realization` each (None: num_steps × BYTES_PER_REALIZATION_STEP,
-    the whole-series observers' figure); at least 1."""
-    budget = default_memory_budget() if memory_budget is None else float(memory_budget)
+    `default_memory_budget(devices=devices)`): `bytes_per_realization` each (None: num_steps ×
+    BYTES_PER_REALIZATION_STEP, the whole-series observers' figure); at least 1."""
+    budget = default_memory_budget(devices=devices) if memory_budget is None else float(memory_budget)
     if not (budget > 0):
         raise ValueError(f"`memory_budget` must be > 0 [bytes]; got {memory_budget!r}.")
     per = max(num_steps, 1) * BYTES_PER_REALIZATION_STEP if bytes_per_realization is None else bytes_per_realization

@@ -60,7 +60,7 @@ def sweep_sea_states(
     dt: float = 0.5,
     filter_order: int = 4,
     phi0: float = math.radians(5.0),
-    chunk_size: int = 5000,
+    chunk_size: int | None = None,
     devices=None,
     checkpoint: str | os.PathLike | None = None,
     progress: Callable[[int], None] | None = None,
