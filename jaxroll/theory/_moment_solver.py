@@ -217,7 +217,7 @@ def _solve_impl(
             & jnp.all(jnp.isfinite(y))
             & (jnp.max(jnp.abs(y)) < 1e6)
         )
-        return jnp.where(ok, y, y_start), ok, sol.stats["num_steps"]
+        return jnp.where(ok, y, y_start), ok, jnp.asarray(sol.stats["num_steps"]).astype(jnp.array(0).dtype)
 
     newton = optx.Newton(rtol=1e-11, atol=1e-13, linear_solver=lx.LU())
     jac = None
@@ -238,9 +238,19 @@ def _solve_impl(
         first = optx.root_find(fn, newton, y0, args=(sde_c, kappa_c), max_steps=30, throw=False)
         y1 = first.value
         first_ok = _newton_start_ok(first.result, y1, y0, jax.jacfwd(fn)(y1, (sde_c, kappa_c)), lead_pos)
-        y_relaxed, relaxed_ok, n_relax = jax.lax.cond(
-            first_ok, lambda: (y1, jnp.array(True), jnp.array(0)), lambda: relax(y0)
+        # The relaxation as a loop that runs at most once, while it is needed, rather than a `lax.cond`: vmapped
+        # (a sweep over sea states or ships), a cond runs both branches for every member, so every member paid
+        # for the relaxation; a loop runs it only when some member's Newton failed (unbatched, the two are the
+        # same). It relaxes the loop's own carry, not `y0` directly: XLA hoists loop-invariant work out of a loop,
+        # and would then run the relaxation before it, always. The start is a start only (the derivative comes
+        # from the root find below), so reverse mode passes the loop.
+        def relax_once(carry):
+            return (jnp.array(False), *relax(carry[1]))
+
+        _, y_loop, relaxed_ok, n_relax = jax.lax.while_loop(
+            lambda carry: carry[0], relax_once, (~first_ok, y0, jnp.array(True), jnp.array(0))
         )
+        y_relaxed = jnp.where(first_ok, jax.lax.stop_gradient(y1), y_loop)
         root = optx.root_find(fn, newton, y_relaxed, args=(sde, base_kappa), max_steps=60, throw=False)
     values = root.value * scale
     full, _ = _full_moments(tables, arr, sde, values, base_kappa)
