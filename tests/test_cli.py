@@ -344,6 +344,38 @@ def test_out_that_is_a_file_is_refused_first(command, tmp_path, monkeypatch, cap
     assert "exists and is not a folder" in capsys.readouterr().err and target.read_text() == "mine"
 
 
+def test_ctrl_c_while_the_theories_compile_exits_at_once(tmp_path):
+    """The `jaxroll` command (console entry) on Ctrl-C while the theories' programs compile in their threads: exit
+    code 130 and the one-line message, at once (it used to wait for the compilations; `jaxroll pdf` had crashed
+    with a segfault in the interpreter's teardown), and no output folder."""
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    cache = tmp_path / "cache"
+    env = {**os.environ, "JAXROLL_CACHE_DIR": str(cache)}
+    cmd = [sys.executable, "-m", "jaxroll", "theory", "--theory", "roberts,esam,moment", "--out", str(tmp_path / "out")]
+    proc = subprocess.Popen(cmd, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    programs = cache / "jaxroll-programs"
+    deadline = time.monotonic() + 120
+    # the set-up's three programs are stored first; the theories' threads start right after them
+    while proc.poll() is None and time.monotonic() < deadline:
+        if programs.is_dir() and len([p for p in programs.iterdir() if p.suffix == ".bin"]) >= 4:
+            break
+        time.sleep(0.02)
+    assert proc.poll() is None, "the command ended before it could be interrupted"
+    proc.send_signal(signal.SIGINT)
+    t0 = time.monotonic()
+    _, err = proc.communicate(timeout=60)
+    waited = time.monotonic() - t0
+    assert proc.returncode == 130, err[-2000:]
+    assert err.strip().splitlines()[-1].startswith("jaxroll theory: interrupted") and "Traceback" not in err
+    assert waited < 10.0  # not a benchmark: measured 0.0–0.3 s, and 2–8 s when the compilations were waited for
+    assert not (tmp_path / "out").exists()
+
+
 def test_interrupted_run_leaves_the_previous_set_untouched(tmp_path, monkeypatch, capsys):
     _patch_monte_carlo(monkeypatch, _fake_stats(zc=[5.0, 6.0], env=[4.0, 5.0]))
     out = tmp_path / "run"

@@ -82,5 +82,18 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 130
 
 
+def console() -> None:  # pragma: no cover  (the console script; tests call `main`)
+    """The `jaxroll` command: `main()`, and after Ctrl-C (exit code 130) an immediate exit. The theories' programs
+    compile in background threads (`jaxroll.theory.iter_theory_summaries`): a normal exit would wait for them (up
+    to 8 s measured), and the interpreter's teardown while XLA is busy in another thread could crash (a segfault
+    was seen on Ctrl-C during `jaxroll pdf`). Nothing is lost: outputs and checkpoints are written atomically."""
+    code = main()
+    if code == 130:
+        sys.stdout.flush()
+        sys.stderr.flush()
+        os._exit(130)
+    sys.exit(code)
+
+
 if __name__ == "__main__":  # pragma: no cover
-    sys.exit(main())
+    console()

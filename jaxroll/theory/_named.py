@@ -18,6 +18,7 @@ They raise the same errors as those functions when no law exists.
 
 from __future__ import annotations
 
+import concurrent.futures
 import dataclasses
 from collections.abc import Callable, Iterator
 
@@ -271,21 +272,22 @@ def iter_theory_summaries(
     if not all(0 < q < 1 for q in levels):
         raise ValueError(f"`levels` must lie strictly between 0 and 1; got {levels!r}.")
     edges = np.deg2rad(bins)
-    pending = {}
-    for name in sorted(names, key=lambda n: n != "moment"):
-        try:
-            pending[name] = _start(name, ship, wave, shaping_filter, filter_order, estimator, edges, levels, warn)
-        except (ValueError, RuntimeError) as e:
-            pending[name] = e
+    # Each theory's program is traced (or loaded) and compiled in a thread of its own: XLA compiles without the
+    # GIL, so one theory's compilation overlaps another's tracing and the caller's own work (`jaxroll pdf`: the
+    # Monte Carlo's).
+    pool = concurrent.futures.ThreadPoolExecutor(max_workers=len(names), thread_name_prefix="jaxroll-theory")
+    pending = {
+        name: pool.submit(_start, name, ship, wave, shaping_filter, filter_order, estimator, edges, levels, warn)
+        for name in sorted(names, key=lambda n: n != "moment")
+    }
+    pool.shutdown(wait=False)
     return _results(names, pending, bins, levels, return_exceptions)
 
 
 def _results(names, pending, bins, levels, return_exceptions):
     for name in names:
         try:
-            if isinstance(pending[name], Exception):
-                raise pending[name]
-            law, numbers = pending[name]()
+            law, numbers = pending[name].result()()
         except (ValueError, RuntimeError) as e:
             if not return_exceptions:
                 raise
