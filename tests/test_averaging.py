@@ -529,3 +529,4 @@ def test_stored_program_is_read_back_with_the_same_numbers(tmp_path, monkeypatch
         jxr.theory.theory_summary("roberts", SHIP, _wave(1.0), BINS)
     with pytest.raises(ValueError, match="unknown theory"):
         jxr.theory.theory_law("magic", SHIP, wave)
+    assert list(jxr.theory.iter_theory_summaries((), SHIP, wave, BINS)) == []  # no theory asked, none started

@@ -275,7 +275,7 @@ def iter_theory_summaries(
     # Each theory's program is traced (or loaded) and compiled in a thread of its own: XLA compiles without the
     # GIL, so one theory's compilation overlaps another's tracing and the caller's own work (`jaxroll pdf`: the
     # Monte Carlo's).
-    pool = concurrent.futures.ThreadPoolExecutor(max_workers=len(names), thread_name_prefix="jaxroll-theory")
+    pool = concurrent.futures.ThreadPoolExecutor(max_workers=max(len(names), 1), thread_name_prefix="jaxroll-theory")
     pending = {
         name: pool.submit(_start, name, ship, wave, shaping_filter, filter_order, estimator, edges, levels, warn)
         for name in sorted(names, key=lambda n: n != "moment")
