@@ -74,11 +74,14 @@ def test_pdf_with_ship_file_and_superposition(tmp_path):
         (["pdf", "--theory", "magic"], r"--theory: unknown method\(s\) \['magic'\]"),
         (["pdf", "--ship", "/nonexistent/ship.toml"], "does not exist"),
         (["pdf", "--duration", "0"], "--duration must be a finite number > 0"),
+        (["pdf", "--chunk-size", "0"], "--chunk-size must be >= 1; got 0"),
+        (["risk", "--chunk-size", "-5"], "--chunk-size must be >= 1; got -5"),
+        (["maxima", "--chunk-size", "0"], "--chunk-size must be >= 1; got 0"),
         (["ship", "show", "--ship", "/nonexistent.toml"], "does not exist"),
     ],
 )
 def test_cli_errors(argv, message, capsys, tmp_path):
-    assert main([*argv, *(["--out", str(tmp_path)] if argv[0] == "pdf" else [])]) == 2
+    assert main([*argv, *(["--out", str(tmp_path)] if argv[0] in ("pdf", "risk", "maxima") else [])]) == 2
     err = capsys.readouterr().err
     assert "error:" in err
     import re

@@ -438,6 +438,7 @@ def test_sweep_cli_writes_map_and_json(tmp_path, capsys):
         (["--devices", "999"], "--devices must be between 1 and "),
         (["--discard", "400"], r"--discard must be in \[0, --duration\)"),
         (["--dt", "5"], "dt = 5.0 s is too large"),
+        (["--chunk-size", "0"], "--chunk-size must be >= 1; got 0"),
     ],
 )
 def test_sweep_cli_errors(extra, message, tmp_path, capsys):
