@@ -98,12 +98,12 @@ def add_memory_option(parser) -> None:
     """--memory-gb: the memory a compiled chunk of realizations may use."""
     parser.add_argument("--memory-gb", type=float, default=None,
                         help="memory a chunk of realizations may use [GiB] (default: a quarter of the available "
-                        "memory; on GPUs half their free memory); the chunk is cut to fit, so any --dt runs")
+                        "memory; on GPUs 0.9 of their free memory); the chunk is cut to fit, so any --dt runs")
 
 
 def add_chunk_option(parser, streaming: bool, what: str = "realizations") -> None:
     """--chunk-size: realizations per compiled batch (default: `jaxroll.default_chunk_size` for the devices)."""
-    cpu, gpu = (5000, "2.5e5") if streaming else (1000, "2.5e4")
+    cpu, gpu = (5000, "2.5e5") if streaming else (1000, "1e5")
     parser.add_argument("--chunk-size", type=int, default=None,
                         help=f"{what} per compiled batch (default: {cpu} on a CPU, {gpu} per GPU; cut to the "
                         "memory budget)")

@@ -84,11 +84,12 @@ def monte_carlo(
     - `observer`: `AmplitudeHistogram(...)`, `FirstMaxima(...)`, `MaxRoll(...)` or your own `AbstractObserver`.
     - `num_realizations`: trials; `duration`: simulated time per trial [s].
     - `chunk_size`: realizations per compiled batch; None: `default_chunk_size` (on a CPU 1000 for observers
-      that keep each realization's history, 5000 for streaming ones; on GPUs/TPUs 2.5·10⁴ and 2.5·10⁵ per
+      that keep each realization's history, 5000 for streaming ones; on GPUs/TPUs 10⁵ and 2.5·10⁵ per
       device, to fill them).
     - `memory_budget`: bytes a chunk may use (None: `default_memory_budget`, a quarter of the host's available
-      memory on a CPU, half the devices' free memory on GPUs/TPUs); the chunk is cut to fit it, so a small `dt`
-      cannot exhaust memory. Results do not depend on the chunk.
+      memory on a CPU, 0.9 of the devices' free memory on GPUs/TPUs); the chunk is cut to fit it (to three
+      significant binary digits, so it keeps its shape), so a small `dt` cannot exhaust memory. Results do not
+      depend on the chunk.
     - `progress`: called with the number of realizations done after each chunk.
     - `devices`: None (every device of every process), an int n (the first n) or a sequence of devices: the
       realization axis is sharded over them (`docs/scaling.md`).

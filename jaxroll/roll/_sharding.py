@@ -176,11 +176,11 @@ BYTES_PER_REALIZATION_STEP = 64
 
 #: Realizations per chunk when `chunk_size` is None, for observers that keep each realization's history (the
 #: amplitude histograms) and for streaming ones (maxima, max roll): on a CPU per chunk (the sizes measured best on
-#: it, docs/numerics.md); on a GPU or TPU per device, wide enough to fill it (one H100, 2026-11-23: a chunk's time
-#: flat in N up to 2.5·10⁴ realizations with the histogram observer and 2.5·10⁵ streaming, benchmarks/README.md).
-#: Either is then cut to the memory budget.
+#: it, docs/numerics.md); on a GPU or TPU per device, wide enough to fill it (H100 and H200, 2026-11-26: 10⁶ × 3600 s
+#: of the histogram observer in chunks of 2.5·10⁴ / 5·10⁴ / 10⁵ took 2.7 / 2.1 / 1.6 s; the streaming observer's
+#: chunk of 2.5·10⁵ ran at 3.7·10¹⁰ realization-steps/s, benchmarks/README.md). Either is then cut to the budget.
 DEFAULT_CHUNK_CPU = (1000, 5000)
-DEFAULT_CHUNK_PER_ACCELERATOR = (25_000, 250_000)
+DEFAULT_CHUNK_PER_ACCELERATOR = (100_000, 250_000)
 
 
 def default_chunk_size(keeps_history: bool, devices=None) -> int:
@@ -207,15 +207,17 @@ def _device_free_bytes(device) -> int | None:
 def default_memory_budget(fraction: float | None = None, devices=None) -> float:
     """The memory a chunk may use [bytes] on the mesh of `devices` (as `realization_mesh`; None: all).
 
-    On GPUs/TPUs, where each device holds its share of the chunk: `fraction` (default 0.5) of the smallest free
-    device memory (`memory_stats()`: the allocator's limit less what is in use) × the device count. On a CPU
+    On GPUs/TPUs, where each device holds its share of the chunk: `fraction` (default 0.9) of the smallest free
+    device memory (`memory_stats()`: the allocator's limit less what is in use) × the device count — the
+    observers' bounds are ~3× what a chunk takes there (histogram observer: 64 B per realization-step bound,
+    21-22 B measured on an H100 and an H200, `benchmarks/gpu.py`), so a chunk uses about a third of it. On a CPU
     (or where a device reports no memory): `fraction` (default 0.25) of the host's available memory
     (MemAvailable of /proc/meminfo, else sysconf)."""
     mesh_devices = list(realization_mesh(devices).devices.flat)
     if mesh_devices[0].platform != "cpu":
         free = [_device_free_bytes(d) for d in mesh_devices]
         if all(f is not None for f in free):
-            return (0.5 if fraction is None else fraction) * min(free) * len(mesh_devices)
+            return (0.9 if fraction is None else fraction) * min(free) * len(mesh_devices)
     fraction = 0.25 if fraction is None else fraction
     try:
         with open("/proc/meminfo") as fh:
@@ -232,15 +234,25 @@ def default_memory_budget(fraction: float | None = None, devices=None) -> float:
 
 def chunk_size_for_memory(chunk_size: int, num_steps: int, memory_budget: float | None,
                           bytes_per_realization: int | None = None, devices=None) -> int:
-    """The largest chunk ≤ `chunk_size` whose peak memory fits `memory_budget` [bytes] (None:
-    `default_memory_budget(devices=devices)`): `bytes_per_realization` each (None: num_steps ×
-    BYTES_PER_REALIZATION_STEP, the whole-series observers' figure); at least 1."""
+    """`chunk_size` if its peak memory fits `memory_budget` [bytes] (None: `default_memory_budget(devices=devices)`)
+    at `bytes_per_realization` each (None: num_steps × BYTES_PER_REALIZATION_STEP, the whole-series observers'
+    figure); else the largest chunk that fits, rounded down to three significant binary digits (a budget that
+    moves by a few per cent between calls then gives the same chunk, and no recompilation); at least 1."""
     budget = default_memory_budget(devices=devices) if memory_budget is None else float(memory_budget)
     if not (budget > 0):
         raise ValueError(f"`memory_budget` must be > 0 [bytes]; got {memory_budget!r}.")
     per = max(num_steps, 1) * BYTES_PER_REALIZATION_STEP if bytes_per_realization is None else bytes_per_realization
     fit = int(budget // max(per, 1))
-    return max(1, min(int(chunk_size), fit))
+    if fit >= chunk_size:
+        return int(chunk_size)
+    return max(1, _coarse(fit))
+
+
+def _coarse(n: int) -> int:
+    """`n` rounded down to three significant binary digits (…, 48, 56, 64, 80, 96, 112, 128, …): a chunk cut to a
+    memory budget that moves a little with what else is in memory keeps its shape, so it is not recompiled."""
+    step = 1 << max(n.bit_length() - 3, 0)
+    return n // step * step
 
 
 def run_chunks(
