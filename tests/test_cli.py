@@ -186,6 +186,39 @@ def test_theory_command(tmp_path, capsys):
     assert (tmp_path / "theory_log.png").stat().st_size > 0
 
 
+def test_theory_default_set_leaves_out_the_theories_without_a_law(tmp_path, capsys, monkeypatch):
+    """`jaxroll theory` without --theory shows every theory that has a law in the sea state and lists the others
+    with their reason (at 9 m the moment closure has no stable point; at 3 m every theory says the roll dies
+    out: then it is an error with all the reasons); named theories must all have one (test above). The real
+    Roberts summary stands in for the theories that have a law (no other program is compiled here)."""
+    from jaxroll._cli import _theory
+
+    real = _theory.start_theory_summaries
+    why = {"moment": "moment method: no stationary law: the roll dies out (test)", "esam": "ESAM: none (test)"}
+    calls = []
+
+    def fake(problem, args, names, bins, *, skip_failed=False, warn=True):
+        calls.append((tuple(names), skip_failed, warn))
+        finish = real(problem, args, ["roberts"] if shown else [], bins)
+        return lambda: (finish(), {n: r for n, r in why.items() if n in names})
+
+    monkeypatch.setattr(_theory, "start_theory_summaries", fake)
+    shown = True
+    assert main(["theory", "--hs", "5", "--out", str(tmp_path)]) == 0
+    assert calls == [(("roberts", "esam", "moment", "envelope_fpk"), True, False)]
+    out = capsys.readouterr().out
+    assert "moment: left out, no law here: moment method: no stationary law: the roll dies out (test)" in out
+    d = json.loads((tmp_path / "theory.json").read_text())
+    assert set(d["theory"]) == {"roberts"} and d["theory_left_out"] == why
+    assert d["config"]["theory"] == ["roberts", "esam", "moment", "envelope_fpk"]
+    shown = False
+    assert main(["theory", "--hs", "3", "--out", str(tmp_path / "none")]) == 2
+    err = capsys.readouterr().err
+    assert "no theory has a law in this sea state:\n" in err
+    assert "\n  esam: ESAM: none (test)\n" in err and "\n  moment: moment method: no stationary law" in err
+    assert not (tmp_path / "none").exists()
+
+
 # Issue 13, "never a confident wrong number": the command line's part.
 
 

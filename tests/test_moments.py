@@ -342,6 +342,41 @@ def test_failures_are_reported_clearly():
     assert int(sol.moments.relax_steps) < 10_000  # stopped by the decay event, not by max_steps
 
 
+def test_no_law_where_the_roll_dies_out_though_the_closure_keeps_a_fixed_point():
+    """Below the parametric threshold the closed moment equations can keep a stable non-trivial fixed point — the
+    paper's method at 3 m, order 4: mean 1.45° — where the roll dies out: the linearised roll's Lyapunov exponent
+    under the same coloured excitation is < 0 and the Monte Carlo (a second method) decays. The robust entry points
+    (`moment_pdf_first_stable`, the named `theory_law("moment")` that the command line uses) refuse there;
+    `moment_pdf`, the paper's method, is left as it is."""
+    wave = _wave(3.0)
+    assert float(jxr.theory.sustained_roll_exponent(SHIP, wave)) < 0 < float(
+        jxr.theory.sustained_roll_exponent(SHIP, _wave(7.0)))
+    paper = moment_pdf(SHIP, wave, closure_order=4)
+    paper_mean = math.degrees(float(paper.mean()))
+    assert paper_mean > 1.0
+    with pytest.raises(ValueError, match="the roll dies out"):
+        jxr.theory.moment_pdf_first_stable(SHIP, wave)
+    flagged = jxr.theory.moment_pdf_first_stable(SHIP, wave, closure_orders=(4,), throw=False)
+    assert flagged.details()["message"].startswith("no stationary law: the roll dies out")
+    # the Monte Carlo from 5°: at 9000–12 000 s the envelope is a small fraction of the closure's mean
+    problem = jxr.RollProblem.from_sea(SHIP, jxr.ITTC(3.0, 10.0))
+    stats = jxr.monte_carlo_amplitudes(problem, jax.random.key(5), num_realizations=200, duration=12_000.0,
+                                       discard=9000.0)  # fmt: skip
+    assert math.degrees(stats.mean("envelope")) < 0.1 * paper_mean
+
+
+def test_named_moment_method_refuses_where_the_roll_is_not_sustained(monkeypatch):
+    """The command line's entry (`theory_law`, `iter_theory_summaries`) makes the same check as
+    `moment_pdf_first_stable`, with λ from a stored program; here λ is forced ≤ 0 at 7 m (its program is the one
+    the other tests compiled), and 3 m is the real case (`jaxroll theory --hs 3`: every theory left out)."""
+    from jaxroll.theory import _named
+
+    assert float(_named._sustained_program(SHIP, _filter(7.0))) > 0
+    monkeypatch.setattr(_named, "_sustained_program", lambda ship, f: jnp.asarray(-1e-3))
+    with pytest.raises(ValueError, match=r"the roll dies out.*λ = -0.001 1/s <= 0.*mean 11\.\d\d°"):
+        jxr.theory.theory_summary("moment", SHIP, _wave(7.0), np.arange(0.0, 73.0, 1.0))
+
+
 # ------------------------------------------------------------------------------------------------------------
 # Differentiability
 # ------------------------------------------------------------------------------------------------------------

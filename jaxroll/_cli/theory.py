@@ -18,8 +18,9 @@ def register(sub) -> None:
     add_sea_options(p)
     p.add_argument(
         "--theory",
-        default="roberts,esam,moment,envelope_fpk",
-        help="comma-separated: roberts,esam,moment,envelope_fpk (default: all)",
+        default=None,
+        help="comma-separated: roberts,esam,moment,envelope_fpk (default: all four, and a theory that has no law in "
+        "this sea state is left out with its reason; named ones must all have one)",
     )
     p.add_argument("--bin-width-deg", type=float, default=1.0, help="PDF bin width [deg] (1)")
     p.add_argument("--out", default="jaxroll-out/theory", help="output folder (default ./jaxroll-out/theory)")
@@ -30,13 +31,15 @@ def run(args) -> int:
     import numpy as np
 
     from ..ship import vanishing_angle
+    from ..theory import THEORIES
     from ._common import CLIError, OutputFolder
     from ._sea import build_theory_inputs
     from ._theory import start_theory_summaries
     from .pdf import check_out, parse_theories, pdf_bins
 
     # Check every option before the filter fit and the theories' compilation.
-    names = parse_theories(args.theory)
+    named = args.theory is not None  # named theories must all have a law; of the default set, those that have
+    names = parse_theories(args.theory) if named else list(THEORIES)  # one here are shown, the others left out
     if not names:
         raise CLIError("--theory: give at least one of roberts,esam,moment,envelope_fpk.")
     check_positive(args, "hs", "t01", "dt", "bin_width_deg")
@@ -51,12 +54,17 @@ def run(args) -> int:
     t0 = time.time()
     inputs = build_theory_inputs(args, ship)  # no time stepping here: the Monte Carlo's dt check does not apply
     bins = pdf_bins(args.bin_width_deg, float(np.rad2deg(np.asarray(vanishing_angle(ship)))))
-    finish = start_theory_summaries(inputs, args, names, bins)
+    finish = start_theory_summaries(inputs, args, names, bins, skip_failed=not named, warn=False)
     from ..plotting import amplitude_pdf_figures  # imported (matplotlib: ~0.4 s) while the theories compute
 
-    theories = finish()
+    theories, left_out = finish() if not named else (finish(), {})
+    if not theories:
+        raise CLIError("no theory has a law in this sea state:\n"
+                       + "\n".join(f"  {name}: {reason}" for name, reason in left_out.items()))
     payload = {"config": {**sea_config(args, ship), "theory": names}, "bins_deg": bins, "theory": theories,
                "run_time_s": time.time() - t0}
+    if left_out:
+        payload["theory_left_out"] = left_out
     with OutputFolder(out) as tmp:
         fig_lin, fig_log = amplitude_pdf_figures(
             payload, title=f"{ship.name}: H1/3 = {args.hs:g} m, T01 = {args.t01:g} s (theory)")
@@ -64,7 +72,11 @@ def run(args) -> int:
         save_figure(fig_log, tmp / "theory_log.png")
         write_json(tmp / "theory.json", payload)
     for name, t in theories.items():
+        fallback = (f"; closure order {t['closure_order']}: order {t['requested_closure_order']} has no stable "
+                    "fixed point here" if t.get("closure_fallback") else "")
         print(f"{name:>12}: mean {t['mean_amplitude_deg']:.2f}°, 99 % {t['quantiles_deg']['99']:.2f}° "
-              f"({t['time_s']:.2f} s)")
+              f"({t['time_s']:.2f} s{fallback})")
+    for name, reason in left_out.items():
+        print(f"{name:>12}: left out, no law here: {reason}")
     print(f"wrote {out}/theory_linear.png, theory_log.png, theory.json")
     return 0

@@ -60,6 +60,7 @@ from ._moments import (
     moment_pdf as moment_pdf,
     moment_pdf_first_stable as moment_pdf_first_stable,
     roll_moments as roll_moments,
+    sustained_roll_exponent as sustained_roll_exponent,
 )
 from ._named import (  # the theories by name, each in one compiled program (the command line's entry)
     THEORIES as THEORIES,

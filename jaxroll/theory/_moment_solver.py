@@ -46,6 +46,11 @@ class RESULTS(eqx.Enumeration):
         "Newton's method did not converge from the relaxed moments to a stationary point; increase "
         "`relax_time` or try closure_order=4."
     )
+    roll_not_sustained = (
+        "no stationary law: the roll dies out (the linearised roll under the coloured excitation has a Lyapunov "
+        "exponent <= 0, so A → 0 almost surely; a non-trivial fixed point of the closed moment equations there is "
+        "the closure's artefact). Increase H1/3 or r, or reduce b1."
+    )
     fit_failed = (
         "the amplitude family p(A) = C A^ν exp(−c2 A − c3 A²) cannot reproduce E[A²], E[A⁴], E[A⁶] "
         "(least-squares residual too large); the moments may be outside the family's range."

@@ -513,7 +513,16 @@ def moment_pdf_first_stable(
     across the switch, so no derivative is offered across it: under `jax.grad`/`jit`/`vmap` only the first
     order is tried (differentiate `moment_pdf` at the order chosen at the nominal point).
 
-    **Raises:** the last order's error when none of them has a stable solution (the first order's when traced).
+    Concrete calls also check that the roll is sustained: below the parametric threshold (the Lyapunov exponent
+    of the linearised roll under the same coloured excitation ≤ 0, `sustained_roll_exponent`) the roll dies out,
+    yet the closed moment equations can keep a stable non-trivial fixed point — on the default ship at 3 m (r = 1),
+    4 m (r = 0.8), 5 m (r = 0.6), 6 m (r = 0.5) order 4 gives means of 1.2–1.9° where the Monte Carlo's envelope
+    is 0.01–0.09° at 15 000–20 000 s and still falling (docs/theory.md). There this raises (`throw=False`: the
+    law is returned with `result` `RESULTS.roll_not_sustained`). `moment_pdf` itself, the paper's method, does
+    not check.
+
+    **Raises:** the last order's error when none of them has a stable solution (the first order's when traced);
+    `ValueError` "the roll dies out" where the roll is not sustained (concrete calls).
     """
     from .._compiled import is_concrete
 
@@ -527,10 +536,38 @@ def moment_pdf_first_stable(
             error = e
             continue
         out = dataclasses.replace(out, requested_closure_order=closure_orders[0])
+        if is_concrete((ship, wave, kwargs.get("shaping_filter"))) and succeeded(out.result):
+            lam = sustained_roll_exponent(ship, wave, kwargs.get("shaping_filter"))
+            if not float(lam) > 0:  # below the threshold: the closure's fixed point is not the roll's
+                if kwargs.get("throw", True):
+                    raise roll_not_sustained_error(lam, out)
+                return dataclasses.replace(out, result=RESULTS.roll_not_sustained)
         if i > 0:
             warn_closure_fallback(closure_orders[0], error, order)
         return out
     raise error
+
+
+def roll_not_sustained_error(lyapunov_exponent, law=None) -> ValueError:
+    """The moment method's error where the linearised roll is stable under the coloured excitation (λ ≤ 0): the
+    roll dies out, and a non-trivial fixed point of the closed moment equations is the closure's, not the roll's."""
+    found = (f" (the closure's non-trivial fixed point here, mean {math.degrees(float(law.mean())):.2f}°, is an "
+             "artefact of the closure: the Monte Carlo decays)" if law is not None else "")
+    return ValueError(
+        "moment method: no stationary law: the roll dies out. The linearised roll under the coloured excitation "
+        f"has Lyapunov exponent λ = {float(lyapunov_exponent):.3g} 1/s <= 0 (`envelope_lyapunov_exponent`), so "
+        f"A → 0 almost surely{found}. Increase H1/3 or r, or reduce b1 (docs/theory.md, 'Below the threshold')."
+    )
+
+
+def sustained_roll_exponent(ship: Ship, wave, shaping_filter=None) -> Float[Array, ""]:
+    """λ [1/s] of the linearised roll under the moment method's coloured excitation — the shaping filter's
+    spectrum when one is given (the Monte Carlo's), else `wave`'s (`envelope_lyapunov_exponent`). λ ≤ 0: the roll
+    dies out, whatever stationary point the closed moment equations have."""
+    from ._envelope_fpk import envelope_lyapunov_exponent
+
+    source = shaping_filter.filter if isinstance(shaping_filter, FilterFit) else shaping_filter
+    return envelope_lyapunov_exponent(ship, wave if source is None else source)[0]
 
 
 def warn_closure_fallback(requested: int, error: Exception, used: int, stacklevel: int = 2) -> None:

@@ -49,6 +49,8 @@ from ._moments import (
     _shaping_filter,
     closure_sequence,
     moment_pdf_first_stable,
+    roll_not_sustained_error,
+    sustained_roll_exponent,
     warn_closure_fallback,
 )
 
@@ -159,6 +161,9 @@ def _start(name, ship, wave, shaping_filter, filter_order, estimator, edges, lev
                 law, numbers = run(order, True)
             if succeeded(law.result):
                 law = dataclasses.replace(law, requested_closure_order=MOMENT_CLOSURE_ORDERS[0])
+                lam = _sustained_program(ship, filt)  # as `moment_pdf_first_stable`: no law where the roll dies
+                if not float(lam) > 0:
+                    raise roll_not_sustained_error(lam, law)
                 if i > 0 and warn:
                     warn_closure_fallback(MOMENT_CLOSURE_ORDERS[0], error, order, stacklevel=3)
                 return law, numbers
@@ -166,6 +171,12 @@ def _start(name, ship, wave, shaping_filter, filter_order, estimator, edges, lev
         raise error
 
     return finish
+
+
+@cached_program
+def _sustained_program(ship, shaping_filter):
+    """`sustained_roll_exponent(ship, None, shaping_filter)` [1/s] as a stored program."""
+    return sustained_roll_exponent(ship, None, shaping_filter)
 
 
 def _check_name(name: str) -> None:
