@@ -101,6 +101,10 @@ def amplitude_pdf_figures(summary: dict, *, experiment: dict | None = None, titl
         if summary.get("reason"):
             ax.text(0.5, 0.5, "Monte Carlo: " + summary["reason"], transform=ax.transAxes, ha="center",
                     va="center", wrap=True, fontsize=8, color="tab:red")
+        if summary.get("theory_left_out"):  # a theory with no law in this sea state: said, not silently missing
+            names = ", ".join(THEORY_LABELS.get(n, n) for n in summary["theory_left_out"])
+            ax.text(0.99, 0.99, f"no law in this sea state: {names} (see the JSON)", transform=ax.transAxes,
+                    ha="right", va="top", fontsize=7, color="0.35")
         figs.append(fig)
     return figs[0], figs[1]
 
