@@ -78,6 +78,16 @@ def start_theory_summaries(problem, args, names, bins_deg, *, skip_failed: bool 
     return finish
 
 
+def closure_note(summary: dict) -> str:
+    """", closure order 4: order 6 has no stable fixed point here" for a theory summary whose moment closure fell
+    back to a lower order (`closure_fallback` in its details), else "": the terminal's line for what the JSON
+    records."""
+    if not summary.get("closure_fallback"):
+        return ""
+    return (f", closure order {summary['closure_order']}: order {summary['requested_closure_order']} has no stable "
+            "fixed point here")
+
+
 def theory_summaries(problem, args, names, bins_deg) -> dict:
     """`start_theory_summaries(...)()`: the theories' summaries now (a theory that has no law is an error)."""
     return start_theory_summaries(problem, args, names, bins_deg)()

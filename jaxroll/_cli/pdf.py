@@ -250,11 +250,10 @@ def run(args) -> int:
     if summary["reason"]:
         print(f"no statistics: {summary['reason']}")
     if summary.get("theory"):
+        from ._theory import closure_note
+
         print("theory overlay: " + ", ".join(
-            f"{name} (mean {t['mean_amplitude_deg']:.2f}°"
-            + (f", closure order {t['closure_order']}: order {t['requested_closure_order']} has no stable fixed "
-               "point here" if t.get("closure_fallback") else "") + ")"
-            for name, t in summary["theory"].items())
+            f"{name} (mean {t['mean_amplitude_deg']:.2f}°{closure_note(t)})" for name, t in summary["theory"].items())
             + ("" if args.theory is not None else "; --theory none leaves them out"))  # fmt: skip
     for name, reason in theories_failed.items():
         print(f"theory overlay: {name} left out: {reason}")

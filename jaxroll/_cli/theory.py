@@ -34,7 +34,7 @@ def run(args) -> int:
     from ..theory import THEORIES
     from ._common import CLIError, OutputFolder
     from ._sea import build_theory_inputs
-    from ._theory import start_theory_summaries
+    from ._theory import closure_note, start_theory_summaries
     from .pdf import check_out, parse_theories, pdf_bins
 
     # Check every option before the filter fit and the theories' compilation.
@@ -72,10 +72,8 @@ def run(args) -> int:
         save_figure(fig_log, tmp / "theory_log.png")
         write_json(tmp / "theory.json", payload)
     for name, t in theories.items():
-        fallback = (f"; closure order {t['closure_order']}: order {t['requested_closure_order']} has no stable "
-                    "fixed point here" if t.get("closure_fallback") else "")
         print(f"{name:>12}: mean {t['mean_amplitude_deg']:.2f}°, 99 % {t['quantiles_deg']['99']:.2f}° "
-              f"({t['time_s']:.2f} s{fallback})")
+              f"({t['time_s']:.2f} s{closure_note(t)})")
     for name, reason in left_out.items():
         print(f"{name:>12}: left out, no law here: {reason}")
     print(f"wrote {out}/theory_linear.png, theory_log.png, theory.json")
