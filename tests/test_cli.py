@@ -117,8 +117,73 @@ def test_maxima_command(tmp_path):
         np.testing.assert_allclose(np.trapezoid(exact, d["grid_deg"]), 1.0, atol=0.02)  # P* is a density
     # The maximum over 30 amplitudes is never below the maximum over the first 10 (same trials).
     assert d["per_n0"]["30"]["mean_deg"] >= d["per_n0"]["10"]["mean_deg"]
+    # P*'s numbers: its exact exceedance (max_sf) equals 1 − ∫_0^x of its curve, the mode is the curve's peak,
+    # and the mean lies between the mode of a right-skewed maximum law and its 40° exceedance point.
+    grid = np.asarray(d["grid_deg"])
+    for v in d["per_n0"].values():
+        p = v["p_star"]["mcs_amplitudes"]
+        exact = np.asarray(v["curves"]["mcs_amplitudes"]["exact"])
+        cdf = np.concatenate([[0.0], np.cumsum(np.diff(grid) * (exact[1:] + exact[:-1]) / 2)])
+        for x, sf in p["p_exceed"].items():
+            assert sf == pytest.approx(1 - np.interp(float(x), grid, cdf), abs=2e-3), x
+        assert p["mode_deg"] == grid[np.argmax(exact)] and p["mass_on_grid"] == pytest.approx(1, abs=0.02)
+        assert p["mean_deg"] == pytest.approx(np.trapezoid(grid * exact, grid) / p["mass_on_grid"])
     for name in ("maxima_linear.png", "maxima_log.png", "maxima_N0_10.png", "maxima_N0_30.png"):
         assert (tmp_path / name).stat().st_size > 0
+
+
+def _maxima_and_risk_with_the_moment_method(tmp_path, capsys):
+    """`maxima` and `risk --theory moment` at 5 m, where the order-6 closure has no stable fixed point: both say
+    "closure order 4: …" in the theory's line and record it in the JSON, with no raw Python warning (the suite
+    turns warnings into errors); maxima.json holds P*'s numbers per theory."""
+    code = main(["maxima", "--hs", "5", "--n0", "10", "--realizations", "4", "--chunk-size", "4", "--discard", "100",
+                 "--duration", "700", "--theory", "moment", "--out", str(tmp_path / "maxima"), "--quiet"])
+    assert code == 0
+    out = capsys.readouterr().out
+    assert "P* moment: mode" in out and "closure order 4: order 6 has no stable fixed point here" in out
+    d = json.loads((tmp_path / "maxima" / "maxima.json").read_text())
+    details = d["theory_details"]["moment"]
+    assert details["closure_fallback"] and details["closure_order"] == 4
+    p = d["per_n0"]["10"]["p_star"]["moment"]
+    assert 5 < p["mode_deg"] < 40 and 1 >= p["p_exceed"]["20"] >= p["p_exceed"]["30"] >= p["p_exceed"]["40"] >= 0
+    code = main(["risk", "--hs", "5", "--angle", "20", "--hours", "1", "--realizations", "4", "--duration", "900",
+                 "--theory", "moment", "--out", str(tmp_path / "risk"), "--quiet"])
+    assert code == 0
+    line = [x for x in capsys.readouterr().out.splitlines() if x.startswith("moment:")]
+    assert line and line[0].endswith("closure order 4: order 6 has no stable fixed point here"), line
+    d = json.loads((tmp_path / "risk" / "risk.json").read_text())
+    assert d["moment"]["theory_details"]["closure_fallback"] and 0 <= d["moment"]["probability"] <= 1
+
+
+@pytest.mark.slow
+def test_maxima_and_risk_report_the_moment_closure_fallback_in_their_lines(tmp_path, capsys):
+    """The real moment method (~35 s of compilation: slow-marked; the test below runs the same checks with the
+    Roberts law standing in for it)."""
+    _maxima_and_risk_with_the_moment_method(tmp_path, capsys)
+
+
+def test_maxima_and_risk_say_a_closure_fallback_instead_of_warning(tmp_path, capsys, monkeypatch):
+    """As above, with the real Roberts per-cycle law standing in for the moment method's (no moment program is
+    compiled), reporting the moment method's order-6 → 4 fallback in its details and warning like
+    `theory_law` unless asked not to: the commands must ask (`warn=False`) and say it in their lines."""
+    import warnings
+
+    from jaxroll import theory
+    from jaxroll.theory._averaged_law import AveragedAmplitudeLaw
+
+    real = theory.theory_law
+
+    def fake(name, ship, wave, *, shaping_filter=None, filter_order=4, estimator="envelope", warn=True):
+        assert name == "moment"
+        if warn:
+            warnings.warn("moment method: closure order 6 has no stable solution here (test)", UserWarning)
+        return real("roberts", ship, wave, estimator=estimator)
+
+    details = AveragedAmplitudeLaw.details
+    monkeypatch.setattr(theory, "theory_law", fake)
+    monkeypatch.setattr(AveragedAmplitudeLaw, "details", lambda self: {
+        **details(self), "closure_order": 4, "requested_closure_order": 6, "closure_fallback": True})
+    _maxima_and_risk_with_the_moment_method(tmp_path, capsys)
 
 
 def test_maxima_count_capsizes_as_the_largest_maxima(tmp_path, capsys):

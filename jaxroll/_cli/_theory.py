@@ -28,16 +28,17 @@ def _call(name: str, fn):
 def compute(problem, args, name: str, *, estimator: str = "envelope"):
     """One theory's amplitude law for the Monte Carlo's own problem (same effective wave, same filter fit):
     Roberts (nonlinear restoring), ESAM, the moment method (order-6 closure, order 4 where 6 has no stable
-    fixed point — the closure used is recorded in the law's `details()`), or the envelope Fokker–Planck method
-    (coloured-noise averaging; its grid and fitted envelope are recorded in `details()`). One compiled program
-    per theory, loaded from the cache on a warm run (`jaxroll.theory.theory_law`)."""
+    fixed point — the closure used is recorded in the law's `details()`, and said on the terminal by the caller
+    with `closure_note`, not as a Python warning), or the envelope Fokker–Planck method (coloured-noise
+    averaging; its grid and fitted envelope are recorded in `details()`). One compiled program per theory,
+    loaded from the cache on a warm run (`jaxroll.theory.theory_law`)."""
     from .. import theory
 
     if name not in theory.THEORIES:
         raise CLIError(f"unknown theory {name!r}")
     return _call(name, lambda: theory.theory_law(
         name, problem.ship, problem.wave, shaping_filter=problem.filter_fit, filter_order=args.filter_order,
-        estimator=estimator))  # fmt: skip
+        estimator=estimator, warn=False))  # fmt: skip
 
 
 def start_theory_summaries(problem, args, names, bins_deg, *, skip_failed: bool = False, warn: bool = True):

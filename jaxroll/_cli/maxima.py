@@ -45,6 +45,24 @@ def register(sub) -> None:
     p.set_defaults(func=run)
 
 
+P_EXCEED_DEG = (20.0, 30.0, 40.0)  # the angles [deg] of `p_exceed` (Monte Carlo maxima and every P*)
+
+
+def p_star_numbers(grid_deg, density_per_deg, sf_at_angles) -> dict:
+    """Summary of one P*(A_M) curve for maxima.json and the terminal: `mode_deg` (the grid point of the largest
+    density: ±0.05° on the 0.1° grid), `mean_deg` (trapezoid rule over the grid, None where less than 0.999 of the
+    mass lies on it), `mass_on_grid`, and `p_exceed` = P(max > x) at `P_EXCEED_DEG` (exact: `max_sf`)."""
+    import numpy as np
+
+    def integral(y):  # trapezoid rule on the grid
+        return float(np.sum(np.diff(grid_deg) * (y[1:] + y[:-1]) / 2))
+
+    mass = integral(density_per_deg)
+    mean = integral(grid_deg * density_per_deg) / mass if mass >= 0.999 else None
+    return {"mode_deg": float(grid_deg[int(np.argmax(density_per_deg))]), "mean_deg": mean, "mass_on_grid": mass,
+            "p_exceed": {f"{x:g}": float(p) for x, p in zip(P_EXCEED_DEG, sf_at_angles, strict=True)}}
+
+
 def parse_n0(text: str) -> list[int]:
     try:
         values = sorted({int(v) for v in text.split(",") if v.strip()})
@@ -59,7 +77,7 @@ def run(args) -> int:
     import jax
     import numpy as np
 
-    from .. import max_pdf, max_pdf_asymptotic, monte_carlo_amplitudes, monte_carlo_maxima
+    from .. import max_pdf, max_pdf_asymptotic, max_sf, monte_carlo_amplitudes, monte_carlo_maxima
     from ..plotting import maxima_comparison_figure, maxima_figures
     from .pdf import check_out, parse_theories
 
@@ -93,7 +111,7 @@ def run(args) -> int:
     mc_dist = amp.law("zero_crossing", pool=20)  # 1° bins: P* amplifies histogram noise
     laws = {}
     if theories:
-        from ._theory import theory_laws
+        from ._theory import closure_note, theory_laws
 
         laws = theory_laws(problem, args, theories)  # per-half-cycle laws: what P* needs
     for n0s, n_trials in groups:
@@ -111,15 +129,15 @@ def run(args) -> int:
         amplitude_summaries.append({"n0": n0s, "n_trials": n_trials})
         for j, n0 in enumerate(stats.n0):
             a = np.deg2rad(grid_deg)
-            curves = {"mcs_amplitudes": {
-                "exact": np.asarray(max_pdf(mc_dist, a, n0)) * np.pi / 180,
-                "asymptotic": np.asarray(max_pdf_asymptotic(mc_dist, a, n0)) * np.pi / 180}}
-            for name, dist in laws.items():
-                curves[name] = {"exact": np.asarray(max_pdf(dist, a, n0)) * np.pi / 180,
+            curves, p_star = {}, {}
+            for name, dist in {"mcs_amplitudes": mc_dist, **laws}.items():
+                exact = np.asarray(max_pdf(dist, a, n0)) * np.pi / 180
+                curves[name] = {"exact": exact,
                                 "asymptotic": np.asarray(max_pdf_asymptotic(dist, a, n0)) * np.pi / 180}
+                p_star[name] = p_star_numbers(grid_deg, exact, np.asarray(max_sf(dist, np.deg2rad(P_EXCEED_DEG), n0)))
             summary = stats.summary(j, bins)
-            summary["p_exceed"] = {f"{x:g}": stats.exceedance_probability(j, x) for x in (20.0, 30.0, 40.0)}
-            per_n0[str(n0)] = {**summary, "curves": curves}
+            summary["p_exceed"] = {f"{x:g}": stats.exceedance_probability(j, x) for x in P_EXCEED_DEG}
+            per_n0[str(n0)] = {**summary, "curves": curves, "p_star": p_star}
             if stats.n_incomplete(j):
                 print(f"warning: {stats.n_incomplete(j)} trials did not reach N0 = {n0} amplitudes; "
                       "increase --duration")
@@ -139,6 +157,7 @@ def run(args) -> int:
         "runs": amplitude_summaries,
         "amplitude_pdf_source": "zero-crossing amplitudes of a separate run of the same sea "
         f"({min(args.realizations, 2000)} × 3600 s, discard {min(args.discard, 3000.0)} s)",
+        "theory_details": {name: law.details() for name, law in laws.items()},
         "theory_amplitude_laws": {
             name: f"{law.estimator} ({law.sampling}): the theory's time-sampled envelope law weighted by the rate of "
             + ("half cycles (ω + dψ/dt)/π of the averaged (amplitude, phase, wave-envelope) system"
@@ -166,5 +185,11 @@ def run(args) -> int:
         q99 = f"{v['quantiles_deg']['99']:.2f}°" if v["quantiles_deg"]["99"] is not None else "capsize"
         print(f"N0 = {k:>6}: mean max {mean}, 99 % {q99} ({v['n_known']} trials, {v['n_capsized']} capsized "
               f"before N0: P = {v['capsize_probability']:.3g}, counted as maxima beyond the vanishing angle)")
+        for name, p in v["p_star"].items():
+            label = "P* from the MC amplitudes" if name == "mcs_amplitudes" else f"P* {name}"
+            note = closure_note(laws[name].details()) if name in laws else ""
+            mean = "beyond the grid" if p["mean_deg"] is None else f"{p['mean_deg']:.2f}°"
+            print(f"  {label}: mode {p['mode_deg']:.2f}°, mean {mean}, P(max > 30°) = "
+                  f"{p['p_exceed']['30']:.3g} (Monte Carlo maxima: {v['p_exceed']['30']:.3g}){note}")
     print(f"done in {elapsed:.1f} s{' (resumed from the checkpoint; this run only)' if resumed else ''}; wrote {out}/maxima_linear.png, maxima_log.png, maxima_N0_*.png, maxima.json")
     return 0

@@ -152,10 +152,11 @@ def run(args) -> int:
     curves = {"monte_carlo": np.asarray(exceedance_probability(stats.law("zero_crossing"), curve_rad, rate=rate,
                                                                duration=exposure))}
     if theories:
-        from ._theory import theory_laws
+        from ._theory import closure_note, theory_laws
 
         for name, tdist in theory_laws(problem, args, theories).items():
             result[name] = _risk_dict(exposure_risk(tdist, jnp.deg2rad(angle_used), rate=rate, duration=exposure))
+            result[name]["theory_details"] = tdist.details()
             curves[name] = np.asarray(exceedance_probability(tdist, curve_rad, rate=rate, duration=exposure))
     direct_curve = np.array([direct_stats.exceedance_probability(x) for x in curve_deg])
     result["curve"] = {"angle_deg": curve_deg, "direct": direct_curve, **curves}
@@ -186,6 +187,7 @@ def run(args) -> int:
           f"{m['expected_largest_deg']:.1f}° (assumes independent amplitudes)")
     for name in theories:
         t = result[name]
-        print(f"{name}: P = {t['probability']:.4f}, most probable largest {t['most_probable_largest_deg']:.1f}°")
+        print(f"{name}: P = {t['probability']:.4f}, most probable largest {t['most_probable_largest_deg']:.1f}°"
+              f"{closure_note(t['theory_details'])}")
     print(f"wrote {out}/risk.json, risk.png")
     return 0

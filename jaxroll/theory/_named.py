@@ -192,25 +192,27 @@ def theory_law(
     shaping_filter: ShapingFilter | FilterFit | None = None,
     filter_order: int = 4,
     estimator: str = "envelope",
+    warn: bool = True,
 ) -> AbstractAmplitudeLaw:
     """The amplitude law [rad] of theory `name` (one of `THEORIES`) for `ship` in `wave`, in one compiled program.
 
     **Arguments:** `ship`; `wave`: Grim's effective wave (`problem.wave`); `shaping_filter` (moment method only):
     the Monte Carlo's filter (`problem.filter_fit`), else `wave` is fitted with `filter_order` at 2ω0;
-    `estimator`: `"envelope"` (time-sampled) or `"zero_crossing"` (per half cycle, for maxima and risk).
+    `estimator`: `"envelope"` (time-sampled) or `"zero_crossing"` (per half cycle, for maxima and risk);
+    `warn=False`: no `UserWarning` for the moment method's closure fallback (`law.details()` records it).
 
     **Returns:** the law of the named public function (module docstring), with the same numbers.
 
     **Raises:** that function's error when no law exists (`ValueError`, or `EquinoxRuntimeError` for the moment
-    method); a `UserWarning` when the moment method falls back to closure order 4. Under `jax.jit`, `grad` or
-    `vmap` the public function itself is called (it is the same computation).
+    method); a `UserWarning` when the moment method falls back to closure order 4 (unless `warn=False`). Under
+    `jax.jit`, `grad` or `vmap` the public function itself is called (it is the same computation).
     """
     _check_name(name)
     check_estimator(estimator)
     shaping_filter = _filter(shaping_filter)
     if not is_concrete((ship, wave, shaping_filter)):
         return _traced(name, ship, wave, shaping_filter, filter_order, estimator)
-    return _start(name, ship, wave, shaping_filter, filter_order, estimator, None, ())()[0]
+    return _start(name, ship, wave, shaping_filter, filter_order, estimator, None, (), warn=warn)()[0]
 
 
 def _traced(name, ship, wave, shaping_filter, filter_order, estimator):
