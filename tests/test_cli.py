@@ -342,6 +342,30 @@ def test_pdf_all_capsized_reports_null_not_invented_numbers(tmp_path, monkeypatc
     assert (out / "pdf_linear.png").stat().st_size > 0
 
 
+def test_pdf_warns_when_the_roll_is_not_stationary(tmp_path, monkeypatch, capsys):
+    """A Monte Carlo whose mean envelope falls by half between the halves of the run (as below the threshold,
+    tests/test_dynamics.py): `jaxroll pdf` says so on the terminal, in pdf.json and on the figures."""
+    stats = _fake_stats(n_realizations=20, env=[1.0, 2.0])
+    rng = np.random.default_rng(1)
+    m1, m2 = np.deg2rad(1.0 + 0.05 * rng.standard_normal(20)), np.deg2rad(0.5 + 0.05 * rng.standard_normal(20))
+    stats.per_realization.update(n_env=np.full(20, 200.0), sum_env=100 * (m1 + m2),
+                                 n_env_first_half=np.full(20, 100.0), sum_env_first_half=100 * m1)
+    stats.config = {"discard_s": 0.0, "duration_s": 600.0}
+    _patch_monte_carlo(monkeypatch, stats)
+    texts = []
+    import matplotlib.axes
+
+    real = matplotlib.axes.Axes.text
+    monkeypatch.setattr(matplotlib.axes.Axes, "text", lambda self, x, y, s, *a, **k: texts.append(s) or real(self, x, y, s, *a, **k))
+    out = tmp_path / "run"
+    assert main(["pdf", "--realizations", "20", "--duration", "600", "--out", str(out), "--quiet", "--theory", "none"]) == 0
+    st = json.loads((out / "pdf.json").read_text())["stationarity"]
+    assert st["stationary"] is False and st["mean_envelope_first_half_deg"] == pytest.approx(1.0, abs=0.05)
+    assert st["relative_change"] == pytest.approx(-0.5 / 0.75, abs=0.05)
+    assert "warning: the roll is not stationary over the run" in capsys.readouterr().out
+    assert sum("Monte Carlo not stationary" in t for t in texts) == 2  # the linear and the log figure
+
+
 def test_pdf_states_capsizes_and_mass_beyond_grid(tmp_path, monkeypatch, capsys):
     zc = [5.0, 10.0, 20.0, 80.0]  # one amplitude beyond the last figure bin (72°)
     env = [4.0, 9.0, 19.0, 30.0, 85.0, 95.0]  # two beyond it, one beyond the fine grid's 90°

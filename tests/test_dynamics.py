@@ -212,3 +212,54 @@ def test_problem_errors():
     with pytest.raises(ValueError, match="must equal `excitation.dt`"):
         jaxroll.RollProblem(ship, jaxroll.SampledExcitation(jnp.zeros(10), jnp.zeros(10), 0.5),
                             moment_excitation=jaxroll.SampledExcitation(jnp.zeros(10), jnp.zeros(10), 0.25))
+
+
+def test_a_roll_that_dies_out_is_reported_as_not_stationary(getkey):
+    """At H1/3 = 3 m the default ship's roll dies out, slowly (every theory says so): a run from φ0 = 5° has a
+    mean envelope amplitude well above zero that depends on φ0 and the duration. `stationarity()` compares the two
+    halves of the kept window (exact per-realization sums, checked here against scipy's Hilbert envelope of
+    `roll_time_series`) and says so; at 7 m the roll is stationary."""
+    from scipy.signal import hilbert
+
+    ship = jaxroll.c11_representative()
+    key = getkey()
+    out = {}
+    for hs in (3.0, 7.0):
+        problem = jaxroll.RollProblem.from_sea(ship, jaxroll.ITTC(hs, 10.0), dt=0.5)
+        stats = jaxroll.monte_carlo_amplitudes(problem, key, num_realizations=32, duration=3600.0, discard=500.0,
+                                              chunk_size=32)
+        out[hs] = stats.stationarity()
+    s = out[3.0]
+    assert s["stationary"] is False and s["relative_change"] < -0.5 and s["change_in_standard_errors"] < -3
+    assert "dying out" in s["note"] and "500–2050 s" in s["note"]
+    assert out[7.0]["stationary"] is True and abs(out[7.0]["relative_change"]) < 0.1
+    # The halves' sums: realization 0 of the 7 m run, float64 series and scipy's envelope (float32 Monte Carlo).
+    phi, _, _ = jaxroll.roll_time_series(problem, jr.fold_in(key, 0), 3600.0)
+    env = np.abs(hilbert(np.asarray(phi)[1001:]))
+    pr = stats.per_realization
+    assert pr["n_env_first_half"][0] == env.size // 2 and pr["n_env"][0] == env.size
+    np.testing.assert_allclose(pr["sum_env_first_half"][0], env[: env.size // 2].sum(), rtol=2e-5)
+    np.testing.assert_allclose(pr["sum_env"][0], env.sum(), rtol=2e-5)
+
+
+def test_stationarity_needs_a_change_both_large_and_significant():
+    """The decision of `stationarity()` on per-realization sums made up with a known drift and spread: a 30 %
+    fall well beyond its standard error is flagged; a 5 % one is not (below the tolerance); a 30 % one within
+    its noise is not (not significant); two realizations or no amplitude cannot tell."""
+    rng = np.random.default_rng(0)
+
+    def stats(n, first, second, spread):
+        m1 = first + spread * rng.standard_normal(n)
+        m2 = second + spread * rng.standard_normal(n)
+        half = np.full(n, 1000.0)
+        per = {"n_env": 2 * half, "sum_env": half * (m1 + m2), "n_env_first_half": half, "sum_env_first_half": half * m1}
+        return jaxroll.AmplitudeStatistics(np.arange(3.0), np.zeros(2), np.zeros(2), np.zeros(n, bool), np.zeros(n),
+                                           per, {"discard_s": 0.0, "duration_s": 3600.0}).stationarity()
+
+    s = stats(200, 0.10, 0.07, 0.01)
+    assert s["stationary"] is False and s["relative_change"] == pytest.approx(-0.03 / 0.085, abs=0.02)
+    assert "0–1800 s" in s["note"] and "1800–3600 s" in s["note"]
+    assert stats(200, 0.10, 0.095, 0.001)["stationary"] is True  # 5 %: significant, but below the tolerance
+    assert stats(4, 0.10, 0.07, 0.2)["stationary"] is True  # 30 %, but within a few standard errors
+    assert stats(1, 0.10, 0.07, 0.01)["stationary"] is None and stats(1, 0.1, 0.07, 0.01)["note"] is None
+    assert stats(50, 0.0, 0.0, 0.0)["stationary"] is None

@@ -249,6 +249,8 @@ def run(args) -> int:
               + (f", {beyond:.2g} of the amplitudes beyond {bins[-1]:g}°" if beyond else ""))
     if summary["reason"]:
         print(f"no statistics: {summary['reason']}")
+    if summary["stationarity"]["note"]:
+        print(f"warning: {summary['stationarity']['note']}")
     if summary.get("theory"):
         from ._theory import closure_note
 

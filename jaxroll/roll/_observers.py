@@ -133,6 +133,9 @@ class AmplitudeHistogram(AbstractObserver):
             "sumsq_zc": kf * states.s2.astype(jnp.float64),
             "n_env": kf * phi.shape[1],
             "sum_env": kf * jnp.sum(env, 1),
+            # the first half of the kept window alone: the second half's by difference (`stationarity`)
+            "n_env_first_half": kf * (phi.shape[1] // 2),
+            "sum_env_first_half": kf * jnp.sum(env[:, : phi.shape[1] // 2], 1),
             "sumsq_env": kf * jnp.sum(env * env, 1),
             "n_samples": kf * phi.shape[1],
             "sum_phi2": kf * jnp.sum(phi2, 1),
