@@ -110,6 +110,8 @@ def test_maxima_command(tmp_path):
     assert code == 0
     d = json.loads((tmp_path / "maxima.json").read_text())
     assert set(d["per_n0"]) == {"10", "30"}
+    st = d["amplitude_pdf_stationarity"]  # the amplitude run behind P* (7 m: stationary, or too few trials to tell)
+    assert st["stationary"] is not False and set(st) >= {"relative_change", "change_in_standard_errors", "note"}
     for k, v in d["per_n0"].items():
         assert v["n_valid"] + v["n_capsized_before"] + v["n_incomplete"] == 6
         assert 0 < v["quantiles_deg"]["50"] <= v["quantiles_deg"]["99"]
@@ -217,6 +219,7 @@ def test_risk_command(tmp_path, capsys):
     m = d["monte_carlo"]
     assert 0 <= m["probability_ci95"][0] <= m["probability"] <= m["probability_ci95"][1] <= 1
     assert m["n_amplitudes"] > 0 and m["rate_per_s"] > 0
+    assert m["stationarity"]["stationary"] is not False and m["stationarity"]["note"] is None
     direct = d["direct"]
     assert direct["n_realizations"] == 8
     assert 0 <= direct["probability_ci95"][0] <= direct["probability"] <= direct["probability_ci95"][1] <= 1

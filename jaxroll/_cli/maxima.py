@@ -109,6 +109,9 @@ def run(args) -> int:
     amp = monte_carlo_amplitudes(problem, jax.random.key(args.seed), num_realizations=min(args.realizations, 2000),
                                  duration=3600.0, discard=min(args.discard, 3000.0), chunk_size=args.chunk_size, memory_budget=budget)
     mc_dist = amp.law("zero_crossing", pool=20)  # 1° bins: P* amplifies histogram noise
+    stationarity = amp.stationarity()
+    if stationarity["note"]:
+        print(f"warning: the amplitude run behind P* from the MC amplitudes: {stationarity['note']}")
     laws = {}
     if theories:
         from ._theory import closure_note, theory_laws
@@ -157,6 +160,7 @@ def run(args) -> int:
         "runs": amplitude_summaries,
         "amplitude_pdf_source": "zero-crossing amplitudes of a separate run of the same sea "
         f"({min(args.realizations, 2000)} × 3600 s, discard {min(args.discard, 3000.0)} s)",
+        "amplitude_pdf_stationarity": stationarity,
         "theory_details": {name: law.details() for name, law in laws.items()},
         "theory_amplitude_laws": {
             name: f"{law.estimator} ({law.sampling}): the theory's time-sampled envelope law weighted by the rate of "

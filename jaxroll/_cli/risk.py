@@ -106,6 +106,7 @@ def run(args) -> int:
                                    duration=args.duration, discard=args.discard, chunk_size=args.chunk_size, memory_budget=budget,
                                    progress=progress)
     counts = stats.counts_zero_crossing
+    stationarity = stats.stationarity()
     edges = stats.edges_deg
     n_amp = int(counts.sum())
     if n_amp == 0:
@@ -143,6 +144,7 @@ def run(args) -> int:
               "monte_carlo": {"angle_deg": angle_used, "rate_per_s": rate, "n_amplitudes": n_amp,
                               "n_exceed": n_exceed, **_risk_dict(mc),
                               "n_capsized": stats.n_capsized, "n_realizations": stats.n_realizations,
+                              "stationarity": stationarity,
                               "method": "per-cycle amplitude distribution, amplitudes assumed independent; "
                                         "the amplitudes of the trials that did not capsize (conditional on "
                                         "survival: see direct.capsize_probability)"}}
@@ -185,6 +187,8 @@ def run(args) -> int:
           f"P = {m['probability']:.4f} (95 % CI {m['probability_ci95'][0]:.4f}–{m['probability_ci95'][1]:.4f}); "
           f"characteristic largest {m['characteristic_largest_deg']:.1f}°, expected largest "
           f"{m['expected_largest_deg']:.1f}° (assumes independent amplitudes)")
+    if stationarity["note"]:
+        print(f"warning: the amplitudes behind the independent-amplitude estimate: {stationarity['note']}")
     for name in theories:
         t = result[name]
         print(f"{name}: P = {t['probability']:.4f}, most probable largest {t['most_probable_largest_deg']:.1f}°"
