@@ -257,9 +257,12 @@ def test_stationarity_needs_a_change_both_large_and_significant():
                                            per, {"discard_s": 0.0, "duration_s": 3600.0}).stationarity()
 
     s = stats(200, 0.10, 0.07, 0.01)
-    assert s["stationary"] is False and s["relative_change"] == pytest.approx(-0.03 / 0.085, abs=0.02)
+    assert s["stationary"] is False and s["relative_change"] == pytest.approx(-0.3, abs=0.02)
     assert "0–1800 s" in s["note"] and "1800–3600 s" in s["note"]
     assert stats(200, 0.10, 0.095, 0.001)["stationary"] is True  # 5 %: significant, but below the tolerance
     assert stats(4, 0.10, 0.07, 0.2)["stationary"] is True  # 30 %, but within a few standard errors
     assert stats(1, 0.10, 0.07, 0.01)["stationary"] is None and stats(1, 0.1, 0.07, 0.01)["note"] is None
     assert stats(50, 0.0, 0.0, 0.0)["stationary"] is None
+    alike = stats(50, 0.10, 0.02, 0.0)  # identical trials (an unexcited decay from the same φ0): an exact change
+    assert alike["stationary"] is False and alike["change_in_standard_errors"] is None
+    assert "every trial alike" in alike["note"]

@@ -234,12 +234,12 @@ def test_bad_heading_refused_by_the_api(bad):
     [
         (
             ["pdf", "--heading", "200"],
-            "--heading must be head, following or an angle in degrees in \\[0, 180\\]",
+            "--heading must be head, following, beam or an angle in degrees in \\[0, 180\\]",
         ),
-        (["theory", "--heading", "-10"], "--heading must be head, following or an angle in degrees"),
-        (["risk", "--heading", "beam"], "--heading must be head, following or an angle in degrees"),
-        (["sweep", "--heading", "0,190"], "--heading must be head, following or head,following, or angles"),
-        (["sweep", "--heading", "head,x"], "--heading must be head, following or head,following, or angles"),
+        (["theory", "--heading", "-10"], "--heading must be head, following, beam or an angle in degrees"),
+        (["risk", "--heading", "bow"], "--heading must be head, following, beam or an angle in degrees"),
+        (["sweep", "--heading", "0,190"], "--heading must be head, following, beam or a list such as head,following, or angles"),
+        (["sweep", "--heading", "head,x"], "--heading must be head, following, beam or a list such as head,following, or angles"),
     ],
 )
 def test_bad_heading_refused_by_the_cli(argv, message, tmp_path, capsys):
@@ -309,3 +309,13 @@ def test_polar_risk_chart_draws_cells_over_heading_and_speed():
     np.testing.assert_array_equal(values, p[[1, 2, 0]].T)
     assert ax.get_ylim() == (0.0, 5.0)  # speed 4 m/s: the outer cell ends half a step beyond
     plt.close(fig)
+
+
+def test_heading_words_on_the_command_line():
+    """`--heading` takes head (180°), beam (90°) and following (0°) as words, any case, beside angles."""
+    from jaxroll._cli._sea import heading_label, heading_phrase, normalise_heading, parse_heading
+    from jaxroll._cli.sweep import parse_headings
+
+    assert [parse_heading(w) for w in ("head", "Beam", "following", "135", "90deg")] == [180.0, 90.0, 0.0, 135.0, 90.0]
+    assert normalise_heading("beam") == heading_label(90.0) == "90deg" and heading_phrase(90.0) == "beam seas (χ = 90°)"
+    assert parse_headings("head,beam,following") == [180.0, 90.0, 0.0]

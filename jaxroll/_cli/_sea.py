@@ -24,7 +24,7 @@ def add_sea_options(p: argparse.ArgumentParser) -> None:
         default="head",
         metavar="DEG",
         help="heading χ [deg] of the long-crested waves relative to the course: 0 following, 90 beam, 180 head; "
-        "or head / following (default head)",
+        "or head / beam / following (default head)",
     )
     g.add_argument(
         "--ship",
@@ -45,11 +45,14 @@ def add_sea_options(p: argparse.ArgumentParser) -> None:
     n.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
 
 
+_NAMED_HEADINGS = {"head": 180.0, "beam": 90.0, "following": 0.0}  # χ [deg]
+
+
 def heading_number(text: str) -> float | None:
-    """Degrees from 'head', 'following', '135', '135deg' or '135°'; None when it is none of those."""
+    """Degrees from 'head', 'beam', 'following', '135', '135deg' or '135°'; None when it is none of those."""
     t = str(text).strip().lower()
-    if t in ("head", "following"):
-        return 180.0 if t == "head" else 0.0
+    if t in _NAMED_HEADINGS:
+        return _NAMED_HEADINGS[t]
     for suffix in ("deg", "°"):
         t = t.removesuffix(suffix)
     try:
@@ -60,11 +63,13 @@ def heading_number(text: str) -> float | None:
 
 
 def parse_heading(text: str) -> float:
-    """Heading χ [deg] in [0, 180] from the command line ('head' = 180, 'following' = 0). Raises CLIError."""
+    """Heading χ [deg] in [0, 180] from the command line ('head' = 180, 'beam' = 90, 'following' = 0). Raises
+    CLIError."""
     value = heading_number(text)
     if value is None:
         raise CLIError(
-            f"--heading must be head, following or an angle in degrees in [0, 180] (0 following, 90 beam, 180 head); "
+            f"--heading must be head, following, beam or an angle in degrees in [0, 180] (0 following, 90 beam, "
+            "180 head); "
             f"got {text!r}."
         )
     return value

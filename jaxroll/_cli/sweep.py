@@ -98,7 +98,8 @@ def parse_headings(text: str) -> list[float]:
     values = [heading_number(h) for h in text.split(",") if h.strip()]
     if not values or None in values:
         raise CLIError(
-            "--heading must be head, following or head,following, or angles in degrees in [0, 180] "
+            "--heading must be head, following, beam or a list such as head,following, or angles in degrees in "
+            "[0, 180] "
             f"(0 following, 90 beam, 180 head); got {text!r}."
         )
     return sorted(set(values), key=values.index)
