@@ -425,6 +425,13 @@ def test_sweep_cli_writes_map_and_json(tmp_path, capsys):
         problem, jax.random.key(1), angle_deg=15.0, num_realizations=5, duration=300.0, chunk_size=4
     )
     assert counts[0, 0, 1, 0] == stats.n_exceeded
+    # The closing line names the worst point, or says there was no capsize / exceedance anywhere (with the bound).
+    printed = capsys.readouterr().out
+    if np.sum(d["n_capsized"]) == 0:
+        bound = d["points"][0]["capsize_ci"][1]
+        assert f"no capsize at any of the 4 points (P(capsize) < {bound:.3g} at each, 95 %)" in printed
+    if counts.max():
+        assert f"largest P(max |φ| > 15°) {counts.max() / 5:.3f}" in printed
 
 
 @pytest.mark.parametrize(
@@ -433,7 +440,7 @@ def test_sweep_cli_writes_map_and_json(tmp_path, capsys):
         (["--hs", "5,x"], "--hs must be a comma-separated list of numbers"),
         (["--t01", "0"], "--t01 values must be finite and > 0"),
         (["--speed", "-1"], "--speed values must be finite and >= 0"),
-        (["--heading", "beam"], "--heading must be head, following or head,following"),
+        (["--heading", "bow"], "--heading must be head, following, beam or a list such as head,following"),
         (["--angle", "80"], "--angle must be below the angle of vanishing stability"),
         (["--devices", "999"], "--devices must be between 1 and "),
         (["--discard", "400"], r"--discard must be in \[0, --duration\)"),
