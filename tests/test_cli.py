@@ -138,8 +138,9 @@ def _maxima_and_risk_with_the_moment_method(tmp_path, capsys):
     """`maxima` and `risk --theory moment` at 5 m, where the order-6 closure has no stable fixed point: both say
     "closure order 4: …" in the theory's line and record it in the JSON, with no raw Python warning (the suite
     turns warnings into errors); maxima.json holds P*'s numbers per theory."""
-    code = main(["maxima", "--hs", "5", "--n0", "10", "--realizations", "4", "--chunk-size", "4", "--discard", "100",
-                 "--duration", "700", "--theory", "moment", "--out", str(tmp_path / "maxima"), "--quiet"])
+    # (the sizes of test_maxima_command and test_risk_command: their compiled Monte Carlo programs serve here too)
+    code = main(["maxima", "--hs", "5", "--n0", "10,30", "--realizations", "6", "--chunk-size", "6",
+                 "--theory", "moment", "--out", str(tmp_path / "maxima"), "--quiet"])
     assert code == 0
     out = capsys.readouterr().out
     assert "P* moment: mode" in out and "closure order 4: order 6 has no stable fixed point here" in out
@@ -148,7 +149,7 @@ def _maxima_and_risk_with_the_moment_method(tmp_path, capsys):
     assert details["closure_fallback"] and details["closure_order"] == 4
     p = d["per_n0"]["10"]["p_star"]["moment"]
     assert 5 < p["mode_deg"] < 40 and 1 >= p["p_exceed"]["20"] >= p["p_exceed"]["30"] >= p["p_exceed"]["40"] >= 0
-    code = main(["risk", "--hs", "5", "--angle", "20", "--hours", "1", "--realizations", "4", "--duration", "900",
+    code = main(["risk", "--hs", "5", "--angle", "20", "--hours", "3", "--realizations", "8", "--duration", "1200",
                  "--theory", "moment", "--out", str(tmp_path / "risk"), "--quiet"])
     assert code == 0
     line = [x for x in capsys.readouterr().out.splitlines() if x.startswith("moment:")]
