@@ -590,3 +590,15 @@ def test_sensitivity_command(tmp_path, capsys):
     assert g["b1"]["theory"]["envelope_fpk"] < 0 and g["gm_correction"]["theory"]["envelope_fpk"] > 0
     assert d["estimator"]["n_realizations"] == 16
     assert (tmp_path / "sensitivity.png").stat().st_size > 0
+
+
+def test_a_filter_that_cannot_follow_the_sea_says_to_use_superposition(tmp_path, capsys):
+    """Following seas at 8 m/s: encounter compresses the effective-wave spectrum and no order-4 filter matches it
+    at 2ω0 (319 % off): the error says so and names the remedy; Method 1 runs the same sea."""
+    argv = ["pdf", "--speed", "8", "--heading", "following", "--realizations", "4", "--duration", "600",
+            "--chunk-size", "4", "--theory", "none", "--quiet"]
+    assert main([*argv, "--out", str(tmp_path / "filter")]) == 2
+    err = capsys.readouterr().err
+    assert "shaping-filter fit is not usable: filter spectrum at 0.515 rad/s (2ω0)" in err and "--method superposition" in err
+    assert not (tmp_path / "filter").exists()
+    assert main([*argv, "--method", "superposition", "--out", str(tmp_path / "superposition")]) == 0

@@ -144,7 +144,7 @@ def test_filter_order_bounded_and_fit_gated():
     assert check_filter_fit(fit, 0.5) == []  # a good fit passes every gate silently
     # A filter whose gain is wrong (variance by quadrature 4× the target) is refused, not simulated.
     bad = eqx.tree_at(lambda f: f.filter.c, fit, fit.filter.c * 2.0)
-    with pytest.raises(ValueError, match="not usable.*variance"):
+    with pytest.raises(ValueError, match="not usable.*variance.*Use the superposition excitation"):
         check_filter_fit(bad, 0.5)
     # An unstable filter (Σ not positive definite / Φ not contracting) is refused.
     unstable = eqx.tree_at(lambda f: f.filter.a, fit, fit.filter.a.at[-1, -1].set(1.0))

@@ -114,7 +114,13 @@ def check_filter_fit(fit: "FilterFit", dt=None) -> list[str]:
         if wq.min() < -1e-6 * max(wq.max(), 1e-300):
             errors.append(f"Σ − ΦΣΦᵀ is indefinite (eigenvalues {wq.min():.3g} … {wq.max():.3g})")
     if errors:
-        raise ValueError(f"the order-{f.order} shaping-filter fit is not usable: " + "; ".join(errors) + ".")
+        raise ValueError(
+            f"the order-{f.order} shaping-filter fit is not usable: " + "; ".join(errors) + ". A rational filter "
+            "cannot follow every effective-wave spectrum (e.g. following seas at speed, where encounter compresses "
+            "it). Use the superposition excitation, which synthesises any spectrum (RollProblem.from_sea(..., "
+            "excitation='superposition'); on the command line --method superposition), or another filter order "
+            "(filter_order, --filter-order)."
+        )
     for w in warns:
         warnings.warn(f"order-{f.order} shaping filter: {w}", stacklevel=2)
     return warns
