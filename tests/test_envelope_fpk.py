@@ -108,6 +108,25 @@ def test_roll_dies_out_below_threshold():
     assert float(law.cdf(0.01 * DEG)) > 0.9
 
 
+def test_a_sea_the_envelope_model_does_not_fit_is_said_not_called_dying_out():
+    """Following seas at 8 m/s: encounter puts the effective wave's energy far below the carrier 2ω, and the
+    complex-OU envelope fitted to it has a negative decay rate (γ ≈ −0.009 1/s), so λ is undefined (NaN). The
+    error says that — not "λ = nan <= 0, the roll dies out" — and so does the moment method's gate, which uses the
+    same exponent; Roberts' K (the criterion the message points to) is far below b1/2 here."""
+    wave = jaxroll.EffectiveWave(jaxroll.ITTC(7.0, 10.0), SHIP.lpp, 8.0, "following")
+    lam, exc = theory.envelope_lyapunov_exponent(SHIP, wave)
+    assert float(exc.gamma) < 0 and np.isnan(float(lam))
+    with pytest.raises(ValueError, match=r"envelope FPK: no law: .*\(fitted decay rate γ = -0.00\d+ 1/s, not > 0"):
+        theory.envelope_fpk_pdf(SHIP, wave, **GRID)
+    assert not theory.envelope_fpk_pdf(SHIP, wave, throw=False, **GRID).details()["exists"]
+    from jaxroll.theory._moments import roll_not_sustained_error
+
+    assert "cannot be told here" in str(roll_not_sustained_error(lam))
+    assert "the roll dies out" in str(roll_not_sustained_error(-1e-3))
+    k = theory.roberts_pdf(SHIP, wave, throw=False).parameters["K"]
+    assert float(k) < 0.01 * float(SHIP.damping[0]) / 2
+
+
 def test_zero_crossing_law_is_rate_weighted_envelope_law(laws_7m):
     """Per half cycle = envelope law × half-cycle rate (ω + ψ̇)/π. Up to 30° the rate's amplitude dependence is
     the harmonic-balance detuning (Ω(a)² − ω²)/(2ω), the excitation's share averaging out to within 2 %

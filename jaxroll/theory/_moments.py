@@ -551,6 +551,15 @@ def moment_pdf_first_stable(
 def roll_not_sustained_error(lyapunov_exponent, law=None) -> ValueError:
     """The moment method's error where the linearised roll is stable under the coloured excitation (λ ≤ 0): the
     roll dies out, and a non-trivial fixed point of the closed moment equations is the closure's, not the roll's."""
+    if not math.isfinite(float(lyapunov_exponent)):  # the envelope model behind λ does not fit this sea
+        return ValueError(
+            "moment method: no law: whether the roll is sustained cannot be told here: the Lyapunov exponent of "
+            "the linearised roll under the coloured excitation is undefined (`envelope_lyapunov_exponent`: the "
+            "wave's envelope about 2ω0 does not fit its Ornstein–Uhlenbeck model, e.g. following seas at speed), "
+            "and where the roll dies out the closed moment equations keep non-trivial fixed points that are "
+            "artefacts (docs/theory.md, 'Below the threshold'). Roberts' criterion (K against b1/2, `roberts_pdf`) "
+            "tells whether the roll is sustained."
+        )
     found = (f" (the closure's non-trivial fixed point here, mean {math.degrees(float(law.mean())):.2f}°, is an "
              "artefact of the closure: the Monte Carlo decays)" if law is not None else "")
     return ValueError(
