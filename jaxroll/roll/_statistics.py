@@ -62,7 +62,7 @@ class CapsizeCounts:
 _KEYS = {"zero_crossing": "zc", "envelope": "env"}
 
 #: The roll is not stationary over a run when its mean envelope amplitude changes between the two halves of the
-#: kept window by more than this fraction of the mean and by more than `STATIONARITY_SE` standard errors
+#: kept window by more than this fraction of the first half's and by more than `STATIONARITY_SE` standard errors
 #: (`AmplitudeStatistics.stationarity`). Measured on the default ship (2000 trials, 3600 s from φ0 = 5°, the
 #: halves of 500–3600 s): −60 % at H1/3 = 3 m (the roll dies out, slowly), −19 % at 4 m, −4 % at 5 m, −1 % at 6 m,
 #: −0.6 % at 7 m; with no discard (10⁴ trials) −8 % at 5 m, 0.0 % at 6 m, +2.7 % at 7 m.

@@ -570,26 +570,21 @@ def envelope_fpk_pdf(
 def dies_out_error(lyapunov_exponent, excitation: EnvelopeExcitation) -> ValueError:
     """The error `envelope_fpk_pdf` raises (concrete inputs, `throw=True`) when λ ≤ 0: the roll dies out — or,
     where the envelope model does not fit the sea (fitted decay rate γ ≤ 0, λ undefined), that it cannot tell."""
-    if not (float(excitation.gamma) > 0 and math.isfinite(float(lyapunov_exponent))):
-        return ValueError(envelope_misfit_message("envelope FPK: no law", excitation))
+    gamma = float(excitation.gamma)
+    if not (gamma > 0 and math.isfinite(float(lyapunov_exponent))):
+        return ValueError(
+            f"envelope FPK: no law: the wave's envelope about the carrier 2ω = {2 * float(excitation.omega):.3g} "
+            f"rad/s does not fit the method's Ornstein–Uhlenbeck model here (fitted decay rate γ = {gamma:.3g} 1/s, "
+            "not > 0), so the Lyapunov exponent of the linearised roll is undefined. This happens where the "
+            "effective wave has little energy near 2ω (e.g. following seas at speed, where encounter compresses "
+            "the spectrum); Roberts' criterion (K against b1/2, `roberts_pdf`) still tells whether the roll is "
+            "sustained."
+        )
     return ValueError(
         f"envelope FPK: no sustained parametric roll: the Lyapunov exponent of the linearised roll is "
         f"λ = {float(lyapunov_exponent):.3g} 1/s <= 0 (coloured excitation, envelope correlation time "
         f"{1 / float(excitation.gamma):.3g} s), so A → 0 almost surely. Increase H1/3 or r, or reduce b1; "
         "throw=False returns the finite-grid law."
-    )
-
-
-def envelope_misfit_message(head: str, excitation: EnvelopeExcitation) -> str:
-    """`head` + why the envelope model (a complex Ornstein–Uhlenbeck envelope about the carrier 2ω) does not fit the
-    sea: its fitted decay rate γ is not > 0, so neither the law nor the Lyapunov exponent is defined."""
-    gamma, omega = float(excitation.gamma), float(excitation.omega)
-    return (
-        f"{head}: the wave's envelope about the carrier 2ω = {2 * omega:.3g} rad/s does not fit the method's "
-        f"Ornstein–Uhlenbeck model here (fitted decay rate γ = {gamma:.3g} 1/s, not > 0), so the Lyapunov exponent "
-        "of the linearised roll is undefined. This happens where the effective wave has little energy near 2ω "
-        "(e.g. following seas at speed, where encounter compresses the spectrum); Roberts' criterion (K against "
-        "b1/2, `roberts_pdf`) still tells whether the roll is sustained."
     )
 
 
