@@ -342,6 +342,19 @@ def test_failures_are_reported_clearly():
     assert int(sol.moments.relax_steps) < 10_000  # stopped by the decay event, not by max_steps
 
 
+def test_an_unbounded_roll_is_a_failed_closure_not_a_dying_roll():
+    """With linear damping only (b2 = b3 = 0) nothing bounds the roll at 7 m (Roberts: K > b1/2, a law with mean
+    ~43°); Newton on the moment equations lands on the trivial state, which is unstable there. That is no
+    stationary solution ("the closure failed"), not "the roll dies out" (the message before: the trivial state
+    was called stable)."""
+    ship = eqx.tree_at(lambda s: s.damping, SHIP, jnp.array([float(SHIP.damping[0]), 0.0, 0.0]))
+    sol = moment_pdf(ship, _wave(7.0), closure_order=4, throw=False)
+    message = sol.details()["message"]
+    assert "closure failed" in message and "dies out" not in message, message
+    k = jxr.theory.roberts_pdf(ship, _wave(7.0), throw=False).parameters["K"]
+    assert float(k) > float(ship.damping[0]) / 2
+
+
 def test_no_law_where_the_roll_dies_out_though_the_closure_keeps_a_fixed_point():
     """Below the parametric threshold the closed moment equations can keep a stable non-trivial fixed point — the
     paper's method at 3 m, order 4: mean 1.45° — where the roll dies out: the linearised roll's Lyapunov exponent

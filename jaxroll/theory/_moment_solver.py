@@ -281,7 +281,10 @@ def _solve_impl(
                 v4 = full[t.index[m4]]
                 phys = phys & (v4 > 0) & (v4 >= v2**2 * (1 - 1e-9))
     start_lead = jnp.maximum(jnp.abs(m_start[lead_pos]), 1e-300)
-    dies = (jnp.abs(values[lead_pos]) / start_lead < 1e-8) | (
+    # The roll dies out in the moment equations where they relax to the trivial state, or where Newton lands on it
+    # and it is stable; Newton on an unstable trivial state (the roll grows, e.g. with no quadratic or cubic
+    # damping to bound it) is no stationary solution, not a dying roll: the closure failed.
+    dies = ((jnp.abs(values[lead_pos]) / start_lead < 1e-8) & (max_re < 0)) | (
         relaxed_ok & (jnp.abs(y_relaxed[lead_pos]) < 1e-6 * jnp.abs(y0[lead_pos]))
     )
     newton_ok = (root.result == optx.RESULTS.successful) & (residual < 1e-8) & jnp.all(jnp.isfinite(values))
