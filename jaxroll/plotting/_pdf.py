@@ -103,8 +103,8 @@ def amplitude_pdf_figures(summary: dict, *, experiment: dict | None = None, titl
                     va="center", wrap=True, fontsize=8, color="tab:red")
         st = summary.get("stationarity") or {}
         if st.get("stationary") is False:  # the Monte Carlo's law depends on the initial roll and the duration
-            ax.text(0.99, 0.91, f"Monte Carlo not stationary: mean envelope {st['mean_envelope_first_half_deg']:.3g}° → "
-                    f"{st['mean_envelope_second_half_deg']:.3g}° between the halves of the run (see the JSON)",
+            ax.text(0.99, 0.91, f"Monte Carlo not stationary: mean envelope {st['mean_envelope_first_half_deg']:.3g}° "
+                    f"→ {st['mean_envelope_second_half_deg']:.3g}°\nbetween the halves of the run (see the JSON)",
                     transform=ax.transAxes, ha="right", va="top", fontsize=7, color="tab:red")
         if summary.get("theory_left_out"):  # a theory with no law in this sea state: said, not silently missing
             names = ", ".join(THEORY_LABELS.get(n, n) for n in summary["theory_left_out"])
