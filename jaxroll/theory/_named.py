@@ -45,6 +45,7 @@ from ._envelope_fpk import dies_out_error, envelope_fpk_pdf
 from ._moment_equations import _roll_sde, moment_equations, zero_pattern
 from ._moment_solver import RESULTS, succeeded, tables_as_inputs
 from ._moments import (
+    GAUSSIAN_START_DEG,
     _moment_pdf,
     _shaping_filter,
     closure_sequence,
@@ -67,7 +68,8 @@ def _law(name, ship, wave, sde, filter_order, estimator, closure_order, lift_rel
         return esam_pdf(ship, wave, estimator=estimator, throw=False)
     if name == "moment":
         return _moment_pdf(
-            ship, wave, None, estimator, filter_order, closure_order, "cubic", "phase_averaged", 10.0, False,
+            ship, wave, None, estimator, filter_order, closure_order, "cubic", "phase_averaged", GAUSSIAN_START_DEG,
+            False,
             lift_relax=lift_relax, sde=sde,
         )  # fmt: skip
     return envelope_fpk_pdf(ship, wave, estimator=estimator, throw=False)
