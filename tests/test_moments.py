@@ -627,6 +627,7 @@ def test_first_stable_records_the_closure_and_never_switches_under_tracing(monke
         sol = jxr.theory.moment_pdf_first_stable(SHIP, _wave(7.0))
     d = sol.details()
     assert d["closure_order"] == 4 and d["requested_closure_order"] == 6 and d["closure_fallback"]
+    assert "the closure failed (test)" in d["closure_fallback_reason"]
     assert not real(SHIP, _wave(7.0), closure_order=4).details()["closure_fallback"]
 
     def traced(b1):
@@ -635,6 +636,24 @@ def test_first_stable_records_the_closure_and_never_switches_under_tracing(monke
 
     with pytest.raises(eqx.EquinoxRuntimeError, match="closure failed"):
         jax.make_jaxpr(traced)(SHIP.damping[0])
+    # Where order 6 has its fixed point but the amplitude family fits no law to its moments (default ship, 8 m,
+    # r = 1: residual 0.011), the warning, the details and the command line's note say that instead.
+    from jaxroll._cli._theory import closure_note
+    from jaxroll.theory._moment_solver import RESULTS
+
+    assert closure_note(d) == ", closure order 4: order 6 has no stable fixed point here"
+    fit_error = eqx.EquinoxRuntimeError(RESULTS[RESULTS.fit_failed])
+
+    def fake_fit(ship, wave, *, closure_order, **kw):
+        if closure_order == 6:
+            raise fit_error
+        return order4
+
+    monkeypatch.setattr(_moments, "moment_pdf", fake_fit)
+    with pytest.warns(UserWarning, match="closure order 6 has a stable solution here, but no amplitude law"):
+        d = jxr.theory.moment_pdf_first_stable(SHIP, _wave(7.0)).details()
+    assert "amplitude family" in d["closure_fallback_reason"]
+    assert closure_note(d) == ", closure order 4: order 6's moments fit no law of the method's amplitude family here"
 
 
 def _hs_path(hs):

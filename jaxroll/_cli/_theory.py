@@ -80,13 +80,18 @@ def start_theory_summaries(problem, args, names, bins_deg, *, skip_failed: bool 
 
 
 def closure_note(summary: dict) -> str:
-    """", closure order 4: order 6 has no stable fixed point here" for a theory summary whose moment closure fell
-    back to a lower order (`closure_fallback` in its details), else "": the terminal's line for what the JSON
-    records."""
+    """", closure order 4: order 6 has no stable fixed point here" (or "order 6's moments fit no law of the method's
+    amplitude family here", where its fixed point exists but the PDF family cannot reproduce its moments) for a
+    theory summary whose moment closure fell back to a lower order (`closure_fallback` and
+    `closure_fallback_reason` in its details), else "": the terminal's line for what the JSON records."""
     if not summary.get("closure_fallback"):
         return ""
-    return (f", closure order {summary['closure_order']}: order {summary['requested_closure_order']} has no stable "
-            "fixed point here")
+    from ..theory._moments import fit_failed
+
+    head = f", closure order {summary['closure_order']}: order {summary['requested_closure_order']}"
+    if fit_failed(summary.get("closure_fallback_reason") or ""):
+        return f"{head}'s moments fit no law of the method's amplitude family here"
+    return f"{head} has no stable fixed point here"
 
 
 def theory_summaries(problem, args, names, bins_deg) -> dict:

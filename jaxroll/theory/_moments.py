@@ -239,6 +239,7 @@ class MomentSolution(AbstractAmplitudeLaw):
     envelope: str = eqx.field(static=True)
     estimator: str = eqx.field(static=True)
     requested_closure_order: int | None = eqx.field(static=True, default=None)
+    fallback_reason: str = eqx.field(static=True, default="")  # why the requested order gave no law
 
     def _logpdf(self, a):
         return self.law._logpdf(a)
@@ -295,6 +296,7 @@ class MomentSolution(AbstractAmplitudeLaw):
             "closure_order": self.closure_order,
             "requested_closure_order": self.requested_closure_order or self.closure_order,
             "closure_fallback": self.closure_fallback,
+            "closure_fallback_reason": self.fallback_reason or None,
             "filter_order": self.filter_order,
             "damping_closure": self.damping,
             "envelope": self.envelope,
@@ -543,7 +545,8 @@ def moment_pdf_first_stable(
         except (ValueError, RuntimeError) as e:
             error = e
             continue
-        out = dataclasses.replace(out, requested_closure_order=closure_orders[0])
+        out = dataclasses.replace(out, requested_closure_order=closure_orders[0],
+                                  fallback_reason=error_line(error) if i > 0 else "")
         if is_concrete((ship, wave, kwargs.get("shaping_filter"))) and succeeded(out.result):
             lam = sustained_roll_exponent(ship, wave, kwargs.get("shaping_filter"))
             if not float(lam) > 0:  # below the threshold: the closure's fixed point is not the roll's
@@ -587,15 +590,28 @@ def sustained_roll_exponent(ship: Ship, wave, shaping_filter=None) -> Float[Arra
     return envelope_lyapunov_exponent(ship, wave if source is None else source)[0]
 
 
+def fit_failed(reason: str) -> bool:
+    """Whether a moment-method error line is the amplitude family's (the closure's moments exist, but no
+    p = C A^ν e^(−c2A−c3A²) reproduces them) rather than the closure's (no stable fixed point)."""
+    return "amplitude family" in reason
+
+
 def warn_closure_fallback(requested: int, error: Exception, used: int, stacklevel: int = 2) -> None:
     """The `UserWarning` of a closure fallback (order `requested` failed with `error`; `used` is used instead),
     attributed to the caller of the function that calls this (`stacklevel=2`)."""
     import warnings
 
-    warnings.warn(
-        f"moment method: closure order {requested} has no stable solution here ({error_line(error)}); using "
-        f"order {used}. This warning appears because the higher-order cumulant closure lost its stable "
-        "non-trivial fixed point in this sea state.",
-        stacklevel=stacklevel + 1,
-    )
-
+    reason = error_line(error)
+    if fit_failed(reason):
+        warnings.warn(
+            f"moment method: closure order {requested} has a stable solution here, but no amplitude law of the "
+            f"method's family fits its moments ({reason}); using order {used}.",
+            stacklevel=stacklevel + 1,
+        )
+    else:
+        warnings.warn(
+            f"moment method: closure order {requested} has no stable solution here ({reason}); using order "
+            f"{used}. This warning appears because the higher-order cumulant closure lost its stable "
+            "non-trivial fixed point in this sea state.",
+            stacklevel=stacklevel + 1,
+        )
