@@ -83,13 +83,11 @@ def closure_note(summary: dict) -> str:
     """", closure order 4: order 6 has no stable fixed point here" (or "order 6's moments fit no law of the method's
     amplitude family here", where its fixed point exists but the PDF family cannot reproduce its moments) for a
     theory summary whose moment closure fell back to a lower order (`closure_fallback` and
-    `closure_fallback_reason` in its details), else "": the terminal's line for what the JSON records."""
+    `closure_fallback_cause` in its details), else "": the terminal's line for what the JSON records."""
     if not summary.get("closure_fallback"):
         return ""
-    from ..theory._moments import fit_failed
-
     head = f", closure order {summary['closure_order']}: order {summary['requested_closure_order']}"
-    if fit_failed(summary.get("closure_fallback_reason") or ""):
+    if summary.get("closure_fallback_cause") == "amplitude_family":
         return f"{head}'s moments fit no law of the method's amplitude family here"
     return f"{head} has no stable fixed point here"
 

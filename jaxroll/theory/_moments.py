@@ -297,6 +297,9 @@ class MomentSolution(AbstractAmplitudeLaw):
             "requested_closure_order": self.requested_closure_order or self.closure_order,
             "closure_fallback": self.closure_fallback,
             "closure_fallback_reason": self.fallback_reason or None,
+            # why, in a word: the closure has no stable fixed point, or its moments fit no law of the family
+            "closure_fallback_cause": None if not self.closure_fallback else (
+                "amplitude_family" if fit_failed(self.fallback_reason) else "no_stable_fixed_point"),
             "filter_order": self.filter_order,
             "damping_closure": self.damping,
             "envelope": self.envelope,
