@@ -596,7 +596,7 @@ def sustained_roll_exponent(ship: Ship, wave, shaping_filter=None) -> Float[Arra
 def fit_failed(reason: str) -> bool:
     """Whether a moment-method error line is the amplitude family's (the closure's moments exist, but no
     p = C A^ν e^(−c2A−c3A²) reproduces them) rather than the closure's (no stable fixed point)."""
-    return "amplitude family" in reason
+    return RESULTS[RESULTS.fit_failed][:60] in reason  # the solver's own message, however it was wrapped
 
 
 def warn_closure_fallback(requested: int, error: Exception, used: int, stacklevel: int = 2) -> None:
