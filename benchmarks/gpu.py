@@ -63,8 +63,8 @@ def main() -> None:
     for kind, chunk in (("amplitudes", args.chunk), ("max", args.chunk_max)):
         if kind not in args.kinds.split(","):
             continue
-        def run(n, chunk=chunk, kind=kind):
-            c = min(chunk, n)
+        def run(n, chunk=chunk, kind=kind):  # chunk None: the library's own choice
+            c = None if chunk is None else min(chunk, n)
             if kind == "amplitudes":
                 return jaxroll.monte_carlo_amplitudes(problem, key, num_realizations=n, duration=args.duration,
                                                       chunk_size=c)
@@ -96,18 +96,12 @@ def main() -> None:
                 continue
             label = "default" if c is None else str(c)
             try:
-                if kind == "amplitudes":
-                    go = lambda c=c: jaxroll.monte_carlo_amplitudes(problem, key, num_realizations=n,
-                                                                   duration=args.duration, chunk_size=c)
-                else:
-                    go = lambda c=c: jaxroll.monte_carlo_max_roll(problem, key, angle_deg=30.0, num_realizations=n,
-                                                                 duration=args.duration, chunk_size=c)
-                _, t_first = timed(go)
-                stats, t = timed(go)
+                _, t_first = timed(lambda c=c: run(n, c))
+                stats, t = timed(lambda c=c: run(n, c))
             except Exception as e:  # out of device memory: say so and go on to the next size
                 print(f"{kind}_N={n} chunk={label} failed: {type(e).__name__}: {str(e)[:200]}")
                 continue
-            used = stats.config.get("chunk_size", c) if hasattr(stats, "config") else c
+            used = stats.config["chunk_size"]
             print(f"{kind}_N={n} chunk={label} (used {used}) first_call_s={t_first:.2f} time_s={t:.3f} "
                   f"steps_per_s={n * steps / t:.3e}{peak_memory(dev, used, steps)}")
 
