@@ -353,7 +353,7 @@ def test_pdf_warns_when_the_roll_is_not_stationary(tmp_path, monkeypatch, capsys
     rng = np.random.default_rng(1)
     m1, m2 = np.deg2rad(1.0 + 0.05 * rng.standard_normal(20)), np.deg2rad(0.5 + 0.05 * rng.standard_normal(20))
     stats.per_realization.update(n_env=np.full(20, 200.0), sum_env=100 * (m1 + m2),
-                                 n_env_first_half=np.full(20, 100.0), sum_env_first_half=100 * m1)
+                                 sum_env_first_half=100 * m1)
     stats.config = {"discard_s": 0.0, "duration_s": 600.0}
     _patch_monte_carlo(monkeypatch, stats)
     texts = []

@@ -237,7 +237,7 @@ def test_a_roll_that_dies_out_is_reported_as_not_stationary(getkey):
     phi, _, _ = jaxroll.roll_time_series(problem, jr.fold_in(key, 0), 3600.0)
     env = np.abs(hilbert(np.asarray(phi)[1001:]))
     pr = stats.per_realization
-    assert pr["n_env_first_half"][0] == env.size // 2 and pr["n_env"][0] == env.size
+    assert pr["n_env"][0] == env.size  # its first half, n_env // 2 samples, is pinned by the sum below (rtol 2e-5)
     np.testing.assert_allclose(pr["sum_env_first_half"][0], env[: env.size // 2].sum(), rtol=2e-5)
     np.testing.assert_allclose(pr["sum_env"][0], env.sum(), rtol=2e-5)
 
@@ -252,7 +252,7 @@ def test_stationarity_needs_a_change_both_large_and_significant():
         m1 = first + spread * rng.standard_normal(n)
         m2 = second + spread * rng.standard_normal(n)
         half = np.full(n, 1000.0)
-        per = {"n_env": 2 * half, "sum_env": half * (m1 + m2), "n_env_first_half": half, "sum_env_first_half": half * m1}
+        per = {"n_env": 2 * half, "sum_env": half * (m1 + m2), "sum_env_first_half": half * m1}
         return jaxroll.AmplitudeStatistics(np.arange(3.0), np.zeros(2), np.zeros(2), np.zeros(n, bool), np.zeros(n),
                                            per, {"discard_s": 0.0, "duration_s": 3600.0}).stationarity()
 

@@ -296,6 +296,20 @@ def test_foreign_checkpoint_is_refused(problem, finished_checkpoint, tmp_path, c
             _amplitudes(problem, checkpoint=tmp_path, **kwargs)
 
 
+def test_checkpoint_without_a_statistic_this_run_records_is_refused(problem, finished_checkpoint, tmp_path):
+    """A checkpoint written by a jaxroll whose observer recorded fewer per-realization statistics (here: no
+    `sum_env_first_half`, as before the stationarity check) is refused on resume, not completed with zeros for
+    the realizations it holds."""
+    with np.load(finished_checkpoint[0] / CHECKPOINT_FILE) as data:
+        contents = {k: data[k] for k in data.files if k != "per/sum_env_first_half"}
+    contents["next_start"] = np.array(4)  # interrupted after two chunks of two
+    contents = {k: (v[:4] if k.startswith("per/") else v) for k, v in contents.items()}
+    np.savez(tmp_path / CHECKPOINT_FILE, **contents)
+    with pytest.raises(ValueError, match=r"records other statistics than this run \(only in the checkpoint: none; "
+                                         r"only in this run: sum_env_first_half\).*Delete"):
+        _amplitudes(problem, checkpoint=tmp_path)
+
+
 def test_pdf_cli_checkpoint(tmp_path, capsys):
     argv = [
         "pdf",

@@ -191,7 +191,7 @@ def run(args) -> int:
               f"before N0: P = {v['capsize_probability']:.3g}, counted as maxima beyond the vanishing angle)")
         for name, p in v["p_star"].items():
             label = "P* from the MC amplitudes" if name == "mcs_amplitudes" else f"P* {name}"
-            note = closure_note(laws[name].details()) if name in laws else ""
+            note = closure_note(payload["theory_details"][name]) if name in laws else ""
             mean = "beyond the grid" if p["mean_deg"] is None else f"{p['mean_deg']:.2f}°"
             print(f"  {label}: mode {p['mode_deg']:.2f}°, mean {mean}, P(max > 30°) = "
                   f"{p['p_exceed']['30']:.3g} (Monte Carlo maxima: {v['p_exceed']['30']:.3g}){note}")

@@ -133,8 +133,7 @@ class AmplitudeHistogram(AbstractObserver):
             "sumsq_zc": kf * states.s2.astype(jnp.float64),
             "n_env": kf * phi.shape[1],
             "sum_env": kf * jnp.sum(env, 1),
-            # the first half of the kept window alone: the second half's by difference (`stationarity`)
-            "n_env_first_half": kf * (phi.shape[1] // 2),
+            # the first half of the kept window (its n_env // 2 samples) alone: the second half's by difference
             "sum_env_first_half": kf * jnp.sum(env[:, : phi.shape[1] // 2], 1),
             "sumsq_env": kf * jnp.sum(env * env, 1),
             "n_samples": kf * phi.shape[1],

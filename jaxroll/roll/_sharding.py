@@ -341,11 +341,15 @@ def run_chunks(
             )
     problem = _replicate(problem, mesh)
     last_save, chunks_since_save = time.monotonic(), 0
+    resumed_keys = (set(summed), set(per)) if start else None  # what the checkpoint recorded
     while start < num_realizations:
         idx = np.arange(start, start + chunk)
         valid = idx < num_realizations
         s, p = fn(problem, key, _global_array(idx, sharding), _global_array(valid, sharding), *static)
         s, p = _to_host((s, p))
+        if resumed_keys is not None:
+            _check_resumed_statistics(path, resumed_keys, (set(s), set(p)))
+            resumed_keys = None
         n = int(valid.sum())
         for k, v in s.items():
             summed[k] = summed.get(k, 0) + v
@@ -368,6 +372,21 @@ def run_chunks(
         if progress is not None:
             progress(start)
     return summed, per
+
+
+def _check_resumed_statistics(path: Path, saved: tuple[set, set], now: tuple[set, set]) -> None:
+    """Refuse to resume when the chunks record other statistics than the checkpoint holds (a checkpoint written by
+    an older or newer jaxroll with the same version string): the realizations before it would get zeros for a
+    statistic they never recorded."""
+    only_saved = sorted(saved[0] - now[0]) + sorted(saved[1] - now[1])
+    only_now = sorted(now[0] - saved[0]) + sorted(now[1] - saved[1])
+    if only_saved or only_now:
+        raise ValueError(
+            f"checkpoint {path} records other statistics than this run (only in the checkpoint: "
+            f"{', '.join(only_saved) or 'none'}; only in this run: {', '.join(only_now) or 'none'}): it was written "
+            f"by another jaxroll. Delete {path.parent} (or the file) to start afresh, or pass another checkpoint "
+            "directory."
+        )
 
 
 _COMPILED: dict = {}

@@ -218,9 +218,10 @@ class AmplitudeStatistics(CapsizeCounts):
                "change_in_standard_errors": None, "stationary": None, "note": None}
         if "sum_env_first_half" not in pr or keep.sum() < 2:
             return out
-        n1, s1 = pr["n_env_first_half"][keep], pr["sum_env_first_half"][keep]
-        n2, s2 = pr["n_env"][keep] - n1, pr["sum_env"][keep] - s1
-        if n1.min() == 0 or n2.min() == 0 or pr["sum_env"][keep].sum() == 0:
+        n, s = pr["n_env"][keep], pr["sum_env"][keep]
+        n1, s1 = n // 2, pr["sum_env_first_half"][keep]  # the observer's first half: n // 2 samples
+        n2, s2 = n - n1, s - s1
+        if n1.min() == 0 or s.sum() == 0:
             return out
         m1, m2 = s1.sum() / n1.sum(), s2.sum() / n2.sum()
         d = s2 / n2 - s1 / n1  # per realization
