@@ -548,8 +548,7 @@ def moment_pdf_first_stable(
         except (ValueError, RuntimeError) as e:
             error = e
             continue
-        out = dataclasses.replace(out, requested_closure_order=closure_orders[0],
-                                  fallback_reason=error_line(error) if i > 0 else "")
+        out = with_requested_order(out, closure_orders[0], error)
         if is_concrete((ship, wave, kwargs.get("shaping_filter"))) and succeeded(out.result):
             lam = sustained_roll_exponent(ship, wave, kwargs.get("shaping_filter"))
             if not float(lam) > 0:  # below the threshold: the closure's fixed point is not the roll's
@@ -560,6 +559,12 @@ def moment_pdf_first_stable(
             warn_closure_fallback(closure_orders[0], error, order)
         return out
     raise error
+
+
+def with_requested_order(law: MomentSolution, requested: int, error: Exception | None) -> MomentSolution:
+    """`law` labelled with the closure order asked for and, where that order gave no law (`error`), why."""
+    return dataclasses.replace(law, requested_closure_order=requested,
+                               fallback_reason="" if error is None else error_line(error))
 
 
 def roll_not_sustained_error(lyapunov_exponent, law=None) -> ValueError:

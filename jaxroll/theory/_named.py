@@ -19,7 +19,6 @@ They raise the same errors as those functions when no law exists.
 from __future__ import annotations
 
 import concurrent.futures
-import dataclasses
 from collections.abc import Callable, Iterator
 
 import equinox as eqx
@@ -38,7 +37,6 @@ from ..laws._abstract import (
     _solve_levels,
     check_estimator,
 )
-from ..laws._checks import error_line
 from ..sea._filters import FilterFit, ShapingFilter
 from ..ship._ship import Ship
 from ._averaging import _finish, esam_pdf, roberts_pdf
@@ -54,6 +52,7 @@ from ._moments import (
     roll_not_sustained_error,
     sustained_roll_exponent,
     warn_closure_fallback,
+    with_requested_order,
 )
 
 THEORIES = ("roberts", "esam", "moment", "envelope_fpk")
@@ -163,8 +162,7 @@ def _start(name, ship, wave, shaping_filter, filter_order, estimator, edges, lev
             if not succeeded(law.result):  # Newton from the Gaussian or the lifted start failed: relax
                 law, numbers = run(order, True)
             if succeeded(law.result):
-                law = dataclasses.replace(law, requested_closure_order=MOMENT_CLOSURE_ORDERS[0],
-                                          fallback_reason=error_line(error) if i > 0 else "")
+                law = with_requested_order(law, MOMENT_CLOSURE_ORDERS[0], error)
                 lam = _sustained_program(ship, filt)  # as `moment_pdf_first_stable`: no law where the roll dies
                 if not float(lam) > 0:
                     raise roll_not_sustained_error(lam, law)
