@@ -20,6 +20,11 @@ Only concrete calls are cached; under `jax.jit`, `jax.grad` or `jax.vmap` (or wi
 function is traced as usual — it is the same function. A program that cannot be exported (e.g. one with a host
 callback such as `eqx.error_if`'s) is simply run through `eqx.filter_jit`, and remembered as such.
 Arguments laid out over several devices (the Monte Carlo's realization axis) are keyed by their layout too.
+
+Compilation is most of a cold run: on the CPU a program may name XLA options (`SMALL_PROGRAM`, `SOLVER_PROGRAM`),
+used for the stored program and, with the persistent cache off, for the same program traced in this process —
+both give the same bits. `prepare` traces and compiles a program ahead, from arguments of the same kind (the
+moment method's, for the filter fit's form while the fit is made: `jaxroll.theory.iter_theory_summaries`).
 """
 
 from __future__ import annotations
@@ -32,8 +37,8 @@ import pathlib
 import pickle
 import re
 import tempfile
+import threading
 from collections.abc import Callable
-from typing import Any
 
 import equinox as eqx
 import jax
@@ -135,58 +140,110 @@ class _Slot:
         self.index = index
 
 
-_LOADED: dict[str, Any] = {}  # key -> (jitted exported call, output skeleton) | None (not exportable)
+class _Stored:
+    """A program in this process: its call on the array leaves (exported, or traced where the persistent cache is
+    off), its output skeleton (in `box`, filled when traced), and the call compiled (once)."""
+
+    def __init__(self, exported: Callable, box: dict):
+        self.exported, self.box, self.compiled = exported, box, None
+
+    @property
+    def skeleton(self):
+        return self.box["skeleton"]
 
 
-def cached_program(fn: Callable) -> Callable:
+_LOADED: dict[str, _Stored | None] = {}  # key -> the program, or None (not exportable: run the usual way)
+_LOCKS: dict[str, threading.Lock] = {}  # key -> held while that program is loaded or exported, and compiled
+_LOCKS_GUARD = threading.Lock()
+
+#: XLA options (CPU) for programs that run for milliseconds — the set-up's, Roberts', ESAM's: no LLVM optimisation
+#: and XLA's older loop emitters, so that compiling them, the whole of their cost on a cold run, is 25–40 % faster.
+SMALL_PROGRAM = {"xla_backend_optimization_level": 0, "xla_cpu_use_fusion_emitters": False}
+#: XLA options (CPU) for solvers that run for a fraction of a second (the moment method, the envelope FPK): the
+#: older loop emitters only (compiling 10–20 % faster, running ≈ 10 % slower; docs/theory.md, "Speed").
+SOLVER_PROGRAM = {"xla_cpu_use_fusion_emitters": False}
+
+
+def cached_program(fn: Callable | None = None, *, compiler_options: dict | None = None) -> Callable:
     """Decorate a pure function of pytrees so that a concrete call runs a stored, compiled program.
 
     `fn(*args)`: array leaves are inputs, every other leaf is static configuration (as for `eqx.filter_jit`; it
     must be picklable); returns a pytree. Traced calls and calls with JAX's persistent cache off go to
-    `eqx.filter_jit(fn)`.
+    `eqx.filter_jit(fn)`. `compiler_options` (`SMALL_PROGRAM`, `SOLVER_PROGRAM`): XLA options the stored program
+    is compiled with on the CPU (left out where this JAX or XLA does not take them).
+
+    `wrapper.prepare(*args, compile=True)` loads or exports the program for `args` (only their shapes, dtypes,
+    placement and static parts matter) and compiles it, without running it: a later call with arguments of the
+    same kind runs it at once (a call made meanwhile waits for it instead of tracing it a second time).
+    `compile=False` stops after the export, the part that holds Python's GIL.
     """
+    if fn is None:
+        return functools.partial(cached_program, compiler_options=compiler_options)
     jitted = eqx.filter_jit(fn)
     name = f"{fn.__module__}.{fn.__qualname__}"
 
-    @functools.wraps(fn)
-    def wrapper(*args):
+    def entry_for(args, compile=True):
+        """(`_Stored`, leaves) for concrete `args`, the program loaded or exported on first use and compiled unless
+        `compile=False`; None where there is no stored program."""
         d = cache_dir()
-        if d is None or not is_concrete(args):
-            return jitted(*args)
+        options = compiler_options if jax.default_backend() == "cpu" else None
+        if (d is None and not options) or not is_concrete(args):
+            return None
         dynamic, static = eqx.partition(args, eqx.is_array)
         leaves, in_tree = jax.tree.flatten(dynamic)
         try:
             static_bytes = pickle.dumps(static, protocol=4) + str(in_tree).encode()
         except Exception:  # an unpicklable static argument: no stored program
+            return None
+        key = _sha(package_key(), name, options, static_bytes,
+                   [(x.shape, str(x.dtype), getattr(x, "weak_type", False), _placement(x)) for x in leaves])
+        with _LOCKS_GUARD:
+            lock = _LOCKS.setdefault(key, threading.Lock())
+        with lock:
+            stored = _LOADED.get(key, False)
+            if stored is False:  # with the cache off, the same program is traced and compiled with the same options
+                stored = _LOADED[key] = (_Stored(*_flat(fn, in_tree, static)) if d is None else
+                                         _load_or_export(d / f"{key}.bin", fn, leaves, in_tree, static))
+            if stored is not None and compile and stored.compiled is None:
+                stored.compiled = _compiled(stored.exported, leaves, options)
+        return None if stored is None else (stored, leaves)
+
+    @functools.wraps(fn)
+    def wrapper(*args):
+        found = entry_for(args)
+        if found is None:
             return jitted(*args)
-        key = _sha(package_key(), name, static_bytes, [(x.shape, str(x.dtype), getattr(x, "weak_type", False),
-                                                       _placement(x)) for x in leaves])
-        entry = _LOADED.get(key, False)
-        if entry is False:
-            entry = _load_or_export(d / f"{key}.bin", fn, leaves, in_tree, static)
-            _LOADED[key] = entry
-        if entry is None:
-            return jitted(*args)
-        call, skeleton = entry
-        outputs = call(*leaves)
-        return jax.tree.map(lambda s: outputs[s.index] if isinstance(s, _Slot) else s, skeleton,
+        stored, leaves = found
+        outputs = stored.compiled(*leaves)
+        return jax.tree.map(lambda s: outputs[s.index] if isinstance(s, _Slot) else s, stored.skeleton,
                             is_leaf=lambda x: isinstance(x, _Slot))
 
+    def prepare(*args, compile: bool = True) -> None:
+        entry_for(args, compile)
+
     wrapper.jitted = jitted
+    wrapper.prepare = prepare
     return wrapper
 
 
-def _load_or_export(path: pathlib.Path, fn, leaves, in_tree, static):
-    blob = _read(path)
-    if blob is not None:
+def _compiled(call: Callable, leaves, options: dict | None) -> Callable:
+    """`jax.jit(call)` compiled for `leaves` (its later calls with arguments like them reuse the compilation),
+    with XLA `options`, or without them where this JAX or XLA refuses them."""
+    if options:
         try:
-            payload = pickle.loads(blob)
-            if payload is None:
-                return None  # stored as not exportable
-            exp_bytes, skeleton = payload
-            return jax.jit(jax.export.deserialize(bytearray(exp_bytes)).call), skeleton
-        except Exception:  # corrupt or foreign file: export afresh and overwrite it
+            jitted = jax.jit(call, compiler_options=options)
+            jitted.lower(*leaves).compile()
+            return jitted
+        except Exception:  # an option this version does not know (an error of the program recurs below)
             pass
+    jitted = jax.jit(call)
+    jitted.lower(*leaves).compile()
+    return jitted
+
+
+def _flat(fn, in_tree, static):
+    """`fn` as a function of its array leaves returning its output's array leaves, and the box its output skeleton
+    (the static outputs, with `_Slot`s for the arrays) is put in when it is traced."""
     box = {}
 
     def flat(*xs):
@@ -197,6 +254,21 @@ def _load_or_export(path: pathlib.Path, fn, leaves, in_tree, static):
         box["skeleton"] = eqx.combine(slots, out_static, is_leaf=lambda x: isinstance(x, _Slot))
         return out_leaves
 
+    return flat, box
+
+
+def _load_or_export(path: pathlib.Path, fn, leaves, in_tree, static) -> _Stored | None:
+    blob = _read(path)
+    if blob is not None:
+        try:
+            payload = pickle.loads(blob)
+            if payload is None:
+                return None  # stored as not exportable
+            exp_bytes, skeleton = payload
+            return _Stored(jax.export.deserialize(bytearray(exp_bytes)).call, {"skeleton": skeleton})
+        except Exception:  # corrupt or foreign file: export afresh and overwrite it
+            pass
+    flat, box = _flat(fn, in_tree, static)
     try:
         exp = _export(flat, leaves)
         data = pickle.dumps((bytes(exp.serialize()), box["skeleton"]), protocol=4)
@@ -205,4 +277,4 @@ def _load_or_export(path: pathlib.Path, fn, leaves, in_tree, static):
         write_atomic(path, pickle.dumps(None))
         return None
     write_atomic(path, data)
-    return jax.jit(exp.call), box["skeleton"]
+    return _Stored(exp.call, box)

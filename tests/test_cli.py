@@ -473,6 +473,18 @@ def test_out_that_is_a_file_is_refused_first(command, tmp_path, monkeypatch, cap
     assert "exists and is not a folder" in capsys.readouterr().err and target.read_text() == "mine"
 
 
+def test_a_filter_fit_that_is_not_usable_is_the_moment_methods_reason_only(tmp_path, capsys):
+    """`jaxroll theory` makes the filter fit for the moment method alone (the others do not use it): where the fit
+    is not usable (following seas at 8 m/s) the moment method has that error, and Roberts runs without a fit."""
+    argv = ["theory", "--speed", "8", "--heading", "following"]
+    assert main([*argv, "--theory", "moment", "--out", str(tmp_path / "moment")]) == 2
+    err = capsys.readouterr().err
+    assert "moment: the order-4 shaping-filter fit is not usable: filter spectrum at 0.515 rad/s (2ω0)" in err
+    assert main([*argv, "--theory", "roberts", "--out", str(tmp_path / "roberts")]) == 2
+    err = capsys.readouterr().err
+    assert "roberts: No stationary roll-amplitude PDF: the roll dies out" in err and "shaping-filter" not in err
+
+
 def test_ctrl_c_while_the_theories_compile_exits_at_once(tmp_path):
     """The `jaxroll` command (console entry) on Ctrl-C while the theories' programs compile in their threads: exit
     code 130 and the one-line message, at once (it used to wait for the compilations; `jaxroll pdf` had crashed
@@ -503,6 +515,36 @@ def test_ctrl_c_while_the_theories_compile_exits_at_once(tmp_path):
     assert err.strip().splitlines()[-1].startswith("jaxroll theory: interrupted") and "Traceback" not in err
     assert waited < 10.0  # not a benchmark: measured 0.0–0.3 s, and 2–8 s when the compilations were waited for
     assert not (tmp_path / "out").exists()
+
+
+def test_ctrl_c_inside_a_garbage_collector_callback_is_not_lost():
+    """Python ignores (prints) an exception raised in a garbage-collector callback, and JAX registers one: a Ctrl-C
+    that lands there would not stop the command (seen: a cold `jaxroll theory` ran to its end). The command's
+    handler raises the signal again once the callback has returned."""
+    import gc
+    import signal
+    import sys
+    import time
+
+    from jaxroll._cli import _on_interrupt
+
+    seen = []
+
+    def callback(phase, info):
+        if phase == "start" and not seen:
+            seen.append(phase)
+            _on_interrupt(signal.SIGINT, sys._getframe())  # Ctrl-C arrives here: it must not raise here
+
+    previous = signal.signal(signal.SIGINT, _on_interrupt)
+    gc.callbacks.append(callback)
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            gc.collect()
+            time.sleep(10)  # the signal raised again interrupts this
+    finally:
+        gc.callbacks.remove(callback)
+        signal.signal(signal.SIGINT, previous)
+    assert seen == ["start"]
 
 
 def test_interrupted_run_leaves_the_previous_set_untouched(tmp_path, monkeypatch, capsys):

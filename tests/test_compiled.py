@@ -1,5 +1,7 @@
 """Stored programs (`jaxroll._compiled.cached_program`) and concrete-or-traced checks (`require`)."""
 
+import concurrent.futures
+
 import equinox as eqx
 import jax
 import jax.numpy as jnp
@@ -74,6 +76,47 @@ def test_a_program_that_cannot_be_exported_runs_the_usual_way(program_cache):
     assert len(marker) == 1 and marker[0].stat().st_size < 100  # remembered as not exportable
     with pytest.raises(Exception, match="negative"):
         checked(-jnp.ones(3))
+
+
+def test_prepare_compiles_ahead_and_concurrent_calls_trace_once(program_cache, monkeypatch):
+    """`prepare` exports and compiles from arguments of the same kind (other values): the call then neither traces
+    nor compiles; calls made at once from several threads trace and compile the program once between them."""
+    compiled = []
+    real = _compiled._compiled
+    monkeypatch.setattr(_compiled, "_compiled", lambda *a: compiled.append(1) or real(*a))
+    calls.clear()
+    params, x = _Params(jnp.asarray(2.0), "p"), jnp.linspace(0.0, 1.0, 7)
+    _program.prepare(_Params(jnp.asarray(-1.0), "p"), jnp.zeros(7), 4, compile=False)
+    assert calls == [4] and compiled == []  # traced (exported), not compiled
+    _program.prepare(_Params(jnp.asarray(-1.0), "p"), jnp.zeros(7), 4)
+    assert calls == [4] and compiled == [1]
+    np.testing.assert_allclose(_program(params, x, 4)["y"], 2.0 * np.linspace(0.0, 1.0, 7) ** 4, rtol=1e-15)
+    assert calls == [4] and compiled == [1]
+    with concurrent.futures.ThreadPoolExecutor(4) as pool:
+        results = list(pool.map(lambda _: _program(params, x, 5)["y"], range(4)))
+    assert calls == [4, 5] and compiled == [1, 1]
+    for y in results:
+        np.testing.assert_array_equal(y, results[0])
+
+
+def test_compiler_options_the_same_with_the_cache_on_or_off(program_cache, monkeypatch):
+    """A program with XLA options (`SMALL_PROGRAM`) gives the same bits from the store and with the cache off (where
+    it is compiled with the same options), the numbers of the plain program to rounding; an option that this XLA
+    does not know is left out."""
+
+    def power(params, x):
+        return jnp.sum(jnp.sin(params.scale * x) ** 3) / jnp.linalg.norm(x)
+
+    small = _compiled.cached_program(compiler_options=_compiled.SMALL_PROGRAM)(power)
+    unknown = _compiled.cached_program(compiler_options={"xla_no_such_option_anywhere": True})(power)
+    params, x = _Params(jnp.asarray(1.7), "o"), jnp.linspace(0.1, 3.0, 101)
+    stored, odd = small(params, x), unknown(params, x)
+    monkeypatch.setattr(_compiled, "cache_dir", lambda: None)
+    _compiled._LOADED.clear()
+    np.testing.assert_array_equal(small(params, x), stored)
+    plain = jax.jit(power)(params, x)
+    np.testing.assert_allclose(stored, plain, rtol=1e-14)
+    np.testing.assert_allclose(odd, plain, rtol=1e-14)
 
 
 def test_a_corrupt_stored_program_is_replaced(program_cache):

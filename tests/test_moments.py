@@ -590,6 +590,38 @@ def test_theory_summary_is_the_moment_methods_law_and_summary(ship_solutions):
     assert summary["mean_amplitude_deg"] == pytest.approx(11.2077, abs=1e-4)  # docs/theory.md §5
 
 
+def test_a_fit_still_being_made_runs_the_program_compiled_for_the_fits_form(ship_solutions, tmp_path, monkeypatch):
+    """`iter_theory_summaries` with the filter given as a future (`jaxroll theory` makes the fit meanwhile) traces
+    and compiles the moment method's program and the λ gate's for `fitted_form`, and the fitted filter's calls run
+    those: each exported once, and the law is `moment_pdf`'s. `fitted_form` has every fit's zero coefficients."""
+    import concurrent.futures
+
+    from jaxroll import _compiled
+    from jaxroll.sea import fit_filter
+    from jaxroll.sea._filters import fitted_form
+    from jaxroll.theory._moment_equations import zero_pattern
+
+    monkeypatch.setattr(_compiled, "cache_dir", lambda: tmp_path)
+    monkeypatch.setattr(_compiled, "_LOADED", {})
+    exported = []
+    real = _compiled._export
+    monkeypatch.setattr(_compiled, "_export", lambda f, leaves: exported.append(1) or real(f, leaves))
+    wave, bins = _wave(7.0), np.arange(0.0, 73.0, 1.0)
+    fit = fit_filter(wave, order=4, match_frequency=2 * SHIP.omega0)
+    assert zero_pattern(SHIP, fitted_form(4)) == zero_pattern(SHIP, fit.filter)
+    before = len(exported)
+    future = concurrent.futures.Future()
+    results = jxr.theory.iter_theory_summaries(("moment",), SHIP, wave, bins, shaping_filter=future)
+    future.set_result(fit)
+    ((name, (law, summary)),) = list(results)
+    assert len(exported) - before == 2  # the law's program and the gate's, for the form; the fit's calls ran them
+    assert law.closure_order == 6
+    _same_summary(summary, ship_solutions[6].summary(bins), rtol=1e-10)
+    for order in (3, 5, 6):  # the form's zeros are those of a fit of every order
+        other = fit_filter(_wave(6.0), order=order, match_frequency=2 * SHIP.omega0).filter
+        assert zero_pattern(SHIP, fitted_form(order)) == zero_pattern(SHIP, other)
+
+
 def test_vmap_over_sea_states_equals_loop():
     hs = [6.5, 7.0, 7.5]
     filters = [_filter(h) for h in hs]

@@ -8,10 +8,13 @@ no other file.
 from __future__ import annotations
 
 import argparse
+import gc
 import importlib
 import os
 import pkgutil
+import signal
 import sys
+import threading
 from collections.abc import Sequence
 
 # The LAPACK that jaxlib calls on the CPU is SciPy's OpenBLAS, which starts a thread per core; on the small matrices
@@ -82,11 +85,25 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 130
 
 
+def _on_interrupt(signum, frame) -> None:
+    """Ctrl-C: `KeyboardInterrupt`, as Python's own handler — except inside a garbage-collector callback (JAX has
+    one), where Python would ignore the exception (print it and carry on: the command would not stop); there the
+    signal is raised again once the callback has returned."""
+    callbacks = {getattr(cb, "__code__", None) for cb in gc.callbacks}
+    while frame is not None:
+        if frame.f_code in callbacks:
+            threading.Timer(0.05, signal.raise_signal, (signal.SIGINT,)).start()
+            return
+        frame = frame.f_back
+    raise KeyboardInterrupt
+
+
 def console() -> None:  # pragma: no cover  (the console script; tests call `main`)
     """The `jaxroll` command: `main()`, and after Ctrl-C (exit code 130) an immediate exit. The theories' programs
     compile in background threads (`jaxroll.theory.iter_theory_summaries`): a normal exit would wait for them (up
     to 8 s measured), and the interpreter's teardown while XLA is busy in another thread could crash (a segfault
     was seen on Ctrl-C during `jaxroll pdf`). Nothing is lost: outputs and checkpoints are written atomically."""
+    signal.signal(signal.SIGINT, _on_interrupt)
     code = main()
     if code == 130:
         sys.stdout.flush()

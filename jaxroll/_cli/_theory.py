@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
+import concurrent.futures
 import time
 
 import numpy as np
 
 from ._common import CLIError
+from ._sea import TheoryInputs
 
 
 def first_line(error: Exception) -> str:
@@ -54,10 +56,24 @@ def start_theory_summaries(problem, args, names, bins_deg, *, skip_failed: bool 
         if name not in theory.THEORIES:
             raise CLIError(f"unknown theory {name!r}")
     t0 = time.time()
+    # The fit (`TheoryInputs.filter_fit`: made on first reading, and only for the moment method, which alone uses
+    # it) is made here while the theories' programs trace and compile, the moment method's for the fit's form
+    # (`iter_theory_summaries` with a future filter). A fit that is not usable is the moment method's error: with
+    # `skip_failed` it is left out with that reason, and the other theories are shown.
+    pending = isinstance(problem, TheoryInputs)
+    fit = (concurrent.futures.Future() if "moment" in names else None) if pending else problem.filter_fit
     results = theory.iter_theory_summaries(
-        names, problem.ship, problem.wave, bins_deg, shaping_filter=problem.filter_fit,
-        filter_order=args.filter_order, return_exceptions=True, warn=warn,
+        names, problem.ship, problem.wave, bins_deg, shaping_filter=fit, filter_order=args.filter_order,
+        return_exceptions=True, warn=warn,
     )  # fmt: skip
+    if pending and fit is not None:
+        try:
+            fit.set_result(problem.filter_fit)
+        except ValueError as e:
+            fit.set_exception(e)
+        except BaseException as e:
+            fit.set_exception(e)
+            raise
     dispatch = time.time() - t0
 
     def finish():

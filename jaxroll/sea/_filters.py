@@ -18,10 +18,11 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 import jax.scipy.linalg as jsl
+import numpy as np
 import optimistix as optx
 from jaxtyping import Array, Float
 
-from .._compiled import cached_program
+from .._compiled import SMALL_PROGRAM, cached_program
 from ._grim import EffectiveWave
 
 
@@ -126,7 +127,7 @@ def check_filter_fit(fit: "FilterFit", dt=None) -> list[str]:
     return warns
 
 
-@cached_program
+@cached_program(compiler_options=SMALL_PROGRAM)
 def _fit_diagnostics(f, match_frequency, dt):
     """The numbers `check_filter_fit` judges, in one compiled program: output variance by quadrature of S on
     (0, 20] rad/s [m²], S at the match frequency, Σ, and Φ = e^{A dt} (None without `dt`)."""
@@ -174,6 +175,23 @@ def filter_from_parameters(params: Float[Array, " p"], order: int) -> ShapingFil
     b = jnp.zeros(order).at[-1].set(1.0)
     c = jnp.zeros(order).at[1 : 1 + beta.size].set(beta)
     return ShapingFilter(a, b, c)
+
+
+def fitted_form(order: int) -> ShapingFilter:
+    """A filter of `order` with the structure every `filter_from_parameters` (hence `fit_filter`) result has: the
+    companion rows of A, b = e_n, c₀ = c_{n−1} = 0, and ones where a fit has free coefficients. Its shapes, and
+    which coefficients are zero, are those of the fit, so a program built for the fit can be traced and compiled
+    with it before the fit is made (`jaxroll.theory.iter_theory_summaries`). No computation: its arrays are placed
+    on the default device as the fit's outputs are (committed), so that the compiled program is the same."""
+    a = np.zeros((order, order))
+    a[:-1, 1:] = np.eye(order - 1)
+    a[-1] = 1.0
+    b = np.zeros(order)
+    b[-1] = 1.0
+    c = np.zeros(order)
+    c[1 : order - 1] = 1.0
+    device = jax.config.jax_default_device or jax.devices()[0]
+    return ShapingFilter(*(jax.device_put(x, device) for x in (a, b, c)))
 
 
 def _scaled(params, order, variance):
@@ -237,7 +255,7 @@ def fit_filter(
     return _fit_filter(wave, order, match_frequency, match_weight, num)
 
 
-@cached_program
+@cached_program(compiler_options=SMALL_PROGRAM)
 def _fit_filter(wave: EffectiveWave, order: int, match_frequency, match_weight: float, num: int) -> FilterFit:
     """`fit_filter`'s numerics as one compiled program (kept on disk by the CLI: a warm run neither traces nor
     compiles it; ~100 small programs dispatched op by op before)."""

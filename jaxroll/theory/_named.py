@@ -19,6 +19,7 @@ They raise the same errors as those functions when no law exists.
 from __future__ import annotations
 
 import concurrent.futures
+import threading
 from collections.abc import Callable, Iterator
 
 import equinox as eqx
@@ -27,7 +28,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import ArrayLike
 
-from .._compiled import cached_program, is_concrete
+from .._compiled import SMALL_PROGRAM, SOLVER_PROGRAM, cached_program, is_concrete
 from ..laws._abstract import (
     QUANTILE_LEVELS,
     SAMPLING,
@@ -37,7 +38,7 @@ from ..laws._abstract import (
     _solve_levels,
     check_estimator,
 )
-from ..sea._filters import FilterFit, ShapingFilter
+from ..sea._filters import FilterFit, ShapingFilter, fitted_form
 from ..ship._ship import Ship
 from ._averaging import _finish, esam_pdf, roberts_pdf
 from ._envelope_fpk import dies_out_error, envelope_fpk_pdf
@@ -75,7 +76,6 @@ def _law(name, ship, wave, sde, filter_order, estimator, closure_order, lift_rel
     return envelope_fpk_pdf(ship, wave, estimator=estimator, throw=False)
 
 
-@cached_program
 def _program(name, ship, wave, moment, estimator, closure_order, lift_relax, arrays, edges, levels):
     """The law and, with `edges` [rad], (mean [rad], quantiles at `levels` [rad], CDF at `edges`, F̄(edges[-1])):
     the numbers `AbstractAmplitudeLaw.summary` computes, in the same program as the law. Moment method:
@@ -90,6 +90,11 @@ def _program(name, ship, wave, moment, estimator, closure_order, lift_relax, arr
     if edges is None:
         return law, None
     return law, _summary_numbers(law, edges, levels)
+
+
+_solver_program = cached_program(compiler_options=SOLVER_PROGRAM)(_program)  # moment method, envelope FPK
+_small_program = cached_program(compiler_options=SMALL_PROGRAM)(_program)  # Roberts, ESAM: milliseconds
+_SMALL = ("roberts", "esam")
 
 
 def _summary_numbers(law, edges, levels):
@@ -120,39 +125,56 @@ def _check(name: str, law) -> None:
         raise eqx.EquinoxRuntimeError(RESULTS[law.result])
 
 
-def _filter(shaping_filter) -> ShapingFilter | None:
+def _filter(shaping_filter) -> ShapingFilter | concurrent.futures.Future | None:
     if isinstance(shaping_filter, FilterFit):
         return shaping_filter.filter
-    if shaping_filter is not None and not isinstance(shaping_filter, ShapingFilter):
+    if shaping_filter is not None and not isinstance(shaping_filter, (ShapingFilter, concurrent.futures.Future)):
         raise TypeError(
             f"`shaping_filter` must be a ShapingFilter or FilterFit; got {type(shaping_filter).__name__}."
         )
     return shaping_filter
 
 
-def _start(name, ship, wave, shaping_filter, filter_order, estimator, edges, levels, warn=True) -> Callable:
+def _start(name, ship, wave, shaping_filter, filter_order, estimator, edges, levels, warn=True,
+           traced=None) -> Callable:
     """Dispatch theory `name`'s program (JAX runs it asynchronously) and return `finish() -> (law, numbers)`, which
     waits for it and makes the checks of the named public function (the moment method: Newton only, from the
     Gaussian start at order 4 and the lifted order-4 solution at order 6; its fallbacks, each a program of its own:
     the relaxation's variant where that fails, then order 4 the same way)."""
     if name != "moment":
-        law, numbers = _program(name, ship, wave, None, estimator, 0, True, (), edges, levels)
+        program = _small_program if name in _SMALL else _solver_program
+        law, numbers = program(name, ship, wave, None, estimator, 0, True, (), edges, levels)
 
         def finish():
             _check(name, law)
             return law, numbers
 
         return finish
-    # the program builds the SDE with the terms `roll_sde` keeps for the concrete ship (a traced ship would keep
-    # the zero ones too: a larger system); its structure is known here without computing it (`eval_shape`)
+    # The λ gate's program (a small one) is traced and compiled beside the law's, not after it.
+    pool = concurrent.futures.ThreadPoolExecutor(max_workers=1, thread_name_prefix="jaxroll-theory-gate")
+    if isinstance(shaping_filter, concurrent.futures.Future):
+        # The fit is being made elsewhere: meanwhile, trace and compile the first program and the gate's for the
+        # form every fit of this order has (`fitted_form`: the fit's shapes and zero coefficients), which the
+        # fitted filter's calls then run. `traced` is set once the tracing (which holds the GIL) is done.
+        try:
+            form = fitted_form(filter_order)
+            args = _moment_arguments(ship, wave, form, filter_order, estimator, edges, levels)(
+                MOMENT_CLOSURE_ORDERS[0], False)  # fmt: skip
+            _solver_program.prepare(*args, compile=False)
+        finally:
+            if traced is not None:
+                traced.set()
+        pool.submit(_sustained_program.prepare, ship, form)
+        _solver_program.prepare(*args)
+        shaping_filter = _filter(shaping_filter.result())
     filt = _shaping_filter(ship, wave, shaping_filter, filter_order)
-    moment = (filt, zero_pattern(ship, filt), int(filter_order))
-    sde = jax.eval_shape(lambda s, f: _roll_sde(s, f, "cubic", moment[1]), ship, filt)
+    arguments = _moment_arguments(ship, wave, filt, filter_order, estimator, edges, levels)
 
     def run(order, lift_relax):
-        arrays = tuple(moment_equations(sde, k).tables.arrays for k in closure_sequence(order))
-        return _program(name, ship, wave, moment, estimator, order, lift_relax, arrays, edges, levels)
+        return _solver_program(*arguments(order, lift_relax))
 
+    gate = pool.submit(_sustained_program, ship, filt)
+    pool.shutdown(wait=False)
     first = run(MOMENT_CLOSURE_ORDERS[0], False)
 
     def finish():
@@ -163,7 +185,7 @@ def _start(name, ship, wave, shaping_filter, filter_order, estimator, edges, lev
                 law, numbers = run(order, True)
             if succeeded(law.result):
                 law = with_requested_order(law, MOMENT_CLOSURE_ORDERS[0], error)
-                lam = _sustained_program(ship, filt)  # as `moment_pdf_first_stable`: no law where the roll dies
+                lam = gate.result()  # as `moment_pdf_first_stable`: no law where the roll dies out
                 if not float(lam) > 0:
                     raise roll_not_sustained_error(lam, law)
                 if i > 0 and warn:
@@ -175,7 +197,21 @@ def _start(name, ship, wave, shaping_filter, filter_order, estimator, edges, lev
     return finish
 
 
-@cached_program
+def _moment_arguments(ship, wave, filt, filter_order, estimator, edges, levels) -> Callable:
+    """`arguments(closure_order, lift_relax)`: the moment method's `_program` arguments for the filter `filt`. The
+    program builds the SDE with the terms `roll_sde` keeps for the concrete ship and filter (traced ones would keep
+    the zero terms too: a larger system); its structure is known here without computing it (`eval_shape`)."""
+    moment = (filt, zero_pattern(ship, filt), int(filter_order))
+    sde = jax.eval_shape(lambda s, f: _roll_sde(s, f, "cubic", moment[1]), ship, filt)
+
+    def arguments(order, lift_relax):
+        arrays = tuple(moment_equations(sde, k).tables.arrays for k in closure_sequence(order))
+        return "moment", ship, wave, moment, estimator, order, lift_relax, arrays, edges, levels
+
+    return arguments
+
+
+@cached_program(compiler_options=SMALL_PROGRAM)
 def _sustained_program(ship, shaping_filter):
     """`sustained_roll_exponent(ship, None, shaping_filter)` [1/s] as a stored program."""
     return sustained_roll_exponent(ship, None, shaping_filter)
@@ -257,7 +293,7 @@ def iter_theory_summaries(
     wave,
     bins_deg: ArrayLike,
     *,
-    shaping_filter: ShapingFilter | FilterFit | None = None,
+    shaping_filter: ShapingFilter | FilterFit | concurrent.futures.Future | None = None,
     filter_order: int = 4,
     estimator: str = "envelope",
     levels=QUANTILE_LEVELS,
@@ -269,7 +305,11 @@ def iter_theory_summaries(
 
     The programs are dispatched when this is called (the moment method's first: it runs longest) and JAX runs them
     in the background, so that their computation overlaps whatever the caller does until it iterates (loading
-    the other theories' programs; `jaxroll pdf`: the Monte Carlo). Arguments as `theory_summary`;
+    the other theories' programs; `jaxroll pdf`: the Monte Carlo). Arguments as `theory_summary`, and
+    `shaping_filter` may be a `concurrent.futures.Future` of the `FilterFit` (or None) that the caller is still
+    making with `fit_filter(wave, order=filter_order, match_frequency=2ω0)`: the moment method's programs are then
+    traced (before the others start) and compiled for that fit's form (`fitted_form`) meanwhile, and a fit that
+    fails (the future's exception) is the moment method's error;
     with `return_exceptions=True` a theory that has no law gets its error in place of `(law, summary)` (as
     `asyncio.gather`), otherwise the first such error (in the order of `names`) is raised. `warn=False` leaves out
     the `UserWarning` of the moment method's closure fallback (its law records it: `details()["closure_fallback"]`).
@@ -291,10 +331,16 @@ def iter_theory_summaries(
     # GIL, so one theory's compilation overlaps another's tracing and the caller's own work (`jaxroll pdf`: the
     # Monte Carlo's).
     pool = concurrent.futures.ThreadPoolExecutor(max_workers=max(len(names), 1), thread_name_prefix="jaxroll-theory")
-    pending = {
-        name: pool.submit(_start, name, ship, wave, shaping_filter, filter_order, estimator, edges, levels, warn)
-        for name in sorted(names, key=lambda n: n != "moment")
-    }
+    pending = {}
+    if "moment" in names:
+        traced = threading.Event() if isinstance(shaping_filter, concurrent.futures.Future) else None
+        pending["moment"] = pool.submit(_start, "moment", ship, wave, shaping_filter, filter_order, estimator, edges,
+                                        levels, warn, traced)
+        if traced is not None:  # the longest chain (trace, then the longest compilation) first, alone on the GIL
+            traced.wait()
+    for name in names:
+        if name != "moment":
+            pending[name] = pool.submit(_start, name, ship, wave, None, filter_order, estimator, edges, levels, warn)
     pool.shutdown(wait=False)
     return _results(names, pending, bins, levels, return_exceptions)
 
