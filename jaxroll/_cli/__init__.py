@@ -92,10 +92,18 @@ def _on_interrupt(signum, frame) -> None:
     callbacks = {getattr(cb, "__code__", None) for cb in gc.callbacks}
     while frame is not None:
         if frame.f_code in callbacks:
-            threading.Timer(0.05, signal.raise_signal, (signal.SIGINT,)).start()
+            threading.Timer(0.05, _interrupt_main_thread).start()
             return
         frame = frame.f_back
     raise KeyboardInterrupt
+
+
+def _interrupt_main_thread() -> None:
+    """SIGINT to the main thread itself, so that a blocking call there (a wait, a sleep) is interrupted too."""
+    if hasattr(signal, "pthread_kill"):
+        signal.pthread_kill(threading.main_thread().ident, signal.SIGINT)
+    else:  # pragma: no cover  (Windows)
+        signal.raise_signal(signal.SIGINT)
 
 
 def console() -> None:  # pragma: no cover  (the console script; tests call `main`)

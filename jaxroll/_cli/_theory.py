@@ -57,23 +57,18 @@ def start_theory_summaries(problem, args, names, bins_deg, *, skip_failed: bool 
             raise CLIError(f"unknown theory {name!r}")
     t0 = time.time()
     # The fit (`TheoryInputs.filter_fit`: made on first reading, and only for the moment method, which alone uses
-    # it) is made here while the theories' programs trace and compile, the moment method's for the fit's form
-    # (`iter_theory_summaries` with a future filter). A fit that is not usable is the moment method's error: with
-    # `skip_failed` it is left out with that reason, and the other theories are shown.
-    pending = isinstance(problem, TheoryInputs)
-    fit = (concurrent.futures.Future() if "moment" in names else None) if pending else problem.filter_fit
+    # it) is made in a thread of its own while the theories' programs trace and compile, the moment method's for
+    # the fit's form (`iter_theory_summaries` with a future filter). A fit that is not usable is the moment
+    # method's error: with `skip_failed` it is left out with that reason, and the other theories are shown.
+    fit = problem.filter_fit if not isinstance(problem, TheoryInputs) else None
+    if isinstance(problem, TheoryInputs) and "moment" in names:
+        pool = concurrent.futures.ThreadPoolExecutor(max_workers=1, thread_name_prefix="jaxroll-fit")
+        fit = pool.submit(lambda: problem.filter_fit)
+        pool.shutdown(wait=False)
     results = theory.iter_theory_summaries(
         names, problem.ship, problem.wave, bins_deg, shaping_filter=fit, filter_order=args.filter_order,
         return_exceptions=True, warn=warn,
     )  # fmt: skip
-    if pending and fit is not None:
-        try:
-            fit.set_result(problem.filter_fit)
-        except ValueError as e:
-            fit.set_exception(e)
-        except BaseException as e:
-            fit.set_exception(e)
-            raise
     dispatch = time.time() - t0
 
     def finish():

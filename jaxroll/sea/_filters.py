@@ -255,7 +255,7 @@ def fit_filter(
     return _fit_filter(wave, order, match_frequency, match_weight, num)
 
 
-@cached_program(compiler_options=SMALL_PROGRAM)
+@cached_program
 def _fit_filter(wave: EffectiveWave, order: int, match_frequency, match_weight: float, num: int) -> FilterFit:
     """`fit_filter`'s numerics as one compiled program (kept on disk by the CLI: a warm run neither traces nor
     compiles it; ~100 small programs dispatched op by op before)."""
