@@ -598,7 +598,7 @@ def test_a_fit_still_being_made_runs_the_program_compiled_for_the_fits_form(ship
 
     from jaxroll import _compiled
     from jaxroll.sea import fit_filter
-    from jaxroll.sea._filters import fitted_form
+    from jaxroll.sea._filters import filter_from_parameters, fitted_form
     from jaxroll.theory._moment_equations import zero_pattern
 
     monkeypatch.setattr(_compiled, "cache_dir", lambda: tmp_path)
@@ -617,9 +617,12 @@ def test_a_fit_still_being_made_runs_the_program_compiled_for_the_fits_form(ship
     assert len(exported) - before == 2  # the law's program and the gate's, for the form; the fit's calls ran them
     assert law.closure_order == 6
     _same_summary(summary, ship_solutions[6].summary(bins), rtol=1e-10)
-    for order in (3, 5, 6):  # the form's zeros are those of a fit of every order
-        other = fit_filter(_wave(6.0), order=order, match_frequency=2 * SHIP.omega0).filter
+    for order in (3, 5, 6, 12):  # the form's zeros are those of the fit's parametrisation at every order
+        params = jnp.linspace(0.1, 0.9, 2 * (order // 2) + order % 2 + order - 2)
+        other = filter_from_parameters(params, order)
         assert zero_pattern(SHIP, fitted_form(order)) == zero_pattern(SHIP, other)
+    with pytest.raises(ValueError, match="must be <= 12"):  # before any program is traced for it
+        fitted_form(13)
 
 
 def test_vmap_over_sea_states_equals_loop():

@@ -129,6 +129,16 @@ def sea_config(args, ship) -> dict:
     return cfg
 
 
+def check_filter_order(args) -> None:
+    """--filter-order within what `fit_filter` takes: the Method-2 filter's order, and the moment method's
+    (whatever --method is)."""
+    from ..sea import MAX_FILTER_ORDER
+
+    if not 3 <= args.filter_order <= MAX_FILTER_ORDER:
+        raise CLIError(f"--filter-order must be between 3 and {MAX_FILTER_ORDER} (4 recommended); "
+                       f"got {args.filter_order}.")
+
+
 def _sea_from_args(args):
     """The ITTC sea and the heading [deg] of the options, checked (the beam-sea note printed)."""
     from .. import ITTC
@@ -137,8 +147,7 @@ def _sea_from_args(args):
     check_positive(args, "hs", "t01", "dt")
     if not (math.isfinite(args.speed) and args.speed >= 0):
         raise CLIError(f"--speed must be >= 0 [m/s] (use --heading for direction); got {args.speed}.")
-    if args.method == "filter" and args.filter_order < 3:
-        raise CLIError(f"--filter-order must be >= 3 (4 recommended); got {args.filter_order}.")
+    check_filter_order(args)
     if heading_deg == 90.0:
         print(
             "Beam seas (χ = 90°): the wave number projected on the ship's axis, k·cos χ, is 0, so Grim's effective "

@@ -18,7 +18,15 @@ from ._common import (
     save_figure,
     write_json,
 )
-from ._sea import add_sea_options, build_problem, check_positive, heading_phrase, parse_heading, sea_config
+from ._sea import (
+    add_sea_options,
+    build_problem,
+    check_filter_order,
+    check_positive,
+    heading_phrase,
+    parse_heading,
+    sea_config,
+)
 
 THEORIES = ("roberts", "esam", "moment", "envelope_fpk")
 # the theories `jaxroll pdf` overlays unless --theory says otherwise (docs/theory.md, "Speed": what they cost)
@@ -144,8 +152,7 @@ def run(args) -> int:
     chunk = args.chunk_size if args.chunk_size is not None else default_chunk_size(True)
     if not (math.isfinite(args.speed) and args.speed >= 0):
         raise CLIError(f"--speed must be >= 0 [m/s] (use --heading for direction); got {args.speed}.")
-    if args.method == "filter" and args.filter_order < 3:
-        raise CLIError(f"--filter-order must be >= 3 (4 recommended); got {args.filter_order}.")
+    check_filter_order(args)
     budget = memory_budget(args)
     out = Path(args.out)
     check_out(out)

@@ -20,7 +20,7 @@ from ._common import (
     save_figure,
     write_json,
 )
-from ._sea import heading_for_api, heading_number, heading_phrase
+from ._sea import check_filter_order, heading_for_api, heading_number, heading_phrase
 
 
 def register(sub) -> None:
@@ -235,8 +235,7 @@ def run(args) -> int:
         )
     if not 0 < args.confidence < 1:
         raise CLIError(f"--confidence must be in (0, 1); got {args.confidence}.")
-    if args.method == "filter" and args.filter_order < 3:
-        raise CLIError(f"--filter-order must be >= 3 (4 recommended); got {args.filter_order}.")
+    check_filter_order(args)
     if args.devices is not None and not 1 <= args.devices <= jax.device_count():
         raise CLIError(
             f"--devices must be between 1 and {jax.device_count()} (the devices JAX sees); "

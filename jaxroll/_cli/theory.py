@@ -8,7 +8,7 @@ import time
 from pathlib import Path
 
 from ._common import load_ship_arg, save_figure, write_json
-from ._sea import add_sea_options, check_positive, sea_config
+from ._sea import add_sea_options, check_filter_order, check_positive, sea_config
 
 
 def register(sub) -> None:
@@ -45,8 +45,7 @@ def run(args) -> int:
     check_positive(args, "hs", "t01", "dt", "bin_width_deg")
     if not (math.isfinite(args.speed) and args.speed >= 0):
         raise CLIError(f"--speed must be >= 0 [m/s]; got {args.speed}.")
-    if args.method == "filter" and args.filter_order < 3:
-        raise CLIError(f"--filter-order must be >= 3 (4 recommended); got {args.filter_order}.")
+    check_filter_order(args)
     pdf_bins(args.bin_width_deg, 89.0)
     out = Path(args.out)
     check_out(out)

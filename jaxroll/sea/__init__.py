@@ -1,6 +1,7 @@
 """The sea: wave spectra, Grim's effective wave, the shaping filter (Method 2)."""
 
 from ._filters import (
+    MAX_FILTER_ORDER as MAX_FILTER_ORDER,
     FilterFit as FilterFit,
     ShapingFilter as ShapingFilter,
     check_filter_fit as check_filter_fit,

@@ -182,7 +182,9 @@ def fitted_form(order: int) -> ShapingFilter:
     companion rows of A, b = e_n, c₀ = c_{n−1} = 0, and ones where a fit has free coefficients. Its shapes, and
     which coefficients are zero, are those of the fit, so a program built for the fit can be traced and compiled
     with it before the fit is made (`jaxroll.theory.iter_theory_summaries`). No computation: its arrays are placed
-    on the default device as the fit's outputs are (committed), so that the compiled program is the same."""
+    on the default device as the fit's outputs are (committed), so that the compiled program is the same. Raises
+    `fit_filter`'s error for an order it refuses (a program is not traced for it)."""
+    _check_order(order)
     a = np.zeros((order, order))
     a[:-1, 1:] = np.eye(order - 1)
     a[-1] = 1.0
@@ -242,6 +244,11 @@ def fit_filter(
     **Returns:** a `FilterFit`; the output variance equals ∫S_G exactly, `relative_l2_error` = ‖S−S_G‖/‖S_G‖ on
     the fit grid.
     """
+    _check_order(order)
+    return _fit_filter(wave, order, match_frequency, match_weight, num)
+
+
+def _check_order(order: int) -> None:
     if order > MAX_FILTER_ORDER:
         raise ValueError(
             f"`order` must be <= {MAX_FILTER_ORDER} (got {order}): the controllable canonical form is too "
@@ -252,7 +259,6 @@ def fit_filter(
         raise ValueError(
             f"`order` must be >= 3 (got {order}): the filter needs relative degree 2 so that ζ_G is differentiable."
         )
-    return _fit_filter(wave, order, match_frequency, match_weight, num)
 
 
 @cached_program
