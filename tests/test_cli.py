@@ -486,6 +486,26 @@ def test_a_filter_fit_that_is_not_usable_is_the_moment_methods_reason_only(tmp_p
     assert "roberts: No stationary roll-amplitude PDF: the roll dies out" in err and "shaping-filter" not in err
 
 
+def test_library_warnings_are_one_line_and_in_the_json(tmp_path, capsys):
+    """A library warning (oblique seas at speed: the default dt may bias the amplitudes, and the order-4 fit is 10 %
+    off at 2ω0) is one line, `jaxroll pdf: warning: …` — no source path, no code line — and is in pdf.json."""
+    import warnings
+
+    argv = ["pdf", "--heading", "120", "--speed", "5", "--realizations", "4", "--duration", "600", "--chunk-size",
+            "4", "--theory", "none", "--quiet", "--out", str(tmp_path)]
+    with warnings.catch_warnings():
+        warnings.simplefilter("default")  # as the command runs (the suite turns warnings into errors)
+        assert main(argv) == 0
+    err = capsys.readouterr().err
+    lines = [line for line in err.splitlines() if "warning" in line.lower()]
+    assert lines[0].startswith("jaxroll pdf: warning: dt = 0.5 s may bias the amplitudes by more than ~1 %")
+    assert lines[1] == ("jaxroll pdf: warning: order-4 shaping filter: filter spectrum at 0.515 rad/s (2ω0) is "
+                        "0.8147 vs target 0.9078 m² s (10 % off)")
+    assert "UserWarning" not in err and ".py:" not in err
+    d = json.loads((tmp_path / "pdf.json").read_text())
+    assert d["warnings"] == [line.removeprefix("jaxroll pdf: warning: ") for line in lines[:2]]
+
+
 def test_ctrl_c_while_the_theories_compile_exits_at_once(tmp_path):
     """The `jaxroll` command (console entry) on Ctrl-C while the theories' programs compile in their threads: exit
     code 130 and the one-line message, at once (it used to wait for the compilations; `jaxroll pdf` had crashed

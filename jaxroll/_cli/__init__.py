@@ -8,6 +8,7 @@ no other file.
 from __future__ import annotations
 
 import argparse
+import functools
 import gc
 import importlib
 import os
@@ -15,6 +16,7 @@ import pkgutil
 import signal
 import sys
 import threading
+import warnings
 from collections.abc import Sequence
 
 # The LAPACK that jaxlib calls on the CPU is SciPy's OpenBLAS, which starts a thread per core; on the small matrices
@@ -68,8 +70,25 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.command is None:
         parser.print_help()
         return 2
-    from ._common import CLIError
+    from ._common import WARNINGS, CLIError
 
+    WARNINGS.clear()
+    with warnings.catch_warnings():
+        warnings.showwarning = functools.partial(_warning_line, args.command)
+        return _run(args, CLIError)
+
+
+def _warning_line(command: str, message, category, filename, lineno, file=None, line=None) -> None:
+    """A warning of the library (or of the libraries under it) as the command shows it: one line on stderr,
+    `jaxroll COMMAND: warning: …` (no source path or code line), and kept for the JSON it writes (`warnings`)."""
+    from ._common import WARNINGS
+
+    text = str(message)
+    WARNINGS.append(text)
+    print(f"jaxroll {command}: warning: {text}", file=sys.stderr)
+
+
+def _run(args, CLIError) -> int:
     try:
         return int(args.func(args) or 0)
     except CLIError as e:

@@ -59,11 +59,18 @@ def to_jsonable(obj: Any) -> Any:
     return obj
 
 
+#: The warnings the library gave during this command, in order (`jaxroll._cli.main` collects them; `write_json`
+#: writes them as `warnings`).
+WARNINGS: list[str] = []
+
+
 def write_json(path: str | Path, payload: dict[str, Any]) -> None:
-    """Write `payload` as JSON atomically, with `jaxroll_version` first."""
+    """Write `payload` as JSON atomically, with `jaxroll_version` first and the command's `warnings` (if any)."""
     from .. import __version__
 
     data = {"jaxroll_version": __version__, **payload}
+    if WARNINGS:
+        data["warnings"] = list(dict.fromkeys(WARNINGS))
     atomic_write_text(path, json.dumps(to_jsonable(data), indent=2) + "\n")
 
 
