@@ -379,10 +379,13 @@ def test_pdfs_are_normalised_and_nonnegative(hs, pdfs):
 
 def test_no_stationary_pdf_errors():
     weak = parametric_spectrum(SHIP, _wave(1.0))  # K ≪ b1/2
-    with pytest.raises(ValueError, match=r"roll dies out.*K = .* below b1/2"):
+    with pytest.raises(ValueError, match=r"roll dies out.*K = .* below b1/2.*Increase H1/3 or the GM correction r"):
         roberts_pdf(SHIP, weak)
     with pytest.raises(ValueError, match="roll dies out"):
         esam_pdf(SHIP, weak)
+    unmodulated = eqx.tree_at(lambda s: s.gm_correction, SHIP, jnp.asarray(0.0))  # K = 0: nothing to increase
+    with pytest.raises(ValueError, match=r"K = 0 1/s .* no parametric excitation at all.*GM correction r = 0"):
+        roberts_pdf(unmodulated, _wave(7.0))
     out = roberts_pdf(SHIP, weak, throw=False)
     assert not bool(out.exists) and np.all(np.isnan(np.asarray(out.density)))
     assert float(out.parameters["nu"]) < -1

@@ -258,10 +258,15 @@ _NO_PDF = (
 def _no_pdf_message(p: dict) -> str:
     k, b1, nu = float(p["K"]), float(p["b1"]), float(p["nu"])
     if not nu > -1:
+        remedy = (
+            "There is no parametric excitation at all: the waves do not modulate GM here (beam seas, a ΔGM(ζ) "
+            "polynomial of zeros, or a GM correction r = 0)." if k == 0 else
+            "Increase H1/3 or the GM correction r, or reduce the damping b1."
+        )  # fmt: skip
         return (
             f"No stationary roll-amplitude PDF: the roll dies out. The parametric excitation K = {k:.4g} 1/s "
             f"is below b1/2 = {b1 / 2:.4g} 1/s (ν = 1 − b1/K = {nu:.4g} ≤ −1; Lyapunov exponent K − b1/2 = "
-            f"{k - b1 / 2:.3g} 1/s < 0), so A → 0 almost surely. Increase H1/3 or reduce the damping b1."
+            f"{k - b1 / 2:.3g} 1/s < 0), so A → 0 almost surely. {remedy}"
         )
     return (
         f"No stationary roll-amplitude PDF: with purely linear damping (b2 = b3 = 0) and a restoring that never "
