@@ -139,15 +139,21 @@ def check_filter_order(args) -> None:
                        f"got {args.filter_order}.")
 
 
+def check_sea_options(args) -> None:
+    """The shared sea-state and numerics options (`add_sea_options`): H1/3, T01 and dt finite and > 0, the speed a
+    finite magnitude, the filter order within `fit_filter`'s range. Commands call it before any fit or compile."""
+    check_positive(args, "hs", "t01", "dt")
+    if not (math.isfinite(args.speed) and args.speed >= 0):
+        raise CLIError(f"--speed must be >= 0 [m/s] (use --heading for direction); got {args.speed}.")
+    check_filter_order(args)
+
+
 def _sea_from_args(args):
     """The ITTC sea and the heading [deg] of the options, checked (the beam-sea note printed)."""
     from .. import ITTC
 
     heading_deg = parse_heading(args.heading)
-    check_positive(args, "hs", "t01", "dt")
-    if not (math.isfinite(args.speed) and args.speed >= 0):
-        raise CLIError(f"--speed must be >= 0 [m/s] (use --heading for direction); got {args.speed}.")
-    check_filter_order(args)
+    check_sea_options(args)
     if heading_deg == 90.0:
         print(
             "Beam seas (χ = 90°): the wave number projected on the ship's axis, k·cos χ, is 0, so Grim's effective "

@@ -21,8 +21,8 @@ from ._common import (
 from ._sea import (
     add_sea_options,
     build_problem,
-    check_filter_order,
     check_positive,
+    check_sea_options,
     heading_phrase,
     parse_heading,
     sea_config,
@@ -143,16 +143,14 @@ def run(args) -> int:
 
     # Check everything first: no filter fit, compilation or simulation before every option is known good.
     theories = parse_theories(",".join(DEFAULT_OVERLAY) if args.theory is None else args.theory)
-    check_positive(args, "hs", "t01", "dt", "duration", "bin_width_deg")
+    check_sea_options(args)
+    check_positive(args, "duration", "bin_width_deg")
     if args.realizations < 1:
         raise CLIError(f"--realizations must be >= 1; got {args.realizations}.")
     check_chunk_size(args)
     from ..roll import default_chunk_size
 
     chunk = args.chunk_size if args.chunk_size is not None else default_chunk_size(True)
-    if not (math.isfinite(args.speed) and args.speed >= 0):
-        raise CLIError(f"--speed must be >= 0 [m/s] (use --heading for direction); got {args.speed}.")
-    check_filter_order(args)
     budget = memory_budget(args)
     out = Path(args.out)
     check_out(out)

@@ -8,7 +8,14 @@ import time
 from pathlib import Path
 
 from ._common import CLIError, OutputFolder, Progress, load_ship_arg, save_figure, write_json
-from ._sea import add_sea_options, check_positive, heading_for_api, parse_heading, sea_config
+from ._sea import (
+    add_sea_options,
+    check_positive,
+    check_sea_options,
+    heading_for_api,
+    parse_heading,
+    sea_config,
+)
 
 THEORIES = ("roberts", "esam", "moment", "envelope_fpk")
 DEFAULT_WRT = "gm_correction,b1,b2,gm0,hs"
@@ -168,13 +175,12 @@ def run(args) -> int:
         raise CLIError("--wrt names no parameter.")
     stats = [t.strip() for t in args.statistics.split(",") if t.strip()]
     theories = _names(args.theory, THEORIES, "--theory")
-    check_positive(args, "hs", "t01", "dt", "duration", "window", "smoothing_deg")
+    check_sea_options(args)
+    check_positive(args, "duration", "window", "smoothing_deg")
     if args.realizations < 2:
         raise CLIError(f"--realizations must be >= 2; got {args.realizations}.")
     if args.chunk_size < 1:
         raise CLIError(f"--chunk-size must be >= 1; got {args.chunk_size}.")
-    if not (math.isfinite(args.speed) and args.speed >= 0):
-        raise CLIError(f"--speed must be >= 0 [m/s] (use --heading for direction); got {args.speed}.")
     if not (math.isfinite(args.discard) and 0 <= args.discard < args.duration):
         raise CLIError(f"--discard must be in [0, --duration) = [0, {args.duration:g}) s; got {args.discard:g}.")
     out = Path(args.out)

@@ -3,12 +3,11 @@ Carlo."""
 
 from __future__ import annotations
 
-import math
 import time
 from pathlib import Path
 
 from ._common import load_ship_arg, save_figure, write_json
-from ._sea import add_sea_options, check_filter_order, check_positive, sea_config
+from ._sea import add_sea_options, check_positive, check_sea_options, sea_config
 
 
 def register(sub) -> None:
@@ -42,10 +41,8 @@ def run(args) -> int:
     names = parse_theories(args.theory) if named else list(THEORIES)  # one here are shown, the others left out
     if not names:
         raise CLIError("--theory: give at least one of roberts,esam,moment,envelope_fpk.")
-    check_positive(args, "hs", "t01", "dt", "bin_width_deg")
-    if not (math.isfinite(args.speed) and args.speed >= 0):
-        raise CLIError(f"--speed must be >= 0 [m/s]; got {args.speed}.")
-    check_filter_order(args)
+    check_sea_options(args)
+    check_positive(args, "bin_width_deg")
     pdf_bins(args.bin_width_deg, 89.0)
     out = Path(args.out)
     check_out(out)
