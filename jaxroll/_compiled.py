@@ -168,9 +168,10 @@ def cached_program(fn: Callable | None = None, *, compiler_options: dict | None 
     """Decorate a pure function of pytrees so that a concrete call runs a stored, compiled program.
 
     `fn(*args)`: array leaves are inputs, every other leaf is static configuration (as for `eqx.filter_jit`; it
-    must be picklable); returns a pytree. Traced calls and calls with JAX's persistent cache off go to
-    `eqx.filter_jit(fn)`. `compiler_options` (`SMALL_PROGRAM`, `SOLVER_PROGRAM`): XLA options the stored program
-    is compiled with on the CPU (left out where this JAX or XLA does not take them).
+    must be picklable); returns a pytree. Traced calls go to `eqx.filter_jit(fn)`, and so do calls with JAX's
+    persistent cache off unless the program has `compiler_options` (`SMALL_PROGRAM`, `SOLVER_PROGRAM`): XLA options
+    it is compiled with on the CPU, stored or (cache off) traced in this process, so that both give the same bits
+    (left out where this JAX or XLA does not take them).
 
     `wrapper.prepare(*args, compile=True)` loads or exports the program for `args` (only their shapes, dtypes,
     placement and static parts matter) and compiles it, without running it: a later call with arguments of the

@@ -70,12 +70,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.command is None:
         parser.print_help()
         return 2
-    from ._common import WARNINGS, CLIError
+    from ._common import WARNINGS
 
     WARNINGS.clear()
     with warnings.catch_warnings():
         warnings.showwarning = functools.partial(_warning_line, args.command)
-        return _run(args, CLIError)
+        return _run(args)
 
 
 def _warning_line(command: str, message, category, filename, lineno, file=None, line=None) -> None:
@@ -88,7 +88,10 @@ def _warning_line(command: str, message, category, filename, lineno, file=None, 
     print(f"jaxroll {command}: warning: {text}", file=sys.stderr)
 
 
-def _run(args, CLIError) -> int:
+def _run(args) -> int:
+    """The command's `func`, its errors as one line and exit code 2, Ctrl-C as 130."""
+    from ._common import CLIError
+
     try:
         return int(args.func(args) or 0)
     except CLIError as e:
