@@ -83,8 +83,6 @@ def check_filter_fit(fit: "FilterFit", dt=None) -> list[str]:
     """
     import warnings
 
-    import numpy as np
-
     f = fit.filter
     errors, warns = [], []
     var_q, s_match, sigma, phi = jax.device_get(_fit_diagnostics(f, fit.match_frequency, dt))  # numpy; phi may be None
