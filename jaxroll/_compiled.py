@@ -42,6 +42,7 @@ from collections.abc import Callable
 
 import equinox as eqx
 import jax
+import jax.numpy as jnp
 import numpy as np
 
 _FORMAT = "1"  # bump to invalidate every stored program
@@ -78,6 +79,21 @@ def package_key() -> str:
 def is_concrete(tree) -> bool:
     """True when no leaf of `tree` is a JAX tracer (not under jit, grad or vmap)."""
     return not any(isinstance(x, jax.core.Tracer) for x in jax.tree.leaves(tree))
+
+
+def as_float(value):
+    """`jnp.asarray(value, dtype=float)`; a concrete value is converted by NumPy and placed with `jax.device_put`,
+    which compiles nothing (`jnp.asarray` compiles a conversion or staging program per shape and dtype, ~10 ms
+    each on a cold run, in every command's set-up); traced values as `jnp.asarray`."""
+    if isinstance(value, jax.core.Tracer):
+        return jnp.asarray(value, dtype=float)
+    return jax.device_put(np.asarray(value, dtype=float))
+
+
+def array_module(value):
+    """`np` for a concrete value (its checks computed on the host, without compiling an eager XLA program for each
+    comparison), `jnp` for a traced one."""
+    return jnp if isinstance(value, jax.core.Tracer) else np
 
 
 def require(value, bad, message: str):
@@ -160,8 +176,9 @@ _LOCKS_GUARD = threading.Lock()
 #: and XLA's older loop emitters, so that compiling them, the whole of their cost on a cold run, is 25–40 % faster.
 SMALL_PROGRAM = {"xla_backend_optimization_level": 0, "xla_cpu_use_fusion_emitters": False}
 #: XLA options (CPU) for solvers that run for a fraction of a second (the moment method, the envelope FPK): the
-#: older loop emitters only (compiling 10–20 % faster, running ≈ 10 % slower; docs/theory.md, "Speed").
-SOLVER_PROGRAM = {"xla_cpu_use_fusion_emitters": False}
+#: older loop emitters and LLVM's level 1 (compiling 20–25 % faster, running ≈ 10 % slower; the moment method's
+#: numbers are the same bits as at the default level; docs/theory.md, "Speed").
+SOLVER_PROGRAM = {"xla_backend_optimization_level": 1, "xla_cpu_use_fusion_emitters": False}
 
 
 def cached_program(fn: Callable | None = None, *, compiler_options: dict | None = None) -> Callable:

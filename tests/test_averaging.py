@@ -533,3 +533,28 @@ def test_stored_program_is_read_back_with_the_same_numbers(tmp_path, monkeypatch
     with pytest.raises(ValueError, match="unknown theory"):
         jxr.theory.theory_law("magic", SHIP, wave)
     assert list(jxr.theory.iter_theory_summaries((), SHIP, wave, BINS)) == []  # no theory asked, none started
+
+
+def test_roberts_and_esam_together_are_one_program_with_the_same_numbers(tmp_path, monkeypatch):
+    """Asked together (`jaxroll theory`, `jaxroll pdf`), Roberts and ESAM are one stored program (`_averaging_program`:
+    the two laws and their summaries, vmapped over the two tables): the same laws and summaries as each on its own
+    (to 1e-12: the summary's root searches batched), one program exported instead of two."""
+    pytest.importorskip("flatbuffers")
+    from jaxroll import _compiled
+
+    monkeypatch.setattr(_compiled, "cache_dir", lambda: tmp_path)
+    monkeypatch.setattr(_compiled, "_LOADED", {})
+    wave = _wave(7.0)
+    both = dict(jxr.theory.iter_theory_summaries(("esam", "roberts"), SHIP, wave, BINS))
+    assert list(both) == ["esam", "roberts"]
+    assert len(list(tmp_path.glob("*.bin"))) == 1
+    for name in ("roberts", "esam"):
+        law, summary = jxr.theory.theory_summary(name, SHIP, wave, BINS)
+        _same(both[name][1], summary)
+        _same(both[name][0].details(), law.details())
+        assert type(both[name][0]) is type(law) and both[name][0].method == law.method
+    with pytest.raises(ValueError, match=r"roll dies out.*K = .* below b1/2"):
+        dict(jxr.theory.iter_theory_summaries(("roberts", "esam"), SHIP, _wave(1.0), BINS))
+    failed = dict(jxr.theory.iter_theory_summaries(("roberts", "esam"), SHIP, _wave(1.0), BINS,
+                                                   return_exceptions=True))  # fmt: skip
+    assert all(isinstance(e, ValueError) for e in failed.values())

@@ -198,3 +198,51 @@ def test_stored_monte_carlo_program_over_two_devices_equals_a_traced_one(tmp_pat
                          text=True)
     assert res.returncode == 0, res.stderr[-3000:]
     assert int(res.stdout.split()[-1]) == 1  # the sharded chunk program was stored
+
+
+_SET_UP_CHILD = """
+import jax, numpy as np
+import jaxroll
+
+compiles = []
+jax.monitoring.register_event_duration_secs_listener(
+    lambda event, secs, **kw: compiles.append(event) if event == "/jax/core/compile/backend_compile_duration" else None)
+ship = jaxroll.c11_representative()
+wave = jaxroll.EffectiveWave(jaxroll.ITTC(7.0, 10.0), ship.lpp, 2.5, "head")
+table = jaxroll.ship_to_dict(ship)
+print(len(compiles), ship.gm0.dtype, ship.restoring.shape, float(wave.speed), table["damping"]["b2"])
+"""
+
+
+def test_the_set_up_compiles_no_eager_programs():
+    """Building the ship, the sea and the effective wave from concrete numbers, and writing the ship back out,
+    compile no XLA program (`as_float`, checks on the host): each eager operation would compile one (~10 ms on
+    a cold run, in every command's set-up). In a new process, where nothing is compiled yet."""
+    import os
+    import subprocess
+    import sys
+
+    env = {**os.environ, "JAX_PLATFORMS": "cpu", "JAX_ENABLE_COMPILATION_CACHE": "false"}
+    res = subprocess.run([sys.executable, "-c", _SET_UP_CHILD], env=env, capture_output=True, text=True)
+    assert res.returncode == 0, res.stderr[-3000:]
+    count, dtype, shape, speed, b2 = res.stdout.split()
+    assert (count, dtype, shape, float(speed)) == ("0", "float64", "(4,)", 2.5)
+    assert float(b2) == float(jaxroll.c11_representative().damping[1])
+
+
+def test_as_float_and_host_checks_concrete_and_traced():
+    """`as_float` gives what `jnp.asarray(x, float)` gives (a float64 array, uncommitted) for Python numbers, lists,
+    integer and float32 arrays, and passes tracers through; the checks built on it raise at once on concrete
+    values and at run time under jit."""
+    for x in (3, 2.5, [1, 2, 3], np.arange(3, dtype=np.int32), np.float32(0.1), jnp.asarray([1.5], jnp.float32)):
+        got, want = _compiled.as_float(x), jnp.asarray(x, dtype=float)
+        assert got.dtype == want.dtype == jnp.float64 and not got.weak_type and not got._committed
+        np.testing.assert_array_equal(np.asarray(got), np.asarray(want))
+    assert jax.jit(lambda v: _compiled.as_float(v) * 2)(3) == 6.0
+    assert _compiled.array_module(1.0) is np and _compiled.array_module(jnp.ones(())) is np
+    with pytest.raises(ValueError, match=r"`hs` must be a finite number > 0"):
+        jaxroll.ITTC(float("nan"), 10.0)
+    with pytest.raises(ValueError, match=r"`speed` must be >= 0"):
+        jaxroll.EffectiveWave(jaxroll.ITTC(7.0, 10.0), 262.0, -1.0)
+    with pytest.raises(Exception, match=r"`hs` must be a finite number > 0"):
+        jax.block_until_ready(jax.jit(lambda h: jaxroll.ITTC(h, 10.0).hs)(-1.0))

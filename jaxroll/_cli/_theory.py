@@ -47,7 +47,8 @@ def start_theory_summaries(problem, args, names, bins_deg, *, skip_failed: bool 
     """Dispatch the theories' programs now (JAX runs them in the background) and return `finish() -> dict`: per
     theory (envelope law) `pdf` per degree on `bins_deg`, the law's summary, its details, and `time_s`, the wall
     time it cost this command (dispatching it, and waiting for its result after the previous one's). Each theory
-    is one compiled program (`jaxroll.theory.iter_theory_summaries`). A theory that has no law is an error
+    is one compiled program (`jaxroll.theory.iter_theory_summaries`). `bins_deg` may be a function that returns
+    them, called once the filter fit has started. A theory that has no law is an error
     (`CLIError`), or with `skip_failed` is left out and `finish()` returns `(summaries, {name: reason})`;
     `warn=False`: no `UserWarning` for the moment method's closure fallback (its details record it)."""
     from .. import theory
@@ -65,6 +66,8 @@ def start_theory_summaries(problem, args, names, bins_deg, *, skip_failed: bool 
         pool = concurrent.futures.ThreadPoolExecutor(max_workers=1, thread_name_prefix="jaxroll-fit")
         fit = pool.submit(lambda: problem.filter_fit)
         pool.shutdown(wait=False)
+    if callable(bins_deg):  # after the fit has started (`jaxroll theory`'s bins need the vanishing angle's program)
+        bins_deg = bins_deg()
     results = theory.iter_theory_summaries(
         names, problem.ship, problem.wave, bins_deg, shaping_filter=fit, filter_order=args.filter_order,
         return_exceptions=True, warn=warn,

@@ -3,6 +3,7 @@ Carlo."""
 
 from __future__ import annotations
 
+import functools
 import time
 from pathlib import Path
 
@@ -49,7 +50,11 @@ def run(args) -> int:
     ship = load_ship_arg(args.ship)
     t0 = time.time()
     inputs = build_theory_inputs(args, ship)  # no time stepping here: the Monte Carlo's dt check does not apply
-    bins = pdf_bins(args.bin_width_deg, float(np.rad2deg(np.asarray(vanishing_angle(ship)))))
+
+    @functools.cache
+    def bins():  # computed while the filter fit starts (a program to load or compile: the vanishing angle's)
+        return pdf_bins(args.bin_width_deg, float(np.rad2deg(np.asarray(vanishing_angle(ship)))))
+
     finish = start_theory_summaries(inputs, args, names, bins, skip_failed=not named, warn=False)
     from ..plotting import amplitude_pdf_figures  # imported (matplotlib: ~0.4 s) while the theories compute
 
@@ -57,7 +62,7 @@ def run(args) -> int:
     if not theories:
         raise CLIError("no theory has a law in this sea state:\n"
                        + "\n".join(f"  {name}: {reason}" for name, reason in left_out.items()))
-    payload = {"config": {**sea_config(args, ship), "theory": names}, "bins_deg": bins, "theory": theories,
+    payload = {"config": {**sea_config(args, ship), "theory": names}, "bins_deg": bins(), "theory": theories,
                "run_time_s": time.time() - t0}
     if left_out:
         payload["theory_left_out"] = left_out

@@ -13,7 +13,6 @@ import math
 from collections.abc import Sequence
 from typing import Any
 
-import diffrax
 import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
@@ -277,6 +276,8 @@ def decay_solution(ship: Ship, phi0, dphi0, ts, *, rtol: float = 1e-9, atol: flo
                 - restoring_moment(args, y[0]),
             ]
         )
+
+    import diffrax  # here: every other command would pay its import (~0.1 s)
 
     sol = diffrax.diffeqsolve(
         diffrax.ODETerm(field),

@@ -20,7 +20,7 @@ import jax.numpy as jnp
 import jax.random as jr
 from jaxtyping import Array, Float, PRNGKeyArray
 
-from .._compiled import require
+from .._compiled import array_module, as_float, require
 from ._spectra import (
     GRAVITY,
     AbstractWaveSpectrum,
@@ -58,12 +58,12 @@ class EffectiveWave(eqx.Module):
         wave direction (0 following, π/2 beam, π head; long-crested)."""
         chi, cos_chi = heading_angle(heading), heading_cosine(heading)  # validates
         self.sea = sea
-        length = jnp.asarray(length, dtype=float)
-        self.length = require(length, ~(length > 0), "ship length must be > 0 [m].")
-        speed = jnp.asarray(speed, dtype=float)
-        self.speed = require(speed, ~(speed >= 0), "`speed` must be >= 0 [m/s]; use `heading` for direction.")
-        self.heading = jnp.asarray(chi, dtype=float)
-        self.cos_heading = jnp.asarray(cos_chi, dtype=float)
+        length, speed = as_float(length), as_float(speed)
+        self.length = require(length, ~(array_module(length).asarray(length) > 0), "ship length must be > 0 [m].")
+        self.speed = require(speed, ~(array_module(speed).asarray(speed) >= 0),
+                             "`speed` must be >= 0 [m/s]; use `heading` for direction.")  # fmt: skip
+        self.heading = as_float(chi)
+        self.cos_heading = as_float(cos_chi)
         self.following = cos_chi > 0
         self.projected = abs(cos_chi) != 1.0
 

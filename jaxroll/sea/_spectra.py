@@ -13,7 +13,7 @@ import equinox as eqx
 import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float
 
-from .._compiled import require
+from .._compiled import array_module, as_float, require
 
 GRAVITY = 9.80665  # [m/s²]
 
@@ -35,10 +35,12 @@ class AbstractWaveSpectrum(eqx.Module):
 
 
 def _check_positive(name: str, value, unit: str):
-    value = jnp.asarray(value, dtype=float)
+    value = as_float(value)
     if value.shape != ():
         raise ValueError(f"`{name}` must be a scalar; got shape {value.shape}.")
-    return require(value, ~(value > 0) | ~jnp.isfinite(value), f"`{name}` must be a finite number > 0 [{unit}].")
+    xp = array_module(value)
+    bad = ~(xp.asarray(value) > 0) | ~xp.isfinite(value)
+    return require(value, bad, f"`{name}` must be a finite number > 0 [{unit}].")
 
 
 class ITTC(AbstractWaveSpectrum):

@@ -16,6 +16,8 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
 
+from .._compiled import as_float
+
 DEFAULT_SHIP_NOTE = (
     "C11 (representative): the particulars are the paper's Table 1 (Katsumura et al., arXiv 2407.02728); "
     "restoring, damping and ΔGM coefficients are representative values chosen to show the paper's regime, "
@@ -71,12 +73,12 @@ class Ship(eqx.Module):
             gm_correction=gm_correction,
         )
         for key, value in scalars.items():
-            arr = jnp.asarray(value, dtype=float)
+            arr = as_float(value)
             if arr.shape != ():
                 raise ValueError(f"Ship `{key}` must be a scalar; got shape {arr.shape}.")
             setattr(self, key, arr)
         for key, value, size in (("restoring", restoring, 4), ("damping", damping, 3), ("delta_gm", delta_gm, 7)):
-            arr = jnp.asarray(value, dtype=float)
+            arr = as_float(value)
             if arr.shape != (size,):
                 raise ValueError(f"Ship `{key}` must have shape ({size},); got {arr.shape}.")
             setattr(self, key, arr)
@@ -154,7 +156,7 @@ _POSITIVE = {"lpp_m", "breadth_m", "depth_m", "draught_m", "displacement_kg", "g
 
 def _get(ship: Ship, attr) -> float:
     if isinstance(attr, tuple):
-        return float(getattr(ship, attr[0])[attr[1]])
+        return float(np.asarray(getattr(ship, attr[0]))[attr[1]])  # indexed on the host: no eager XLA program
     return float(getattr(ship, attr))
 
 

@@ -138,7 +138,8 @@ class _Grid:
 
 
 class _Model(eqx.Module):
-    """Coefficients and the discretised pieces of the reduced system (everything the solves need)."""
+    """Coefficients and the discretised pieces of the reduced system (everything the solves need; the amplitude
+    grid's fields, se … i_norm, are None in the (ρ, θ)-only model that λ needs)."""
 
     omega: jax.Array
     b1: jax.Array
@@ -206,7 +207,11 @@ def _amplitude_edges(a_top, grid: _Grid):
     return jnp.concatenate([coarse, fine])
 
 
-def _build_model(ship: Ship, scale, h, omega, exc: EnvelopeExcitation, grid: _Grid) -> _Model:
+def _build_model(
+    ship: Ship, scale, h, omega, exc: EnvelopeExcitation, grid: _Grid, amplitude: bool = True
+) -> _Model:
+    """The reduced system on `grid`; `amplitude=False`: the (ρ, θ) pieces only, which λ needs (`_lyapunov`), with
+    the amplitude grid's fields None (no vanishing angle, no s operators: a smaller program to trace)."""
     nr, nt = grid.num_rho, grid.num_theta
     # excitation harmonics of the unit-variance envelope; the linear coupling scaled by √v (resonant level exact)
     hn = h.at[1].multiply(jnp.sqrt(exc.variance))
@@ -229,19 +234,9 @@ def _build_model(ship: Ship, scale, h, omega, exc: EnvelopeExcitation, grid: _Gr
     lrho = lrho.at[j, j + 1].add(kr / mc[j + 1] / drho).at[j, j].add(-kr / mc[j] / drho)
     lrho = lrho.at[j + 1, j + 1].add(-kr / mc[j + 1] / drho).at[j + 1, j].add(kr / mc[j] / drho)
 
-    # s: F_{i+1/2} = v⁺ q_i + v⁻ q_{i+1}, v = −δ(e^s) + ξ at the interior faces; zero at both ends (reflecting)
-    se = _amplitude_edges(vanishing_angle(ship), grid)
-    sc = (se[1:] + se[:-1]) / 2
-    ds = jnp.diff(se)
-    vf = -_delta(ship, omega, jnp.exp(se))[:, None] + xi[None, :]
-    vf = vf.at[0].set(0.0).at[-1].set(0.0)
-    vp, vm = jnp.maximum(vf, 0.0), jnp.minimum(vf, 0.0)
-    return _Model(
+    phase = dict(
         omega=omega,
         b1=ship.damping[0],
-        se=se,
-        sc=sc,
-        ds=ds,
         rho=rho,
         th=th,
         xi=xi,
@@ -251,13 +246,28 @@ def _build_model(ship: Ship, scale, h, omega, exc: EnvelopeExcitation, grid: _Gr
         l_rho=jnp.kron(lrho, jnp.eye(nt)),
         theta_diffusion=exc.gamma / rho**2,
         restoring=ship.restoring_coefficients,
+        grid=grid,
+    )
+    if not amplitude:
+        return _Model(**phase, **dict.fromkeys(("se", "sc", "ds", "lower", "upper", "diag_s", "vp", "vm", "i_norm")))
+    # s: F_{i+1/2} = v⁺ q_i + v⁻ q_{i+1}, v = −δ(e^s) + ξ at the interior faces; zero at both ends (reflecting)
+    se = _amplitude_edges(vanishing_angle(ship), grid)
+    sc = (se[1:] + se[:-1]) / 2
+    ds = jnp.diff(se)
+    vf = -_delta(ship, omega, jnp.exp(se))[:, None] + xi[None, :]
+    vf = vf.at[0].set(0.0).at[-1].set(0.0)
+    vp, vm = jnp.maximum(vf, 0.0), jnp.minimum(vf, 0.0)
+    return _Model(
+        **phase,
+        se=se,
+        sc=sc,
+        ds=ds,
         lower=vp[:-1] / ds[:, None],
         upper=-vm[1:] / ds[:, None],
         diag_s=(-vp[1:] + vm[:-1]) / ds[:, None],
         vp=vp,
         vm=vm,
         i_norm=jnp.argmin(jnp.abs(sc - math.log(math.radians(3.0)))),
-        grid=grid,
     )
 
 
@@ -421,10 +431,10 @@ def _cell_laws(md: _Model, qs):
     return mass_env, zc / jnp.sum(zc)
 
 
-def _prepare(ship, wave, excitation, grid):
+def _prepare(ship, wave, excitation, grid, amplitude=True):
     scale, h, omega = _linear_frequency(ship, wave)
     exc = fit_envelope(wave, omega) if excitation is None else excitation
-    return _build_model(ship, scale, h, omega, exc, grid), exc
+    return _build_model(ship, scale, h, omega, exc, grid, amplitude), exc
 
 
 @eqx.filter_jit
@@ -437,7 +447,7 @@ def _envelope_fpk(ship, wave, excitation, grid: _Grid, protocol):
 
 @eqx.filter_jit
 def _lyapunov_only(ship, wave, excitation, grid: _Grid):
-    md, exc = _prepare(ship, wave, excitation, grid)
+    md, exc = _prepare(ship, wave, excitation, grid, amplitude=False)
     return _lyapunov(md), exc
 
 
