@@ -1,5 +1,7 @@
 """Grim's effective wave: transfer function, Method 1 (superposition) and Method 2 (shaping filter)."""
 
+import re
+
 import jax
 import jax.numpy as jnp
 import jax.random as jr
@@ -150,3 +152,21 @@ def test_filter_order_bounded_and_fit_gated():
     unstable = eqx.tree_at(lambda f: f.filter.a, fit, fit.filter.a.at[-1, -1].set(1.0))
     with pytest.raises(ValueError, match="not usable"):
         check_filter_fit(unstable, 0.5)
+
+
+def test_filter_fit_message_where_the_sea_has_no_energy_at_2w0():
+    """Short waves (T01 = 4 s) have ≈ 2e-14 m² s at 2ω0, and the filter's tail 2e-4: the error gives the ratio
+    and says why (it read '954071029177 % off'); a miss of a few hundred % keeps its percentage."""
+    from jaxroll.sea._filters import check_filter_fit
+
+    w2 = 2 * 2 * np.pi / 24.4
+    short = jaxroll.fit_filter(jaxroll.EffectiveWave(jaxroll.ITTC(7.0, 4.0), L), order=4, match_frequency=w2)
+    ratio = float(short.filter.spectrum(w2)) / float(short.spectrum_target_at_match)
+    assert ratio > 1e9
+    with pytest.raises(ValueError, match=rf"\(2ω0\) is .* \({re.escape(f'{ratio:.3g}')} times the target; the sea "
+                                         "has almost no energy at 2ω0"):
+        check_filter_fit(short)
+    following = jaxroll.fit_filter(jaxroll.EffectiveWave(jaxroll.ITTC(7.0, 10.0), L, 8.0, "following"), order=4,
+                                   match_frequency=w2)  # fmt: skip
+    with pytest.raises(ValueError, match=r"\(3\d\d % off\)"):
+        check_filter_fit(following)
