@@ -291,6 +291,17 @@ def test_sweep_over_headings_and_speeds_draws_the_polar_chart(tmp_path, capsys):
     assert np.all(p[0] == 0.0) and np.all(np.array(d["capsize_probability"])[0] == 0.0)
     assert {(q["heading"], q["heading_deg"]) for q in d["points"]} == {("90deg", 90.0), ("head", 180.0)}
     assert "sweep_polar.png" in capsys.readouterr().out
+    # One sea state: sweep.png shows the probabilities against speed (a map would be one cell), one curve per
+    # heading, with the payload's points and 95 % intervals.
+    from jaxroll._cli.sweep import sweep_figure
+
+    fig = sweep_figure(d)
+    for ax, name in zip(fig.axes, ("capsize", "exceedance"), strict=True):
+        assert ax.get_xlabel() == "speed U [m/s]"
+        assert ax.get_legend_handles_labels()[1] == ["beam seas (χ = 90°)", "head seas"]
+        for i, bars in enumerate(ax.containers):  # one errorbar container per heading
+            np.testing.assert_array_equal(bars.lines[0].get_xdata(), [0.0, 3.0])
+            np.testing.assert_array_equal(bars.lines[0].get_ydata(), np.array(d[f"{name}_probability"])[i, :, 0, 0])
 
 
 def test_polar_risk_chart_draws_cells_over_heading_and_speed():

@@ -106,12 +106,16 @@ def parse_headings(text: str) -> list[float]:
 
 
 def sweep_figure(payload: dict):
-    """Maps of P(capsize) and P(max |φ| > angle) on (T01, H1/3), one column per (heading, speed)."""
+    """Maps of P(capsize) and P(max |φ| > angle) on (T01, H1/3), one column per (heading, speed); where H1/3 and T01
+    do not both vary (a map would be a strip or a single cell), the two probabilities as curves with their 95 %
+    intervals (`_sweep_curves`)."""
     import matplotlib.pyplot as plt
     import numpy as np
 
     grid = payload["grid"]
     hs, t01 = np.asarray(grid["hs_m"]), np.asarray(grid["t01_s"])
+    if hs.size == 1 or t01.size == 1:
+        return _sweep_curves(payload)
     cases = [(h, u) for h in grid["heading"] for u in grid["speed_m_s"]]
     phrase = dict(zip(grid["heading"], map(heading_phrase, payload["heading_deg"]), strict=True))
     angle = payload["config"]["angle_deg"]
@@ -159,6 +163,56 @@ def sweep_figure(payload: dict):
     cfg = payload["config"]
     fig.suptitle(
         f"{cfg['ship']['name']}: N = {cfg['realizations']} trials × {cfg['duration_s']:g} s per sea state",
+        fontsize=10,
+    )
+    return fig
+
+
+def _sweep_curves(payload: dict):
+    """P(capsize) and P(max |φ| > angle) with their 95 % intervals against the first axis of the sweep that varies —
+    H1/3, T01, speed, heading in that order — one curve per value of the others (for `sweep_figure`)."""
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    grid = payload["grid"]
+    names = ("heading", "speed_m_s", "hs_m", "t01_s")  # the axes of the probability arrays
+    values = {name: list(grid[name]) for name in names}
+    values["heading"] = list(payload["heading_deg"])  # χ [deg], in the order of grid["heading"]
+    x_name = next((n for n in ("hs_m", "t01_s", "speed_m_s", "heading") if len(values[n]) > 1), "hs_m")
+    x_axis = names.index(x_name)
+    x_label = {"hs_m": "H1/3 [m]", "t01_s": "T01 [s]", "speed_m_s": "speed U [m/s]",
+               "heading": "heading χ [deg] (0 following, 90 beam, 180 head)"}[x_name]  # fmt: skip
+    x = np.asarray(values[x_name], float)
+    order = np.argsort(x)
+    others = [n for n in names if n != x_name]
+    angle = payload["config"]["angle_deg"]
+
+    def describe(n, v):
+        return {"heading": heading_phrase(v), "speed_m_s": f"U {v:g} m/s", "hs_m": f"H1/3 {v:g} m",
+                "t01_s": f"T01 {v:g} s"}[n]  # fmt: skip
+
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4.2), layout="constrained")
+    rows = (("capsize", "P(capsize)"), ("exceedance", f"P(max |φ| > {angle:g}°)"))
+    for ax, (name, title) in zip(axes, rows, strict=True):
+        p = np.moveaxis(np.asarray(payload[f"{name}_probability"], float), x_axis, -1)
+        ci = np.moveaxis(np.asarray(payload[f"{name}_ci"], float), x_axis, -2)
+        for idx in np.ndindex(p.shape[:-1]):
+            label = ", ".join(describe(n, values[n][i]) for n, i in zip(others, idx, strict=True)
+                              if len(values[n]) > 1) or None  # fmt: skip
+            y, lo, hi = p[idx][order], ci[idx][order, 0], ci[idx][order, 1]
+            ax.errorbar(x[order], y, yerr=[y - lo, hi - y], marker="o", ms=4, capsize=3, label=label)
+        ax.set_xlabel(x_label)
+        ax.set_ylabel(f"{title} per trial")
+        ax.set_ylim(-0.02, 1.02)
+        ax.set_title(title, fontsize=10)
+        ax.grid(alpha=0.3)
+        if ax.get_legend_handles_labels()[1]:
+            ax.legend(fontsize=8)
+    fixed = ", ".join(describe(n, values[n][0]) for n in others if len(values[n]) == 1)
+    cfg = payload["config"]
+    fig.suptitle(
+        f"{cfg['ship']['name']}: {fixed}; N = {cfg['realizations']} trials × {cfg['duration_s']:g} s per point "
+        "(bars: 95 % Wilson intervals)",
         fontsize=10,
     )
     return fig
