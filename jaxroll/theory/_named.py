@@ -366,7 +366,7 @@ def iter_theory_summaries(
             traced.wait()
     if all(name in names for name in _SMALL):  # Roberts and ESAM: one program
         both = pool.submit(_start_averaging, ship, wave, estimator, edges, levels)
-        pending.update({name: functools.partial(lambda n: both.result()[n], name) for name in _SMALL})
+        pending.update({name: (lambda name=name: both.result()[name]) for name in _SMALL})
     for name in names:
         if name not in pending:
             pending[name] = pool.submit(_start, name, ship, wave, None, filter_order, estimator, edges, levels,
