@@ -69,6 +69,7 @@ def _warn_if_started_without_math_flag() -> None:
 _warn_if_started_without_math_flag()
 
 from . import criteria as criteria, theory as theory
+from ._compiled import enable_compilation_cache as enable_compilation_cache
 from .calibration import (
     CaptiveFit as CaptiveFit,
     CaptiveGroup as CaptiveGroup,

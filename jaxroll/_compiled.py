@@ -49,6 +49,22 @@ _FORMAT = "1"  # bump to invalidate every stored program
 _PACKAGE = pathlib.Path(__file__).resolve().parent
 
 
+def enable_compilation_cache(path: str | os.PathLike | None = None) -> pathlib.Path | None:
+    """Keep compiled programs on disk between Python sessions, as the `jaxroll` command does: JAX's persistent
+    compilation cache in `path` (default: `JAXROLL_CACHE_DIR`, else `~/.cache/jaxroll/xla`; an empty
+    `JAXROLL_CACHE_DIR` leaves it off), every compilation kept, and jaxroll's stored programs beside it
+    (`cache_dir()`), so that a new session loads what an earlier one compiled instead of tracing and compiling it
+    again (the README's example: 18 s in every new session without it; with it 19 s the first time, then
+    3.4–4.1 s). Call it before the first computation. **Returns:** the folder, or None when left off."""
+    if path is None:
+        path = os.environ.get("JAXROLL_CACHE_DIR", os.path.join(os.path.expanduser("~"), ".cache", "jaxroll", "xla"))
+    if not str(path):
+        return None
+    jax.config.update("jax_compilation_cache_dir", str(path))
+    jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.0)
+    return pathlib.Path(path)
+
+
 def cache_dir() -> pathlib.Path | None:
     """`<jax_compilation_cache_dir>/jaxroll-programs`, or None when JAX's persistent cache is off."""
     base = jax.config.jax_compilation_cache_dir

@@ -246,3 +246,26 @@ def test_as_float_and_host_checks_concrete_and_traced():
         jaxroll.EffectiveWave(jaxroll.ITTC(7.0, 10.0), 262.0, -1.0)
     with pytest.raises(Exception, match=r"`hs` must be a finite number > 0"):
         jax.block_until_ready(jax.jit(lambda h: jaxroll.ITTC(h, 10.0).hs)(-1.0))
+
+
+def test_enable_compilation_cache_keeps_programs_for_a_new_session(tmp_path, monkeypatch):
+    """`jaxroll.enable_compilation_cache` (what the `jaxroll` command calls; Python and Jupyter users opt in): JAX's
+    persistent cache in the folder given, else JAXROLL_CACHE_DIR, off where that is empty; jaxroll's stored
+    programs go beside it."""
+    before = (jax.config.jax_compilation_cache_dir, jax.config.jax_persistent_cache_min_compile_time_secs)
+    try:
+        assert jaxroll.enable_compilation_cache(tmp_path / "xla") == tmp_path / "xla"
+        assert jax.config.jax_compilation_cache_dir == str(tmp_path / "xla")
+        assert jax.config.jax_persistent_cache_min_compile_time_secs == 0.0
+        monkeypatch.setattr(_compiled, "_LOADED", {})
+        angle = float(jaxroll.vanishing_angle(jaxroll.c11_representative(), num=1237))
+        assert angle == pytest.approx(np.deg2rad(71.598), abs=1e-4)
+        assert [p.suffix for p in (tmp_path / "xla" / "jaxroll-programs").iterdir()] == [".bin"]
+        monkeypatch.setenv("JAXROLL_CACHE_DIR", str(tmp_path / "env"))
+        assert jaxroll.enable_compilation_cache() == tmp_path / "env"
+        monkeypatch.setenv("JAXROLL_CACHE_DIR", "")
+        assert jaxroll.enable_compilation_cache() is None
+        assert jax.config.jax_compilation_cache_dir == str(tmp_path / "env")  # left as it was
+    finally:
+        jax.config.update("jax_compilation_cache_dir", before[0])
+        jax.config.update("jax_persistent_cache_min_compile_time_secs", before[1])

@@ -42,23 +42,6 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def _enable_compilation_cache() -> None:
-    """Keep compiled kernels on disk between runs (JAXROLL_CACHE_DIR, default ~/.cache/jaxroll/xla; empty: off).
-
-    The first `jaxroll theory` or `jaxroll pdf` compiles for seconds; later runs of the same shapes load the
-    kernels instead.
-    """
-    import os
-
-    import jax
-
-    default = os.path.join(os.path.expanduser("~"), ".cache", "jaxroll", "xla")
-    path = os.environ.get("JAXROLL_CACHE_DIR", default)
-    if path:
-        jax.config.update("jax_compilation_cache_dir", path)
-        jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.0)
-
-
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the `jaxroll` command. Returns the process exit code."""
     import matplotlib
@@ -66,7 +49,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     matplotlib.use("Agg")  # the CLI only writes files; never needs a display
     parser = build_parser()
     args = parser.parse_args(argv)
-    _enable_compilation_cache()
+    from .. import enable_compilation_cache
+
+    enable_compilation_cache()  # JAXROLL_CACHE_DIR, default ~/.cache/jaxroll/xla; empty: off
     if args.command is None:
         parser.print_help()
         return 2
