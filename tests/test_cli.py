@@ -612,6 +612,28 @@ def test_resumed_run_says_so_and_reports_total_time(tmp_path, capsys):
     assert second["resumed_from_checkpoint"] is True
     assert second["total_run_time_s"] >= second["run_time_s"] and second["total_run_time_s"] >= first["run_time_s"] * 0.5
     assert second["pdf_envelope"] == first["pdf_envelope"]
+    # A checkpoint of another run is refused before anything says it resumes (the line comes once the Monte Carlo
+    # has read the checkpoint and found it belongs to this run).
+    assert main([*args, "--hs", "6", "--out", str(tmp_path / "c")]) == 2
+    captured = capsys.readouterr()
+    assert "belongs to a different run" in captured.err and "resuming" not in captured.out
+
+
+def test_progress_after_a_resume_counts_this_runs_realizations(capsys):
+    """`Progress(..., resuming=...)`: the line at the first call (the checkpoint's realizations), and the time left
+    estimated from the realizations done since, not from those the checkpoint brought."""
+    from jaxroll._cli._common import Progress
+
+    shown = Progress(100, "realizations", enabled=False, resuming="resuming from the checkpoint in ck")
+    shown(60)
+    assert capsys.readouterr().out == "resuming from the checkpoint in ck\n"
+    assert (shown.baseline, shown.done) == (60, 60)
+    shown.start -= 10.0  # 10 s for the 20 done since the resume: 10 s left for the last 20 (2.5 s from all 80)
+    shown.enabled = True
+    shown(80)
+    assert "~  10.0 s left" in capsys.readouterr().err
+    shown(100)
+    assert "resuming" not in capsys.readouterr().out
 
 
 def test_docs_promise_only_what_the_code_does(capsys):

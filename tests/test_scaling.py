@@ -244,17 +244,18 @@ def finished_checkpoint(problem, uninterrupted, tmp_path_factory):
         assert int(data["next_start"]) == 4 and data["per/sum_zc"].shape == (4,)
     calls = []
     resumed = _amplitudes(problem, checkpoint=folder, checkpoint_every=1, progress=calls.append)
-    assert calls == [5]  # only the last chunk ran
+    assert calls == [4, 5]  # the checkpoint's 4 once it is read, then only the last chunk ran
     return folder, resumed
 
 
 def test_resume_equals_uninterrupted_run(problem, uninterrupted, finished_checkpoint):
     folder, resumed = finished_checkpoint
     _assert_identical(resumed, uninterrupted)
-    # A finished run returns its result at once from the checkpoint (no chunk runs, same answer).
+    # A finished run returns its result at once from the checkpoint (no chunk runs — the one progress call is the
+    # checkpoint's, all realizations done —, same answer).
     calls = []
     again = _amplitudes(problem, checkpoint=folder, progress=calls.append)
-    assert calls == []
+    assert calls == [5]
     _assert_identical(again, uninterrupted)
 
 

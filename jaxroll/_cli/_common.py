@@ -135,17 +135,24 @@ def memory_budget(args) -> float | None:
 class Progress:
     """A one-line progress display on stderr (only when stderr is a terminal, or when forced)."""
 
-    def __init__(self, total: int, label: str, *, enabled: bool | None = None):
+    def __init__(self, total: int, label: str, *, enabled: bool | None = None, resuming: str | None = None):
+        """`resuming`: a line printed (stdout) at the first call, which a Monte Carlo resumed from a checkpoint makes
+        once it has read the checkpoint and found it belongs to this run; the time left is then estimated from the
+        realizations done in this run only."""
         self.total, self.label, self.start = total, label, time.time()
         self.enabled = sys.stderr.isatty() if enabled is None else enabled
-        self.done = 0
+        self.done = self.baseline = 0
+        self.resuming = resuming
 
     def __call__(self, done: int) -> None:
+        if self.resuming is not None:
+            print(self.resuming, flush=True)
+            self.resuming, self.baseline, self.start = None, done, time.time()
         self.done = done
         if not self.enabled:
             return
         elapsed = time.time() - self.start
-        eta = elapsed / done * (self.total - done) if done else float("nan")
+        eta = elapsed / (done - self.baseline) * (self.total - done) if done > self.baseline else float("nan")
         sys.stderr.write(f"\r{self.label}: {done}/{self.total} ({100 * done / self.total:5.1f} %), "
                          f"{elapsed:6.1f} s elapsed, ~{eta:6.1f} s left ")
         sys.stderr.flush()

@@ -121,10 +121,11 @@ def run(args) -> int:
         print(f"maxima: N0 = {n0s}, {n_trials} trials, discard {args.discard} s")
         group_checkpoint = (None if args.checkpoint is None
                             else Path(args.checkpoint) / f"n0_{'_'.join(map(str, n0s))}")
-        if group_checkpoint is not None and (group_checkpoint / "checkpoint.npz").exists():
-            print(f"resuming N0 = {n0s} from the checkpoint in {group_checkpoint}")
-            resumed = True
-        progress = Progress(n_trials, f"trials (N0 ≤ {max(n0s)})", enabled=None if not args.quiet else False)
+        resuming = group_checkpoint is not None and (group_checkpoint / "checkpoint.npz").exists()
+        resumed = resumed or resuming
+        progress = Progress(n_trials, f"trials (N0 ≤ {max(n0s)})", enabled=None if not args.quiet else False,
+                            resuming=f"resuming N0 = {n0s} from the checkpoint in {group_checkpoint}" if resuming
+                            else None)  # fmt: skip
         stats = monte_carlo_maxima(problem, jax.random.key(args.seed), n0=n0s, num_realizations=n_trials,
                                    discard=args.discard, duration=args.duration, chunk_size=args.chunk_size, memory_budget=budget,
                                    progress=progress,

@@ -180,7 +180,6 @@ def run(args) -> int:
             earlier = float(json.loads((Path(args.checkpoint) / _TIME_FILE).read_text())["run_time_s"])
         except (OSError, ValueError, KeyError, TypeError):
             earlier = 0.0
-        print(f"resuming from the checkpoint in {args.checkpoint} ({earlier:.1f} s of earlier run time)")
     finish_theories = None
     if theories:  # loaded and dispatched before the Monte Carlo (not in its run time): they compute while it runs
         from ._theory import start_theory_summaries
@@ -188,7 +187,9 @@ def run(args) -> int:
         default = args.theory is None  # the default overlay: a theory without a law, or a fallback, is noted
         finish_theories = start_theory_summaries(problem, args, theories, bins, skip_failed=default,
                                                  warn=not default)  # fmt: skip
-    shown = Progress(args.realizations, "realizations", enabled=None if not args.quiet else False)
+    shown = Progress(args.realizations, "realizations", enabled=None if not args.quiet else False,
+                     resuming=f"resuming from the checkpoint in {args.checkpoint} ({earlier:.1f} s of earlier run "
+                     "time)" if resumed else None)  # fmt: skip
     t0 = time.time()
 
     def progress(done: int) -> None:

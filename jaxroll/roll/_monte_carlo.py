@@ -90,7 +90,8 @@ def monte_carlo(
       memory on a CPU, 0.9 of the devices' free memory on GPUs/TPUs); the chunk is cut to fit it (to three
       significant binary digits, so it keeps its shape), so a small `dt` cannot exhaust memory. Results do not
       depend on the chunk.
-    - `progress`: called with the number of realizations done after each chunk.
+    - `progress`: called with the number of realizations done after each chunk (and once after a checkpoint of
+      this run has been read, with the realizations it holds).
     - `devices`: None (every device of every process), an int n (the first n) or a sequence of devices: the
       realization axis is sharded over them (`docs/scaling.md`).
     - `checkpoint`: a directory; the run saves its state there and resumes from it (`checkpoint_every` chunks,

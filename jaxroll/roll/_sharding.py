@@ -292,7 +292,8 @@ def run_chunks(
     - `chunk_fn`: the chunk function (jitted once per mesh; `static` entries must be hashable Python values).
     - `problem`, `key`: passed to every chunk (replicated on every device).
     - `num_realizations`, `chunk_size`: realizations in all, and per compiled chunk (memory bound).
-    - `progress`: called with the number of realizations done after each chunk.
+    - `progress`: called with the number of realizations done after each chunk, and once after a checkpoint of this
+      run has been read (with the realizations it holds).
     - `devices`: None (all devices, `jax.devices()`), an int n (the first n), or a sequence of devices.
     - `checkpoint`: a directory; the accumulated state is saved there (`checkpoint.npz`, atomically) with a
       fingerprint of the run, and a rerun with the same directory resumes where it stopped and gives exactly
@@ -339,6 +340,8 @@ def run_chunks(
                 "processes read different checkpoints: put the "
                 "checkpoint directory on a file system every process shares.",
             )
+    if start and progress is not None:
+        progress(start)  # the checkpoint belongs to this run: say so before the first chunk
     problem = _replicate(problem, mesh)
     last_save, chunks_since_save = time.monotonic(), 0
     resumed_keys = (set(summed), set(per)) if start else None  # what the checkpoint recorded
