@@ -53,47 +53,51 @@ def _numba_kernel():
         return -dphi * (b[0] + b[1] * abs(dphi) + b[2] * dphi * dphi) - phi * rest
 
     @nb.njit
-    def one(g, i, n, m, n_steps, h, phid, chol, schol, c, wa, wb, a, b, pc, cap, phi0, phi_out, amp_out, capsized):
+    def one(g, i, n, m, r, n_steps, start, h, phid, chol, schol, c, wa, wb, a, b, pc, cap, phi0, width, phi_out,
+            zbuf, hist, zsum, capsized):
+        nbins = hist.size
         z = np.empty(n, phid.dtype)
         e = np.empty(n, phid.dtype)
         zn = np.empty(n, phid.dtype)
         p = np.empty(2 * m + 1, phid.dtype)
-        for r in range(n):
-            e[r] = g.standard_normal()
-        for r in range(n):
+        for q in range(n):
+            e[q] = g.standard_normal()
+        for q in range(n):
             s = 0.0
-            for q in range(n):
-                s += schol[r, q] * e[q]
-            z[r] = s
+            for u in range(n):
+                s += schol[q, u] * e[u]
+            z[q] = s
         x0 = 0.0
-        for r in range(n):
-            x0 += c[r] * z[r]
+        for q in range(n):
+            x0 += c[q] * z[q]
         p[2 * m] = pexc(pc, x0)
         phi, dphi = phi0, phi0 * 0
         alive = True
         positive = phi >= 0
         started = False
         peak = abs(phi)
+        nz = 0
+        total = 0.0
         k = 0
         while k < n_steps:
             # one filter step of m time steps: exact transition, then the bridge at the 2m − 1 stage times
-            for r in range(n):
-                e[r] = g.standard_normal()
-            for r in range(n):
+            for q in range(n):
+                e[q] = g.standard_normal()
+            for q in range(n):
                 s = 0.0
-                for q in range(n):
-                    s += phid[r, q] * z[q] + chol[r, q] * e[q]
-                zn[r] = s
+                for u in range(n):
+                    s += phid[q, u] * z[u] + chol[q, u] * e[u]
+                zn[q] = s
             p[0] = p[2 * m]
             for j in range(2 * m - 1):
                 x = 0.0
-                for r in range(n):
-                    x += wa[j, r] * z[r] + wb[j, r] * zn[r]
+                for q in range(n):
+                    x += wa[j, q] * z[q] + wb[j, q] * zn[q]
                 p[j + 1] = pexc(pc, x)
             x = 0.0
-            for r in range(n):
-                z[r] = zn[r]
-                x += c[r] * z[r]
+            for q in range(n):
+                z[q] = zn[q]
+                x += c[q] * z[q]
             p[2 * m] = pexc(pc, x)
             for sub in range(m):
                 if k >= n_steps:
@@ -115,70 +119,83 @@ def _numba_kernel():
                     else:
                         alive = False
                         capsized[i] = True
-                # zero-crossing amplitude (as jaxroll.zero_crossing_update)
-                v = abs(phi)
+                k += 1
+                # zero-crossing amplitude (as jaxroll.zero_crossing_update): its bin, after the discard
                 pos = phi >= 0
                 crossed = pos != positive
-                amp_out[i, k] = peak if (crossed and started) else 0.0
-                peak = v if crossed else max(peak, v)
+                if crossed and started and k > start:
+                    zbuf[nz] = min(int(peak * DEG / width), nbins - 1)
+                    nz += 1
+                    total += peak
+                peak = abs(phi) if crossed else max(peak, abs(phi))
                 started = started or crossed
                 positive = pos
-                phi_out[i, k] = phi
-                k += 1
+                if k % r == 0:  # φ recorded every r steps, as jaxroll's histogram observer
+                    phi_out[i, k // r - 1] = phi
+        if alive:  # a capsized trial is left out of the statistics, as in jaxroll
+            for j in range(nz):
+                hist[zbuf[j]] += 1
+            zsum[i, 0] = nz
+            zsum[i, 1] = total
 
     @nb.njit(parallel=True)
-    def run(g0, g1, n_real, m, n_steps, h, phid, chol, schol, c, wa, wb, a, b, pc, cap, phi0, phi_out, amp_out,
-            capsized):
+    def run(g0, g1, n_real, m, r, n_steps, start, h, phid, chol, schol, c, wa, wb, a, b, pc, cap, phi0, width,
+            phi_out, hist, zsum, capsized):
         n = c.size
         for lane in nb.prange(2):  # one PCG64 generator (ziggurat normals) per lane = per core
             g = g0 if lane == 0 else g1
+            zbuf = np.empty(n_steps, np.int32)
             for i in range(lane, n_real, 2):
-                one(g, i, n, m, n_steps, h, phid, chol, schol, c, wa, wb, a, b, pc, cap, phi0, phi_out, amp_out,
-                    capsized)
+                one(g, i, n, m, r, n_steps, start, h, phid, chol, schol, c, wa, wb, a, b, pc, cap, phi0, width,
+                    phi_out, zbuf, hist[lane], zsum, capsized)
 
     _NUMBA["k"] = run
     return run
 
 
-def numba_monte_carlo(problem, n_real, n_steps, chunk=1000, seed=0, width=0.05, nbins=1800, dtype=np.float32):
-    """jaxroll's statistics by the numba kernel: zero-crossing and envelope histograms, per-realization sums.
+def numba_monte_carlo(problem, n_real, n_steps, discard=500.0, chunk=1000, seed=0, width=0.05, nbins=1800,
+                      dtype=np.float32):
+    """jaxroll's statistics by the numba kernel, as `jaxroll.monte_carlo_amplitudes(..., discard)`: zero-crossing
+    amplitudes binned in the kernel (every step), φ recorded every r steps (`jaxroll.envelope_record_every`) and the
+    envelope histogram of its record after the discard; capsized trials left out.
 
     `dtype`: the integration's floating type (float32 as jaxroll's Monte Carlo; float64 to compare). Random
     numbers: one PCG64 generator per core (numpy's ziggurat normals, 8x faster in numba than the legacy
     np.random), so a realization depends on the chunking (a concession to the baseline's speed).
 
-    Envelope by scipy.fft (2 workers) on each chunk, histograms by np.bincount.
+    Envelope by scipy.fft (2 workers) on each chunk, its histogram by np.bincount.
     """
+    import jaxroll
+
     exc = problem.excitation
+    r = jaxroll.envelope_record_every(problem)
+    start = int(round(discard / exc.dt))
     a, b, pc, cap = ship_constants(problem)
     mats = [np.asarray(x, dtype=dtype) for x in (exc.phi, exc.chol, exc.stationary_chol, exc.c, exc.bridge[0],
                                                    exc.bridge[1])]
     a, b, pc = (np.asarray(x, dtype=dtype) for x in (a, b, pc))
     run = _numba_kernel()
-    hz = np.zeros(nbins)
+    hist_zc = np.zeros((2, nbins), np.int64)
     he = np.zeros(nbins)
     sums = dict(n_zc=0.0, sum_zc=0.0, n_env=0.0, sum_env=0.0, capsized=0)
-    for start in range(0, n_real, chunk):
-        k = min(chunk, n_real - start)
-        phi = np.empty((k, n_steps), dtype)
-        amp = np.empty((k, n_steps), dtype)
+    for first in range(0, n_real, chunk):
+        k = min(chunk, n_real - first)
+        phi = np.empty((k, n_steps // r), dtype)
         caps = np.zeros(k, dtype=np.bool_)
-        g0, g1 = (np.random.default_rng([seed, start, lane]) for lane in (0, 1))
-        run(g0, g1, k, exc.substeps, n_steps, dtype(exc.dt), *mats, a, b, pc, dtype(cap), dtype(problem.phi0), phi,
-            amp, caps)
-        keep = ~caps
-        nt = n_steps
-        spec = scipy.fft.rfft(phi[keep], axis=-1, workers=2)
+        zsum = np.zeros((k, 2))
+        g0, g1 = (np.random.default_rng([seed, first, lane]) for lane in (0, 1))
+        run(g0, g1, k, exc.substeps, r, n_steps, start, dtype(exc.dt), *mats, a, b, pc, dtype(cap),
+            dtype(problem.phi0), width, phi, hist_zc, zsum, caps)
+        kept = phi[~caps, start // r:]
+        nt = kept.shape[1]
+        spec = scipy.fft.rfft(kept, axis=-1, workers=2)
         kk = np.arange(spec.shape[-1])
         spec[:, (kk == 0) | (kk >= (nt + 1) // 2)] = 0
-        env = np.sqrt(phi[keep] ** 2 + scipy.fft.irfft(-1j * spec, n=nt, axis=-1, workers=2) ** 2)
-        ak = amp[keep]
-        sel = ak > 0
-        hz += np.bincount(np.clip((ak[sel] * DEG / width).astype(np.int64), 0, nbins - 1), minlength=nbins)
+        env = np.sqrt(kept**2 + scipy.fft.irfft(-1j * spec, n=nt, axis=-1, workers=2) ** 2)
         he += np.bincount(np.clip((env * DEG / width).astype(np.int64), 0, nbins - 1).ravel(), minlength=nbins)
-        sums["n_zc"] += sel.sum()
-        sums["sum_zc"] += ak[sel].astype(np.float64).sum()
         sums["n_env"] += env.size
         sums["sum_env"] += env.astype(np.float64).sum()
         sums["capsized"] += int(caps.sum())
-    return hz, he, sums
+        sums["n_zc"] += zsum[:, 0].sum()
+        sums["sum_zc"] += zsum[:, 1].sum()
+    return hist_zc.sum(0).astype(float), he, sums

@@ -45,8 +45,7 @@ def setup_times(cache: str) -> tuple[float, float]:
     `cache`) a previous process filled."""
     code = """
 import time, jax, jaxroll
-from jaxroll._cli import _enable_compilation_cache
-_enable_compilation_cache()
+jaxroll.enable_compilation_cache()
 ship, sea = jaxroll.c11_representative(), jaxroll.ITTC(7.0, 10.0)
 out = []
 for _ in range(2):

@@ -6,8 +6,8 @@ included). Prints `name=value` lines; `bytes_per_step_<observer>` are what `Obse
 must bound (jaxroll/roll/_observers.py).
 
 Usage (from the repository root): python -m benchmarks.memory [--dt 0.05] [--chunk 100]
-Measured here (2-core CPU, dt = 0.05 s, 3600 s, chunk 100): histogram 50.5 B (XLA) / 37.9 B (RSS) per
-realization-step against 64.9 B assumed; maxima and max roll 0.6 B (XLA), not measurable by RSS, 2.9 B assumed.
+`histogram` records φ every step, `histogram_recorded` every `envelope_record_every(problem)` steps (what
+`monte_carlo_amplitudes` runs); the figures measured are in benchmarks/README.md.
 """
 
 from __future__ import annotations
@@ -23,10 +23,11 @@ import jaxroll
 from jaxroll.roll._monte_carlo import simulate_chunk
 from jaxroll.roll._observers import AmplitudeHistogram, FirstMaxima, MaxRoll
 
-OBSERVERS = {
-    "histogram": lambda: AmplitudeHistogram(discard=500.0),
-    "maxima": lambda: FirstMaxima(n0=(20, 100), discard=500.0),
-    "max_roll": lambda: MaxRoll(discard=500.0, angle_deg=30.0),
+OBSERVERS = {  # each built for the problem it runs
+    "histogram": lambda p: AmplitudeHistogram(discard=500.0, every=1),  # φ recorded every step
+    "histogram_recorded": lambda p: AmplitudeHistogram(discard=500.0, every=jaxroll.envelope_record_every(p)),
+    "maxima": lambda p: FirstMaxima(n0=(20, 100), discard=500.0),
+    "max_roll": lambda p: MaxRoll(discard=500.0, angle_deg=30.0),
 }
 
 
@@ -35,7 +36,7 @@ def _problem(dt):
 
 
 def xla_bytes(name: str, chunk: int, steps: int, dt: float) -> float:
-    observer = OBSERVERS[name]()
+    observer = OBSERVERS[name](_problem(dt))
     f = jax.jit(lambda p, k, i, v: simulate_chunk(p, k, i, v, observer, steps))
     compiled = f.lower(_problem(dt), jax.random.key(0), jnp.arange(chunk), jnp.ones(chunk, bool)).compile()
     m = compiled.memory_analysis()
@@ -48,7 +49,7 @@ def rss_bytes(name: str, chunk: int, steps: int, dt: float) -> float:
 import resource, jax, jaxroll, jax.numpy as jnp
 from jaxroll.roll._monte_carlo import simulate_chunk
 import benchmarks.memory as m
-p = m._problem({dt}); obs = m.OBSERVERS[{name!r}]()
+p = m._problem({dt}); obs = m.OBSERVERS[{name!r}](p)
 base = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
 out = jax.jit(lambda p, k, i, v: simulate_chunk(p, k, i, v, obs, {steps}))(
     p, jax.random.key(0), jnp.arange({chunk}), jnp.ones({chunk}, bool))
@@ -69,7 +70,8 @@ def main() -> None:
     for name in OBSERVERS:
         x = xla_bytes(name, args.chunk, steps, args.dt)
         r = rss_bytes(name, args.chunk, steps, args.dt)
-        bound = OBSERVERS[name]().bytes_per_realization(steps) / steps
+        observer = OBSERVERS[name](_problem(args.dt))
+        bound = observer.bytes_per_realization(steps // observer.record_every(_problem(args.dt))) / steps
         print(f"bytes_per_step_{name}_xla={x:.1f}")
         print(f"bytes_per_step_{name}_rss={r:.1f}")
         print(f"bytes_per_step_{name}_assumed={bound:.1f}")

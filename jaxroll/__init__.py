@@ -157,6 +157,7 @@ from .roll import (
     default_chunk_size as default_chunk_size,
     default_duration as default_duration,
     default_memory_budget as default_memory_budget,
+    envelope_record_every as envelope_record_every,
     hilbert_envelope as hilbert_envelope,
     monte_carlo as monte_carlo,
     monte_carlo_amplitudes as monte_carlo_amplitudes,

@@ -36,6 +36,8 @@ def test_pdf_writes_figures_and_json(tmp_path, capsys):
         q = d["quantiles_deg"][method]
         assert 0 < q["50"] <= q["90"] <= q["99"] < 90
         assert d["mean_amplitude_deg"][method] > 0
+    # φ recorded every 4 steps of 0.5 s for the envelope: 300 samples of 2 s per surviving trial
+    assert d["envelope_sample_interval_s"] == 2.0 and d["n_amplitudes"]["envelope"] == 300 * (6 - d["n_capsized"])
     assert d["n_realizations"] == 6 and d["n_capsized"] + 0 == d["capsize_probability"] * 6
     assert d["filter_fit"]["order"] == 4
     # the paper's figure by default: Roberts, ESAM and the moment method overlaid, each a normalised envelope law

@@ -48,13 +48,13 @@ def test_windowed_matches_crn_finite_differences(reduced, stat, param):
 
 
 def test_values_are_the_monte_carlo_of_the_same_trials(problem, reduced):
-    """Realization i is fold_in(key, i), as in `monte_carlo_amplitudes`: the values are that Monte Carlo's (in
-    float64, as the sensitivities integrate), over the realizations each estimator keeps (finite differences keep
-    the survivors of every shifted run too)."""
+    """Realization i is fold_in(key, i), as in `monte_carlo_amplitudes`: the values are that Monte Carlo's with φ
+    recorded every step (in float64, as the sensitivities integrate), over the realizations each estimator keeps
+    (finite differences keep the survivors of every shifted run too)."""
     windowed, fd = reduced
     prob = jxr.RollProblem.from_sea(SHIP, jxr.ITTC(7.0, 10.0))
-    stats = jxr.monte_carlo_amplitudes(prob, jax.random.key(7), num_realizations=400, duration=1200.0,
-                                       dtype=jnp.float64)
+    stats = jxr.monte_carlo(prob, jax.random.key(7), jxr.AmplitudeHistogram(every=1), num_realizations=400,
+                            duration=1200.0, dtype=jnp.float64)
     per = stats.per_realization
     np.testing.assert_array_equal(windowed.kept, ~stats.capsized)
     assert not np.any(fd.kept & stats.capsized)

@@ -51,7 +51,7 @@ class AbstractAmplitudeLaw(eqx.Module):
 
     - `"zero_crossing"`: one amplitude per half roll cycle (the zero-crossing method). This is the law the
       maximum-value and risk formulas (`max_pdf`, `exposure_risk`, ...) need, and they refuse any other.
-    - `"envelope"`: the Hilbert envelope sampled at every time step (a time-weighted law: slow, large swings
+    - `"envelope"`: the Hilbert envelope sampled uniformly in time (a time-weighted law: slow, large swings
       weigh more). The stationary laws of stochastic averaging and of the moment method are of this kind.
 
     Subclasses provide the kernels of `logpdf`, `logsf` ($\log \bar F$) and `logcdf` ($\log(1 - \bar F)$),

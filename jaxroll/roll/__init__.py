@@ -34,6 +34,7 @@ from ._observers import (
     AmplitudeHistogram as AmplitudeHistogram,
     FirstMaxima as FirstMaxima,
     MaxRoll as MaxRoll,
+    envelope_record_every as envelope_record_every,
 )
 from ._sensitivity import (
     DEFAULT_SENSITIVITY_STATISTICS as DEFAULT_SENSITIVITY_STATISTICS,

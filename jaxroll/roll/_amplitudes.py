@@ -2,7 +2,8 @@
 
 The two estimate different distributions: zero-crossing amplitudes are one value per half cycle (the maximum
 between an up-crossing and the next down-crossing, |minimum| between a down-crossing and the next up-crossing);
-the envelope |φ + i·H[φ]| is sampled at every time step, so its PDF is time-weighted. Label which is which.
+the envelope |φ + i·H[φ]| is sampled in time (at every sample of the series), so its PDF is time-weighted. Label
+which is which.
 """
 
 from __future__ import annotations

@@ -314,14 +314,23 @@ def _drive(problem: RollProblem, key, num_steps: int, dtype, per_source_step, in
 
 
 def simulate(
-    problem: RollProblem, key: PRNGKeyArray, num_steps: int, observe, obs_state, *, dtype=jnp.float64, finished=None
+    problem: RollProblem,
+    key: PRNGKeyArray,
+    num_steps: int,
+    observe,
+    obs_state,
+    *,
+    dtype=jnp.float64,
+    finished=None,
+    record_every: int = 1,
 ):
     """Integrate one realization for `num_steps` steps of dt, feeding every new state to an observer.
 
     Classical RK4 at dt with P(t) (and M_w(t)) at each step's start, midpoint and end from the excitation sources,
     which advance m = `problem.excitation.substeps` time steps at a time (the shaping filter exactly on H = m·dt,
     bridged in between: `FilterExcitation`). `observe(obs_state, k, y, alive) -> (obs_state, output)` is called
-    after step k (1-based) with y = (φ, φ̇); its per-step outputs are stacked (length `num_steps`). After a
+    after step k (1-based) with y = (φ, φ̇); its outputs after the steps k = r, 2r, … (r = `record_every`, a
+    divisor of m) are stacked (length `num_steps // r`), the others are not kept (nor computed). After a
     capsize (|φ| at or beyond the vanishing angle, or a non-finite state) the state is frozen and `alive` is
     False, so observers can ignore it (their floating state is kept in `dtype`). `dtype`: the floating type of the
     integration (float64; the Monte Carlo of amplitude statistics runs float32, docs/numerics.md). Written for one
@@ -334,6 +343,8 @@ def simulate(
     """
     problem = as_dtype(problem, dtype)
     ship, h, m = problem.ship, problem.dt, problem.excitation.substeps
+    if not (isinstance(record_every, int) and record_every >= 1 and m % record_every == 0):
+        raise ValueError(f"`record_every` must be a divisor of the excitation's substeps m = {m}; got {record_every!r}.")
     two_sources = problem.moment_excitation is not None
     ragged = num_steps % m != 0  # the last source step runs past num_steps: mask its extra time steps
 
@@ -355,7 +366,8 @@ def simulate(
             if ragged:
                 new_obs = jax.tree.map(lambda x, y: jnp.where(inside, x, y), new_obs, obs)
             obs = new_obs
-            outs.append(out)
+            if (s + 1) % record_every == 0:  # source steps start at multiples of m: step k + 1 is a multiple of r
+                outs.append(out)
             k = k + 1
         return (phi, dphi, alive, k_cap, obs, k), jax.tree.map(lambda *o: jnp.stack(o), *outs)
 
@@ -364,7 +376,7 @@ def simulate(
     done = None if finished is None else (lambda inner: ~inner[2] | finished(inner[4]))
     inner, outs = _drive(problem, key, num_steps, dtype, per_source_step, inner, done)
     _, _, alive, k_cap, obs_state, _ = inner
-    outs = jax.tree.map(lambda o: o.reshape(-1, *o.shape[2:])[:num_steps], outs)
+    outs = jax.tree.map(lambda o: o.reshape(-1, *o.shape[2:])[: num_steps // record_every], outs)
     end = RealizationEnd(~alive, jnp.where(alive, jnp.inf, k_cap * h))
     return obs_state, outs, end
 

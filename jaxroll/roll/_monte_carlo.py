@@ -15,7 +15,7 @@ import jax.numpy as jnp
 import jax.random as jr
 
 from ._equation import RollProblem, simulate
-from ._observers import AbstractObserver, AmplitudeHistogram, FirstMaxima, MaxRoll
+from ._observers import AbstractObserver, AmplitudeHistogram, FirstMaxima, MaxRoll, envelope_record_every
 from ._sharding import chunk_size_for_memory, default_chunk_size, run_chunks
 from ._statistics import AmplitudeStatistics, MaximaStatistics, MaxRollStatistics
 
@@ -48,6 +48,7 @@ def simulate_chunk(
             observer.init(problem, k),
             dtype=dtype,
             finished=None if observer.finished is None else lambda state: observer.finished(problem, state),
+            record_every=observer.record_every(problem),
         )
 
     states, outputs, end = jax.vmap(jax.checkpoint(one) if remat else one)(indices)
@@ -112,7 +113,8 @@ def monte_carlo(
     _check_duration(duration)
     num_steps = int(round(duration / problem.dt))
     chunk_size = chunk_size_for_memory(chunk_size, num_steps, memory_budget,
-                                      observer.bytes_per_realization(num_steps), devices)
+                                      observer.bytes_per_realization(num_steps // observer.record_every(problem)),
+                                      devices)
     summed, per = run_chunks(
         simulate_chunk,
         problem,
@@ -168,7 +170,7 @@ def monte_carlo_amplitudes(
     **Returns:** `AmplitudeStatistics` (zero-crossing amplitudes per half cycle, envelope amplitudes per sample).
     """
     _check_discard(discard, duration, problem.dt)
-    observer = AmplitudeHistogram(float(discard), float(bin_width_deg), float(max_deg))
+    observer = AmplitudeHistogram(float(discard), float(bin_width_deg), float(max_deg), envelope_record_every(problem))
     return monte_carlo(
         problem,
         key,

@@ -22,8 +22,9 @@ that decays geometrically with the burn-in (−4…−8 % at 300 s on the defaul
 differences, docs/sensitivity.md). `method="finite_difference"` gives central differences with common random
 numbers of the same statistics, for comparison.
 
-Realization i uses `fold_in(key, i)` exactly as `jaxroll.monte_carlo` does, so the values are those of
-`monte_carlo_amplitudes` on the same trials. Capsized realizations are left out (their count is reported; the
+Realization i uses `fold_in(key, i)` exactly as `jaxroll.monte_carlo` does, so the values are those of its
+`AmplitudeHistogram(discard, every=1)` on the same trials (φ every step; `monte_carlo_amplitudes` records it every
+`envelope_record_every` steps, which moves the envelope statistics by ~1e-5 relative). Capsized realizations are left out (their count is reported; the
 derivative of the capsize probability is not part of the estimate).
 """
 

@@ -159,6 +159,8 @@ class AmplitudeStatistics(CapsizeCounts):
         for est in SAMPLING:
             out[f"pdf_{est}"] = None if n[est] == 0 else self.pdf_per_degree(est, bins_deg)
         out["amplitude_sampling"] = dict(SAMPLING)
+        # the envelope's samples: φ recorded every `record_interval_s` (docs/numerics.md; absent: every time step)
+        out["envelope_sample_interval_s"] = self.config.get("record_interval_s", self.config.get("dt_s"))
         out["n_amplitudes"] = n
         out["mean_amplitude_deg"] = {e: None if n[e] == 0 else float(np.rad2deg(self.mean(e))) for e in SAMPLING}
         out["quantiles_deg"] = {
