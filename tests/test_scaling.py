@@ -523,7 +523,7 @@ class _FakeAccelerator:
 def test_chunks_are_sized_for_the_devices(monkeypatch):
     """Issue 15: on GPUs a chunk is wide enough to fill every device (1e5 realizations per device with the
     histogram observer, 2.5e5 streaming) and is cut to 0.9 of the smallest free device memory × the device count,
-    not to the host's memory; on a CPU the defaults stay 1000 / 5000 per chunk and a quarter of the host's memory."""
+    not to the host's memory; on a CPU the default is 1000 per chunk for both and a quarter of the host's memory."""
     import types
 
     from jaxroll import default_chunk_size, default_memory_budget
@@ -533,7 +533,7 @@ def test_chunks_are_sized_for_the_devices(monkeypatch):
 
     assert jax.devices()[0].platform == "cpu"
     assert default_chunk_size(AmplitudeHistogram.keeps_history) == 1000
-    assert default_chunk_size(FirstMaxima.keeps_history) == default_chunk_size(MaxRoll.keeps_history) == 5000
+    assert default_chunk_size(FirstMaxima.keeps_history) == default_chunk_size(MaxRoll.keeps_history) == 1000
     host = default_memory_budget()
     assert 0 < host < 2**50
 

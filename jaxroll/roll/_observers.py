@@ -99,7 +99,7 @@ def envelope_record_every(problem) -> int:
 
 class _HistogramState(eqx.Module):
     zc: ZeroCrossingState
-    pending: jnp.ndarray  # histogram bin of the amplitude that ended since the last record (-1: none)
+    pending: jnp.ndarray  # the zero-crossing amplitude that ended since the last record [rad] (0: none)
     merged: jnp.ndarray  # amplitudes overwritten by another in the same record interval (a half cycle < r·dt)
     n: jnp.ndarray  # zero-crossing amplitudes after the discard
     s1: jnp.ndarray  # their sum [rad]
@@ -133,23 +133,28 @@ class AmplitudeHistogram(AbstractObserver):
         """`every` [time steps]."""
         return self.every
 
+    def _bins(self, amplitude):
+        """Histogram bins of zero-crossing amplitudes [rad] (> 0), -1 where there is none (0)."""
+        index = jnp.clip(jnp.floor(amplitude * (180 / math.pi / self.bin_width_deg)), 0, self.num_bins - 1)
+        return jnp.where(amplitude > 0, index, -1).astype(self._bin_type)
+
     def init(self, problem, key):
-        zero, none = jnp.zeros(()), jnp.array(-1, self._bin_type)
-        return _HistogramState(zero_crossing_init(problem.phi0), none, jnp.array(0), jnp.array(0), zero, zero)
+        zero = jnp.zeros(())
+        return _HistogramState(zero_crossing_init(problem.phi0), zero, jnp.array(0), jnp.array(0), zero, zero)
 
     def observe(self, problem, state, k, y, alive):
         # Recorded: the roll (for the envelope) and the histogram bin of the zero-crossing amplitude that ended in
-        # the record interval (-1: none); the amplitudes' count and sums run in the state, exactly.
+        # the record interval (-1: none; the bin is computed for the records only); the amplitudes' count and sums
+        # run in the state, exactly.
         zc, amp = zero_crossing_update(state.zc, y[0])
         on = (amp > 0) & (k > _steps(self.discard, problem.dt))
-        index = jnp.clip(jnp.floor(amp * (180 / math.pi / self.bin_width_deg)), 0, self.num_bins - 1)
-        zc_bin = jnp.where(on, index.astype(self._bin_type), state.pending)
-        merged = state.merged + (on & (state.pending >= 0)).astype(state.merged.dtype)
-        pending = jnp.where(k % self.every == 0, jnp.array(-1, self._bin_type), zc_bin)  # recorded: start afresh
         kept = jnp.where(on, amp, 0)
+        ended = jnp.where(on, amp, state.pending)
+        merged = state.merged + (on & (state.pending > 0)).astype(state.merged.dtype)
+        pending = jnp.where(k % self.every == 0, 0, ended)  # recorded: start afresh
         new = _HistogramState(zc, pending, merged, state.n + on.astype(state.n.dtype), state.s1 + kept,
                               state.s2 + kept * kept)
-        return new, (y[0], zc_bin)
+        return new, (y[0], self._bins(ended))
 
     def reduce(self, problem, states, outputs, end, valid):
         # The envelope (rfft) and its histogram bins in the run's dtype (float32 in the Monte Carlo: each row's FFT
@@ -163,7 +168,7 @@ class AmplitudeHistogram(AbstractObserver):
         summed = {
             # + the amplitudes that ended after the last record (when it is not the last step), still in the state
             "counts_zero_crossing": bin_counts(zc_bin, keep[:, None] & (zc_bin >= 0), self.num_bins)
-            + bin_counts(states.pending, keep & (states.pending >= 0), self.num_bins),
+            + bin_counts(self._bins(states.pending), keep & (states.pending > 0), self.num_bins),
             "zero_crossing_merged": jnp.sum(jnp.where(keep, states.merged, 0), dtype=jnp.int64),
             "counts_envelope": integer_counts(
                 env * deg, jnp.broadcast_to(keep[:, None], env.shape), self.bin_width_deg, self.num_bins

@@ -176,11 +176,12 @@ BYTES_PER_REALIZATION_STEP = 64
 
 #: Realizations per chunk when `chunk_size` is None, for observers that keep each realization's history (the
 #: amplitude histograms) and for streaming ones (maxima, max roll): on a CPU per chunk (the sizes measured best on
-#: it, docs/numerics.md); on a GPU or TPU per device, wide enough to fill it (one H200, 2026-11-26: 10⁶ × 3600 s
-#: of the histogram observer in chunks of 2.5·10⁴ / 5·10⁴ / 10⁵ took 2.7 / 2.1 / 1.6 s, and 1.6 s on an H100 in
+#: it: since the RK4 stages and P are kept once per step, chunks of 1000 — 500 a core — run the time loop 10 %
+#: faster than chunks of 5000, whose working set leaves the cores' L1 caches; docs/numerics.md); on a GPU or TPU
+#: per device, wide enough to fill it (one H200, 2026-11-26: 10⁶ × 3600 s of the histogram observer in chunks of 2.5·10⁴ / 5·10⁴ / 10⁵ took 2.7 / 2.1 / 1.6 s, and 1.6 s on an H100 in
 #: 10⁵; the streaming observer's chunk of 2.5·10⁵ ran at 3.1–3.8·10¹⁰ realization-steps/s on both,
 #: benchmarks/README.md). Either is then cut to the memory budget.
-DEFAULT_CHUNK_CPU = (1000, 5000)
+DEFAULT_CHUNK_CPU = (1000, 1000)
 DEFAULT_CHUNK_PER_ACCELERATOR = (100_000, 250_000)
 
 
