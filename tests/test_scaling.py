@@ -534,6 +534,13 @@ def test_chunks_are_sized_for_the_devices(monkeypatch):
     assert jax.devices()[0].platform == "cpu"
     assert default_chunk_size(AmplitudeHistogram.keeps_history) == 1000
     assert default_chunk_size(FirstMaxima.keeps_history) == default_chunk_size(MaxRoll.keeps_history) == 1000
+    # and the command line's --chunk-size help says so
+    from jaxroll._cli import build_parser
+
+    commands = build_parser()._subparsers._group_actions[0].choices
+    for name, observer in (("pdf", AmplitudeHistogram), ("maxima", FirstMaxima), ("risk", MaxRoll)):
+        option = next(a for a in commands[name]._actions if "--chunk-size" in a.option_strings)
+        assert f"default: {default_chunk_size(observer.keeps_history)} on a CPU" in option.help
     host = default_memory_budget()
     assert 0 < host < 2**50
 
