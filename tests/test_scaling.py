@@ -523,7 +523,7 @@ class _FakeAccelerator:
 def test_chunks_are_sized_for_the_devices(monkeypatch):
     """Issue 15: on GPUs a chunk is wide enough to fill every device (1e5 realizations per device with the
     histogram observer, 2.5e5 streaming) and is cut to 0.9 of the smallest free device memory × the device count,
-    not to the host's memory; on a CPU the default is 1000 per chunk for both and a quarter of the host's memory."""
+    not to the host's memory; on a CPU the default is 500 per core (device) for both and a quarter of the host's memory."""
     import types
 
     from jaxroll import default_chunk_size, default_memory_budget
@@ -532,15 +532,18 @@ def test_chunks_are_sized_for_the_devices(monkeypatch):
     from jaxroll.roll._sharding import chunk_size_for_memory
 
     assert jax.devices()[0].platform == "cpu"
-    assert default_chunk_size(AmplitudeHistogram.keeps_history) == 1000
-    assert default_chunk_size(FirstMaxima.keeps_history) == default_chunk_size(MaxRoll.keeps_history) == 1000
+    cores = len(jax.devices())  # each CPU core a device
+    assert default_chunk_size(AmplitudeHistogram.keeps_history) == 500 * cores
+    assert default_chunk_size(FirstMaxima.keeps_history) == default_chunk_size(MaxRoll.keeps_history) == 500 * cores
+    assert default_chunk_size(True, devices=1) == 500
     # and the command line's --chunk-size help says so
     from jaxroll._cli import build_parser
 
     commands = build_parser()._subparsers._group_actions[0].choices
     for name, observer in (("pdf", AmplitudeHistogram), ("maxima", FirstMaxima), ("risk", MaxRoll)):
         option = next(a for a in commands[name]._actions if "--chunk-size" in a.option_strings)
-        assert f"default: {default_chunk_size(observer.keeps_history)} on a CPU" in option.help
+        per_core = default_chunk_size(observer.keeps_history) // len(jax.devices())
+        assert f"default: {per_core} per CPU core" in option.help
     host = default_memory_budget()
     assert 0 < host < 2**50
 

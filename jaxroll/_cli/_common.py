@@ -110,9 +110,9 @@ def add_memory_option(parser) -> None:
 
 def add_chunk_option(parser, streaming: bool, what: str = "realizations") -> None:
     """--chunk-size: realizations per compiled batch (default: `jaxroll.default_chunk_size` for the devices)."""
-    cpu, gpu = (1000, "2.5e5") if streaming else (1000, "1e5")  # jaxroll.default_chunk_size (tested)
+    gpu = "2.5e5" if streaming else "1e5"  # jaxroll.default_chunk_size (tested)
     parser.add_argument("--chunk-size", type=int, default=None,
-                        help=f"{what} per compiled batch (default: {cpu} on a CPU, {gpu} per GPU; cut to the "
+                        help=f"{what} per compiled batch (default: 500 per CPU core, {gpu} per GPU; cut to the "
                         "memory budget)")
 
 

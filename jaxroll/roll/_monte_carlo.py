@@ -84,9 +84,9 @@ def monte_carlo(
       observer, so different observers see the same trials.
     - `observer`: `AmplitudeHistogram(...)`, `FirstMaxima(...)`, `MaxRoll(...)` or your own `AbstractObserver`.
     - `num_realizations`: trials; `duration`: simulated time per trial [s].
-    - `chunk_size`: realizations per compiled batch; None: `default_chunk_size` (on a CPU 1000 for observers
-      that keep each realization's history and for streaming ones alike; on GPUs/TPUs 10⁵ and 2.5·10⁵ per
-      device, to fill them).
+    - `chunk_size`: realizations per compiled batch; None: `default_chunk_size` (per device: 500 per CPU core
+      for every observer, 1000 on a 2-core CPU; on GPUs/TPUs 10⁵ for observers that keep each realization's
+      history and 2.5·10⁵ for streaming ones, to fill them).
     - `memory_budget`: bytes a chunk may use (None: `default_memory_budget`, a quarter of the host's available
       memory on a CPU, 0.9 of the devices' free memory on GPUs/TPUs); the chunk is cut to fit it (to three
       significant binary digits, so it keeps its shape), so a small `dt` cannot exhaust memory. Results do not
@@ -203,7 +203,8 @@ def monte_carlo_maxima(
     [s] (500), for each N0 in `n0`, from the same trials: `monte_carlo` with a `FirstMaxima` observer.
 
     `duration` [s] defaults to `default_duration` (1.6 × max(n0) half roll periods); the rest as in `monte_carlo`
-    (`chunk_size` None: 1000 on a CPU — nothing per step is kept, and a chunk stops once its last trial is done).
+    (`chunk_size` None: 500 per CPU core — nothing per step is kept, and a chunk stops once its last trial is
+    done).
 
     **Returns:** `MaximaStatistics`.
     """

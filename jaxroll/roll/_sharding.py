@@ -174,25 +174,25 @@ def _save_checkpoint(path: Path, fingerprint: dict, next_start: int, summed: dic
 BYTES_PER_REALIZATION_STEP = 64
 
 
-#: Realizations per chunk when `chunk_size` is None, for observers that keep each realization's history (the
-#: amplitude histograms) and for streaming ones (maxima, max roll): on a CPU per chunk (the sizes measured best on
-#: it: since the RK4 stages and P are kept once per step, chunks of 1000 — 500 a core — run the time loop 10 %
-#: faster than chunks of 5000, whose working set leaves the cores' L1 caches; docs/numerics.md); on a GPU or TPU
-#: per device, wide enough to fill it (one H200, 2026-11-26: 10⁶ × 3600 s of the histogram observer in chunks of 2.5·10⁴ / 5·10⁴ / 10⁵ took 2.7 / 2.1 / 1.6 s, and 1.6 s on an H100 in
-#: 10⁵; the streaming observer's chunk of 2.5·10⁵ ran at 3.1–3.8·10¹⁰ realization-steps/s on both,
-#: benchmarks/README.md). Either is then cut to the memory budget.
-DEFAULT_CHUNK_CPU = (1000, 1000)
+#: Realizations per chunk and device when `chunk_size` is None, for observers that keep each realization's history
+#: (the amplitude histograms) and for streaming ones (maxima, max roll). On a CPU (each core a device) 500, the size
+#: measured best: since the RK4 stages and P are kept once per step, a core's working set of 500 realizations stays
+#: in its L1 cache (paper protocol on one core: 1.00 s in chunks of 500, 1.17 s in 250, 1.79 s in 1000; on two,
+#: chunks of 1000 beat 5000 by 10 %; docs/numerics.md). On a GPU or TPU wide enough to fill it (one H200,
+#: 2026-11-26: 10⁶ × 3600 s of the histogram observer in chunks of 2.5·10⁴ / 5·10⁴ / 10⁵ took 2.7 / 2.1 / 1.6 s,
+#: and 1.6 s on an H100 in 10⁵; the streaming observer's chunk of 2.5·10⁵ ran at 3.1–3.8·10¹⁰ realization-steps/s
+#: on both, benchmarks/README.md). Either is then cut to the memory budget.
+DEFAULT_CHUNK_PER_CPU = (500, 500)
 DEFAULT_CHUNK_PER_ACCELERATOR = (100_000, 250_000)
 
 
 def default_chunk_size(keeps_history: bool, devices=None) -> int:
     """Realizations per chunk for `chunk_size=None` on the mesh of `devices` (as `realization_mesh`):
-    `DEFAULT_CHUNK_CPU` on CPU devices, `DEFAULT_CHUNK_PER_ACCELERATOR` × the device count on GPUs/TPUs."""
+    `DEFAULT_CHUNK_PER_CPU` (CPU devices) or `DEFAULT_CHUNK_PER_ACCELERATOR` (GPUs/TPUs) × the device count."""
     mesh_devices = list(realization_mesh(devices).devices.flat)
     i = 0 if keeps_history else 1
-    if mesh_devices[0].platform == "cpu":
-        return DEFAULT_CHUNK_CPU[i]
-    return DEFAULT_CHUNK_PER_ACCELERATOR[i] * len(mesh_devices)
+    per_device = DEFAULT_CHUNK_PER_CPU if mesh_devices[0].platform == "cpu" else DEFAULT_CHUNK_PER_ACCELERATOR
+    return per_device[i] * len(mesh_devices)
 
 
 def _device_free_bytes(device) -> int | None:
