@@ -76,6 +76,27 @@ def test_filter_spectrum_matches_scipy_freqs():
     np.testing.assert_allclose(f.spectrum(w), np.abs(h) ** 2 / np.pi, rtol=1e-10, atol=0)
 
 
+def test_filter_fit_derivative_in_the_sea():
+    """The fit's derivative in the sea parameters (the implicit function theorem at the optimum, `_at_optimum`):
+    in H1/3 exact — S_G ∝ H², so the fitted shape is fixed and only the gain scales, dc/dH = c/H —; in T01 equal
+    to a central difference of two fits (h = 1e-3 s: the fits' tolerance limits the agreement to ~2e-4; it also
+    equals optimistix's own implicit adjoint of the same fit to 1e-12, measured in session 12). Reverse mode:
+    test_sensitivity's d(filter gain)/d(H1/3)."""
+
+    def fitted(hs, t01):
+        f = jaxroll.fit_filter(jaxroll.EffectiveWave(jaxroll.ITTC(hs, t01), L), match_frequency=0.515).filter
+        return jnp.concatenate([f.a[-1], f.c])
+
+    jvp = jax.jit(lambda hs, t01, dh, dt: jax.jvp(fitted, (hs, t01), (dh, dt)))
+    value, d_hs = jvp(7.0, 10.0, 1.0, 0.0)
+    np.testing.assert_allclose(d_hs, np.concatenate([np.zeros(4), value[4:] / 7.0]), rtol=1e-7, atol=1e-12)
+    _, d_t01 = jvp(7.0, 10.0, 0.0, 1.0)
+    d_t01 = np.asarray(d_t01)
+    central = (fitted(7.0, 10.0 + 1e-3) - fitted(7.0, 10.0 - 1e-3)) / 2e-3
+    np.testing.assert_allclose(d_t01, central, rtol=5e-4, atol=1e-9 * np.abs(d_t01).max())
+    assert np.all(np.abs(d_t01[[0, 1, 2, 3, 5]]) > 1e-3 * np.abs(d_t01).max())  # every coefficient moves
+
+
 @pytest.mark.parametrize("order", [3, 4, 6])
 def test_filter_fit_variance_and_lyapunov(order):
     wave = jaxroll.EffectiveWave(jaxroll.ITTC(7.0, 10.0), L)

@@ -525,6 +525,10 @@ PDF = GRID * np.exp(-(GRID**2))
             lambda: ex.exposure_risk(RAYLEIGH, 0.5, rate=1.0, duration=1.0, n_amplitudes=0),
             r"`n_amplitudes` must be > 0",
         ),
+        (
+            lambda: ex.exposure_risk(RAYLEIGH, 0.5, rate=1.0, duration=1.0, n_amplitudes=0.5),
+            r"`n_amplitudes` must be >= 1",
+        ),
         (lambda: ex.maxima_of_first(np.ones(5), 2), r"shape \(trials, m\); got shape \(5,\)"),
         (
             lambda: ex.maxima_of_first(np.ones((3, 5)), 6),

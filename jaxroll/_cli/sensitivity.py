@@ -125,7 +125,17 @@ def theory_gradients(problem_fn, params, wrt, stats, names, filter_order):
                 )
                 details["closure_order"] = sol.closure_order
 
+            def law(ship, wave, estimator, name=name, throw=False):
+                if name == "envelope_fpk":
+                    return theory.envelope_fpk_pdf(ship, wave, estimator=estimator, throw=throw)
+                if name == "roberts":
+                    return theory.roberts_pdf(ship, wave, estimator=estimator, restoring="nonlinear", throw=throw)
+                return theory.esam_pdf(ship, wave, estimator=estimator, throw=throw)
+
             def values(x, name=name):
+                """(statistics, whether the laws exist) at parameters x. Roberts, ESAM and the envelope FPK are
+                differentiated with throw=False (their existence returned and checked below: a traced check is a
+                host callback, which keeps the program out of JAX's disk cache)."""
                 q = {**params, **{p: x[i] for i, p in enumerate(wrt)}}
                 prob = problem_fn(q)
                 ship, wave = prob.ship, prob.wave
@@ -134,23 +144,24 @@ def theory_gradients(problem_fn, params, wrt, stats, names, filter_order):
                               closure_order=details["closure_order"])  # fmt: skip
                     env = theory.moment_pdf(ship, wave, estimator="envelope", **kw)
                     zc = theory.moment_pdf(ship, wave, estimator="zero_crossing", **kw) if need_zc else env
-                    e_phi2 = env.e_phi2
-                elif name == "envelope_fpk":
-                    env = theory.envelope_fpk_pdf(ship, wave, estimator="envelope")
-                    zc = theory.envelope_fpk_pdf(ship, wave, estimator="zero_crossing") if need_zc else env
+                    return _theory_statistics(env, zc, stats, env.e_phi2), jnp.array(True)
+                env = law(ship, wave, "envelope")
+                zc = law(ship, wave, "zero_crossing") if need_zc else env
+                if name == "envelope_fpk":
                     lo, hi = env.support()
                     a = jnp.linspace(lo, hi, 4001)[:-1]  # F̄ = 0 at and beyond the top edge
                     e_phi2 = jnp.trapezoid(a * env.sf(a), a)  # E[A²]/2 = ∫ a F̄(a) da (φ = A cos ψ)
                 else:
-                    law = theory.roberts_pdf if name == "roberts" else theory.esam_pdf
-                    kw = dict(restoring="nonlinear") if name == "roberts" else {}
-                    env = law(ship, wave, estimator="envelope", **kw)
-                    zc = law(ship, wave, estimator="zero_crossing", **kw) if need_zc else env
                     e_phi2 = env.moment(2.0) / 2  # φ = A cos ψ, ψ uniform
-                return _theory_statistics(env, zc, stats, e_phi2)
+                return _theory_statistics(env, zc, stats, e_phi2), env.exists & zc.exists
 
             x0 = jnp.asarray([params[p] for p in wrt])
-            jac, vals = jax.jit(jax.jacfwd(lambda x: (values(x),) * 2, has_aux=True))(x0)
+            jac, (vals, exists) = jax.jit(jax.jacfwd(lambda x: (lambda r: (r[0], r))(values(x)), has_aux=True))(x0)
+            if not bool(exists):  # the law's own error, from a concrete call at the nominal parameters
+                nominal = problem_fn(params)
+                law(nominal.ship, nominal.wave, "envelope", throw=True)
+                law(nominal.ship, nominal.wave, "zero_crossing", throw=True)
+                raise ValueError(f"{name}: no amplitude law at the nominal parameters.")
             out[name] = {
                 "values": [float(v) for v in vals],
                 "gradients": [[float(jac[i, j]) for j in range(len(wrt))] for i in range(len(stats))],

@@ -102,6 +102,12 @@ def wilson_interval(
     n = jnp.asarray(n_total, dtype=float)
     k = require(k, (n < 1) | (k < 0) | (k > n),
                  f"need 0 <= successes <= trials and trials >= 1; got {n_exceed!r} of {n_total!r}.")
+    return _wilson_bounds(k, n, confidence)
+
+
+def _wilson_bounds(k, n, confidence: float):
+    """`wilson_interval` of inputs already checked: no run-time check, so a compiled program that uses it has no
+    host callback and JAX can keep it on disk between runs."""
     z = jsp.ndtri(1.0 - 0.5 * (1.0 - confidence))
     p = k / n
     denom = 1.0 + z**2 / n
@@ -246,6 +252,7 @@ def exposure_risk(
         n_amp = jnp.asarray(jnp.nan)
     else:
         n_amp = _positive(n_amplitudes, "n_amplitudes", "[-]", " It is the number of amplitudes counted.")
+        n_amp = require(n_amp, n_amp < 1, "`n_amplitudes` must be >= 1 (the number of amplitudes counted).")
     if n_exceed is None:
         k = None
     else:
@@ -265,7 +272,7 @@ def _exposure_risk(dist, angle, n, rate, duration, n_amp, k, confidence):
     else:
         p = k / n_amp
         log_c = jnp.log1p(-p)
-    p_lo, p_hi = wilson_interval(p * n_amp, n_amp, confidence)
+    p_lo, p_hi = _wilson_bounds(p * n_amp, n_amp, confidence)  # checked by exposure_risk
     binom = lambda lc: -jnp.expm1(n * lc)  # noqa: E731
     # Characteristic largest: F̄(a) = p_c = 1 − e^{−1/n}. Its interval by inverting the Wilson score test at
     # the fixed level p_c: F̄_upper(a) = p_c ⇔ F̄(a) = p_c − z·SE(p_c), and F̄_lower(a) = p_c ⇔ + z·SE(p_c).

@@ -210,7 +210,7 @@ class RollProblem(eqx.Module):
         """
         if excitation not in ("filter", "superposition"):
             raise ValueError(f"`excitation` must be 'filter' or 'superposition'; got {excitation!r}.")
-        wave = EffectiveWave(sea, ship.lpp, speed, heading)
+        wave = EffectiveWave(sea, ship.lpp, speed, heading, validate=validate)
         if validate:
             for name, value in (("phi0", phi0), ("dphi0", dphi0)):
                 if not math.isfinite(value):

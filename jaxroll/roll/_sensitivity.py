@@ -317,7 +317,8 @@ def sensitivity_problem(
     √S_G of the FFT synthesis, which has no derivative where S_G = 0 — not supported.
     """
     options = dict(heading=heading, excitation=excitation, dt=dt, filter_order=filter_order, phi0=phi0, dphi0=dphi0)
-    nominal = RollProblem.from_sea(ship, ITTC(hs, t01), speed=speed, **options)  # every check of the nominal problem
+    sea = ITTC(hs, t01)
+    nominal = RollProblem.from_sea(ship, sea, speed=speed, **options)  # every check of the nominal problem
     if excitation == "filter":  # the traced problems step the filter as the nominal one (same random stream)
         options["substeps"] = nominal.excitation.substeps
     gm0_nominal = float(ship.gm0)
@@ -348,7 +349,11 @@ def sensitivity_problem(
             delta_gm=jnp.stack([jnp.asarray(q[f"c{k}"], dtype=float) for k in range(7)]),
             gm_correction=q["gm_correction"], name=ship.name, provenance=ship.provenance,
         )  # fmt: skip
-        return RollProblem.from_sea(new, ITTC(q["hs"], q["t01"]), speed=q["speed"], validate=False, **options)
+        # The nominal sea with H1/3 and T01 replaced, unchecked like the rest: checks of traced values would be
+        # host callbacks, and a program with one is never kept in JAX's disk cache.
+        hs_q, t01_q = (jnp.asarray(q[k], dtype=float) for k in ("hs", "t01"))
+        new_sea = eqx.tree_at(lambda s: (s.hs, s.t01), sea, (hs_q, t01_q))
+        return RollProblem.from_sea(new, new_sea, speed=q["speed"], validate=False, **options)
 
     return problem_fn, params
 

@@ -52,16 +52,22 @@ class EffectiveWave(eqx.Module):
     # the computation they had before headings were angles (a shaping-filter fit is bitwise the same).
     projected: bool = eqx.field(static=True)
 
-    def __init__(self, sea: AbstractWaveSpectrum, length, speed=0.0, heading: str | float = "head"):
+    def __init__(
+        self, sea: AbstractWaveSpectrum, length, speed=0.0, heading: str | float = "head", *, validate: bool = True
+    ):
         """**Arguments:** `sea`: one-sided sea spectrum; `length`: L = Lpp [m]; `speed`: U [m/s] ≥ 0;
         `heading`: `"head"`, `"following"` or the angle χ [rad] in [0, π] between the ship's course and the
-        wave direction (0 following, π/2 beam, π head; long-crested)."""
+        wave direction (0 following, π/2 beam, π head; long-crested). `validate=False` skips the checks of
+        `length` and `speed` (for a traced construction whose nominal values were checked: a traced check is a
+        host callback, which keeps the compiled program out of JAX's disk cache)."""
         chi, cos_chi = heading_angle(heading), heading_cosine(heading)  # validates
         self.sea = sea
         length, speed = as_float(length), as_float(speed)
-        self.length = require(length, ~(array_module(length).asarray(length) > 0), "ship length must be > 0 [m].")
-        self.speed = require(speed, ~(array_module(speed).asarray(speed) >= 0),
-                             "`speed` must be >= 0 [m/s]; use `heading` for direction.")  # fmt: skip
+        if validate:
+            length = require(length, ~(array_module(length).asarray(length) > 0), "ship length must be > 0 [m].")
+            speed = require(speed, ~(array_module(speed).asarray(speed) >= 0),
+                            "`speed` must be >= 0 [m/s]; use `heading` for direction.")  # fmt: skip
+        self.length, self.speed = length, speed
         self.heading = as_float(chi)
         self.cos_heading = as_float(cos_chi)
         self.following = cos_chi > 0
