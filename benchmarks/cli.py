@@ -24,6 +24,9 @@ COMMANDS = {
     "maxima": ["maxima", "--n0", "20,100", "--realizations", "1000"],
     "sweep": ["sweep", "--hs", "5,7", "--t01", "10", "--realizations", "1000", "--duration", "1800"],
     "hydrostatics": ["hydrostatics", "c11"],
+    "sensitivity": ["sensitivity", "--wrt", "b1,gm_correction", "--statistics", "E_phi2,mean_envelope",
+                    "--realizations", "16", "--duration", "900", "--window", "300", "--burn-in", "150",
+                    "--chunk-size", "16", "--theory", "roberts,envelope_fpk"],  # test_cli's settings
 }
 QUICK = {"pdf": ["pdf", "--realizations", "1000"], "theory": ["theory", "--theory", "roberts,esam"]}
 
@@ -32,7 +35,7 @@ def run(argv: list[str], cache: str, out: str) -> float:
     env = {**os.environ, "JAXROLL_CACHE_DIR": cache}
     t0 = time.perf_counter()
     res = subprocess.run([sys.executable, "-m", "jaxroll", *argv, "--out", out, *(
-        ["--quiet"] if argv[0] in ("pdf", "risk", "maxima", "sweep") else [])],
+        ["--quiet"] if argv[0] in ("pdf", "risk", "maxima", "sweep", "sensitivity") else [])],
         env=env, capture_output=True, text=True)
     elapsed = time.perf_counter() - t0
     if res.returncode != 0:

@@ -6,6 +6,7 @@ at their indices, so results do not depend on the chunk size, the device count o
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import io
 import json
@@ -21,7 +22,7 @@ import jax.numpy as jnp
 import jax.random as jr
 import numpy as np
 
-from .._compiled import cached_program
+from .._compiled import MONTE_CARLO_PROGRAM, cached_program
 
 REALIZATION_AXIS = "realizations"
 CHECKPOINT_FILE = "checkpoint.npz"
@@ -407,7 +408,10 @@ def _compiled(fn, mesh: jax.sharding.Mesh | None = None):
     shardings), the envelope's FFT was gathered and done in full on every device (2× the work and two
     all-gathers of the chunk's roll history), so the histogram Monte Carlo gained little from a second device."""
     if (fn, mesh) not in _COMPILED:
-        compile_ = cached_program if jax.process_count() == 1 else eqx.filter_jit
+        if jax.process_count() == 1:
+            compile_ = functools.partial(cached_program, compiler_options=MONTE_CARLO_PROGRAM)
+        else:
+            compile_ = eqx.filter_jit
         if mesh is None or mesh.devices.size == 1:
             _COMPILED[fn, mesh] = compile_(fn)
         else:
