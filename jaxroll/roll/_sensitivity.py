@@ -30,6 +30,7 @@ derivative of the capsize probability is not part of the estimate).
 
 from __future__ import annotations
 
+import functools
 import math
 import re
 import warnings
@@ -42,6 +43,7 @@ import jax.random as jr
 import numpy as np
 from jax.scipy.stats import norm
 
+from .._compiled import MONTE_CARLO_PROGRAM, cached_program
 from ..sea._spectra import ITTC
 from ..ship._ship import Ship
 from ._amplitudes import hilbert_envelope, zero_crossing_init, zero_crossing_update
@@ -471,13 +473,14 @@ def _align_square_roots(parts: _Parts, ref: _Parts) -> _Parts:
     return eqx.tree_at(lambda p: p.excitation, parts, exc)
 
 
-@eqx.filter_jit
+# Stored programs (no tracing in a warm process), compiled as the Monte Carlo's chunk is.
+@functools.partial(cached_program, compiler_options=MONTE_CARLO_PROGRAM)
 def _value_chunk(parts, key, indices, cfg):
     keys = jax.vmap(lambda i: jr.fold_in(key, i))(indices)
     return jax.vmap(lambda k: _realization(parts, None, k, cfg, False))(keys)
 
 
-@eqx.filter_jit
+@functools.partial(cached_program, compiler_options=MONTE_CARLO_PROGRAM)
 def _tangent_chunk(parts, dparts, key, indices, cfg):
     keys = jax.vmap(lambda i: jr.fold_in(key, i))(indices)
     return jax.vmap(lambda k: _realization(parts, dparts, k, cfg, True))(keys)
