@@ -7,7 +7,6 @@ import math
 from collections.abc import Sequence
 from typing import Any
 
-import equinox as eqx
 import jax
 import jax.numpy as jnp
 import jax.random as jr
@@ -63,9 +62,6 @@ def virtual_sea(
     return elev, zeta_g, dzeta_g
 
 
-_roll_time_series_jit = eqx.filter_jit(roll_time_series)
-
-
 def _integration_grid(record_dt: float, max_dt: float) -> tuple[int, float]:
     sub = max(1, math.ceil(record_dt / max_dt - 1e-9))
     return sub, record_dt / sub
@@ -80,7 +76,7 @@ def _simulate_roll(
     exc = SampledExcitation(zeta_g, dzeta_g, dt)
     moment_exc = None if moment is None else SampledExcitation(*moment, dt)
     problem = RollProblem(ship, exc, phi0, dphi0, moment_excitation=moment_exc)
-    phi, dphi, end = _roll_time_series_jit(problem, jr.key(0), num_steps * dt)
+    phi, dphi, end = roll_time_series(problem, jr.key(0), num_steps * dt)
     return np.asarray(phi), np.asarray(dphi), bool(end.capsized)
 
 

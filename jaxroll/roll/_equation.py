@@ -411,9 +411,13 @@ def roll_time_series(problem: RollProblem, key: PRNGKeyArray, duration: float, *
     """φ(t) and φ̇(t) [rad, rad/s] of one realization on t = 0, dt, …, duration [s], and its `RealizationEnd`.
 
     The realization keyed `fold_in(key, i)` is trial i of `monte_carlo(problem, key, ...)` (which integrates in
-    float32: the two agree to ~1e-5 deg)."""
-    num_steps = int(round(duration / problem.dt))
+    float32: the two agree to ~1e-5 deg). One compiled program per problem structure, duration and dtype (a
+    second call with another key or another sea of the same form runs at once)."""
+    return _roll_time_series(problem, key, int(round(duration / problem.dt)), dtype)
 
+
+@eqx.filter_jit
+def _roll_time_series(problem: RollProblem, key: PRNGKeyArray, num_steps: int, dtype):
     def observe(obs, k, y, alive):
         return obs, y
 
