@@ -22,8 +22,8 @@ callback such as `eqx.error_if`'s) is simply run through `eqx.filter_jit`, and r
 Arguments laid out over several devices (the Monte Carlo's realization axis) are keyed by their layout too.
 
 Compilation is most of a cold run: on the CPU a program may name XLA options (`SMALL_PROGRAM`, `SOLVER_PROGRAM`,
-`MONTE_CARLO_PROGRAM`), used for the stored program and, with the persistent cache off, for the same program traced in this process —
-both give the same bits. `prepare` traces and compiles a program ahead, from arguments of the same kind (the
+`MONTE_CARLO_PROGRAM`), used for the stored program and, with the persistent cache off, for the same program
+traced in this process — both give the same bits (`compiled_with`: the same for a program run once, not stored). `prepare` traces and compiles a program ahead, from arguments of the same kind (the
 moment method's, for the filter fit's form while the fit is made: `jaxroll.theory.iter_theory_summaries`).
 """
 
@@ -224,7 +224,7 @@ def cached_program(fn: Callable | None = None, *, compiler_options: dict | None 
         """(`_Stored`, leaves) for concrete `args`, the program loaded or exported on first use and compiled unless
         `compile=False`; None where there is no stored program."""
         d = cache_dir()
-        options = compiler_options if jax.default_backend() == "cpu" else None
+        options = _on_cpu(compiler_options)
         if (d is None and not options) or not is_concrete(args):
             return None
         dynamic, static = eqx.partition(args, eqx.is_array)
@@ -262,6 +262,18 @@ def cached_program(fn: Callable | None = None, *, compiler_options: dict | None 
     wrapper.jitted = jitted
     wrapper.prepare = prepare
     return wrapper
+
+
+def _on_cpu(options: dict | None) -> dict | None:
+    """The XLA `options` where they apply (the CPU), None elsewhere."""
+    return options if jax.default_backend() == "cpu" else None
+
+
+def compiled_with(call: Callable, args, compiler_options: dict | None) -> Callable:
+    """`jax.jit(call)` compiled for `args` with XLA `compiler_options` (`SOLVER_PROGRAM`, …) on the CPU, as
+    `cached_program`'s programs are, for a program that is run once and not stored (its compilation is most of its
+    cost); without them on other backends or where this JAX or XLA refuses them."""
+    return _compiled(call, args, _on_cpu(compiler_options))
 
 
 def _compiled(call: Callable, leaves, options: dict | None) -> Callable:

@@ -51,8 +51,8 @@ SLOWEST_FILES_FIRST = (
     "test_sensitivity.py",  # 53
     "test_time_domain.py",  # 42
     "test_averaging.py",  # 41
-    "test_effective_wave.py",  # 38
     "test_scaling.py",  # 39
+    "test_effective_wave.py",  # 38
     "test_envelope_fpk.py",  # 38
     "test_sgisc.py",  # 38
     "test_hydrostatics.py",  # 37

@@ -80,7 +80,7 @@ def test_filter_fit_derivative_in_the_sea():
     """The fit's derivative in the sea parameters (the implicit function theorem at the optimum, `_at_optimum`):
     in H1/3 exact — S_G ∝ H², so the fitted shape is fixed and only the gain scales, dc/dH = c/H —; in T01 equal
     to a central difference of two fits (h = 1e-3 s: the fits' tolerance limits the agreement to ~2e-4; it also
-    equals optimistix's own implicit adjoint of the same fit to 1e-12, measured in session 12). Reverse mode:
+    equals optimistix's own implicit adjoint of the same fit within rtol 1e-8, measured in session 12). Reverse mode:
     test_sensitivity's d(filter gain)/d(H1/3)."""
 
     def fitted(hs, t01):

@@ -111,7 +111,7 @@ def theory_gradients(problem_fn, params, wrt, stats, names, filter_order):
     import jax.numpy as jnp
 
     from .. import theory
-    from .._compiled import SOLVER_PROGRAM
+    from .._compiled import SOLVER_PROGRAM, compiled_with
 
     need_zc = any(s == "mean_zero_crossing" or s.startswith("P_exceed_zc_") for s in stats)
     out = {}
@@ -157,9 +157,8 @@ def theory_gradients(problem_fn, params, wrt, stats, names, filter_order):
                 return _theory_statistics(env, zc, stats, e_phi2), env.exists & zc.exists
 
             x0 = jnp.asarray([params[p] for p in wrt])
-            program = jax.jit(jax.jacfwd(lambda x: (lambda r: (r[0], r))(values(x)), has_aux=True)).lower(x0)
-            # run once: compiled with the solvers' XLA options (compiling is nearly all of its time)
-            jac, (vals, exists) = program.compile(SOLVER_PROGRAM if jax.default_backend() == "cpu" else None)(x0)
+            gradient = jax.jacfwd(lambda x: (lambda r: (r[0], r))(values(x)), has_aux=True)
+            jac, (vals, exists) = compiled_with(gradient, (x0,), SOLVER_PROGRAM)(x0)  # run once: the solvers' options
             if not bool(exists):  # the law's own error, from a concrete call at the nominal parameters
                 nominal = problem_fn(params)
                 law(nominal.ship, nominal.wave, "envelope", throw=True)
