@@ -289,10 +289,18 @@ def _at_optimum_jvp(order, match_weight, primals, tangents):
         return jax.grad(lambda q: 0.5 * jnp.sum(_fit_residuals(q, d, order, match_weight) ** 2))(p)
 
     _, g_dot = jax.jvp(lambda d: gradient(params, d), (data,), (t_data,))
+    # The numerator β is fitted only up to its scale (`_scaled` sets the gain from the variance): the residuals do
+    # not change along v = (0, β), so the Hessian is singular there (its smallest eigenvalue 2e-16 for the paper's
+    # sea) and g_dot ⟂ v. A plain solve returned an arbitrary, rounding-dependent multiple of v, which the scaling
+    # removes only up to cancellation: compiled with other XLA options, dc/dH1/3 came out 2 % wrong. Adding α·v vᵀ
+    # (α ~ the Hessian's mean eigenvalue) makes the system regular and leaves the solution orthogonal to v.
+    hessian = jax.jacfwd(gradient)(params, data)
+    v = jnp.zeros_like(params).at[order:].set(params[order:])
+    alpha = jnp.trace(hessian) / (params.size * jnp.sum(v * v))
     # Beam seas (σ_G² = 0): every residual vanishes whatever θ, the Hessian is 0, and the zero filter stays zero.
     sea = data[0] > 0
-    hessian = jnp.where(sea, jax.jacfwd(gradient)(params, data), jnp.eye(params.size, dtype=params.dtype))
-    return params, jnp.where(sea, -jnp.linalg.solve(hessian, g_dot), 0.0)
+    regular = jnp.where(sea, hessian + alpha * jnp.outer(v, v), jnp.eye(params.size, dtype=params.dtype))
+    return params, jnp.where(sea, -jnp.linalg.solve(regular, g_dot), 0.0)
 
 
 @cached_program
