@@ -305,8 +305,8 @@ def sensitivity_problem(
 ) -> tuple[Callable[[Mapping], RollProblem], dict[str, float]]:
     """`(problem_fn, params)` for `monte_carlo_sensitivity`: `problem_fn(params)` is
     `RollProblem.from_sea(ship, ITTC(hs, t01), speed=…)` rebuilt from the named parameters, differentiably
-    (the Method-2 filter is refitted inside, through optimistix' implicit derivative); `params` holds their
-    nominal values. Names (SI units, radians):
+    (the Method-2 filter is refitted inside; its derivative is the implicit function theorem's at the fit's
+    optimum); `params` holds their nominal values. Names (SI units, radians):
 
     - `gm0` [m]: GM0 as a vertical shift of G at fixed displacement and inertia: a1 = ω0² ∝ GM0, the GZ curve
       moves by δGM0·sin φ (a3 … a9 follow its Taylor terms), ΔGM(ζ) and ω0²/GM0 in P(t) are unchanged;
