@@ -9,7 +9,6 @@ standard errors themselves are checked against the spread of repeated synthetic 
 import dataclasses
 import json
 import math
-import os
 from pathlib import Path
 
 import equinox as eqx
@@ -17,6 +16,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
+from helpers import run_notebook
 
 import jaxroll as jxr
 from jaxroll.calibration import (
@@ -413,21 +413,8 @@ def test_cli_calibrate_captive_on_example_records(tmp_path):
 
 
 def test_notebook_04_runs_in_smoke_mode(tmp_path, monkeypatch):
-    import nbformat
-    from nbclient import NotebookClient
-
-    path = Path(__file__).resolve().parent.parent / "notebooks" / "04_calibration.ipynb"
-    nb = nbformat.read(path, as_version=4)
-    assert all(not c.get("outputs") for c in nb.cells if c.cell_type == "code"), (
-        "store notebooks without outputs"
-    )
-    monkeypatch.setenv("JAXROLL_SMOKE", "1")
-    monkeypatch.setenv("MPLBACKEND", "Agg")
-    monkeypatch.chdir(tmp_path)
-    NotebookClient(
-        nb, timeout=600, kernel_name="python3", resources={"metadata": {"path": str(tmp_path)}}
-    ).execute()
-    assert os.environ["JAXROLL_SMOKE"] == "1"
+    ns = run_notebook("04_calibration.ipynb", tmp_path, monkeypatch)
+    assert ns["SMOKE"] and ns["rfit"].estimates["gm_correction"].std_error > 0
 
 
 def test_dense_decay_records_are_decimated_not_overfitted():

@@ -11,6 +11,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
+from helpers import run_notebook
 
 import jaxroll  # noqa: F401  (enables float64)
 from jaxroll import (
@@ -603,14 +604,5 @@ def test_plots_return_axes(box, box_loading):
 
 
 def test_notebook_smoke(tmp_path, monkeypatch):
-    nbformat = pytest.importorskip("nbformat")
-    nbclient = pytest.importorskip("nbclient")
-    nb = nbformat.read(REPO / "notebooks" / "05_hydrostatics.ipynb", as_version=4)
-    assert all(not c.get("outputs") for c in nb.cells if c.cell_type == "code"), "store without outputs"
-    monkeypatch.setenv("JAXROLL_SMOKE", "1")
-    monkeypatch.setenv("MPLBACKEND", "Agg")
-    monkeypatch.chdir(tmp_path)
-    nbclient.NotebookClient(
-        nb, timeout=600, kernel_name="python3", resources={"metadata": {"path": str(tmp_path)}}
-    ).execute()
+    run_notebook("05_hydrostatics.ipynb", tmp_path, monkeypatch)
     assert (tmp_path / "jaxroll-out" / "ship_from_c11_hull.toml").is_file()  # not into notebooks/ (issue 13)

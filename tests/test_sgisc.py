@@ -14,6 +14,7 @@ import math
 import equinox as eqx
 import numpy as np
 import pytest
+from helpers import NOTEBOOKS, run_notebook
 
 import jaxroll as jxr
 from jaxroll import criteria as cr
@@ -272,21 +273,9 @@ def test_cli_sgisc_c11_level1_and_c1(tmp_path, capsys, monkeypatch):
 
 
 def test_notebook_06_runs_in_smoke_mode(tmp_path, monkeypatch):
-    nbformat = pytest.importorskip("nbformat")
-    nbclient = pytest.importorskip("nbclient")
-    from pathlib import Path
-
-    path = Path(__file__).resolve().parents[1] / "notebooks" / "06_vulnerability.ipynb"
-    nb = nbformat.read(path, as_version=4)
-    assert all(not c.get("outputs") for c in nb.cells if c.cell_type == "code"), "store without outputs"
-    monkeypatch.setenv("JAXROLL_SMOKE", "1")
-    monkeypatch.setenv("MPLBACKEND", "Agg")
-    monkeypatch.chdir(tmp_path)
-    before = sorted(p.name for p in path.parent.iterdir())
-    nbclient.NotebookClient(
-        nb, timeout=900, kernel_name="python3", resources={"metadata": {"path": str(tmp_path)}}
-    ).execute()
-    assert sorted(p.name for p in path.parent.iterdir()) == before  # nothing left in notebooks/
+    before = sorted(p.name for p in NOTEBOOKS.iterdir())
+    run_notebook("06_vulnerability.ipynb", tmp_path, monkeypatch)
+    assert sorted(p.name for p in NOTEBOOKS.iterdir()) == before  # nothing left in notebooks/
 
 
 @pytest.mark.slow
