@@ -382,7 +382,13 @@ def simulate(
         return (phi, dphi, alive, k_cap, obs, k), jax.tree.map(lambda *o: jnp.stack(o), *outs)
 
     obs_state = as_dtype(obs_state, dtype)
-    inner = (problem.phi0, problem.dphi0, jnp.array(True), jnp.array(-1), obs_state, jnp.array(0))
+    # The carry is per realization from the start (under vmap: batched), as it is after the first step; else vmap
+    # batches the loop bodies again on finding it batched, and the nested loops multiply that (lowering the paper's
+    # Monte Carlo chunk 0.80 → 0.65 s, the program the same bits). `where(True, x, x)`: the same value, no work.
+    same = jr.key_data(key).reshape(-1)[0] == jr.key_data(key).reshape(-1)[0]
+    per_realization = jax.tree.map(lambda x: jnp.where(same, x, x),
+                                   (problem.phi0, problem.dphi0, jnp.array(True), jnp.array(-1), obs_state))
+    inner = (*per_realization, jnp.array(0))
     done = None if finished is None else (lambda inner: ~inner[2] | finished(inner[4]))
     inner, outs = _drive(problem, key, num_steps, dtype, per_source_step, inner, done)
     _, _, alive, k_cap, obs_state, _ = inner
