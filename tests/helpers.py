@@ -52,8 +52,9 @@ def run_notebook(name: str, tmp_path, monkeypatch) -> dict:
     The cells run in this process, in a fresh IPython shell (IPython's own cell execution: magics, display, the
     last expression shown), so a notebook reuses what the tests before it traced and compiled instead of starting a
     kernel that imports and compiles everything again (3–4 s of each notebook test). The notebook sees what a
-    user's kernel sees: JAX's standard dtype promotion (the tests run strict), warnings shown, not raised; the JAX
-    settings it changes (`enable_compilation_cache`) and the interpreter's hooks are put back afterwards."""
+    user's kernel sees: JAX's standard dtype promotion (the tests run strict), warnings that do not stop it (kept
+    out of the test's report); the JAX settings it changes (`enable_compilation_cache`) and the interpreter's hooks
+    are put back afterwards."""
     import sys
     import warnings
 
@@ -77,8 +78,8 @@ def run_notebook(name: str, tmp_path, monkeypatch) -> dict:
     config.HistoryManager.enabled = False
     shell = InteractiveShell(config=config)
     try:
-        with jax.numpy_dtype_promotion("standard"), warnings.catch_warnings():
-            warnings.simplefilter("default")
+        with jax.numpy_dtype_promotion("standard"), warnings.catch_warnings(record=True):
+            warnings.simplefilter("always")
             for i, cell in enumerate(cells):
                 result = shell.run_cell(cell.source, store_history=False)
                 error = result.error_before_exec or result.error_in_exec
