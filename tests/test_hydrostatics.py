@@ -5,7 +5,6 @@ from __future__ import annotations
 import json
 import math
 import tomllib
-from pathlib import Path
 
 import jax
 import jax.numpy as jnp
@@ -44,8 +43,6 @@ from jaxroll.ship._hydrostatics import (
     c11_hull_loading,
 )
 from jaxroll.ship._ship import restoring_fields_from_gz, validate_ship
-
-REPO = Path(__file__).resolve().parents[1]
 
 # Box barge L x B x D floating at draught d with centre of gravity at KG.
 L, B, D, d, KG = 100.0, 20.0, 12.0, 5.0, 6.0
