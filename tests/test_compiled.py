@@ -269,3 +269,30 @@ def test_enable_compilation_cache_keeps_programs_for_a_new_session(tmp_path, mon
     finally:
         jax.config.update("jax_compilation_cache_dir", before[0])
         jax.config.update("jax_persistent_cache_min_compile_time_secs", before[1])
+
+
+def test_filter_jit_is_the_same_function_concrete_traced_and_through_a_closure():
+    """`_compiled.filter_jit` (the laws', theories' and fits' programs, `SOLVER_PROGRAM` on concrete calls) gives the
+    function's values when called directly, under `jit`, `grad` and `vmap`, and when a tracer reaches it through a
+    closure rather than its arguments (XLA options are only allowed on a top-level program: it falls back)."""
+    calls = []
+
+    @_compiled.filter_jit
+    def f(x, n: int):
+        calls.append(n)
+        return jnp.sin(x) * n
+
+    x = jnp.arange(3.0)
+    want = np.sin(np.arange(3.0)) * 2
+    np.testing.assert_allclose(f(x, 2), want, rtol=1e-15)
+    np.testing.assert_allclose(jax.jit(lambda x: f(x, 2))(x), want, rtol=1e-15)
+    np.testing.assert_allclose(jax.grad(lambda x: f(x, 2).sum())(x), 2 * np.cos(np.arange(3.0)), rtol=1e-15)
+    np.testing.assert_allclose(jax.vmap(lambda x: f(x, 2))(jnp.stack([x, x])), np.stack([want, want]), rtol=1e-15)
+    f(x + 1.0, 2)
+    assert calls.count(2) == 2  # one program for the concrete calls (the second reused it), one inlined elsewhere
+
+    def outer(y):
+        return _compiled.filter_jit(lambda x: x * y)(x)
+
+    np.testing.assert_allclose(jax.jit(outer)(3.0), 3 * np.arange(3.0), rtol=1e-15)
+    assert _compiled._accepted(tuple(sorted(_compiled.SOLVER_PROGRAM.items())))

@@ -17,6 +17,7 @@ import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
 
+from .._compiled import filter_jit
 from ..io._records import Record, RecordError
 from ..ship._restoring import restoring_moment
 from ..ship._ship import Ship
@@ -310,7 +311,7 @@ def _decay_residual(theta, args):
     return jnp.concatenate(out)
 
 
-_decay_solution_jit = eqx.filter_jit(decay_solution)
+_decay_solution_jit = filter_jit(decay_solution)
 
 
 def fit_decay_ode(

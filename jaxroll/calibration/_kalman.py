@@ -28,6 +28,7 @@ import jax.numpy as jnp
 import numpy as np
 import optimistix as optx
 
+from .._compiled import filter_jit
 from ..io._records import Record
 from ..roll._equation import rk4_step
 from ..ship._restoring import parametric_excitation
@@ -175,13 +176,13 @@ class _Whitened(eqx.Module):
         return self.obj(self.theta0 + self.a @ u) * self.obj.n_total - self.f0
 
 
-@eqx.filter_jit
+@filter_jit
 def _minimise(fn, u0, max_steps, rtol, atol):
     sol = optx.minimise(fn, optx.BFGS(rtol=rtol, atol=atol), u0, None, max_steps=max_steps, throw=False)
     return sol.value, sol.result, sol.stats["num_steps"]
 
 
-@eqx.filter_jit
+@filter_jit
 def _information(obj, theta):
     return obj.information(theta)
 

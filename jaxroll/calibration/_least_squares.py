@@ -18,6 +18,7 @@ import jax.numpy as jnp
 import numpy as np
 import optimistix as optx
 
+from .._compiled import filter_jit
 from ..laws._checks import error_line
 from ..ship._ship import Ship
 
@@ -72,7 +73,7 @@ class LeastSquaresInfo:
 # ------------------------------------------------------------------------------------------------------------
 
 
-@eqx.filter_jit
+@filter_jit
 def _solve(fn, theta0, args, max_steps, rtol, atol):
     solver = optx.LevenbergMarquardt(rtol=rtol, atol=atol)
     sol = optx.least_squares(
@@ -81,7 +82,7 @@ def _solve(fn, theta0, args, max_steps, rtol, atol):
     return sol.value, sol.result, sol.stats["num_steps"]
 
 
-@eqx.filter_jit
+@filter_jit
 def _residual_and_jacobian(fn, theta, args):
     return fn(theta, args), jax.jacfwd(fn)(theta, args)
 
@@ -96,13 +97,13 @@ class _WithAux(eqx.Module):
 _OPTIONS = {"jac": "fwd"}
 
 
-@eqx.filter_jit
+@filter_jit
 def _lm_init(solver, fn, y, args):
     f_struct, aux_struct = eqx.filter_eval_shape(fn, y, args)
     return solver.init(fn, y, args, _OPTIONS, f_struct, aux_struct, frozenset())
 
 
-@eqx.filter_jit
+@filter_jit
 def _lm_step(solver, fn, y, args, state):
     y, state, _ = solver.step(fn, y, args, _OPTIONS, state, frozenset())
     return y, state

@@ -18,6 +18,7 @@ import jax.numpy as jnp
 import jax.random as jr
 import numpy as np
 
+from .._compiled import filter_jit
 from ..io._records import Record, RecordError, group_by_sea_state
 from ..roll._amplitudes import amplitude_samples
 from ..roll._monte_carlo import simulate_chunk
@@ -71,7 +72,7 @@ def _np_band_means(x: np.ndarray, edges) -> np.ndarray:
     return np.diff(g) / np.diff(e)
 
 
-_amplitude_samples_jit = eqx.filter_jit(amplitude_samples)
+_amplitude_samples_jit = filter_jit(amplitude_samples)
 
 
 class BandMeans(AbstractObserver):
@@ -552,4 +553,4 @@ def fit_roll_pdf(
     )
 
 
-_model_band_means_jit = eqx.filter_jit(_model_band_means)
+_model_band_means_jit = filter_jit(_model_band_means)

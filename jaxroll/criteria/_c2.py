@@ -16,11 +16,11 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
 
+from .._compiled import filter_jit
 from ..roll._equation import rk4_step
 from ..sea._grim import grim_transfer
 from ..sea._spectra import GRAVITY, ITTC, log_quadrature
@@ -59,7 +59,7 @@ def effective_wave_height(lpp: float, hs_m, tz_s) -> np.ndarray:
     return np.asarray(out).reshape(hs_m.shape)
 
 
-@eqx.filter_jit
+@filter_jit
 def _max_roll(ship: Ship, amplitude, omega_e, dt, phi0, n_steps: int, n_keep: int):
     """Max |φ| [rad] over the last n_keep steps of φ̈ + … + P(t) φ = 0 with ζ_mid(t) = amplitude cos(ω_e t), for
     arrays of amplitudes [m], encounter frequencies [rad/s] and steps dt [s] (π where the ship capsizes)."""

@@ -30,6 +30,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from .._compiled import filter_jit
 from ..sea._spectra import GRAVITY
 from ..ship._hull import Hull
 from ..ship._hydrostatics import Loading, _equilibrium_single, _gm_at, buoyancy, hydrostatic_particulars
@@ -180,7 +181,7 @@ def _crest_offsets(n: int) -> tuple[np.ndarray, np.ndarray]:
     return frac, np.where(trough, 1.0, -1.0)
 
 
-@eqx.filter_jit
+@filter_jit
 def _gm_positions(hull: Hull, loading: Loading, shift, zeta, wavelength):
     """GM [m] (free trim) and convergence of the hull translated by −shift on waves (zeta, wavelength), vmapped."""
 

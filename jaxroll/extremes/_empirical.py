@@ -8,6 +8,8 @@ import jax.scipy.special as jsp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
+from .._compiled import filter_jit
+
 # ------------------------------------------------------------------------------------------------------------
 # Empirical maxima from Monte Carlo
 # ------------------------------------------------------------------------------------------------------------
@@ -133,7 +135,7 @@ def empirical_maxima(
     return _empirical_maxima(xs, edges, jnp.asarray(levels_arr), jnp.asarray(x.shape[0] - n), confidence)
 
 
-@eqx.filter_jit
+@filter_jit
 def _empirical_maxima(xs, edges, levels, n_excluded, confidence):
     n = xs.shape[0]
     mean = jnp.mean(xs)

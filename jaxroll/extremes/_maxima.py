@@ -21,11 +21,11 @@ that nothing cancels for $N_0 = 10^4 \ldots 10^7$ and nothing underflows before 
 
 
 
-import equinox as eqx
 import jax
 import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float
 
+from .._compiled import filter_jit
 from ..laws._abstract import (
     AbstractAmplitudeLaw,
     _bracket_targets,
@@ -67,7 +67,7 @@ def max_logpdf(dist: AbstractAmplitudeLaw, a: ArrayLike, n0: ArrayLike) -> Float
     return _max_logpdf_jit(dist, jnp.asarray(a, dtype=float), n0)
 
 
-_max_logpdf_jit = eqx.filter_jit(_max_logpdf)
+_max_logpdf_jit = filter_jit(_max_logpdf)
 
 
 def max_pdf(dist: AbstractAmplitudeLaw, a: ArrayLike, n0: ArrayLike) -> Float[Array, "..."]:
@@ -99,7 +99,7 @@ def max_pdf_asymptotic(
     return _max_pdf_asymptotic(dist, jnp.asarray(a, dtype=float), n0)
 
 
-@eqx.filter_jit
+@filter_jit
 def _max_pdf_asymptotic(dist, a, n0):
     xi = n0 * jnp.exp(dist._logsf(a))
     # ξ e^{−ξ} / F̄ = N0 e^{−ξ}: written this way it stays finite where F̄ underflows.
@@ -113,7 +113,7 @@ def max_logcdf(dist: AbstractAmplitudeLaw, a: ArrayLike, n0: ArrayLike) -> Float
     return _max_logcdf(dist, jnp.asarray(a, dtype=float), n0)
 
 
-@eqx.filter_jit
+@filter_jit
 def _max_logcdf(dist, a, n0):
     return n0 * dist._logcdf(a)
 
@@ -143,7 +143,7 @@ def max_quantile(dist: AbstractAmplitudeLaw, q: ArrayLike, n0: ArrayLike) -> Flo
     return _max_quantile(dist, q, n0)
 
 
-@eqx.filter_jit
+@filter_jit
 def _max_quantile(dist, q, n0):
     log_c = jnp.log(q) / n0
     return _solve_levels(dist, log_c, _log1mexp(log_c))
@@ -209,7 +209,7 @@ def _mode_in(dist, n0, left, right):
     return x0 + jnp.where(ok, step, 0.0)
 
 
-@eqx.filter_jit
+@filter_jit
 def _most_probable_maximum(dist, n0):
     log_c, log_s = _bracket_targets(n0)
     ends = _solve_levels(jax.lax.stop_gradient(dist), log_c[:2], log_s[:2])

@@ -7,7 +7,7 @@ import jax.scipy.special as jsp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
-from .._compiled import require
+from .._compiled import filter_jit, require
 from ..laws._abstract import (
     AbstractAmplitudeLaw,
     _bracket_targets,
@@ -74,7 +74,7 @@ def exceedance_probability(
     return _exceedance(dist, angle, n, poisson)
 
 
-@eqx.filter_jit
+@filter_jit
 def _exceedance(dist, angle, n, poisson):
     if poisson:
         return -jnp.expm1(-n * jnp.exp(dist._logsf(angle)))
@@ -264,7 +264,7 @@ def exposure_risk(
     return _exposure_risk(dist, angle, n, rate, duration, n_amp, k, confidence)
 
 
-@eqx.filter_jit
+@filter_jit
 def _exposure_risk(dist, angle, n, rate, duration, n_amp, k, confidence):
     if k is None:
         p = jnp.exp(dist._logsf(angle))

@@ -8,6 +8,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
+from .._compiled import filter_jit
 from ._checks import (
     _BISECTION_STEPS,
     _DOUBLING_STEPS,
@@ -19,7 +20,7 @@ from ._checks import (
 )
 
 
-@eqx.filter_jit
+@filter_jit
 def _evaluate(kernel: str, dist, a):
     return getattr(dist, kernel)(a)
 
@@ -216,7 +217,7 @@ def _solve_levels(dist, log_c, log_s):
     return flat.reshape(log_c.shape)
 
 
-_solve_levels_jit = eqx.filter_jit(_solve_levels)
+_solve_levels_jit = filter_jit(_solve_levels)
 
 
 
@@ -245,7 +246,7 @@ def _expected_in(dist, n0, a_left, a_right, num_panels):
     return a_left + _gauss_legendre(integrand, 0.0, 1.0, num_panels)
 
 
-@eqx.filter_jit
+@filter_jit
 def _expected_maximum(dist, n0, num_panels):
     log_c, log_s = _bracket_targets(n0)
     ends = _solve_levels(jax.lax.stop_gradient(dist), log_c[2:], log_s[2:])

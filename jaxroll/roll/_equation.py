@@ -23,7 +23,7 @@ import jax.random as jr
 import numpy as np
 from jaxtyping import Array, Float, PRNGKeyArray
 
-from .._compiled import cached_program
+from .._compiled import cached_program, filter_jit
 from ..sea._filters import FilterFit, check_filter_fit, fit_filter
 from ..sea._grim import EffectiveWave
 from ..sea._spectra import AbstractWaveSpectrum
@@ -422,7 +422,7 @@ def roll_time_series(problem: RollProblem, key: PRNGKeyArray, duration: float, *
     return _roll_time_series(problem, key, int(round(duration / problem.dt)), dtype)
 
 
-@eqx.filter_jit
+@filter_jit
 def _roll_time_series(problem: RollProblem, key: PRNGKeyArray, num_steps: int, dtype):
     def observe(obs, k, y, alive):
         return obs, y

@@ -20,6 +20,7 @@ import numpy as np
 import optimistix as optx
 from jaxtyping import Array, ArrayLike, Bool, Float
 
+from .._compiled import filter_jit
 from ._hull import Hull, _concrete, c11_hull
 from ._hydrostatics import (
     GRAVITY,
@@ -160,7 +161,7 @@ def default_heel_grid(heel_max: float = _DEFAULT_HEEL_MAX, n: int = _DEFAULT_N_H
     return np.linspace(0.0, heel_max, n)
 
 
-@eqx.filter_jit
+@filter_jit
 def _hydrostatics_core(hull, loading, zeta, heels, wavelength, throw):
     lam = hull.lpp if wavelength is None else jnp.asarray(wavelength, dtype=float)
     nz, nh = zeta.shape[0], heels.shape[0]

@@ -47,6 +47,7 @@ import numpy as np
 import optimistix as optx
 from jaxtyping import Array, ArrayLike, Bool, Float, Int
 
+from .._compiled import filter_jit
 from ._hull import Hull, _c11_hull_path, _concrete, _section_polygons
 
 GRAVITY = 9.80665
@@ -66,12 +67,12 @@ _MAX_STEPS = 64
 
 
 def _entry_point(fn):
-    """`eqx.filter_jit` with Python numbers and lists turned into float arrays first.
+    """`filter_jit` (`jaxroll._compiled`) with Python numbers and lists turned into float arrays first.
 
     `filter_jit` treats Python scalars as static, so `gz_curve(..., zeta_mid=3.0)` would compile again for
     every new amplitude; as arrays they are traced and one compilation serves all values.
     """
-    jitted = eqx.filter_jit(fn)
+    jitted = filter_jit(fn)
 
     def convert(v):
         if isinstance(v, bool) or not isinstance(v, int | float | list | np.ndarray | np.generic):
@@ -289,7 +290,7 @@ def _even_keel_draught(hull: Hull, volume) -> tuple[Array, Array]:
     return sol.value, sol.result == optx.RESULTS.successful
 
 
-@eqx.filter_jit
+@filter_jit
 def _loading_arrays(hull, kg, draught, displacement, lcg, rho, from_draught: bool):
     zero = jnp.zeros(())
     if from_draught:
@@ -305,7 +306,7 @@ def _loading_arrays(hull, kg, draught, displacement, lcg, rho, from_draught: boo
     return vol * rho, kg, lcg_out, rho, d, ok
 
 
-@eqx.filter_jit
+@filter_jit
 def _max_displaced_volume(hull):
     zero = jnp.zeros(())
     return _integrals(hull, zero, hull.depth, zero, zero, None).volume

@@ -27,6 +27,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Bool, Float
 
+from .._compiled import filter_jit
 from ..laws._abstract import check_estimator
 from ..sea._grim import EffectiveWave
 from ..ship._ship import Ship
@@ -108,7 +109,7 @@ class RobertsCoefficients(eqx.Module):
         """Whether the stationary PDF exists: ν > −1 (K > b1/2) and c2 > 0 or c3 > 0."""
         return _existence(self.nu, False, self.c2, self.c3)
 
-    @eqx.filter_jit
+    @filter_jit
     def stationary_pdf(self, *, num: int = 2049, estimator: str = "envelope") -> AveragedAmplitudeLaw:
         """The stationary PDF p(A) = C A^ν e^{−c2A − c3A²} on [0, ∞) as an `AveragedAmplitudeLaw` (NaN if none exists).
 
@@ -134,7 +135,7 @@ class RobertsCoefficients(eqx.Module):
         return _build_pdf(s, log_unnorm, nu_s, exists, parameters, "roberts", estimator)
 
 
-@eqx.filter_jit
+@filter_jit
 def roberts_log_normaliser(
     nu: ArrayLike, c2: ArrayLike, c3: ArrayLike, *, num: int = 2049
 ) -> Float[Array, ""]:
@@ -286,7 +287,7 @@ def _finish(out: AveragedAmplitudeLaw, throw: bool) -> AveragedAmplitudeLaw:
     return eqx.tree_at(lambda o: o.log_density, out, checked)
 
 
-@eqx.filter_jit
+@filter_jit
 def _roberts_linear(ship, spectrum, estimator, mean_shift, num):
     rc = roberts_coefficients(ship, spectrum, mean_shift=mean_shift)
     out = rc.stationary_pdf(num=num, estimator=estimator)
@@ -318,7 +319,7 @@ def _nonlinear_domain(ship, a_eff, rc: RobertsCoefficients, max_amplitude):
     return top, bounded
 
 
-@eqx.filter_jit
+@filter_jit
 def _roberts_nonlinear(ship, spectrum, estimator, mean_shift, num, max_amplitude):
     rc = roberts_coefficients(ship, spectrum, mean_shift=mean_shift)
     shift = spectrum.mean if mean_shift else jnp.zeros(())
@@ -542,7 +543,7 @@ def energy_averaged_pdf(
     )
 
 
-@eqx.filter_jit
+@filter_jit
 def _esam(ship, spectrum, estimator, mean_shift, num, max_amplitude, num_theta, num_harmonics):
     rc = roberts_coefficients(ship, spectrum, mean_shift=mean_shift)
     shift = spectrum.mean if mean_shift else jnp.zeros(())
@@ -603,7 +604,7 @@ def esam_pdf(
     return _finish(out, throw)
 
 
-@eqx.filter_jit
+@filter_jit
 def _esam_additive(ship, intensity, estimator, num, max_amplitude, num_theta):
     a = ship.restoring_coefficients
     top, bounded = _well_top(ship, a)

@@ -48,6 +48,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from .._compiled import filter_jit
 from ..laws._abstract import check_estimator
 from ..ship._restoring import vanishing_angle
 from ..ship._ship import Ship
@@ -437,7 +438,7 @@ def _prepare(ship, wave, excitation, grid, amplitude=True):
     return _build_model(ship, scale, h, omega, exc, grid, amplitude), exc
 
 
-@eqx.filter_jit
+@filter_jit
 def _envelope_fpk(ship, wave, excitation, grid: _Grid, protocol):
     md, exc = _prepare(ship, wave, excitation, grid)
     qs = _stationary(md) if protocol is None else _protocol(md, *protocol)
@@ -445,7 +446,7 @@ def _envelope_fpk(ship, wave, excitation, grid: _Grid, protocol):
     return jnp.exp(md.se), mass_env, mass_zc, _lyapunov(md), exc
 
 
-@eqx.filter_jit
+@filter_jit
 def _lyapunov_only(ship, wave, excitation, grid: _Grid):
     md, exc = _prepare(ship, wave, excitation, grid, amplitude=False)
     return _lyapunov(md), exc

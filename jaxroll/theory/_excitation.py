@@ -25,6 +25,7 @@ import jax.numpy as jnp
 import jax.random as jr
 from jaxtyping import Array, ArrayLike, Float, PRNGKeyArray
 
+from .._compiled import filter_jit
 from ..sea._grim import EffectiveWave, superpose
 from ..ship._restoring import parametric_excitation
 from ..ship._ship import Ship
@@ -118,7 +119,7 @@ def _grid(num: int, domega: float):
     return jnp.arange(num // 2 + 1, dtype=float) * domega
 
 
-@eqx.filter_jit
+@filter_jit
 def parametric_spectrum(
     ship: Ship, wave: EffectiveWave, *, num: int = 2**15, domega: float = 2.5e-3
 ) -> ParametricSpectrum:

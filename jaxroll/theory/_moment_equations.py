@@ -50,6 +50,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
+from .._compiled import filter_jit
 from ..sea._filters import ShapingFilter, lyapunov
 from ..ship._ship import Ship
 
@@ -694,12 +695,12 @@ def _equations_from_key(structure, order: int, extra) -> MomentEquations:
     return MomentEquations(cached_tables(structure, order, extra))
 
 
-@eqx.filter_jit
+@filter_jit
 def _rhs_jit(tables: _Tables, arr: _TableArrays, sde: PolynomialSDE, m):
     return _rhs(tables, arr, sde, m, _base_cumulants(tables, arr, sde))
 
 
-@eqx.filter_jit
+@filter_jit
 def _full_jit(tables: _Tables, arr: _TableArrays, sde: PolynomialSDE, m):
     return _full_moments(tables, arr, sde, m)[0]
 

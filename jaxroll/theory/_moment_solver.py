@@ -15,7 +15,7 @@ import numpy as np
 import optimistix as optx
 from jaxtyping import Array, ArrayLike, Float
 
-from .._compiled import cached_program, is_concrete
+from .._compiled import SOLVER_PROGRAM, cached_program, is_concrete
 from ._moment_equations import (
     MomentEquations,
     PolynomialSDE,
@@ -327,8 +327,9 @@ def _table_arrays(tables: _Tables) -> _TableArrays:
 
 
 # One compiled program per structure; with JAX's persistent cache on (the `jaxroll` command), a concrete call runs
-# the program stored on disk by `cached_program` (no Python tracing in a new process); traced calls are jitted.
-_solve = cached_program(_solve_impl)
+# the program stored on disk by `cached_program` (no Python tracing in a new process); traced calls are jitted. The
+# same XLA options as the named theories' solver program (`jaxroll.theory._named`).
+_solve = cached_program(compiler_options=SOLVER_PROGRAM)(_solve_impl)
 
 
 def raise_if_failed(result, x):

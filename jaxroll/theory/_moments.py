@@ -13,6 +13,7 @@ import numpy as np
 import optimistix as optx
 from jaxtyping import Array, ArrayLike, Float
 
+from .._compiled import filter_jit
 from ..laws._abstract import AbstractAmplitudeLaw, check_estimator
 from ..laws._checks import error_line
 from ..laws._tabulated import TabulatedAmplitudeLaw
@@ -106,7 +107,7 @@ class AmplitudeFamily(eqx.Module):
         return _family_quantiles(self, level.reshape(-1)).reshape(level.shape)
 
 
-@eqx.filter_jit
+@filter_jit
 def _family_quantiles(family: AmplitudeFamily, levels):
     ok = (
         jnp.isfinite(family.nu)
@@ -139,7 +140,7 @@ def _bisect_quantiles(family: AmplitudeFamily, levels):
     return jax.vmap(one)(levels)
 
 
-@eqx.filter_jit
+@filter_jit
 def fit_amplitude_family(
     amplitude_moments: ArrayLike,
 ) -> tuple[AmplitudeFamily, Float[Array, ""], optx.RESULTS]:
@@ -507,7 +508,7 @@ def _moment_pdf(
     )
 
 
-@eqx.filter_jit
+@filter_jit
 def _amplitude_law(mom: StationaryMoments, omega0, envelope: str):
     amp = envelope_moments(mom, omega0, envelope)
     family, res, fit_result = fit_amplitude_family(amp)
