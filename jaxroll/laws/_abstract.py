@@ -21,8 +21,10 @@ from ._checks import (
 
 
 @filter_jit
-def _evaluate(kernel: str, dist, a):
-    return getattr(dist, kernel)(a)
+def _evaluate(kernel: str, dist, a, exp: bool = False):
+    """`dist.<kernel>(a)`, or its exponential (in the same program: no eager XLA program per shape)."""
+    out = getattr(dist, kernel)(a)
+    return jnp.exp(out) if exp else out
 
 
 ESTIMATORS = ("zero_crossing", "envelope")
@@ -101,15 +103,15 @@ class AbstractAmplitudeLaw(eqx.Module):
 
     def pdf(self, a: ArrayLike) -> Float[Array, "..."]:
         """P(a) [1/rad] at amplitudes `a` [rad]."""
-        return jnp.exp(self.logpdf(a))
+        return _evaluate("_logpdf", self, jnp.asarray(a, dtype=float), True)
 
     def sf(self, a: ArrayLike) -> Float[Array, "..."]:
         r"""Survival $\bar F(a) = \Pr(A > a)$ [-] at amplitudes `a` [rad]."""
-        return jnp.exp(self.logsf(a))
+        return _evaluate("_logsf", self, jnp.asarray(a, dtype=float), True)
 
     def cdf(self, a: ArrayLike) -> Float[Array, "..."]:
         r"""$1 - \bar F(a) = \Pr(A \le a)$ [-] at amplitudes `a` [rad]."""
-        return jnp.exp(self.logcdf(a))
+        return _evaluate("_logcdf", self, jnp.asarray(a, dtype=float), True)
 
     def quantile(self, q: ArrayLike) -> Float[Array, "..."]:
         """The amplitude [rad] with `cdf(a) = q`, 0 < q < 1, any shape. Differentiable (implicit function)."""
