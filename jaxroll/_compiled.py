@@ -300,7 +300,7 @@ def filter_jit(fn: Callable | None = None, *, compiler_options: dict | None = SO
 
     @functools.wraps(fn)
     def wrapper(*args, **kwargs):
-        if jax.default_backend() == "cpu" and is_concrete((args, kwargs)) and _accepted(items):
+        if _on_cpu(compiler_options) and is_concrete((args, kwargs)) and _accepted(items):
             try:
                 return tuned(*args, **kwargs)
             except ValueError as e:  # inside another trace after all (a tracer in a closure)
