@@ -6,17 +6,37 @@ Pipeline: sea spectrum → Grim's effective wave (superposition or a shaping fil
 jaxroll enables float64 in JAX on import: its statistics, moment equations and tail probabilities need it. It
 also asks XLA:CPU for platform-independent math (`--xla_cpu_enable_platform_dependent_math=false` in XLA_FLAGS,
 unless set), without which a realization's float32 arithmetic depends on the batch it is compiled in
-(docs/architecture.md, "Process-wide settings"). On a CPU it makes every core a JAX device (`jax_num_cpu_devices`,
-unless set), so that the Monte Carlo's realizations run on all cores: XLA runs one device's loop on one core.
+(docs/architecture.md, "Process-wide settings"), and has XLA:CPU compile each loop that touches under 4 MB as one
+function (`xla_cpu_small_while_loop_byte_threshold` in `--xla_backend_extra_options`, unless set), so that the
+time loops of the Monte Carlo, the ODE solvers and the Kalman filter do not dispatch their kernels one by one at
+every step (faster, the same results). On a CPU it makes every core a JAX
+device (`jax_num_cpu_devices`, unless set), so that the Monte Carlo's realizations run on all cores: XLA runs one
+device's loop on one core.
 """
 
 import importlib.metadata
 import os
 
 _MATH_FLAG = "xla_cpu_enable_platform_dependent_math"
+_LOOP_OPTION = "xla_cpu_small_while_loop_byte_threshold"
+#: XLA:CPU compiles a while loop that touches fewer bytes than this as one function (XLA's default: 1024 bytes),
+#: instead of dispatching each of its kernels on every iteration (docs/architecture.md, "Process-wide settings").
+_SMALL_LOOP_BYTES = 4_000_000
+
+
+def _with_jaxroll_flags(flags: str) -> str:
+    """`XLA_FLAGS` with jaxroll's two XLA:CPU settings added where the user has not named them: platform-independent
+    math, and `_SMALL_LOOP_BYTES` as an `--xla_backend_extra_options` entry (XLA merges several such flags)."""
+    words = flags.split()
+    if _MATH_FLAG not in flags:
+        words.append(f"--{_MATH_FLAG}=false")
+    if _LOOP_OPTION not in flags:
+        words.append(f"--xla_backend_extra_options={_LOOP_OPTION}={_SMALL_LOOP_BYTES}")
+    return " ".join(words)
+
+
 _USER_SET_FLAG = _MATH_FLAG in os.environ.get("XLA_FLAGS", "")
-if not _USER_SET_FLAG:
-    os.environ["XLA_FLAGS"] = f"{os.environ.get('XLA_FLAGS', '')} --{_MATH_FLAG}=false".strip()
+os.environ["XLA_FLAGS"] = _with_jaxroll_flags(os.environ.get("XLA_FLAGS", ""))
 
 import jax  # noqa: E402
 

@@ -13,6 +13,7 @@ import sys
 import textwrap
 
 import jax
+import jax.numpy as jnp
 import numpy as np
 import pytest
 from helpers import default_problem
@@ -350,6 +351,28 @@ def test_every_cpu_core_is_a_device_unless_the_user_chose():
     env["JAX_NUM_CPU_DEVICES"] = "1"
     out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True).stdout
     assert out.split()[0] == "1"
+
+
+def test_small_loops_compile_as_one_function_and_user_flags_are_kept():
+    # jaxroll's XLA_FLAGS (set on import, before JAX started here): a loop over a 32 kB carry — over XLA's default
+    # 1 kB, under jaxroll's 4 MB — is compiled as one function (a "small call"), not kernel by kernel
+    def loop(x):
+        return jax.lax.fori_loop(0, 10, lambda i, x: jnp.sin(x) * 1.01, x)
+
+    x = jnp.ones(4096)
+    assert "xla_cpu_small_call" in jax.jit(loop).lower(x).compile().as_text()
+    np.testing.assert_allclose(np.asarray(jax.jit(loop)(x)), np.asarray(loop(x)), rtol=1e-15)
+    added = jaxroll._with_jaxroll_flags("")
+    assert added == ("--xla_cpu_enable_platform_dependent_math=false "
+                     "--xla_backend_extra_options=xla_cpu_small_while_loop_byte_threshold=4000000")
+    # the user's choices stay; their own extra options are kept beside jaxroll's (XLA merges the flags)
+    mine = ("--xla_cpu_enable_platform_dependent_math=true "
+            "--xla_backend_extra_options=xla_cpu_small_while_loop_byte_threshold=8")
+    assert jaxroll._with_jaxroll_flags(mine) == mine
+    other = "--xla_backend_extra_options=xla_cpu_disable_loop_unrolling=true"
+    assert jaxroll._with_jaxroll_flags(other).split() == [
+        other, "--xla_cpu_enable_platform_dependent_math=false",
+        "--xla_backend_extra_options=xla_cpu_small_while_loop_byte_threshold=4000000"]
 
 
 def test_devices_argument():
