@@ -16,6 +16,7 @@ from jaxroll.roll._excitation import (
     BLOCK,
     _bits_to_normal,
     block_normals,
+    block_normals_by_column,
     interpolation_error_variance,
     threefry2x32,
 )
@@ -35,6 +36,20 @@ def test_block_normals_are_threefry_words_mapped_as_jax_random_normal():
     # the bits → normal map is jax.random.normal's: on JAX's own bits (the XOR of the two words) it gives its numbers
     ref = jr.normal(jr.fold_in(key, 5), (BLOCK, 2), jnp.float32)
     np.testing.assert_array_equal(np.asarray(_bits_to_normal(b0 ^ b1)).reshape(BLOCK, 2), np.asarray(ref))
+
+
+def test_block_normals_by_column_are_block_normals_columns():
+    """The filter's normals, hashed column by column, are `block_normals`' columns bit for bit, for even and odd
+    filter orders, under vmap over realizations, and with another PRNG (its own normals, the same columns)."""
+    keys = jax.vmap(lambda i: jr.fold_in(jr.key(3), i))(jnp.arange(6))
+    for n in (3, 4, 5, 6):
+        cols = jax.vmap(lambda k, n=n: jnp.stack(block_normals_by_column(k, 9, n), -1))(keys)
+        ref = jax.vmap(lambda k, n=n: block_normals(k, 9, (BLOCK, n)))(keys)
+        assert cols.shape == (6, BLOCK, n) and cols.dtype == jnp.float32
+        np.testing.assert_array_equal(np.asarray(cols), np.asarray(ref))
+    rbg = jr.key(3, impl="rbg")
+    np.testing.assert_array_equal(np.asarray(jnp.stack(block_normals_by_column(rbg, 2, 4), -1)),
+                                  np.asarray(block_normals(rbg, 2, (BLOCK, 4))))
 
 
 def test_block_normals_are_standard_normal_and_independent():

