@@ -347,15 +347,22 @@ def run_chunks(
     problem = _replicate(problem, mesh)
     last_save, chunks_since_save = time.monotonic(), 0
     resumed_keys = (set(summed), set(per)) if start else None  # what the checkpoint recorded
-    while start < num_realizations:
-        idx = np.arange(start, start + chunk)
+    def dispatch(first):
+        idx = np.arange(first, first + chunk)
         valid = idx < num_realizations
-        s, p = fn(problem, key, _global_array(idx, sharding), _global_array(valid, sharding), *static)
-        s, p = _to_host((s, p))
+        return valid, fn(problem, key, _global_array(idx, sharding), _global_array(valid, sharding), *static)
+
+    # The next chunk is dispatched before this one's results come to the host (JAX runs programs asynchronously,
+    # in order), so the devices do not wait for the host's copying, bookkeeping and dispatch between chunks.
+    pending = dispatch(start) if start < num_realizations else None
+    while pending is not None:
+        valid, out = pending
+        n = int(valid.sum())
+        pending = dispatch(start + n) if start + n < num_realizations else None
+        s, p = _to_host(out)
         if resumed_keys is not None:
             _check_resumed_statistics(path, resumed_keys, (set(s), set(p)))
             resumed_keys = None
-        n = int(valid.sum())
         for k, v in s.items():
             summed[k] = summed.get(k, 0) + v
         for k, v in p.items():
