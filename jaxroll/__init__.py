@@ -9,9 +9,8 @@ unless set), without which a realization's float32 arithmetic depends on the bat
 (docs/architecture.md, "Process-wide settings"), and has XLA:CPU compile each loop that touches under 4 MB as one
 function (`xla_cpu_small_while_loop_byte_threshold` in `--xla_backend_extra_options`, unless set), so that the
 time loops of the Monte Carlo, the ODE solvers and the Kalman filter do not dispatch their kernels one by one at
-every step (faster, the same results). On a CPU it makes every core a JAX
-device (`jax_num_cpu_devices`, unless set), so that the Monte Carlo's realizations run on all cores: XLA runs one
-device's loop on one core.
+every step (faster, the same results). On a CPU it makes every core a JAX device (`jax_num_cpu_devices`, unless
+set), so that the Monte Carlo's realizations run on all cores: XLA runs one device's loop on one core.
 """
 
 import importlib.metadata

@@ -347,6 +347,7 @@ def run_chunks(
     problem = _replicate(problem, mesh)
     last_save, chunks_since_save = time.monotonic(), 0
     resumed_keys = (set(summed), set(per)) if start else None  # what the checkpoint recorded
+
     def dispatch(first):
         idx = np.arange(first, first + chunk)
         valid = idx < num_realizations
