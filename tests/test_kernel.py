@@ -6,11 +6,12 @@ import jax.extend.random
 import jax.numpy as jnp
 import jax.random as jr
 import numpy as np
+import pytest
 import scipy.stats
 from helpers import default_problem
 
 import jaxroll
-from jaxroll.roll._amplitudes import envelope_rfft, hilbert_envelope
+from jaxroll.roll._amplitudes import envelope_rfft, hilbert_envelope, row_sums
 from jaxroll.roll._equation import simulate
 from jaxroll.roll._excitation import (
     BLOCK,
@@ -126,6 +127,21 @@ def test_envelope_rows_are_independent_of_the_batch():
     np.testing.assert_allclose(full, np.asarray(hilbert_envelope(x.astype(jnp.float64))), rtol=0, atol=2e-6)
 
 
+def test_row_sums_are_float64_sums_independent_of_the_batch():
+    """The histogram observer's sums over time: float64 sums of float32 records, in one pass, each row the same
+    bits in any batch (the per-realization sums do not depend on the chunk size)."""
+    x = (jr.normal(jr.key(2), (40, 1800)) * 0.2).astype(jnp.float32)
+    sums = jax.jit(lambda x: row_sums(x, x.astype(jnp.float64) ** 2, jnp.abs(x)))
+    full = [np.asarray(s) for s in sums(x)]
+    x64 = np.asarray(x).astype(np.float64)
+    for got, want in zip(full, (x64, x64 * x64, np.abs(x64)), strict=True):
+        assert got.dtype == np.float64
+        np.testing.assert_allclose(got, want.sum(1), rtol=1e-12, atol=1e-12)
+    for lo, hi in ((0, 1), (3, 11), (7, 40)):
+        for got, whole in zip(sums(x[lo:hi]), full, strict=True):
+            np.testing.assert_array_equal(np.asarray(got), whole[lo:hi])
+
+
 def test_monte_carlo_trial_is_the_time_series_of_its_key():
     """Trial i of the Monte Carlo is `roll_time_series` with key fold_in(key, i): one realization, written once."""
     problem = default_problem()
@@ -152,3 +168,8 @@ def test_simulate_counts_no_capsize_after_num_steps():
     longer = run(4 * BLOCK * 4)  # the same noise: capsizes up to num_steps agree, later ones are not counted above
     tl = np.asarray(longer.capsize_time)
     np.testing.assert_array_equal(np.asarray(end.capsized), tl <= num_steps * problem.dt)
+
+
+def test_simulate_refuses_more_steps_than_an_int32_counts():
+    with pytest.raises(ValueError, match="at most 2³¹ − 1 time steps per realization; got 2147483648"):
+        simulate(default_problem(), jr.key(0), 2**31, lambda s, k, y, a: (s, None), None)

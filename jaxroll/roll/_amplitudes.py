@@ -96,6 +96,16 @@ def envelope_rfft(x):
     return jnp.sqrt(x * x + hx * hx)
 
 
+def row_sums(*arrays):
+    """Float64 sums along axis 1 of arrays of one shape [rows, n] (any floating type), all in one pass over the
+    data, each row summed in order (so a row's sum does not depend on the other rows). Summing each array
+    separately would first write its float64 copy (XLA:CPU hands such sums to a library that reads materialized
+    arrays): on the Monte Carlo's records, 5 sums of 500 × 1800 took 1.8–2.0 ms that way, 0.7–0.9 ms in one pass."""
+    zero = jnp.zeros((), jnp.float64)
+    return jax.lax.reduce(tuple(a.astype(jnp.float64) for a in arrays), (zero,) * len(arrays),
+                          lambda a, b: tuple(x + y for x, y in zip(a, b, strict=True)), (1,))
+
+
 def integer_counts(values, keep, width: float, num_bins: int):
     """Histogram (float64 of integer counts) of `values` where `keep`: bins [k·width, (k+1)·width), larger values
     in the last bin; integer scatter-adds with the dropped entries left out (exact in any order)."""

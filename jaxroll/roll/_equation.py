@@ -45,18 +45,29 @@ def roll_vector_field(t, y, args):
     return jnp.stack([y[1], roll_acceleration(ship, y[0], y[1], p_of_t(t))])
 
 
+def runtime_one(x):
+    """Ones shaped like `x` that XLA cannot know at compile time: x == x, for an `x` known to be finite."""
+    return (x == x).astype(x.dtype)
+
+
+def computed_once(x, one):
+    """`x` divided by `one` (from `runtime_one`): the same value, exactly (x / 1 = x), which XLA computes once and
+    keeps. XLA counts a division as expensive, so it stores the result for every fused kernel that uses it instead
+    of recomputing the chain of operations behind `x` inside each of them (in a loop body, several times over)."""
+    return x / one
+
+
 def rk4_step(ship: Ship, y, p, m, h, one=None):
     """One RK4 step of y = (φ, φ̇) over h [s]; `p`, `m` = (start, middle, end) values of P [1/s²] and M_w
     [rad/s²]. **Returns:** the new (φ, φ̇) as a tuple (or a stacked array when `y` is one).
 
-    `one`: None, or ones shaped like φ that XLA cannot know at compile time (`simulate` passes φ == φ, its state
-    being finite). The stage accelerations are divided by it — exactly, x / 1 = x — so that XLA, which counts a
-    division as expensive, computes each stage once and keeps it, instead of recomputing the chain of stages inside
-    every fused kernel that uses one (φ₁'s and φ̇₁'s). With `simulate`'s P values kept the same way, the Monte
-    Carlo's time loop ran 0.49 → 0.40 s per 10⁴ × 3600 s on a 2-core CPU, same bits (benchmarks/README.md)."""
+    `one`: None, or ones shaped like φ that XLA cannot know at compile time (`simulate` passes `runtime_one(φ)`):
+    the stage accelerations are then `computed_once`, each kept instead of recomputed inside every fused kernel
+    that uses it (φ₁'s and φ̇₁'s). With `simulate`'s P values kept the same way, the Monte Carlo's time loop ran
+    0.49 → 0.40 s per 10⁴ × 3600 s on a 2-core CPU, same bits (benchmarks/README.md)."""
     phi, dphi = y[0], y[1]
     h2, h6 = h / 2, h / 6
-    keep = (lambda x: x) if one is None else (lambda x: x / one)
+    keep = (lambda x: x) if one is None else (lambda x: computed_once(x, one))
     k1p, k1v = dphi, keep(roll_acceleration(ship, phi, dphi, p[0], m[0]))
     k2p, k2v = dphi + h2 * k1v, keep(roll_acceleration(ship, phi + h2 * k1p, dphi + h2 * k1v, p[1], m[1]))
     k3p, k3v = dphi + h2 * k2v, keep(roll_acceleration(ship, phi + h2 * k2p, dphi + h2 * k2v, p[1], m[1]))
@@ -352,15 +363,16 @@ def simulate(
     ship, h, m = problem.ship, problem.dt, problem.excitation.substeps
     if not (isinstance(record_every, int) and record_every >= 1 and m % record_every == 0):
         raise ValueError(f"`record_every` must be a divisor of the excitation's substeps m = {m}; got {record_every!r}.")
+    if num_steps >= 2**31:  # the capsize step is kept as an int32
+        raise ValueError(f"at most 2³¹ − 1 time steps per realization; got {num_steps} (shorten the duration or "
+                         f"lengthen dt).")
     two_sources = problem.moment_excitation is not None
     ragged = num_steps % m != 0  # the last source step runs past num_steps: mask its extra time steps
 
     def per_source_step(inner, xs):
         phi, dphi, alive, k_cap, obs, k = inner
-        # ones known only at run time (φ is finite): P at the 2m + 1 half steps and the RK4 stages are divided by
-        # them, exactly, so XLA computes each once (rk4_step)
-        one = (phi == phi).astype(phi.dtype)
-        p = [parametric_excitation(ship, x) / one for x in xs[0]]
+        one = runtime_one(phi)  # φ is finite: P at the 2m + 1 half steps and the RK4 stages are computed once
+        p = [computed_once(parametric_excitation(ship, x), one) for x in xs[0]]
         mw = xs[1] if two_sources else [0.0] * len(p)
         outs = []
         for s in range(m):
@@ -368,7 +380,7 @@ def simulate(
             ok = jnp.isfinite(phi1) & jnp.isfinite(dphi1) & (jnp.abs(phi1) < problem.capsize_angle)
             inside = k < num_steps
             newly = alive & ~ok & inside if ragged else alive & ~ok
-            k_cap = jnp.where(newly, k + 1, k_cap)
+            k_cap = jnp.where(newly, (k + 1).astype(k_cap.dtype), k_cap)
             alive = alive & ~newly
             phi, dphi = jnp.where(alive, phi1, phi), jnp.where(alive, dphi1, dphi)
             new_obs, out = observe(obs, k + 1, jnp.stack([phi, dphi]), alive)
@@ -387,13 +399,13 @@ def simulate(
     # Monte Carlo chunk 0.80 → 0.65 s, the program the same bits). `where(True, x, x)`: the same value, no work.
     same = jr.key_data(key).reshape(-1)[0] == jr.key_data(key).reshape(-1)[0]
     per_realization = jax.tree.map(lambda x: jnp.where(same, x, x),
-                                   (problem.phi0, problem.dphi0, jnp.array(True), jnp.array(-1), obs_state))
+                                   (problem.phi0, problem.dphi0, jnp.array(True), jnp.array(-1, jnp.int32), obs_state))
     inner = (*per_realization, jnp.array(0))
     done = None if finished is None else (lambda inner: ~inner[2] | finished(inner[4]))
     inner, outs = _drive(problem, key, num_steps, dtype, per_source_step, inner, done)
     _, _, alive, k_cap, obs_state, _ = inner
     outs = jax.tree.map(lambda o: o.reshape(-1, *o.shape[2:])[: num_steps // record_every], outs)
-    end = RealizationEnd(~alive, jnp.where(alive, jnp.inf, k_cap * h))
+    end = RealizationEnd(~alive, jnp.where(alive, jnp.inf, k_cap.astype(float) * h))
     return obs_state, outs, end
 
 

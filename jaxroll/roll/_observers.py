@@ -30,9 +30,11 @@ from ._amplitudes import (
     bin_counts,
     envelope_rfft,
     integer_counts,
+    row_sums,
     zero_crossing_init,
     zero_crossing_update,
 )
+from ._equation import computed_once, runtime_one
 from ._statistics import AmplitudeStatistics, MaximaStatistics, MaxRollStatistics
 
 
@@ -100,7 +102,6 @@ def envelope_record_every(problem) -> int:
 class _HistogramState(eqx.Module):
     zc: ZeroCrossingState
     pending: jnp.ndarray  # the zero-crossing amplitude that ended since the last record [rad] (0: none)
-    merged: jnp.ndarray  # amplitudes overwritten by another in the same record interval (a half cycle < r·dt)
     n: jnp.ndarray  # zero-crossing amplitudes after the discard
     s1: jnp.ndarray  # their sum [rad]
     s2: jnp.ndarray  # and sum of squares [rad²]
@@ -140,20 +141,20 @@ class AmplitudeHistogram(AbstractObserver):
 
     def init(self, problem, key):
         zero = jnp.zeros(())
-        return _HistogramState(zero_crossing_init(problem.phi0), zero, jnp.array(0), jnp.array(0), zero, zero)
+        return _HistogramState(zero_crossing_init(problem.phi0), zero, jnp.array(0, jnp.int32), zero, zero)
 
     def observe(self, problem, state, k, y, alive):
         # Recorded: the roll (for the envelope) and the histogram bin of the zero-crossing amplitude that ended in
         # the record interval (-1: none; the bin is computed for the records only); the amplitudes' count and sums
-        # run in the state, exactly.
+        # run in the state, exactly (those overwritten in a record interval are counted in `reduce`).
         zc, amp = zero_crossing_update(state.zc, y[0])
+        # kept, not recomputed in each of its five uses (φ is finite): the Monte Carlo 0.48 → 0.45 s
+        amp = computed_once(amp, runtime_one(y[0]))
         on = (amp > 0) & (k > _steps(self.discard, problem.dt))
         kept = jnp.where(on, amp, 0)
         ended = jnp.where(on, amp, state.pending)
-        merged = state.merged + (on & (state.pending > 0)).astype(state.merged.dtype)
         pending = jnp.where(k % self.every == 0, 0, ended)  # recorded: start afresh
-        new = _HistogramState(zc, pending, merged, state.n + on.astype(state.n.dtype), state.s1 + kept,
-                              state.s2 + kept * kept)
+        new = _HistogramState(zc, pending, state.n + on.astype(state.n.dtype), state.s1 + kept, state.s2 + kept * kept)
         return new, (y[0], self._bins(ended))
 
     def reduce(self, problem, states, outputs, end, valid):
@@ -165,32 +166,38 @@ class AmplitudeHistogram(AbstractObserver):
         phi, zc_bin = phi[:, start:], zc_bin[:, start:]
         env = envelope_rfft(phi)
         deg = 180 / math.pi
+        # Every amplitude after the discard is in a kept record, in the state's `pending` (it ended after the last
+        # record) or was overwritten by a later one in its record interval (merged): so merged = n − the others.
+        in_histogram = jnp.sum(zc_bin >= 0, 1, dtype=jnp.int32) + (states.pending > 0).astype(jnp.int32)
         summed = {
-            # + the amplitudes that ended after the last record (when it is not the last step), still in the state
             "counts_zero_crossing": bin_counts(zc_bin, keep[:, None] & (zc_bin >= 0), self.num_bins)
             + bin_counts(self._bins(states.pending), keep & (states.pending > 0), self.num_bins),
-            "zero_crossing_merged": jnp.sum(jnp.where(keep, states.merged, 0), dtype=jnp.int64),
+            "zero_crossing_merged": jnp.sum(jnp.where(keep, states.n - in_histogram, 0), dtype=jnp.int64),
             "counts_envelope": integer_counts(
                 env * deg, jnp.broadcast_to(keep[:, None], env.shape), self.bin_width_deg, self.num_bins
             ),
         }
         kf = keep.astype(jnp.float64)
-        phi, env = (x.astype(jnp.float64) for x in (phi, env))
-        phi2 = phi * phi
+        n = phi.shape[1]
+        first_half = jnp.arange(n) < n // 2
+        phi2 = phi.astype(jnp.float64) ** 2
+        sum_env, sum_env_first_half, sumsq_env, sum_phi2, sum_phi4 = row_sums(
+            env, jnp.where(first_half, env, 0), env.astype(jnp.float64) ** 2, phi2, phi2 * phi2
+        )
         per = {
             "capsized": end.capsized & valid,
             "capsize_time": end.capsize_time,
             "n_zc": kf * states.n.astype(jnp.float64),
             "sum_zc": kf * states.s1.astype(jnp.float64),
             "sumsq_zc": kf * states.s2.astype(jnp.float64),
-            "n_env": kf * phi.shape[1],
-            "sum_env": kf * jnp.sum(env, 1),
+            "n_env": kf * n,
+            "sum_env": kf * sum_env,
             # the first half of the kept window (its n_env // 2 samples) alone: the second half's by difference
-            "sum_env_first_half": kf * jnp.sum(env[:, : phi.shape[1] // 2], 1),
-            "sumsq_env": kf * jnp.sum(env * env, 1),
-            "n_samples": kf * phi.shape[1],
-            "sum_phi2": kf * jnp.sum(phi2, 1),
-            "sum_phi4": kf * jnp.sum(phi2 * phi2, 1),
+            "sum_env_first_half": kf * sum_env_first_half,
+            "sumsq_env": kf * sumsq_env,
+            "n_samples": kf * n,
+            "sum_phi2": kf * sum_phi2,
+            "sum_phi4": kf * sum_phi4,
         }
         return summed, per
 
