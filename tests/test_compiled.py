@@ -55,6 +55,29 @@ def test_a_stored_program_gives_the_same_numbers_without_tracing(program_cache):
     assert len(list(program_cache.glob("*.bin"))) == 4
 
 
+def test_bind_looks_the_program_up_once_and_follows_a_change_of_kind(program_cache, monkeypatch):
+    """`bind(*fixed)`: the same outputs as the full call; the lookup runs again only when the bound arguments'
+    kind changes (another static object, another shape)."""
+    params = _Params(jnp.asarray(2.0), "a")
+    call = _program.bind(params)
+    lookups = []
+    entry = _compiled._sha
+    monkeypatch.setattr(_compiled, "_sha", lambda *parts: lookups.append(1) or entry(*parts))
+    for x in (jnp.arange(3.0), jnp.arange(3.0) + 1, jnp.arange(3.0) + 2):
+        out = call(x, 3)
+        np.testing.assert_array_equal(out["y"], _program(params, x, 3)["y"])
+        np.testing.assert_allclose(out["y"], 2.0 * np.asarray(x) ** 3, rtol=1e-15)
+        assert out["label"] == "a" and out["n"] == 3
+    assert len(lookups) == 1 + 3  # the bound call's one lookup, then the three full calls' own
+    lookups.clear()
+    np.testing.assert_allclose(call(jnp.arange(3.0), 2)["y"], 2.0 * np.arange(3.0) ** 2)  # another static
+    np.testing.assert_allclose(call(jnp.arange(4.0), 2)["y"], 2.0 * np.arange(4.0) ** 2)  # another shape
+    np.testing.assert_allclose(call(jnp.arange(4.0) + 1, 2)["y"], 2.0 * (np.arange(4.0) + 1) ** 2)
+    assert len(lookups) == 2
+    monkeypatch.setattr(_compiled, "cache_dir", lambda: None)  # no stored program: the usual way
+    np.testing.assert_allclose(_program.bind(params)(jnp.arange(7.0), 5)["y"], 2.0 * np.arange(7.0) ** 5)
+
+
 def test_traced_calls_and_a_cache_that_is_off_trace_as_usual(program_cache, monkeypatch):
     params, x = _Params(jnp.asarray(2.0), "a"), jnp.arange(3.0)
     calls.clear()

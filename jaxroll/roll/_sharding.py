@@ -348,10 +348,13 @@ def run_chunks(
     last_save, chunks_since_save = time.monotonic(), 0
     resumed_keys = (set(summed), set(per)) if start else None  # what the checkpoint recorded
 
+    # The program is looked up once for the run (`cached_program`'s `bind`): every chunk differs only in its indices.
+    call = fn.bind(problem, key) if hasattr(fn, "bind") else functools.partial(fn, problem, key)
+
     def dispatch(first):
         idx = np.arange(first, first + chunk)
         valid = idx < num_realizations
-        return valid, fn(problem, key, _global_array(idx, sharding), _global_array(valid, sharding), *static)
+        return valid, call(_global_array(idx, sharding), _global_array(valid, sharding), *static)
 
     # The next chunk is dispatched before this one's results come to the host (JAX runs programs asynchronously,
     # in order), so the devices do not wait for the host's copying, bookkeeping and dispatch between chunks.
