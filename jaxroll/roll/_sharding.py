@@ -61,15 +61,16 @@ def _replicate(tree, mesh):
     """Place the array leaves of `tree` on every device of `mesh` (PRNG keys are left to jit, which copies
     them)."""
     sharding = jax.sharding.NamedSharding(mesh, jax.sharding.PartitionSpec())
-
-    def put(x):
-        if not isinstance(x, jax.Array) or jnp.issubdtype(x.dtype, jax.dtypes.prng_key):
-            return x
-        if jax.process_count() == 1:
-            return jax.device_put(x, sharding)
-        return _global_array(np.asarray(x), sharding)
-
-    return jax.tree_util.tree_map(put, tree)
+    leaves, treedef = jax.tree.flatten(tree)
+    moved = [i for i, x in enumerate(leaves)
+             if isinstance(x, jax.Array) and not jnp.issubdtype(x.dtype, jax.dtypes.prng_key)]
+    if jax.process_count() == 1:  # one batched transfer (leaf by leaf: 7 ms for the paper's problem, every run)
+        placed = jax.device_put([leaves[i] for i in moved], sharding)
+    else:
+        placed = [_global_array(np.asarray(leaves[i]), sharding) for i in moved]
+    for i, x in zip(moved, placed, strict=True):
+        leaves[i] = x
+    return jax.tree.unflatten(treedef, leaves)
 
 
 def _to_host(tree):
