@@ -358,6 +358,9 @@ def simulate(
     block of `BLOCK`·m steps) once it holds or the roll capsized; what follows is not simulated (outputs None).
 
     **Returns:** `(obs_state, outputs, RealizationEnd)`.
+
+    **Raises:** `ValueError` when `record_every` does not divide m, or for 2³¹ or more time steps (the capsize step
+    is kept as an int32).
     """
     problem = as_dtype(problem, dtype)
     ship, h, m = problem.ship, problem.dt, problem.excitation.substeps
