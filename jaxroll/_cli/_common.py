@@ -11,7 +11,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-import numpy as np
+from ..io import to_jsonable as to_jsonable
 
 
 class CLIError(Exception):
@@ -39,24 +39,6 @@ def atomic_write_bytes(path: str | Path, data: bytes) -> None:
 
 def atomic_write_text(path: str | Path, text: str) -> None:
     atomic_write_bytes(path, text.encode())
-
-
-def to_jsonable(obj: Any) -> Any:
-    """Arrays → lists, NaN/inf → null, numpy/JAX scalars → Python numbers."""
-    if isinstance(obj, dict):
-        return {str(k): to_jsonable(v) for k, v in obj.items()}
-    if isinstance(obj, list | tuple):
-        return [to_jsonable(v) for v in obj]
-    if hasattr(obj, "__array__") and not isinstance(obj, str | bytes):
-        arr = np.asarray(obj)
-        if arr.ndim == 0:
-            return to_jsonable(arr.item())
-        return to_jsonable(arr.tolist())
-    if isinstance(obj, float):
-        return obj if math.isfinite(obj) else None
-    if isinstance(obj, np.generic):
-        return to_jsonable(obj.item())
-    return obj
 
 
 #: The warnings the library gave during this command, in order (`jaxroll._cli.main` collects them; `write_json`

@@ -1,5 +1,12 @@
 """Every file format: tank records, ship files and hull files."""
 
+from ._dataset import (
+    dataset_attrs as dataset_attrs,
+    provenance as provenance,
+    read_dataset as read_dataset,
+    to_jsonable as to_jsonable,
+    write_dataset as write_dataset,
+)
 from ._gdf import (
     panels_to_triangles as panels_to_triangles,
     read_gdf as read_gdf,
