@@ -36,6 +36,7 @@ from ._scatter import (
     T01_OVER_TZ as T01_OVER_TZ,
     ScatterDiagram as ScatterDiagram,
     ScatterError as ScatterError,
+    parse_scatter as parse_scatter,
     read_scatter as read_scatter,
     rec34_scatter as rec34_scatter,
     scatter_diagram as scatter_diagram,
