@@ -237,25 +237,25 @@ def test_theory_adapter_is_the_independent_amplitude_route():
     assert not bool(rb.exists) and float(jnp.abs(rb.probability).max()) == 0.0
 
 
-def test_batched_theory_equals_the_adapter_cell_by_cell(monkeypatch):
-    """A class's cells in batches (vmap over H_s, T01) give the adapter's numbers; cells with λ <= 0 never reach
-    the theory's batch (they are 0 by the theory's own `exists`)."""
+def test_class_theory_equals_the_adapter_cell_by_cell(monkeypatch):
+    """A class's cells (one program, its sea an input, spread over the CPU devices) give the adapter's numbers;
+    cells with λ <= 0 never reach the theory (they are 0 by the theory's own `exists`)."""
     from jaxroll.longterm import _theory
 
     hs = np.array([6.0, 1.5, 7.0])  # 1.5 m: the roll dies out (λ < 0)
     t01 = np.array([10.0, 10.0, 9.0])
     seen = []
-    batch = _theory._theory_batch
+    cell = _theory._theory_cell
 
-    def counting(ship, seas, template, angles, durations):
-        seen.append(np.asarray(seas.hs).copy())
-        return batch(ship, seas, template, angles, durations)
+    def counting(ship, sea, template, angles, durations):
+        seen.append(float(sea.hs))
+        return cell(ship, sea, template, angles, durations)
 
-    monkeypatch.setattr(_theory, "_theory_batch", counting)
+    monkeypatch.setattr(_theory, "_theory_cell", counting)
     template = class_template(SHIP, 0.0, 180.0)
     r = class_theory(SHIP, template, hs, t01, np.asarray(ANGLES), 1800.0)
     assert r["lyapunov_exponent"][1] < 0 < min(r["lyapunov_exponent"][0], r["lyapunov_exponent"][2])
-    assert len(seen) == 1 and 1.5 not in seen[0][:2] and set(seen[0][:2]) == {6.0, 7.0}
+    assert seen == [6.0, 7.0]
     for i in range(3):
         wave = jxr.EffectiveWave(jxr.ITTC(float(hs[i]), float(t01[i])), SHIP.lpp, 0.0, "head")
         one = _theory_probability(SHIP, wave, jnp.asarray(ANGLES), jnp.asarray([1800.0]))

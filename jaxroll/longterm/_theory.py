@@ -5,12 +5,15 @@ item 2, the first-passage theory that knows large rolls come in groups). Until i
 independent-amplitude route of today: the envelope FPK's zero-crossing law and P = 1 − F(a)^n with n the law's own
 number of half cycles in the exposure. INTERIM: replaced by `jaxroll.theory.passage_risk` at merge.
 
-Cells are batched: one compiled program evaluates a fixed-size batch of sea states (vmap over the (H_s, T_z) of
-one heading class and speed); the effective wave's static structure (head/following, projected) is the same
-within a class, and the heading, speed and sea are program inputs, so the whole assessment compiles a handful of
-programs. Two stages: the Lyapunov exponent λ of every cell (one (ρ, θ) solve), then the theory only where λ > 0.
-Where λ ≤ 0 the roll dies out: the theory's probability is 0 exactly (its `exists` is λ > 0), so those cells —
-low seas, and seas whose effective wave misses the roll's parametric resonance — cost one small solve each.
+Cells are computed by compiled programs whose inputs are the heading, speed and sea (the effective wave's static
+structure — head/following, projected — is the same within a heading class), so a whole assessment compiles a
+handful of programs. Two stages: the Lyapunov exponent λ of every cell (one (ρ, θ) solve each, vmapped in batches),
+then the theory only where λ > 0. Where λ ≤ 0 the roll dies out: the theory's probability is 0 exactly (its
+`exists` is λ > 0), so low seas, and seas whose effective wave misses the roll's parametric resonance, cost one
+small solve each. On a CPU the theory runs one sea state per program call, the calls dispatched in turn to every
+CPU device (each core is one, `import jaxroll`): the block-tridiagonal solve of one cell runs on one core, and a
+vmapped batch of them ran slower per cell than one at a time (measured: 1.5 s per cell alone, 2.1–4.9 s per cell
+in batches of 2–8, on the loaded 2-core machine); on GPUs, vmapped batches of `THEORY_BATCH` cells.
 """
 
 from __future__ import annotations
@@ -27,8 +30,8 @@ from .._compiled import SOLVER_PROGRAM, cached_program
 from ..sea import ITTC, EffectiveWave
 from ..theory import envelope_fpk_pdf, envelope_lyapunov_exponent
 
-#: Sea states per compiled batch: the Lyapunov screen (one (ρ, θ) solve each) and the theory (a block-tridiagonal
-#: solve over the amplitude slices, ~100 MB of factors each with the default grid).
+#: Sea states per compiled batch: the Lyapunov screen (one (ρ, θ) solve each) and, on GPUs, the theory (a
+#: block-tridiagonal solve over the amplitude slices, ~100 MB of factors each with the default grid).
 SCREEN_BATCH = 64
 THEORY_BATCH = 8
 
@@ -83,13 +86,20 @@ def _screen_batch(ship, seas, template):
 
 @cached_program(compiler_options=SOLVER_PROGRAM)
 def _theory_batch(ship, seas, template, angles, durations):
-    """`PassageRisk` fields of each sea state of the batch `seas`."""
+    """`PassageRisk` fields of each sea state of the batch `seas` (vmapped: for GPUs)."""
 
     def one(sea):
         r = _theory_probability(ship, _wave(template, sea), angles, durations)
         return r.probability, r.capsize_probability, r.exists
 
     return jax.vmap(one)(seas)
+
+
+@cached_program(compiler_options=SOLVER_PROGRAM)
+def _theory_cell(ship, sea, template, angles, durations):
+    """`PassageRisk` fields of one sea state `sea` (for CPUs)."""
+    r = _theory_probability(ship, _wave(template, sea), angles, durations)
+    return r.probability, r.capsize_probability, r.exists
 
 
 def _seas(hs: np.ndarray, t01: np.ndarray) -> ITTC:
@@ -132,14 +142,28 @@ def class_theory(ship, template: EffectiveWave, hs, t01, angles, exposure: float
     done = n - live.size
     if progress is not None and done:
         progress(done)
-    for idx, take, m in _batches(live.size, THEORY_BATCH):
-        cells = live[take]
-        p, c, e = _theory_batch(ship, _seas(hs[cells], t01[cells]), template, angles, durations)
-        keep = live[idx[:m]]
-        prob[keep] = np.asarray(p)[:m, :, 0]
-        cap[keep] = np.asarray(c)[:m, 0]
-        exists[keep] = np.asarray(e)[:m]
-        if progress is not None:
-            progress(m)
+    devices = jax.local_devices()
+    if devices[0].platform == "cpu":  # one sea state per call, the calls spread over the CPU devices
+        fixed = [jax.device_put((ship, template, angles, durations), d) for d in devices]
+        pending = []
+        for n_, c in enumerate(live):
+            d = n_ % len(devices)
+            sh, tm, an, du = fixed[d]
+            sea = jax.device_put(ITTC(float(hs[c]), float(t01[c])), devices[d])
+            pending.append((c, _theory_cell(sh, sea, tm, an, du)))
+        for c, (p, cp, e) in pending:
+            prob[c], cap[c], exists[c] = np.asarray(p)[:, 0], np.asarray(cp)[0], bool(e)
+            if progress is not None:
+                progress(1)
+    else:
+        for idx, take, m in _batches(live.size, THEORY_BATCH):
+            cells = live[take]
+            p, c, e = _theory_batch(ship, _seas(hs[cells], t01[cells]), template, angles, durations)
+            keep = live[idx[:m]]
+            prob[keep] = np.asarray(p)[:m, :, 0]
+            cap[keep] = np.asarray(c)[:m, 0]
+            exists[keep] = np.asarray(e)[:m]
+            if progress is not None:
+                progress(m)
     return {"lyapunov_exponent": lam, "envelope_gamma": gamma, "probability": prob, "capsize_probability": cap,
             "exists": exists}
