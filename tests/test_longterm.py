@@ -387,7 +387,7 @@ def _roundtrip(ds, path):
     return read_dataset(path)
 
 
-@pytest.mark.parametrize("method", ["theory", "monte-carlo"])
+@pytest.mark.parametrize("method", ["theory", "monte-carlo", "auto"])
 def test_two_parts_merged_equal_one_run(method, small_csv, tmp_path):
     kw = dict(headings=[math.radians(x) for x in (180.0, 150.0, 210.0, 90.0)], heading_weights=[4, 2, 1, 1],
               angles=ANGLES, exposure=1800.0, hours_per_year=5000.0, method=method, realizations=6,
