@@ -287,6 +287,9 @@ def test_bad_hdf5_files(tmp_path):
     with pytest.raises(RecordError, match=r"no dataset 'phi' for `roll` \(/series_A/run3 holds: heave, roll, time, "
                        r"wp1\)"):
         import_record(f"{h5}:/series_A/run3", "roll", **(kw | {"roll": "phi"}))
+    with pytest.raises(RecordError, match=r"'/series_A/run3/roll' is a dataset; name the group, .*:/series_A/run3, "
+                       r"and the datasets as columns \(e.g. roll='roll'; CLI --roll roll\)"):
+        import_record(f"{h5}:/series_A/run3/roll", "roll", **kw)
     with pytest.raises(RecordError, match=r"no group '/series_B' in the file \(top level: /series_A\)"):
         import_record(f"{h5}:/series_B", "roll", **kw)
     with pytest.raises(RecordError, match=r"truncated data: `/series_A/run3/wp1` \(wave\) has 3500 samples, "

@@ -414,6 +414,10 @@ def _hdf5_columns(path: Path, group: str | None, specs: Mapping[str, str]) -> tu
     with f:
         base = f
         if group:
+            if group in f and isinstance(f[group], h5py.Dataset):
+                parent, _, name = group.rpartition("/")
+                raise _err(str(path), None, f"{group!r} is a dataset; name the group, {path}:{parent or '/'}, and the "
+                           f"datasets as columns (e.g. roll={name!r}; CLI --roll {name}).")
             if group not in f or not isinstance(f[group], h5py.Group):
                 top = ", ".join(f"/{k}" for k in f.keys())
                 raise _err(str(path), None, f"no group {group!r} in the file (top level: {top or 'nothing'}).")
