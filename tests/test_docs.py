@@ -26,6 +26,7 @@ import inspect
 import os
 import re
 import shutil
+import warnings
 from importlib.resources import files
 from pathlib import Path
 
@@ -244,7 +245,9 @@ def test_python_examples_run(path, tmp_path, monkeypatch):
                 ("jax_compilation_cache_dir", "jax_persistent_cache_min_compile_time_secs")}
     namespace = _namespace()
     try:
-        with jax.numpy_dtype_promotion("standard"):  # what a user's session has (the tests run strict)
+        # what a user's session has: standard dtype promotion (the tests run strict), warnings shown, not raised
+        with jax.numpy_dtype_promotion("standard"), warnings.catch_warnings(record=True):
+            warnings.simplefilter("always")
             for line, code, skip, replace in python_blocks(path):
                 if skip:
                     continue
