@@ -152,6 +152,7 @@ from .laws import (
     TabulatedAmplitudeLaw as TabulatedAmplitudeLaw,
     roberts_logpdf as roberts_logpdf,
 )
+from .notebook import explore as explore  # Jupyter: sliders over the sea state (the `notebook` extra)
 from .roll import (
     DEFAULT_SENSITIVITY_STATISTICS as DEFAULT_SENSITIVITY_STATISTICS,
     SENSITIVITY_PARAMETERS as SENSITIVITY_PARAMETERS,

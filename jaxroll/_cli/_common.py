@@ -115,14 +115,17 @@ def memory_budget(args) -> float | None:
 
 
 class Progress:
-    """A one-line progress display on stderr (only when stderr is a terminal, or when forced)."""
+    """A one-line progress display on stderr (only when stderr is a terminal, or when forced); run inside a Jupyter
+    kernel (`jaxroll._cli.main([...])` in a notebook), tqdm's notebook bar instead, when tqdm and ipywidgets are
+    installed."""
 
     def __init__(self, total: int, label: str, *, enabled: bool | None = None, resuming: str | None = None):
         """`resuming`: a line printed (stdout) at the first call, which a Monte Carlo resumed from a checkpoint makes
         once it has read the checkpoint and found it belongs to this run; the time left is then estimated from the
         realizations done in this run only."""
         self.total, self.label, self.start = total, label, time.time()
-        self.enabled = sys.stderr.isatty() if enabled is None else enabled
+        self.bar = _notebook_bar(total, label) if enabled is None else None
+        self.enabled = (sys.stderr.isatty() or self.bar is not None) if enabled is None else enabled
         self.done = self.baseline = 0
         self.resuming = resuming
 
@@ -133,6 +136,11 @@ class Progress:
         self.done = done
         if not self.enabled:
             return
+        if self.bar is not None:
+            self.bar.update(done - self.bar.n)
+            if done >= self.total:
+                self.bar.close()
+            return
         elapsed = time.time() - self.start
         eta = elapsed / (done - self.baseline) * (self.total - done) if done > self.baseline else float("nan")
         sys.stderr.write(f"\r{self.label}: {done}/{self.total} ({100 * done / self.total:5.1f} %), "
@@ -140,6 +148,21 @@ class Progress:
         sys.stderr.flush()
         if done >= self.total:
             sys.stderr.write("\n")
+
+
+def _notebook_bar(total: int, label: str):
+    """tqdm's notebook widget when this process is a Jupyter kernel and tqdm and ipywidgets are installed, else
+    None (the stderr line)."""
+    from ..notebook import in_notebook
+
+    if not in_notebook():
+        return None
+    try:
+        import ipywidgets  # noqa: F401  (tqdm's widget needs it)
+        from tqdm.notebook import tqdm
+    except ImportError:
+        return None
+    return tqdm(total=total, desc=label, unit=" realizations")
 
 
 class OutputFolder:

@@ -9,11 +9,16 @@ import time
 from pathlib import Path
 
 from ._common import CLIError, atomic_write_text, load_ship_arg, save_figure, write_json
+from ._lab import add_lab_options, import_lab_files, lab_mode, lab_settings
 
 
 def _common(p) -> None:
     p.add_argument(
-        "records", nargs="+", metavar="RECORD", help="record files (.csv, .csv.gz) or folders of them"
+        "records",
+        nargs="+",
+        metavar="RECORD",
+        help="record files (.csv, .csv.gz) or folders of them; with the lab-file options below, a lab's files "
+        "(CSV of any layout, HDF5 FILE.h5[:/group])",
     )
     p.add_argument(
         "--ship",
@@ -30,6 +35,7 @@ def _common(p) -> None:
     p.add_argument(
         "--name", default=None, help="name of the calibrated ship (default: '<ship> (calibrated)')"
     )
+    add_lab_options(p, for_calibrate=True)
 
 
 def register(sub) -> None:
@@ -148,8 +154,12 @@ def register(sub) -> None:
 
 
 def _load(args, kind):
+    """The records: jaxroll record files, or lab files read with the lab-file options (all checked first)."""
     from ..io import load_records
 
+    if lab_mode(args):
+        return import_lab_files(args.records, kind or "roll", lab_settings(args, kind or "roll"),
+                                resample=args.resample)
     return load_records(args.records, kind=kind, resample=args.resample)
 
 
@@ -172,13 +182,16 @@ def _finish(args, kind, ship, fitted, payload, figures) -> int:
 def _base_config(args, ship, records):
     from .. import ship_to_dict
 
-    return {
+    config = {
         "kind": args.kind,
         "records": [r.source for r in records],
         "ship_file": args.ship,
         "ship": ship_to_dict(ship),
         "resample": args.resample,
     }
+    if lab_mode(args):
+        config["lab_import"] = [r.meta["imported_from"] for r in records]
+    return config
 
 
 def _fmt(e) -> str:
@@ -335,7 +348,6 @@ def _run_roll_time_domain(args) -> int:
         fit_roll_kalman,
         fit_roll_time_domain,
     )
-    from ..io import load_records
     from ..plotting import plot_residual_spectrum, plot_time_domain_fit
 
     kalman = args.estimator == "kalman"
@@ -356,7 +368,7 @@ def _run_roll_time_domain(args) -> int:
     if args.shooting_window is not None and not args.shooting_window > 0:
         raise CLIError(f"--shooting-window must be > 0 [s, full scale]; got {args.shooting_window:g}.")
     ship = load_ship_arg(args.ship)
-    records = load_records(args.records, resample=args.resample)
+    records = _load(args, None)
     span = None if args.window is None else tuple(args.window)
     checked = check_time_domain_inputs(
         ship,

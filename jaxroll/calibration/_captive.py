@@ -69,6 +69,7 @@ class CaptiveGroup:
     per_record_ratio: np.ndarray
 
     def to_dict(self) -> dict[str, Any]:
+        """The group as JSON-ready values."""
         return {
             "wave_height_m": self.wave_height,
             "wave_period_s": self.wave_period,
@@ -95,6 +96,15 @@ class CaptiveFit:
     series: list[dict[str, np.ndarray]]
     config: dict[str, Any]
 
+    def _repr_html_(self) -> str:
+        """Jupyter's view: σ_obs/σ_thr and the least-squares scale (and the ΔGM polynomial when fitted)."""
+        from .._display import estimates_table
+
+        rows = {"σobs/σthr (paper)": self.std_ratio, "least-squares scale": self.ls_scale, **(self.polynomial or {})}
+        return estimates_table("Captive fit: GM correction", rows,
+                               note=f"{sum(g.n_records for g in self.groups)} records in {len(self.groups)} sea-state "
+                               "and heel groups.")
+
     def correction(self, estimator: str = "std_ratio") -> Estimate:
         """The GM correction to put in the ship: "std_ratio" (the paper's σ_obs/σ_thr) or "ls" (the LS
         scale)."""
@@ -105,6 +115,7 @@ class CaptiveFit:
         raise ValueError(f"`estimator` must be 'std_ratio' or 'ls'; got {estimator!r}.")
 
     def to_dict(self) -> dict[str, Any]:
+        """The fit as JSON-ready values (the CLI's calibration.json)."""
         out = {
             "std_ratio": self.std_ratio.to_dict(),
             "ls_scale": self.ls_scale.to_dict(),

@@ -147,9 +147,19 @@ class DecayFit:
 
     @property
     def b(self) -> np.ndarray:
+        """(b1 [1/s], b2 [1/rad], b3 [s/rad²]) as an array."""
         return np.array([self.damping[k].value for k in ("b1", "b2", "b3")])
 
+    def _repr_html_(self) -> str:
+        """Jupyter's view: the damping and roll period with their standard errors and intervals."""
+        from .._display import estimates_table
+
+        rows = {**self.damping, "Tφ": self.roll_period, **{f"extinction {k}": v for k, v in self.extinction.items()}}
+        return estimates_table(f"Decay fit ({self.method})", rows,
+                               note="Tφ: fitted" if self.method == "ode" else "Tφ: the ship's (not fitted)")
+
     def to_dict(self) -> dict[str, Any]:
+        """The fit as JSON-ready values (the CLI's calibration.json)."""
         return {
             "method": self.method,
             "damping": {k: v.to_dict() for k, v in self.damping.items()},

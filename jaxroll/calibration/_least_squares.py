@@ -37,9 +37,11 @@ class Estimate:
 
     @property
     def ci95(self) -> tuple[float, float]:
+        """The normal 95 % interval, value ± 1.96·SE (the value's unit)."""
         return (self.value - 1.959964 * self.std_error, self.value + 1.959964 * self.std_error)
 
     def to_dict(self) -> dict[str, Any]:
+        """value, std_error, ci95 and unit as JSON-ready values."""
         return {"value": self.value, "std_error": self.std_error, "ci95": list(self.ci95), "unit": self.unit}
 
 
@@ -62,9 +64,11 @@ class LeastSquaresInfo:
 
     @property
     def converged(self) -> bool:
+        """Whether the solver reported success."""
         return self.result == ""
 
     def to_dict(self) -> dict[str, Any]:
+        """The diagnostics as JSON-ready values."""
         return {**dataclasses.asdict(self), "converged": self.converged}
 
 

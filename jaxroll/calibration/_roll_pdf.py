@@ -223,6 +223,7 @@ class SeaStateComparison:
     capsized_after: int
 
     def to_dict(self) -> dict[str, Any]:
+        """The comparison as JSON-ready values."""
         return {
             "wave_height_m": self.wave_height,
             "wave_period_s": self.wave_period,
@@ -250,7 +251,16 @@ class RollFit:
     info: LeastSquaresInfo  # rss: sum of squared residuals, each in its own standard errors
     config: dict[str, Any]
 
+    def _repr_html_(self) -> str:
+        """Jupyter's view: the fitted parameters with their standard errors and intervals."""
+        from .._display import estimates_table
+
+        return estimates_table("Roll fit (amplitude PDFs)", self.estimates,
+                               note=f"{len(self.comparisons)} sea states; started from "
+                               + ", ".join(f"{k} = {v:.5g}" for k, v in self.initial.items()))
+
     def to_dict(self) -> dict[str, Any]:
+        """The fit as JSON-ready values (the CLI's calibration.json)."""
         return {
             "estimates": {k: v.to_dict() for k, v in self.estimates.items()},
             "covariance": self.covariance.tolist(),

@@ -41,10 +41,12 @@ class ParameterEstimate(Estimate):
 
     @property
     def ci95(self) -> tuple[float, float]:
+        """The 95 % interval (Student-t with the clusters' degrees of freedom where given; the value's unit)."""
         t = t_quantile_975(self.dof)
         return (self.value - t * self.std_error, self.value + t * self.std_error)
 
     def to_dict(self) -> dict[str, Any]:
+        """The estimate as JSON-ready values."""
         return {**super().to_dict(), "dof": self.dof}
 
 
@@ -63,9 +65,11 @@ class RecordDiagnostics:
 
     @property
     def residual_to_noise(self) -> float:
+        """Residual rms over the record's sensor noise [-] (about 1 when the model explains the record)."""
         return self.residual_rms_deg / self.sensor_noise_deg if self.sensor_noise_deg > 0 else math.inf
 
     def to_dict(self) -> dict[str, Any]:
+        """The diagnostics as JSON-ready values."""
         return {**dataclasses.asdict(self), "residual_to_noise": self.residual_to_noise}
 
 
@@ -84,6 +88,7 @@ class Identifiability:
     message: str
 
     def to_dict(self) -> dict[str, Any]:
+        """The checks as JSON-ready values."""
         d = dataclasses.asdict(self)
         d["correlation"] = np.asarray(self.correlation).tolist()
         return d
@@ -122,6 +127,15 @@ class TimeDomainFit:
     curves: dict[str, list]
     info: Any
     config: dict[str, Any]
+
+    def _repr_html_(self) -> str:
+        """Jupyter's view: the fitted parameters with their standard errors and intervals, and the diagnostics."""
+        from .._display import estimates_table
+
+        note = (f"{self.method}: {self.n_windows} windows of {self.window_s:.4g} s, residual rms "
+                f"{self.residual_rms_deg:.4f}°, condition number {self.condition_number:.3g}, {self.covariance_kind} "
+                "covariance" + "".join(f"; {w}" for w in self.warnings))
+        return estimates_table("Time-domain roll fit", self.estimates, note=note)
 
     def to_dict(self) -> dict[str, Any]:
         """Everything but the ship and the curves, as JSON-ready values (the CLI's calibration.json)."""

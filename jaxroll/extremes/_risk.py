@@ -2,6 +2,7 @@
 
 
 import equinox as eqx
+import jax
 import jax.numpy as jnp
 import jax.scipy.special as jsp
 import numpy as np
@@ -171,6 +172,33 @@ class ExposureRisk(eqx.Module):
     expected_largest: Float[Array, ""]
     n_amplitudes: Float[Array, ""]
     confidence: float = eqx.field(static=True, default=0.95)
+
+    def _repr_html_(self) -> str | None:
+        """Jupyter's view: the exposure, the exceedance probabilities with their intervals and the largest roll
+        [deg]; None (the plain repr) for a batch of exposures."""
+        from .._display import fmt_interval, html_table
+
+        if any(jnp.ndim(leaf) for leaf in jax.tree_util.tree_leaves(self)):
+            return None
+        level = f"{self.confidence:.0%} interval"
+        deg = lambda x: float(jnp.rad2deg(x))  # noqa: E731
+        rows = [
+            ("angle", deg(self.angle), "", "deg"),
+            ("exposure", float(self.duration) / 3600, "", "h"),
+            ("amplitudes in the exposure n", float(self.n_cycles), "", "-"),
+            ("P(A > angle) per amplitude", float(self.exceedance_per_cycle),
+             fmt_interval(self.exceedance_per_cycle_lower, self.exceedance_per_cycle_upper), "-"),
+            ("P(exceeded within the exposure)", float(self.probability),
+             fmt_interval(self.probability_lower, self.probability_upper), "-"),
+            ("  the same, Poisson", float(self.probability_poisson), "", "-"),
+            ("most probable largest roll", deg(self.most_probable_largest), "", "deg"),
+            ("characteristic largest roll", deg(self.characteristic_largest),
+             fmt_interval(deg(self.characteristic_largest_lower), deg(self.characteristic_largest_upper)), "deg"),
+            ("expected largest roll", deg(self.expected_largest), "", "deg"),
+        ]
+        note = (f"intervals from {float(self.n_amplitudes):.0f} amplitudes" if jnp.isfinite(self.n_amplitudes)
+                else "no sample size given: no intervals")
+        return html_table("Exposure risk", rows, header=("", "value", level, "unit"), note=note)
 
     @property
     def angle_deg(self) -> Float[Array, ""]:

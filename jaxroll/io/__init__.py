@@ -1,4 +1,4 @@
-"""Every file format: tank records, ship files and hull files."""
+"""Every file format: tank records (and lab files of tank data), ship files, hull files, labelled datasets."""
 
 from ._dataset import (
     dataset_attrs as dataset_attrs,
@@ -19,6 +19,12 @@ from ._hull_file import (
     loading_from_dict as loading_from_dict,
     read_hull_file as read_hull_file,
 )
+from ._lab_files import (
+    LabTable as LabTable,
+    describe_lab_file as describe_lab_file,
+    import_record as import_record,
+    read_lab_table as read_lab_table,
+)
 from ._mesh import (
     MeshError as MeshError,
     ModelScaleError as ModelScaleError,
@@ -32,6 +38,7 @@ from ._mesh import (
     write_stl as write_stl,
 )
 from ._records import (
+    RECORD_COLUMNS as RECORD_COLUMNS,
     Record as Record,
     RecordError as RecordError,
     group_by_sea_state as group_by_sea_state,

@@ -88,6 +88,23 @@ class AbstractAmplitudeLaw(eqx.Module):
         """"per half cycle" (zero-crossing amplitudes) or "per time sample" (envelope)."""
         return SAMPLING[self.estimator]
 
+    def _repr_html_(self) -> str | None:
+        """Jupyter's view: what the law is of, its mean, quantiles and exceedance probabilities [deg]; None (the
+        plain repr) for a batch of laws (arrays of parameters)."""
+        from .._display import html_table
+
+        try:
+            s = self.summary()
+            exceed = np.asarray(self.sf(np.deg2rad(np.array([10.0, 20.0, 30.0]))))
+        except Exception:  # a batch of laws has no single mean: IPython then shows the plain repr
+            return None
+        rows = [("estimator", f"{self.estimator} ({self.sampling})", ""),
+                ("mean amplitude", s["mean_amplitude_deg"], "deg")]
+        rows += [(f"{k} % quantile", v, "deg") for k, v in s["quantiles_deg"].items()]
+        rows += [(f"P(A > {a:g}°)", p, "-") for a, p in zip((10, 20, 30), exceed, strict=True)]
+        return html_table(f"{type(self).__name__}: law of the roll amplitude A", rows,
+                          header=("", "value", "unit"))
+
     def logpdf(self, a: ArrayLike) -> Float[Array, "..."]:
         """log P(a), P in [1/rad]; −inf outside the support. `a` [rad], any shape."""
         return _evaluate("_logpdf", self, jnp.asarray(a, dtype=float))

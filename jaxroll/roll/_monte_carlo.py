@@ -14,6 +14,7 @@ import jax
 import jax.numpy as jnp
 import jax.random as jr
 
+from .._display import progress_bar
 from ._equation import RollProblem, simulate
 from ._observers import AbstractObserver, AmplitudeHistogram, FirstMaxima, MaxRoll, envelope_record_every
 from ._sharding import chunk_size_for_memory, default_chunk_size, run_chunks
@@ -68,7 +69,7 @@ def monte_carlo(
     num_realizations: int = 10_000,
     duration: float = 3600.0,
     chunk_size: int | None = None,
-    progress: Callable[[int], None] | None = None,
+    progress: Callable[[int], None] | bool | None = None,
     devices=None,
     checkpoint: str | os.PathLike | None = None,
     checkpoint_every: int | None = None,
@@ -92,7 +93,8 @@ def monte_carlo(
       significant binary digits, so it keeps its shape), so a small `dt` cannot exhaust memory. Results do not
       depend on the chunk.
     - `progress`: called with the number of realizations done after each chunk (and once after a checkpoint of
-      this run has been read, with the realizations it holds).
+      this run has been read, with the realizations it holds); `True`: a tqdm progress bar (the notebook widget
+      in Jupyter, a text bar on stderr elsewhere; needs tqdm, in the `notebook` extra).
     - `devices`: None (every device of every process), an int n (the first n) or a sequence of devices: the
       realization axis is sharded over them (`docs/scaling.md`).
     - `checkpoint`: a directory; the run saves its state there and resumes from it (`checkpoint_every` chunks,
@@ -115,18 +117,19 @@ def monte_carlo(
     chunk_size = chunk_size_for_memory(chunk_size, num_steps, memory_budget,
                                       observer.bytes_per_realization(num_steps // observer.record_every(problem)),
                                       devices)
-    summed, per = run_chunks(
-        simulate_chunk,
-        problem,
-        key,
-        num_realizations,
-        chunk_size,
-        (observer, num_steps, dtype),
-        progress,
-        devices=devices,
-        checkpoint=checkpoint,
-        checkpoint_every=checkpoint_every,
-    )
+    with progress_bar(progress, num_realizations, "Monte Carlo") as report:
+        summed, per = run_chunks(
+            simulate_chunk,
+            problem,
+            key,
+            num_realizations,
+            chunk_size,
+            (observer, num_steps, dtype),
+            report,
+            devices=devices,
+            checkpoint=checkpoint,
+            checkpoint_every=checkpoint_every,
+        )
     config = {"num_realizations": num_realizations, "duration_s": float(duration), "dt_s": problem.dt,
               "chunk_size": chunk_size}
     return observer.result(summed, per, config)

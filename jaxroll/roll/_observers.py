@@ -124,6 +124,7 @@ class AmplitudeHistogram(AbstractObserver):
 
     @property
     def num_bins(self) -> int:
+        """Number of fine histogram bins [-] (`max_deg` / `bin_width_deg`)."""
         return int(round(self.max_deg / self.bin_width_deg))
 
     @property

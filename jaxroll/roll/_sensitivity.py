@@ -44,6 +44,7 @@ import numpy as np
 from jax.scipy.stats import norm
 
 from .._compiled import MONTE_CARLO_PROGRAM, SMALL_PROGRAM, cached_program, compiled_with
+from .._display import progress_bar
 from ..sea._spectra import ITTC
 from ..ship._ship import Ship
 from ._amplitudes import hilbert_envelope, zero_crossing_init, zero_crossing_update
@@ -498,6 +499,11 @@ def _tangent_chunk(parts, dparts, key, indices, cfg):
 
 
 def _chunks(fn, num_realizations, chunk_size, progress):
+    with progress_bar(progress, num_realizations, "sensitivity Monte Carlo") as report:
+        return _chunks_reported(fn, num_realizations, chunk_size, report)
+
+
+def _chunks_reported(fn, num_realizations, chunk_size, progress):
     outs = []
     for lo in range(0, num_realizations, chunk_size):
         idx = np.arange(lo, lo + chunk_size)
@@ -527,7 +533,7 @@ def monte_carlo_sensitivity(
     method: str = "windowed",
     fd_step: Mapping[str, float] | float = 0.02,
     chunk_size: int = 100,
-    progress: Callable[[int], None] | None = None,
+    progress: Callable[[int], None] | bool | None = None,
 ) -> SensitivityResult:
     """Monte Carlo statistics of `problem_fn(params)` and their derivatives with respect to `wrt`.
 
@@ -550,7 +556,8 @@ def monte_carlo_sensitivity(
     - `method`: "windowed" (default) or "finite_difference": central differences with common random numbers
       at steps `fd_step` × |value| (× 1 for a parameter at 0) — a float, or a dict by name. The filter's noise
       square roots are sign-aligned with the nominal's, so the shifted problems see the same trials.
-    - `chunk_size`: realizations per compiled batch; `progress`: called with the number done.
+    - `chunk_size`: realizations per compiled batch; `progress`: called with the number done (`True`: a tqdm
+      bar, as in `monte_carlo`).
 
     **Returns:** `SensitivityResult` (values, gradients, standard errors, per-realization contributions).
 

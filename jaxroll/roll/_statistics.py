@@ -87,6 +87,23 @@ class AmplitudeStatistics(CapsizeCounts):
     per_realization: dict[str, np.ndarray] = field(default_factory=dict)
     config: dict = field(default_factory=dict)
 
+    def _repr_html_(self) -> str:
+        """Jupyter's view: counts, capsizes, and each estimator's mean and quantiles [deg]."""
+        from .._display import fmt_interval, html_table
+
+        est = ("zero_crossing", "envelope")
+        q = {e: np.rad2deg(self.quantiles(e)) for e in est}
+        rows = [("amplitudes", *(self.n_amplitudes(e) for e in est), "-"),
+                ("mean amplitude", *(np.rad2deg(self.mean(e)) for e in est), "deg")]
+        rows += [(f"{100 * level:g} % quantile", *(q[e][i] for e in est), "deg") for i, level in enumerate(QUANTILE_LEVELS)]
+        c = self.config
+        note = (f"{self.n_realizations} realizations" + (f" of {c['duration_s']:g} s (dt {c['dt_s']:g} s)"
+                                                         if "duration_s" in c and "dt_s" in c else "")
+                + f"; {self.n_capsized} capsized, P = {self.capsize_probability:.4g} "
+                f"(95 % {fmt_interval(*self.capsize_interval())}); amplitude statistics conditional on no capsize.")
+        return html_table("Monte Carlo amplitude statistics", rows,
+                          header=("", "zero-crossing (per half cycle)", "envelope (per time sample)", "unit"), note=note)
+
     def _counts(self, estimator: str) -> np.ndarray:
         check_estimator(estimator)
         return self.counts_zero_crossing if estimator == "zero_crossing" else self.counts_envelope
@@ -279,6 +296,24 @@ class MaximaStatistics(CapsizeCounts):
     count: np.ndarray
     config: dict = field(default_factory=dict)
 
+    def _repr_html_(self) -> str:
+        """Jupyter's view: per N0, the trials known, the capsizes before N0 and the maximum's mean and quantiles
+        [deg] (a quantile among the capsizes is shown as "capsize")."""
+        from .._display import fmt, html_table
+
+        rows = []
+        for j, n0 in enumerate(self.n0):
+            s = self.summary(j, np.array([0.0, 90.0]))
+            quantiles = [fmt(v) if v is not None else "capsize" for v in s["quantiles_deg"].values()]
+            rows.append((n0, s["n_known"], s["n_capsized_before"], s["capsize_probability"],
+                         s["mean_deg_given_no_capsize"], *quantiles))
+        return html_table(
+            "Monte Carlo maxima of the first N0 amplitudes", rows,
+            header=("N0", "trials known", "capsized before N0", "P(capsize)", "mean given no capsize [deg]",
+                    *(f"{100 * q:g} % [deg]" for q in QUANTILE_LEVELS)),
+            note=f"{self.n_realizations} trials; a capsize before N0 is a maximum beyond the angle of vanishing "
+            "stability (counted in every probability).")
+
     def valid(self, j: int) -> np.ndarray:
         """Trials whose maximum over their first n0[j] amplitudes is known."""
         return np.isfinite(self.maxima_deg[:, j])
@@ -365,6 +400,21 @@ class MaxRollStatistics(CapsizeCounts):
     n_exceeded: int
     config: dict = field(default_factory=dict)
 
+    def _repr_html_(self) -> str:
+        """Jupyter's view: exceedance and capsize probabilities with their intervals, largest-roll quantiles."""
+        from .._display import fmt, fmt_interval, html_table
+
+        quantiles = self.largest_roll_quantiles_deg()
+        rows = [
+            (f"P(max |φ| > {self.angle_deg:g}°, or capsize)", self.exceedance_probability(),
+             fmt_interval(*self.exceedance_interval()), "-"),
+            ("P(capsize)", self.capsize_probability, fmt_interval(*self.capsize_interval()), "-"),
+        ] + [(f"largest roll, {k} % quantile", fmt(v) if v is not None else "capsize", "", "deg")
+             for k, v in quantiles.items()]
+        c = self.config
+        note = f"{self.n_realizations} realizations" + (f" of {c['duration_s']:g} s" if "duration_s" in c else "")
+        return html_table("Monte Carlo largest roll", rows, header=("", "value", "95 % interval", "unit"), note=note)
+
     def exceedances(self, angle_deg: float | None = None) -> int:
         """Trials with max |φ| > `angle_deg` [deg] (default: the run's angle) or capsized."""
         if angle_deg is None:
@@ -396,6 +446,22 @@ class SweepResult:
     confidence: float
     n_capsized: np.ndarray
     n_exceeded: np.ndarray
+
+    def _repr_html_(self) -> str:
+        """Jupyter's view: one row per grid point, the capsize and exceedance probabilities with their intervals."""
+        from .._display import fmt_interval, html_table
+
+        p_cap, p_exc = self.capsize_probability, self.exceedance_probability
+        ci_cap, ci_exc = self.capsize_interval(), self.exceedance_interval()
+        rows = []
+        for index in np.ndindex(*p_cap.shape):
+            point = [values[i] for values, i in zip(self.grid.values(), index, strict=True)]
+            rows.append((*point, p_cap[index], fmt_interval(*ci_cap[index]), p_exc[index], fmt_interval(*ci_exc[index])))
+        return html_table(
+            "Sweep: capsize and exceedance probabilities", rows,
+            header=("heading", "speed [m/s]", "H1/3 [m]", "T01 [s]", "P(capsize)", f"{self.confidence:.0%} interval",
+                    f"P(roll > {self.angle_deg:g}°)", f"{self.confidence:.0%} interval"),
+            note=f"{self.n_realizations} realizations per grid point (common random numbers).")
 
     @property
     def capsize_probability(self) -> np.ndarray:

@@ -36,6 +36,7 @@ class ShapingFilter(eqx.Module):
 
     @property
     def order(self) -> int:
+        """The filter's order n (the state dimension) [-]."""
         return self.a.shape[0]
 
     def transfer(self, omega) -> Array:

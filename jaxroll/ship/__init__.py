@@ -4,10 +4,12 @@ Ship and hull files (TOML) are read and written by `jaxroll.io`.
 """
 
 from ._fits import (
+    HydrostaticsSolution as HydrostaticsSolution,
     c11_hull_ship as c11_hull_ship,
     default_heel_grid as default_heel_grid,
     default_zeta_grid as default_zeta_grid,
     hull_hydrostatics as hull_hydrostatics,
+    roll_period_from_gyradius as roll_period_from_gyradius,
     ship_from_hull as ship_from_hull,
     ship_from_hydrostatics as ship_from_hydrostatics,
 )
@@ -21,6 +23,9 @@ from ._hull import (
     wigley_hull as wigley_hull,
 )
 from ._hydrostatics import (
+    Equilibrium as Equilibrium,
+    Loading as Loading,
+    Particulars as Particulars,
     c11_hull_loading as c11_hull_loading,
     equilibrium as equilibrium,
     gz_curve as gz_curve,

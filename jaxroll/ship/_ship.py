@@ -85,6 +85,28 @@ class Ship(eqx.Module):
         self.name = name
         self.provenance = provenance
 
+    def _repr_html_(self) -> str | None:
+        """Jupyter's view: the particulars, the roll model's coefficients and the provenance; None (the plain
+        repr) for a batch of ships."""
+        from .._display import html_table
+
+        if any(np.ndim(getattr(self, k)) for k in ("lpp", "gm0", "roll_period", "gm_correction")):
+            return None
+        f = lambda x: float(x)  # noqa: E731
+        rows = [
+            ("Lpp, B, D, d", ", ".join(f"{f(getattr(self, k)):g}" for k in ("lpp", "breadth", "depth", "draught")), "m"),
+            ("displacement mass", f(self.displacement), "kg"),
+            ("block coefficient Cb", f(self.block_coefficient), "-"),
+            ("GM0", f(self.gm0), "m"),
+            ("natural roll period Tφ", f(self.roll_period), "s"),
+            ("damping b1, b2, b3", ", ".join(f"{float(b):.5g}" for b in self.damping), "1/s, 1/rad, s/rad²"),
+            ("restoring a3, a5, a7, a9 (a1 = ω0²)", ", ".join(f"{float(a):.5g}" for a in self.restoring),
+             "1/s² · rad^(1−n)"),
+            ("ΔGM(ζ) C0 … C6", ", ".join(f"{float(c):.4g}" for c in self.delta_gm), "m · m^−k"),
+            ("GM correction σobs/σthr", f(self.gm_correction), "-"),
+        ]
+        return html_table(f"Ship: {self.name}", rows, header=("", "value", "unit"), note=self.provenance or None)
+
     @property
     def omega0(self) -> Float[Array, ""]:
         """Natural roll frequency ω0 = 2π/Tφ [rad/s]."""

@@ -169,6 +169,7 @@ class PolynomialSDE(eqx.Module):
 
     @property
     def dim(self) -> int:
+        """State dimension [-]."""
         return len(self.names)
 
     def _structure(self):
@@ -656,14 +657,17 @@ class MomentEquations(eqx.Module):
 
     @property
     def order(self) -> int:
+        """The closure order [-]."""
         return self.tables.order
 
     @property
     def symmetric(self) -> tuple[int, ...]:
+        """The variables that change sign under a symmetry of the system (moments odd in them vanish)."""
         return self.tables.symmetric
 
     @property
     def unknowns(self) -> list[Monomial]:
+        """The unknown moments (monomials) the equations solve for."""
         return [self.tables.monomials[i] for i in self.tables.unknowns]
 
     @property

@@ -91,6 +91,7 @@ class StationaryMoments(eqx.Module):
 
     @property
     def converged(self) -> Array:
+        """Whether the solve succeeded."""
         return self.result == RESULTS.successful
 
 
