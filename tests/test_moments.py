@@ -473,7 +473,7 @@ def test_cached_tables_equal_freshly_generated(tmp_path, monkeypatch):
     mc.cached_tables.cache_clear()
     read = mc.cached_tables(*args)  # read back from disk
     mc.cached_tables.cache_clear()
-    assert len(list(tmp_path.glob("tables-*.pkl"))) == 1 and read is not written
+    assert len(list(tmp_path.glob("tables-*.npz"))) == 1 and read is not written
     for t in (written, read):
         assert t.monomials == fresh.monomials and t.index == fresh.index
         for a, b in zip(jax.tree.leaves(t.arrays), jax.tree.leaves(fresh.arrays)):
