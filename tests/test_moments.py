@@ -527,7 +527,7 @@ def test_stored_solve_equals_traced_solve(tmp_path, monkeypatch):
     stored = stationary_moments(sde, **kw)  # exported, serialized to disk
     compiled._LOADED.clear()
     reread = stationary_moments(sde, **kw)  # deserialized
-    files = list(tmp_path.glob("*.bin"))
+    files = list(tmp_path.glob("*.npz"))
     assert len(files) == 1 and files[0].stat().st_size > 1000  # a program, not the "cannot export" marker
     for sol in (stored, reread):
         np.testing.assert_allclose(sol.values, traced.values, rtol=1e-12, atol=0)

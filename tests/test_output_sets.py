@@ -171,6 +171,28 @@ def test_a_run_killed_while_it_renames_its_set_is_rolled_back(tmp_path, monkeypa
         assert sorted(p.name for p in out.iterdir()) == ["decay", "notes.txt", "truth.json", "truth_ship.toml"]
 
 
+def test_a_rename_refused_half_way_puts_the_previous_set_back(tmp_path, monkeypatch, capsys):
+    """A rename that fails in the middle of the commit (or a Ctrl-C there): the entries already moved are moved
+    back, one line, exit code 2, `--out` holds its previous set and nothing hidden is left."""
+    out = tmp_path / "out"
+    assert _tank(out, seed=0) == 0
+    before = _contents(out)
+    real_rename, calls = os.rename, []
+
+    def rename(src, dst):
+        calls.append(src)
+        if len(calls) == 4:  # the three old entries moved aside, then the first new one refused
+            raise OSError(errno.EIO, "Input/output error", os.fspath(src))
+        return real_rename(src, dst)
+
+    monkeypatch.setattr(os, "rename", rename)
+    capsys.readouterr()
+    assert _tank(out, seed=1) == 2
+    assert "Input/output error" in capsys.readouterr().err
+    assert len(calls) == 4 + 3 and _contents(out) == before  # (the three moved back)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]
+
+
 def _read_only(monkeypatch, folder: Path):
     """Emulate a read-only `folder` (tests may run as root, whom chmod does not stop): creating, renaming or
     removing anything inside it fails with EACCES, as for a user without write permission."""

@@ -193,7 +193,12 @@ class OutputFolder:
                     if not self.out.is_dir():  # not a folder created meanwhile by another run
                         raise
             with _locked(self.out):
-                _commit(self.tmp, self.out)
+                try:
+                    _commit(self.tmp, self.out)
+                except BaseException:  # a rename refused, or Ctrl-C, half way: the previous set back in place
+                    if (self.tmp / _JOURNAL).exists():
+                        _roll_back(self.tmp, self.out, killed=False)
+                    raise
         except BaseException:
             shutil.rmtree(self.tmp, ignore_errors=True)
             raise
@@ -306,7 +311,10 @@ def prepare_out(out: str | Path) -> None:
                      if (m := pattern.match(p.name)) and _process_ended(m.group(2), m.group(3))]
             for kind, path in sorted(stale, key=lambda x: x[0] != _PARTIAL):  # roll back before clearing
                 if kind == _PARTIAL and (path / _JOURNAL).exists():
-                    _roll_back(path, out)
+                    try:
+                        _roll_back(path, out)
+                    except (ValueError, KeyError, TypeError):  # not a journal jaxroll wrote: leave it alone
+                        continue
                 shutil.rmtree(path, ignore_errors=True)
     parent, name = Path(os.path.abspath(out)).parent, Path(os.path.abspath(out)).name
     if parent.is_dir():
@@ -323,12 +331,17 @@ def prepare_out(out: str | Path) -> None:
                           "command writes there (a '.old-' folder holds that run's previous set).", stacklevel=2)
 
 
-def _roll_back(tmp: Path, out: Path) -> None:
-    """Undo a commit a killed run left half done: its new entries out of `out`, the entries it replaced back."""
+def _roll_back(tmp: Path, out: Path, killed: bool = True) -> None:
+    """Undo a commit left half done (by a run `killed` since, or by this one): its new entries out of `out`, the
+    entries it replaced back, the folder they were moved aside to removed."""
     import shutil
     import warnings
 
     journal = json.loads((tmp / _JOURNAL).read_text())
+    names = [*journal["new"], *journal["replaced"]]
+    if not (all(isinstance(n, str) and n not in ("", ".", "..") and os.sep not in n and "/" not in n for n in names)
+            and re.fullmatch(rf"{re.escape(_REPLACED)}\.[A-Za-z0-9-]+\.\d+\.[0-9a-f]+", str(journal["aside"]))):
+        raise ValueError(f"{tmp / _JOURNAL} is not a journal jaxroll wrote")  # names outside `out`: touch nothing
     aside = out / journal["aside"]
     for name in journal["new"]:
         moved_in = not os.path.lexists(tmp / name)
@@ -338,8 +351,11 @@ def _roll_back(tmp: Path, out: Path) -> None:
     for name in journal["replaced"]:
         if os.path.lexists(aside / name) and not os.path.lexists(out / name):
             os.rename(aside / name, out / name)
-    warnings.warn(f"--out {str(out)!r}: a run killed while it renamed its files into place was rolled back; the "
-                  "folder holds the set it held before that run.", stacklevel=3)
+    shutil.rmtree(aside, ignore_errors=True)
+    (tmp / _JOURNAL).unlink()
+    if killed:
+        warnings.warn(f"--out {str(out)!r}: a run killed while it renamed its files into place was rolled back; the "
+                      "folder holds the set it held before that run.", stacklevel=3)
 
 
 def os_error_message(e: OSError) -> str:
