@@ -154,8 +154,8 @@ class OutputFolder:
     of the new set takes the place of the entry of that name in `out` (files of `out` the new set does not write —
     e.g. a user's own files — are kept): the entries it replaces are first moved aside
     (`.jaxroll-replaced.HOST.PID.RANDOM`), with a journal of the moves, then the new entries moved in, renames
-    within one folder that take microseconds. A run killed during those renames (SIGKILL, a power cut) is rolled
-    back by the next command writing to `out` (`prepare_out`), which also removes the hidden folders of killed runs
+    within one folder that take microseconds. A run killed during those renames (even by SIGKILL) is rolled back
+    by the next command writing to `out` (`prepare_out`), which also removes the hidden folders of killed runs
     — only those with this machine's name and the PID of a process that no longer runs. The commit and that
     clean-up hold an exclusive lock on `out` (`flock`, where the system has it), so two runs writing into one
     folder do not interleave their sets.
@@ -164,11 +164,13 @@ class OutputFolder:
     def __init__(self, out: str | Path):
         self.out = Path(out)
         self.tmp: Path | None = None
+        self.beside = False  # the set is written beside `out` (which did not exist), to be renamed to it
 
     def __enter__(self) -> Path:
         if self.out.exists() and not self.out.is_dir():
             raise CLIError(f"--out {str(self.out)!r} exists and is not a folder.")
-        if self.out.is_dir():
+        self.beside = not self.out.is_dir()
+        if not self.beside:
             self.tmp = self.out / _hidden_name(_PARTIAL)
         else:
             target = Path(os.path.abspath(self.out))
@@ -185,7 +187,7 @@ class OutputFolder:
             shutil.rmtree(self.tmp, ignore_errors=True)
             return False
         try:
-            if self.tmp.parent != Path(os.path.abspath(self.out)) and not self.out.exists():
+            if self.beside and not self.out.exists():
                 try:
                     os.rename(self.tmp, self.out)  # the whole set appears at once
                     return False
