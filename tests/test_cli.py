@@ -1,6 +1,8 @@
 """The command line: `jaxroll pdf` and `jaxroll ship show`, outputs and error messages."""
 
+import contextlib
 import json
+import subprocess
 
 import numpy as np
 import pytest
@@ -508,35 +510,54 @@ def test_library_warnings_are_one_line_and_in_the_json(tmp_path, capsys):
     assert d["warnings"] == [line.removeprefix("jaxroll pdf: warning: ") for line in lines[:2]]
 
 
+@contextlib.contextmanager
+def _running(cmd, **kwargs):
+    """`subprocess.Popen(cmd)` with text pipes, killed (if still running) and its pipes closed on the way out, also
+    after a failed assertion."""
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, **kwargs)
+    try:
+        yield proc
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+        proc.wait()
+        for pipe in (proc.stdout, proc.stderr):
+            pipe.close()
+
+
 def test_ctrl_c_while_the_theories_compile_exits_at_once(tmp_path):
     """The `jaxroll` command (console entry) on Ctrl-C while the theories' programs compile in their threads: exit
     code 130 and the one-line message, at once (it used to wait for the compilations; `jaxroll pdf` had crashed
     with a segfault in the interpreter's teardown), and no output folder."""
     import os
     import signal
-    import subprocess
     import sys
     import time
 
     cache = tmp_path / "cache"
     env = {**os.environ, "JAXROLL_CACHE_DIR": str(cache)}
     cmd = [sys.executable, "-m", "jaxroll", "theory", "--theory", "roberts,esam,moment", "--out", str(tmp_path / "out")]
-    proc = subprocess.Popen(cmd, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    t_start = time.monotonic()
     programs = cache / "jaxroll-programs"
-    deadline = time.monotonic() + 120
-    # the set-up's three programs are stored first; the theories' threads start right after them
-    while proc.poll() is None and time.monotonic() < deadline:
-        if programs.is_dir() and len([p for p in programs.iterdir() if p.suffix == ".bin"]) >= 4:
-            break
-        time.sleep(0.02)
-    assert proc.poll() is None, "the command ended before it could be interrupted"
-    proc.send_signal(signal.SIGINT)
-    t0 = time.monotonic()
-    _, err = proc.communicate(timeout=60)
-    waited = time.monotonic() - t0
+    with _running(cmd, env=env) as proc:
+        deadline = time.monotonic() + 300
+        # the set-up's three programs are stored first; the theories' threads start right after them (the readiness
+        # signal: no fixed sleep, which a loaded machine outruns)
+        while proc.poll() is None and time.monotonic() < deadline:
+            if programs.is_dir() and len([p for p in programs.iterdir() if p.suffix == ".npz"]) >= 4:
+                break
+            time.sleep(0.02)
+        assert proc.poll() is None, "the command ended before it could be interrupted"
+        started = time.monotonic() - t_start
+        proc.send_signal(signal.SIGINT)
+        t0 = time.monotonic()
+        _, err = proc.communicate(timeout=300)
+        waited = time.monotonic() - t0
     assert proc.returncode == 130, err[-2000:]
     assert err.strip().splitlines()[-1].startswith("jaxroll theory: interrupted") and "Traceback" not in err
-    assert waited < 10.0  # not a benchmark: measured 0.0–0.3 s, and 2–8 s when the compilations were waited for
+    # Not a benchmark: measured 0.0–0.3 s (2–8 s when the compilations were waited for). The limit grows with the
+    # machine's load, read from how long the command took to get here (5–8 s on an idle 2-core machine).
+    assert waited < max(10.0, started), (waited, started)
     assert not (tmp_path / "out").exists()
 
 
@@ -553,7 +574,8 @@ gc.callbacks.append(callback)
 t0 = time.monotonic()
 try:
     gc.collect()
-    time.sleep(20)  # the signal raised again interrupts this
+    time.sleep(60)  # the signal raised again interrupts this
+    print("not interrupted")
 except KeyboardInterrupt:
     print(f"interrupted after {time.monotonic() - t0:.2f} s, callback phases {seen}")
     sys.exit(130)
@@ -564,13 +586,89 @@ def test_ctrl_c_inside_a_garbage_collector_callback_is_not_lost():
     """Python ignores (prints) an exception raised in a garbage-collector callback, and JAX registers one: a Ctrl-C
     that lands there would not stop the command (seen: a cold `jaxroll theory` ran to its end). The command's
     handler (`jaxroll._cli.console` installs it in its own process; here a process of its own too) raises the
-    signal again, to the main thread, once the callback has returned."""
+    signal again, to the main thread, once the callback has returned — and again every 0.2 s until it has been
+    raised: a signal that lands just before the main thread enters a blocking call is seen only when the call
+    returns (under load this test's sleep once ran to its end, 'interrupted after 20.06 s')."""
     import subprocess
     import sys
 
-    done = subprocess.run([sys.executable, "-c", _GC_INTERRUPT], capture_output=True, text=True, timeout=60)
+    done = subprocess.run([sys.executable, "-c", _GC_INTERRUPT], capture_output=True, text=True, timeout=300)
     assert done.returncode == 130, done.stdout + done.stderr
-    assert "callback phases ['start']" in done.stdout and float(done.stdout.split()[2]) < 10.0
+    # what it asserts: the Ctrl-C is not lost (the 60 s sleep is cut short); measured 0.05–1.3 s under load
+    assert "callback phases ['start']" in done.stdout and float(done.stdout.split()[2]) < 30.0
+
+
+def test_a_deferred_ctrl_c_is_sent_again_until_it_is_raised(monkeypatch):
+    """`_raise_again` (the Ctrl-C deferred out of a gc callback) sends SIGINT to the main thread again and again
+    until the handler has raised `KeyboardInterrupt` (one signal may be seen only after a blocking call), then
+    stops; a repeat landing just after the raise is not raised a second time (it would interrupt the report)."""
+    import gc
+    import signal
+    import sys
+    import time
+
+    from jaxroll import _cli
+
+    sent = []
+    monkeypatch.setattr(signal, "pthread_kill", lambda ident, sig: sent.append(time.monotonic()))
+    monkeypatch.setattr(_cli, "_STATE", {"deferred": None, "raised": None})
+    def callback(phase, info):
+        pass
+
+    gc_frame = type("Frame", (), {"f_code": callback.__code__, "f_back": None})()  # as if inside the callback
+    monkeypatch.setattr(gc, "callbacks", [*gc.callbacks, callback])
+    _cli._on_interrupt(signal.SIGINT, gc_frame)  # deferred: no exception here
+    time.sleep(0.75)
+    assert len(sent) >= 3, sent  # the first at 0.05 s, then every 0.2 s while nothing has raised
+    with pytest.raises(KeyboardInterrupt):
+        _cli._on_interrupt(signal.SIGINT, sys._getframe())  # the main thread, outside callbacks: raised
+    n = len(sent)
+    time.sleep(0.5)
+    assert len(sent) <= n + 1  # stopped (one may have been in flight)
+    _cli._on_interrupt(signal.SIGINT, sys._getframe())  # that echo, within 1 s: not raised again
+    time.sleep(1.05)
+    with pytest.raises(KeyboardInterrupt):  # a later Ctrl-C is one again
+        _cli._on_interrupt(signal.SIGINT, sys._getframe())
+
+
+def test_ctrl_c_while_the_command_starts_is_one_line(tmp_path):
+    """Ctrl-C during the first seconds of the `jaxroll` command — `import jaxroll` (JAX, XLA), before the command's
+    own handling could be installed — printed a KeyboardInterrupt traceback. The console script (pyproject's entry
+    point, run here as pip's launcher runs it) guards the imports: one line, exit code 130, nothing written. The
+    signal is sent once JAX's library is mapped into the process (its import under way: no fixed sleep)."""
+    import os
+    import pathlib
+    import signal
+    import sys
+    import time
+    import tomllib
+
+    maps = pathlib.Path("/proc/self/maps")
+    if not maps.exists():
+        pytest.skip("needs /proc to see the import under way")
+    root = pathlib.Path(__file__).resolve().parents[1]
+    target = tomllib.loads((root / "pyproject.toml").read_text())["project"]["scripts"]["jaxroll"]
+    module, func = target.split(":")
+    launcher = f"import sys\nfrom {module} import {func}\nsys.argv[0] = 'jaxroll'\nsys.exit({func}())\n"
+    env = {**os.environ, "JAXROLL_CACHE_DIR": str(tmp_path / "cache"),
+           "PYTHONPATH": os.pathsep.join([str(root), os.environ.get("PYTHONPATH", "")])}
+    out = tmp_path / "out"
+    with _running([sys.executable, "-c", launcher, "theory", "--out", str(out)], env=env) as proc:
+        deadline = time.monotonic() + 120
+        while proc.poll() is None and time.monotonic() < deadline:
+            try:
+                if "jaxlib" in pathlib.Path(f"/proc/{proc.pid}/maps").read_text():
+                    break
+            except OSError:
+                pass
+            time.sleep(0.005)
+        assert proc.poll() is None, "the command ended before it could be interrupted"
+        proc.send_signal(signal.SIGINT)
+        _, err = proc.communicate(timeout=300)
+    assert proc.returncode == 130, err[-2000:]
+    assert "Traceback" not in err and err.strip().splitlines() == [
+        "jaxroll theory: interrupted while starting; nothing was written."], err[-2000:]
+    assert not out.exists()
 
 
 def test_interrupted_run_leaves_the_previous_set_untouched(tmp_path, monkeypatch, capsys):

@@ -473,7 +473,7 @@ def test_cached_tables_equal_freshly_generated(tmp_path, monkeypatch):
     mc.cached_tables.cache_clear()
     read = mc.cached_tables(*args)  # read back from disk
     mc.cached_tables.cache_clear()
-    assert len(list(tmp_path.glob("tables-*.pkl"))) == 1 and read is not written
+    assert len(list(tmp_path.glob("tables-*.npz"))) == 1 and read is not written
     for t in (written, read):
         assert t.monomials == fresh.monomials and t.index == fresh.index
         for a, b in zip(jax.tree.leaves(t.arrays), jax.tree.leaves(fresh.arrays)):
@@ -527,7 +527,7 @@ def test_stored_solve_equals_traced_solve(tmp_path, monkeypatch):
     stored = stationary_moments(sde, **kw)  # exported, serialized to disk
     compiled._LOADED.clear()
     reread = stationary_moments(sde, **kw)  # deserialized
-    files = list(tmp_path.glob("*.bin"))
+    files = list(tmp_path.glob("*.npz"))
     assert len(files) == 1 and files[0].stat().st_size > 1000  # a program, not the "cannot export" marker
     for sol in (stored, reread):
         np.testing.assert_allclose(sol.values, traced.values, rtol=1e-12, atol=0)

@@ -8,11 +8,11 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
-from ._common import CLIError, atomic_write_text, load_ship_arg, save_figure, write_json
+from ._common import CLIError, OutputFolder, atomic_write_text, load_ship_arg, save_figure, write_json
 from ._lab import add_lab_options, import_lab_files, lab_mode, lab_settings
 
 
-def _common(p) -> None:
+def _common(p, kind: str) -> None:
     p.add_argument(
         "records",
         nargs="+",
@@ -26,7 +26,8 @@ def _common(p) -> None:
         default=None,
         help="ship file (TOML) whose other coefficients are kept; default C11 (representative)",
     )
-    p.add_argument("--out", default=None, help="output folder (default ./jaxroll-out/calibrate-KIND)")
+    p.add_argument("--out", default=f"jaxroll-out/calibrate-{kind}",
+                   help=f"output folder (default ./jaxroll-out/calibrate-{kind})")
     p.add_argument(
         "--resample",
         action="store_true",
@@ -50,7 +51,7 @@ def register(sub) -> None:
     d = kinds.add_parser(
         "decay", help="b1, b2, b3 from free-roll decay records (extinction curve and ODE fit)"
     )
-    _common(d)
+    _common(d, "decay")
     d.add_argument(
         "--method",
         choices=("ode", "extinction"),
@@ -71,7 +72,7 @@ def register(sub) -> None:
     c = kinds.add_parser(
         "captive", help="σ_obs/σ_thr from captive tests (ΔGM at fixed heel with a wave probe)"
     )
-    _common(c)
+    _common(c, "captive")
     c.add_argument(
         "--estimator",
         choices=("std_ratio", "ls"),
@@ -103,7 +104,7 @@ def register(sub) -> None:
         "filter likelihood with fitted process noise (use it when the model is not exact; "
         "docs/calibration.md, 'Time-domain calibration').",
     )
-    _common(r)
+    _common(r, "roll")
     r.add_argument(
         "--estimator",
         choices=("pdf", "time-domain", "kalman"),
@@ -167,12 +168,13 @@ def _finish(args, kind, ship, fitted, payload, figures) -> int:
     from .. import ship_to_toml
     from ..io import load_ship
 
-    out = Path(args.out or f"jaxroll-out/calibrate-{kind}")
-    atomic_write_text(out / "ship.toml", ship_to_toml(fitted))
-    load_ship(out / "ship.toml")  # the file must feed straight back into `jaxroll pdf --ship`
-    for name, fig in figures.items():
-        save_figure(fig, out / name)
-    write_json(out / "calibration.json", payload)
+    out = Path(args.out)
+    with OutputFolder(out) as tmp:  # one set: never a new ship.toml beside an old calibration.json
+        atomic_write_text(tmp / "ship.toml", ship_to_toml(fitted))
+        load_ship(tmp / "ship.toml")  # the file must feed straight back into `jaxroll pdf --ship`
+        for name, fig in figures.items():
+            save_figure(fig, tmp / name)
+        write_json(tmp / "calibration.json", payload)
     print(
         f"wrote {out / 'ship.toml'}, {out / 'calibration.json'}, " + ", ".join(str(out / n) for n in figures)
     )

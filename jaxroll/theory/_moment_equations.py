@@ -655,6 +655,15 @@ class MomentEquations(eqx.Module):
         # cache (memory, disk) or generates them again; they are a pure function of the key
         return _equations_from_key, self.tables.key
 
+    def __jaxroll_cache_key__(self):
+        # the same in a stored program's output skeleton (`jaxroll._cache_files`): the tables' key, not the tables
+        return self.tables.key
+
+    @classmethod
+    def __jaxroll_from_cache_key__(cls, key) -> MomentEquations:
+        structure, order, extra = key
+        return _equations_from_key(structure, int(order), extra)
+
     @property
     def order(self) -> int:
         """The closure order [-]."""
