@@ -151,8 +151,14 @@ def test_axes_convention_and_half_hull(tmp_path):
     # a half-hull open along its centre plane is mirrored
     half = cuboid(0, L, 0, B / 2, 0, D)
     half = half[~np.all(np.abs(half[:, :, 1]) < 1e-12, axis=1)]  # remove the centre-plane face
-    hh = read(io.write_stl(tmp_path / "half.stl", half), stations=11, waterlines=3)
+    path = io.write_stl(tmp_path / "half.stl", half)
+    with pytest.raises(io.MeshError, match=r"OPEN along the whole of its flat side y = 0 m .* HALF hull .*--half-hull"):
+        read(path, stations=11, waterlines=3)  # refused without the flag, with the reason
+    hh = read(path, stations=11, waterlines=3, half_hull=True)
     np.testing.assert_allclose(hh.half_breadths, B / 2, atol=1e-9)
+    assert "half-hull, mirrored" in hh.provenance
+    with pytest.raises(io.MeshError, match=r"half_hull=True \(--half-hull\) but the mesh is closed"):
+        read(io.write_stl(tmp_path / "whole.stl", tri), half_hull=True)
 
 
 def test_hydrostatics_cli_reads_stl_and_refuses_an_open_one_first(tmp_path, capsys, monkeypatch):

@@ -514,6 +514,10 @@ def hull_from_triangles(
     if not (math.isfinite(scale) and scale > 0):
         raise ValueError(f"scale must be a finite factor > 0 (model scale, e.g. 100); got {scale}.")
     tri = to_body_frame(np.asarray(triangles, dtype=float) * UNITS[units] * scale, forward=forward, up=up)
+    faces = _welded_faces(tri)
+    tri = tri[(faces[:, 0] != faces[:, 1]) & (faces[:, 1] != faces[:, 2]) & (faces[:, 0] != faces[:, 2])]
+    if tri.shape[0] < 4:
+        raise MeshError(f"{source}: fewer than 4 triangles with an area: not a closed surface.")
     topo = mesh_topology(tri)
     pts = tri.reshape(-1, 3)
     lo, hi = pts.min(axis=0), pts.max(axis=0)

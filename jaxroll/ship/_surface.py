@@ -31,9 +31,11 @@ the immersed body is exact for that surface, the GZ lever is measured transverse
 
 from __future__ import annotations
 
+import functools
 import math
 
 import equinox as eqx
+import jax
 import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
@@ -168,20 +170,34 @@ def scale_surface(surface: HullSurface, length, breadth, height) -> HullSurface:
 # ------------------------------------------------------------------------------------------------------------
 
 
-def _tri_integrals(xs, us, ws, hs):
-    """∫(w, w x, w u, w²/2, w h) dS_ζ over triangles given by their three vertices' values (each a tuple of 3 arrays),
-    dS_ζ the earth-vertical component of the area vector, with every field linear on the triangle:
-    ∫f = A Σf/3, ∫f g = A (Σ f g + Σf Σg)/12."""
-    (x0, x1, x2), (u0, u1, u2) = xs, us
+def _tri_integrals(fields, pairs):
+    """Closed-form integrals over triangles of products of fields linear on each triangle, against the
+    earth-vertical area element dS_ζ: `fields` maps a name to the three vertices' values (arrays), `pairs` lists
+    (f, g) names (g None: ∫f). ∫f = A Σf/3, ∫f g = A (Σ f g + Σf Σg)/12, A = the (x, u) area of the triangle."""
+    (x0, x1, x2), (u0, u1, u2) = fields["x"], fields["u"]
     area = 0.5 * ((x1 - x0) * (u2 - u0) - (u1 - u0) * (x2 - x0))
-    sw = ws[0] + ws[1] + ws[2]
-    pair = lambda f: (ws[0] * f[0] + ws[1] * f[1] + ws[2] * f[2] + sw * (f[0] + f[1] + f[2])) / 12
-    return (area * sw / 3, area * pair(xs), area * pair(us), area * pair(ws) / 2, area * pair(hs))
+    sums = {k: v[0] + v[1] + v[2] for k, v in fields.items()}
+    out = []
+    for f, g in pairs:
+        if g is None:
+            out.append(area * sums[f] / 3)
+        else:
+            F, G = fields[f], fields[g]
+            out.append(area * (F[0] * G[0] + F[1] * G[1] + F[2] * G[2] + sums[f] * sums[g]) / 12)
+    return out
 
 
-def _clipped_integrals(verts, h, heel):
-    """(∫dV, ∫x dV, ∫u dV, ∫w dV, ∫h dV) of the body below the surface, from the triangles' vertices `verts`
-    (3 coordinates, 3 vertices, n) and the surface height `h` (3, n) at them (linear on each triangle).
+# ∫dV, ∫x dV, ∫u dV, 2∫w dV, ∫h dV as surface integrals of −(w, w x, w u, w², w h) dS_ζ
+_MOMENTS = (("w", None), ("w", "x"), ("w", "u"), ("w", "w"), ("w", "h"))
+# their derivatives with respect to the sinkage s and the trim t (∂h/∂s = 1, ∂h/∂t = τ = (x − L/2)/L; the
+# boundary terms vanish because w = 0 on the waterline): −∫(1, x, u, h) dS_ζ and −∫(1, x, u, h) τ dS_ζ
+_SLOPES = (("one", None), ("x", None), ("u", None), ("h", None), ("one", "tau"), ("x", "tau"), ("u", "tau"),
+           ("h", "tau"))  # fmt: skip
+
+
+def _clipped(verts, h, tau, heel, pairs):
+    """Integrals −∫_{wet} f g dS_ζ (`pairs` as for `_tri_integrals`) over the part of the triangles below the
+    surface: `verts` (3 coordinates, 3 vertices, n), `h` and `tau` (3, n) linear fields at the vertices.
 
     Each triangle's wet part is the whole triangle (all three vertices wet), the corner at its lone vertex (the one
     on the other side of the waterline from the two others) when that vertex alone is wet, or the whole minus that
@@ -191,30 +207,30 @@ def _clipped_integrals(verts, h, heel):
     u = y * c + z * s
     w = h - (z * c - y * s)
     wet = w >= 0
-    xs, us, ws, hs = (x[0], x[1], x[2]), (u[0], u[1], u[2]), (w[0], w[1], w[2]), (h[0], h[1], h[2])
-    full = _tri_integrals(xs, us, ws, hs)
-    # the lone vertex L (its side differs from the two others) and the next (N) and previous (P) vertices
+    one = jnp.ones_like(x)
+    f3 = lambda q: (q[0], q[1], q[2])
+    fields = dict(x=f3(x), u=f3(u), w=f3(w), h=f3(h), tau=f3(tau), one=f3(one))
+    full = _tri_integrals(fields, pairs)
     lone0 = wet[1] == wet[2]
     lone1 = (wet[0] == wet[2]) & ~lone0
     pick = lambda q, k: jnp.where(lone0, q[(0 + k) % 3], jnp.where(lone1, q[(1 + k) % 3], q[(2 + k) % 3]))
-    L = [pick(q, 0) for q in (xs, us, ws, hs)]
-    N = [pick(q, 1) for q in (xs, us, ws, hs)]
-    P = [pick(q, 2) for q in (xs, us, ws, hs)]
-    partial = ~(wet[0] & wet[1] & wet[2]) & (wet[0] | wet[1] | wet[2])
-    tn = jnp.where(partial, L[2] / jnp.where(partial, L[2] - N[2], 1.0), 0.0)
-    tp = jnp.where(partial, L[2] / jnp.where(partial, L[2] - P[2], 1.0), 0.0)
-    cn = [a + tn * (b - a) for a, b in zip(L, N)]
-    cp = [a + tp * (b - a) for a, b in zip(L, P)]
-    zero = jnp.zeros_like(L[2])
-    corner = _tri_integrals((L[0], cn[0], cp[0]), (L[1], cn[1], cp[1]), (L[2], zero, zero), (L[3], cn[3], cp[3]))
     all_wet = wet[0] & wet[1] & wet[2]
-    lone_wet = partial & pick((wet[0], wet[1], wet[2]), 0)
+    partial = ~all_wet & (wet[0] | wet[1] | wet[2])
+    wl, wn, wp = pick(fields["w"], 0), pick(fields["w"], 1), pick(fields["w"], 2)
+    tn = jnp.where(partial, wl / jnp.where(partial, wl - wn, 1.0), 0.0)
+    tp = jnp.where(partial, wl / jnp.where(partial, wl - wp, 1.0), 0.0)
+    corner_fields = {}
+    for k, q in fields.items():
+        a, b, cc = pick(q, 0), pick(q, 1), pick(q, 2)
+        corner_fields[k] = (a, a + tn * (b - a), a + tp * (cc - a))
+    corner = _tri_integrals(corner_fields, pairs)
+    lone_wet = partial & pick(f3(wet), 0)
     lone_dry = partial & ~lone_wet
     out = []
     for f, k in zip(full, corner):
         part = jnp.where(all_wet, f, 0.0) + jnp.where(lone_wet, k, 0.0) + jnp.where(lone_dry, f - k, 0.0)
         out.append(-jnp.sum(part))
-    return tuple(out)
+    return out
 
 
 def _strip_wave(surface: HullSurface, x, zeta_mid, wavelength, amidships):
@@ -235,21 +251,69 @@ def _strip_wave(surface: HullSurface, x, zeta_mid, wavelength, amidships):
     return c0 + c1 * (x - m)
 
 
+def _heights(surface, sinkage, trim, zeta_mid, wavelength, amidships, lpp, calm):
+    """(vertices, h, τ): the triangles used and the water surface's height h and ∂h/∂trim = τ at their vertices."""
+    verts = surface.vertices if calm else surface.wave_vertices
+    tau = (verts[0] - amidships) / lpp
+    h = sinkage + trim * tau
+    if not calm:
+        h = h + _strip_wave(surface, verts[0], zeta_mid, wavelength, amidships)
+    return verts, h, tau
+
+
+@functools.partial(jax.custom_jvp, nondiff_argnums=(0,))
+def _moments(calm, surface, heel, sinkage, trim, zeta_mid, wavelength, amidships, lpp):
+    verts, h, tau = _heights(surface, sinkage, trim, zeta_mid, wavelength, amidships, lpp, calm)
+    vol, mx, mu, ww, mh = _clipped(verts, h, tau, heel, _MOMENTS)
+    return jnp.stack([vol, mx, mu, mh - ww / 2])
+
+
+def _moments_jvp(calm, primals, tangents):
+    """Where only the sinkage and trim carry tangents (the balance's Newton Jacobian), the closed-form slopes
+    (8 more integrands of the same clip); otherwise forward-mode through the clip."""
+    surface, heel, sinkage, trim, zeta_mid, wavelength, amidships, lpp = primals
+    t_other = jax.tree.leaves((tangents[0], tangents[1], *tangents[4:]))
+    if all(isinstance(t, jax.custom_derivatives.SymbolicZero) or _is_zero(t) for t in t_other):
+        verts, h, tau = _heights(surface, sinkage, trim, zeta_mid, wavelength, amidships, lpp, calm)
+        out = _clipped(verts, h, tau, heel, _MOMENTS + _SLOPES)
+        vol, mx, mu, ww, mh = out[:5]
+        ds, dt = jnp.stack(out[5:9]), jnp.stack(out[9:13])
+        primal = jnp.stack([vol, mx, mu, mh - ww / 2])
+        zero = lambda t: 0.0 if isinstance(t, jax.custom_derivatives.SymbolicZero) else t
+        return primal, ds * zero(tangents[2]) + dt * zero(tangents[3])
+    plain = lambda *p: _moments.fun(calm, *p)
+    return jax.jvp(plain, primals, tuple(_instantiate(t, p) for t, p in zip(tangents, primals)))
+
+
+_moments.defjvp(_moments_jvp, symbolic_zeros=True)
+
+
+def _is_zero(t) -> bool:
+    """A tangent known to be zero without looking at traced values (float0, or a concrete all-zero array)."""
+    if getattr(t, "dtype", None) == jax.dtypes.float0:
+        return True
+    try:
+        return not np.any(np.asarray(t))
+    except Exception:  # traced
+        return False
+
+
+def _instantiate(t, p):
+    sz = jax.custom_derivatives.SymbolicZero
+    return jax.tree.map(lambda a, b: jnp.zeros_like(b) if isinstance(a, sz) else a, t, p,
+                        is_leaf=lambda v: isinstance(v, sz))
+
+
 def surface_integrals(surface: HullSurface, heel, sinkage, trim, zeta_mid, wavelength, amidships, lpp, *,
                       calm: bool = False):
     """(volume, ∫x dV, ∫u dV, ∫Z dV) [m³, m⁴] of the hull below the water surface h(x) = s + t (x − L/2)/L + η(x),
-    η = −ζ_mid cos(2π (x − L/2)/λ) (linear in each strip), at heel φ; Z = h − w is the earth-vertical height
-    above the baseline point on the centre plane. `calm=True` uses the unsplit triangles (η ignored: only where
-    ζ_mid is 0)."""
-    lin = lambda x: sinkage + trim * (x - amidships) / lpp
-    if calm:
-        verts = surface.vertices
-        h = lin(verts[0])
-    else:
-        verts = surface.wave_vertices
-        h = lin(verts[0]) + _strip_wave(surface, verts[0], zeta_mid, wavelength, amidships)
-    vol, mx, mu, mw, mh = _clipped_integrals(verts, h, heel)
-    return vol, mx, mu, mh - mw
+    η = −ζ_mid cos(2π (x − L/2)/λ) (L²-projected on linear functions in each strip), at heel φ; Z = h − w is the
+    earth-vertical height above the baseline point on the centre plane. `calm=True` uses the unsplit triangles
+    (η ignored: only where ζ_mid is 0). Differentiable in every argument; the sinkage and trim derivatives are
+    closed-form integrals (cheap Newton Jacobians)."""
+    f = lambda v: jnp.asarray(v, dtype=float)
+    out = _moments(calm, surface, f(heel), f(sinkage), f(trim), f(zeta_mid), f(wavelength), f(amidships), f(lpp))
+    return out[0], out[1], out[2], out[3]
 
 
 def waterline_breadth(surface: HullSurface, sinkage, trim, zeta_mid, wavelength, amidships, lpp):
