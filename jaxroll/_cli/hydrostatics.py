@@ -147,9 +147,7 @@ def run(args) -> int:
             )
         roll_period = 24.4
 
-    from ..ship import hydrostatic_particulars
-
-    check_plausible(hull, hydrostatic_particulars(hull, loading))
+    check_plausible(hull, loading)
     sol = hull_hydrostatics(hull, loading, zeta_mid=zeta, heels=heels, wavelength=args.wavelength)
     ship = ship_from_hydrostatics(
         sol,

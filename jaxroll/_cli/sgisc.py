@@ -105,21 +105,22 @@ def read_hull_arg(args):
     return hull, loading, False
 
 
-def check_plausible(hull, particulars) -> None:
+def check_plausible(hull, loading) -> None:
     """Refuse a loading whose proportions betray a unit slip (a hull in feet or millimetres read as metres, a
-    displacement in tonnes given as kg), before the tables are computed."""
-    d, depth, b = float(particulars.draught), float(hull.depth), float(particulars.waterline_breadth)
+    displacement in tonnes given as kg), before the tables are computed (from the loading's even-keel draught and
+    the hull's largest breadth: nothing to compile)."""
+    d, depth, b = float(loading.draught), float(hull.depth), float(hull.max_breadth)
     lo = float(hull.waterlines[0])
     if d - lo < 0.04 * (depth - lo):
         raise CLIError(
             f"the draught d = {d:.4g} m is only {100 * (d - lo) / (depth - lo):.2g} % of the hull's height "
             f"({depth - lo:.4g} m, L = {float(hull.lpp):.4g} m, B = {b:.4g} m, Δ = "
-            f"{float(particulars.displacement):.4g} kg): a unit slip? (a displacement in tonnes given as kg, or a hull "
+            f"{float(loading.displacement):.4g} kg): a unit slip? (a displacement in tonnes given as kg, or a hull "
             "file in feet or inches read as metres: --units ft). Check --displacement/--draught and --units."
         )
     if b / max(d, 1e-9) > 15:
         raise CLIError(
-            f"B/d = {b / d:.3g} (B = {b:.4g} m at the waterline, d = {d:.4g} m): no ship floats so shallow for its "
+            f"B/d = {b / d:.3g} (B = {b:.4g} m, d = {d:.4g} m): no ship floats so shallow for its "
             "breadth; a unit slip? (--units, --scale, or a draught/displacement in the wrong unit)."
         )
 
@@ -278,8 +279,8 @@ def run(args) -> int:
         hull, file_loading, kg=args.kg, draught=args.draught, displacement=args.displacement,
         water_density=args.water_density,
     )  # fmt: skip
+    check_plausible(hull, loading)
     calm = hydrostatic_particulars(hull, loading)
-    check_plausible(hull, calm)
     if not float(calm.gm) > 0:
         raise CLIError(
             f"KG = {float(loading.kg):.4g} m gives GM = {float(calm.gm):.4g} m <= 0 (KM = "
