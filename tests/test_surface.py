@@ -130,8 +130,11 @@ def test_wigley_closed_forms_converge():
     for ns, nr in ((41, 17), (81, 33)):
         h = mesh_hull(hm.wigley(L, 10.0, T, D, ns=ns, nr=nr))
         p = jxr.hydrostatic_particulars(h, jxr.loading_condition(h, kg=4.0, draught=T))
-        exact = np.array([4 / 9 * L * 10.0 * T, 5 * T / 8, 3 / 35 * 10.0**2 / T])
-        errs.append(np.abs(np.array([p.volume, p.kb, p.bm]) / exact - 1))
+        # ∇, KB, BM and the form coefficients C_B = 4/9, C_M = C_WP = C_P = 2/3 (parabolic waterlines and sections)
+        exact = np.array([4 / 9 * L * 10.0 * T, 5 * T / 8, 3 / 35 * 10.0**2 / T, 4 / 9, 2 / 3, 2 / 3, 2 / 3])
+        ours = [p.volume, p.kb, p.bm, p.block_coefficient, p.midship_coefficient, p.waterplane_coefficient,
+                p.prismatic_coefficient]  # fmt: skip
+        errs.append(np.abs(np.asarray(ours, float) / exact - 1))
     assert np.all(errs[1] < 2e-3)  # the mesh's own discretisation (chords of the parabolas), not the engine
     assert np.all(errs[1] < errs[0] / 3)  # second order in the mesh spacing
 
@@ -149,6 +152,7 @@ def test_section_area_and_waterline_breadth():
     np.testing.assert_allclose(float(waterline_breadth(s, 5.0, 0.0, 0.0, L, L / 2, L)), 2 * (9.0 + 2.0 / 3.0), rtol=1e-12)
 
 
+@pytest.mark.slow  # reverse mode through the balance compiles for ~100 s on the 2-core CPU
 def test_gradients_through_the_balance_match_finite_differences():
     h = mesh_hull(hm.frigate(length=L, breadth=B, draught=d, depth=D, ns=21, nr=9))
     ld = jxr.loading_condition(h, kg=KG, draught=d)
