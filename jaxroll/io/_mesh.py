@@ -9,29 +9,30 @@ same files with numpy-stl (a dev extra) and check the triangles agree. WAMIT GDF
 the same triangle array and take the same path ([`hull_from_triangles`][]).
 
 **Axes and units** (stated and checked). The result is in jaxroll's body frame (`docs/hydrostatics.md`): x [m]
-forward from the aft perpendicular (AP), y [m] to starboard, z [m] up from the baseline (keel). Input files may
-use another length unit (`units="mm"` etc.), another forward/up axis (`forward="+x"`, `up="+z"`, or e.g.
-`"-y"`), and may be model scale (`scale=100` multiplies every length). The hull must be port–starboard
-symmetric (the offsets are the starboard half-breadths, mirrored); the check is that the mesh's y extent is
-symmetric about its middle, so a file whose "up" axis is wrong fails it (or gives an implausible depth).
+forward from the aft perpendicular (AP), y [m] across (the file's y: the hull is symmetric), z [m] up from the
+baseline. Input files may use another length unit (`units="mm"` etc.), another forward/up axis (`forward="+x"`,
+`up="+z"`, or e.g. `"-y"`), and may be model scale (`scale=100` multiplies every length).
 
 - x origin: the AP (`x_ap`, in metres after the unit/scale conversion, in the file's x origin) — default: the
   aftmost point of the mesh;
-- z origin: the lowest point of the hull (the keel) unless `z_baseline` is given;
-- y origin: the centre plane, taken as the middle of the y extent; an asymmetric mesh is an error.
+- z origin: the baseline (`baseline_z`), by default the keel line where the lowest point is a local protrusion
+  (sonar dome, skeg, bulb), else the lowest point, with a warning naming both whenever they differ or the file's
+  z = 0 lies inside the hull (`jaxroll.io._mesh_geometry`);
+- y origin: the centre plane, the middle of the y extent; a hull whose sections' centroids lie off it (more than
+  0.2 % of the breadth) is refused with the measured asymmetry.
 
-**Slicing.** Each station x_i cuts the surface in segments, exactly for the triangulation (a vertex on the plane
-counts as forward of it — abaft it at the aftmost point — so meshes whose vertex columns lie on the stations,
-flat transoms included, are cut exactly). At each waterline z_j the half-breadth is the largest |y| where the
-section crosses z = z_j (0 where it does not; a horizontal segment on z_j gives its outer end, so flat bottoms
-and decks are exact). A section that is not "convex in y" (a tunnel, twin hulls) cannot be represented by
-half-breadths: the outermost breadth is used.
+**Hydrostatics.** The returned `Hull` keeps the closed, outward-oriented triangles (`Hull.surface`): its
+hydrostatics are those of the polyhedron itself (`jaxroll.ship._surface`). It also carries offsets sliced at
+stations × waterlines (each station plane cuts the triangles exactly; the half-breadth at a waterline is the
+largest |y| where the section crosses it) for the body plan and the exported hull file; `exact=False` uses them for
+the hydrostatics (jaxroll 0.1's method, O(Δx², Δz²) errors at large heel).
 
 **Checks.** The mesh must be closed and 2-manifold (every edge shared by exactly two triangles, after welding
-vertices closer than 1e-9 of the size). A half-hull (open only along the centre plane) is accepted and
-mirrored. Lengths under 24 m (the smallest ship the IS Code's criteria apply to) or over 500 m raise
-`ModelScaleError` — the classic unit error is a 1:100 model file (L = 2.62 instead of 262 m) or millimetres
-read as metres.
+vertices closer than 1e-9 of the size) and consistently oriented (`fix_normals=True` repairs it; all-inward normals
+are turned outward). A half-hull (open only along a flat side) is mirrored with `half_hull=True` and refused
+without it. Lengths under 24 m (the smallest ship the IS Code's criteria apply to) or over 500 m raise
+`ModelScaleError` — the classic unit error is a 1:100 model file (L = 2.62 instead of 262 m) or millimetres read
+as metres.
 """
 
 from __future__ import annotations

@@ -20,10 +20,11 @@ triangle — are integrated exactly by the 3-point edge-midpoint rule. Vectorise
 differentiable (the clip points move smoothly with sinkage, trim, heel and the wave).
 
 **Waves.** In calm water h(x) = s + t (x − L/2)/L is linear and the result is exact. In a wave the surface
-h(x) + η(x) is curved; the surface is split once (`split_at_planes`) at `strips` equally spaced planes x = x_k,
-and η is replaced by its linear interpolant in each strip — a continuous piecewise-linear water surface, for which
-the clip is again exact. The only error is that of the interpolant: |η − η_lin| ≤ ζ k² Δx²/8 (k = 2π/λ, Δx the
-strip width), 0.74 mm for ζ = 6 m, λ = L and 200 strips (`wave_surface_error_bound`).
+h(x) + η(x) is curved; the surface is split once (`split_at_planes`) at `strips` equally spaced planes x = x_k, and
+in each strip η is replaced by its L²-projection on linear functions (the same mean and first moment over the strip).
+F has no x-component, so the strip planes carry no flux and the per-strip surfaces need not join: the clip is exact
+for them, and the only error is the projection's, O((kΔx)⁴) in the integrals (k = 2π/λ): ΔGM of a box in a 3 m
+wave, λ = L, is off by 1.5 mm with 5 strips, 0.1 mm with 10, 6 µm with 20 (24 by default).
 
 **Trim** is the small-angle shear of `jaxroll.ship._hydrostatics` (the water surface h(x) in the body frame;
 the immersed body is exact for that surface, the GZ lever is measured transversely).
@@ -32,7 +33,6 @@ the immersed body is exact for that surface, the GZ lever is measured transverse
 from __future__ import annotations
 
 import functools
-import math
 
 import equinox as eqx
 import jax
@@ -45,7 +45,7 @@ TRIANGLE_BUCKETS = tuple(int(512 * 2 ** (k / 2)) // 64 * 64 for k in range(0, 21
 programs (padding triangles have no area and add nothing)."""
 
 DEFAULT_WAVE_STRIPS = 24
-"""Strips along x for waves (Δx = length/24): |η − η_lin| ≤ ζ k² Δx²/8."""
+"""Strips along x for waves (Δx = length/24); the error of the L²-projected wave is O((kΔx)⁴) (module docstring)."""
 
 
 def bucket_size(n: int) -> int:
@@ -54,13 +54,6 @@ def bucket_size(n: int) -> int:
         if b >= n:
             return b
     return -(-n // 8192) * 8192
-
-
-def wave_surface_error_bound(zeta: float, wavelength: float, strip_width: float) -> float:
-    """Largest |η − η_lin| [m] of a cosine wave of amplitude `zeta` [m] and length `wavelength` [m] replaced by its
-    linear interpolant over strips of width `strip_width` [m]: ζ k² Δx²/8."""
-    k = 2 * math.pi / wavelength
-    return abs(zeta) * k**2 * strip_width**2 / 8
 
 
 class HullSurface(eqx.Module):
@@ -125,7 +118,7 @@ def hull_surface(triangles: np.ndarray, *, strips: int = DEFAULT_WAVE_STRIPS) ->
     """A [`HullSurface`][] from closed, outward-oriented triangles (n, 3, 3) in the body frame [m].
 
     `strips`: equally spaced strips over the surface's x extent in which a wave surface is taken linear (see the
-    module's docstring for the error bound). Both triangle sets are padded to [`bucket_size`][]."""
+    module's docstring for its error). Both triangle sets are padded to [`bucket_size`][]."""
     tri = np.asarray(triangles, float)
     x0, x1 = float(tri[..., 0].min()), float(tri[..., 0].max())
     edges = np.linspace(x0, x1, strips + 1)
