@@ -478,11 +478,16 @@ upright), `result` (`optimistix.RESULTS`), `num_steps` (Newton steps).
 
 def _balance_residual(y, args):
     hull, loading, heel, zeta_mid, wavelength, calm = args
-    ints = _integrals(hull, heel, y[0], y[1], zeta_mid, wavelength, calm)
+    if hull.surface is not None:  # only ∇ and ∫x dV, with closed-form Jacobians
+        lam = hull.lpp if wavelength is None else wavelength
+        volume, moment_x = _surface.balance_integrals(
+            hull.surface, heel, y[0], y[1], zeta_mid, lam, hull.amidships, hull.lpp, calm=calm
+        )
+    else:
+        ints = _integrals(hull, heel, y[0], y[1], zeta_mid, wavelength, calm)
+        volume, moment_x = ints.volume, ints.moment_x
     scale = hull.lpp * hull.max_breadth
-    return jnp.stack(
-        [(ints.volume - loading.volume) / scale, (ints.moment_x - loading.lcg * ints.volume) / loading.volume]
-    )
+    return jnp.stack([(volume - loading.volume) / scale, (moment_x - loading.lcg * volume) / loading.volume])
 
 
 def _equilibrium_single(hull, loading, heel, zeta_mid, wavelength, guess, calm: bool = False):

@@ -40,9 +40,9 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
 
-TRIANGLE_BUCKETS = tuple(int(512 * 2 ** (k / 2)) // 64 * 64 for k in range(0, 21))
-"""Padded triangle counts (512 · √2ᵏ, multiples of 64): every hull of a size class runs the same compiled
-programs (padding triangles have no area and add nothing)."""
+TRIANGLE_BUCKETS = tuple(int(512 * 2 ** (k / 4)) // 64 * 64 for k in range(0, 41))
+"""Padded triangle counts (512 · 2^(k/4), multiples of 64: at most 19 % padding): every hull of a size class runs
+the same compiled programs (padding triangles have no area and add nothing)."""
 
 DEFAULT_WAVE_STRIPS = 24
 """Strips along x for waves (Δx = length/24); the error of the L²-projected wave is O((kΔx)⁴) (module docstring)."""
@@ -188,6 +188,10 @@ _SLOPES = (("one", None), ("x", None), ("u", None), ("h", None), ("one", "tau"),
            ("h", "tau"))  # fmt: skip
 
 
+_BALANCE = (("w", None), ("w", "x"))  # ∇ and ∫x dV: what the sinkage–trim balance needs
+_BALANCE_SLOPES = (("one", None), ("x", None), ("one", "tau"), ("x", "tau"))
+
+
 def _clipped(verts, h, tau, heel, pairs):
     """Integrals −∫_{wet} f g dS_ζ (`pairs` as for `_tri_integrals`) over the part of the triangles below the
     surface: `verts` (3 coordinates, 3 vertices, n), `h` and `tau` (3, n) linear fields at the vertices.
@@ -202,7 +206,8 @@ def _clipped(verts, h, tau, heel, pairs):
     wet = w >= 0
     one = jnp.ones_like(x)
     f3 = lambda q: (q[0], q[1], q[2])
-    fields = dict(x=f3(x), u=f3(u), w=f3(w), h=f3(h), tau=f3(tau), one=f3(one))
+    needed = {"x", "u", "w"} | {k for pair in pairs for k in pair if k is not None}
+    fields = {k: f3(v) for k, v in dict(x=x, u=u, w=w, h=h, tau=tau, one=one).items() if k in needed}
     full = _tri_integrals(fields, pairs)
     lone0 = wet[1] == wet[2]
     lone1 = (wet[0] == wet[2]) & ~lone0
@@ -279,6 +284,37 @@ def _moments_jvp(calm, primals, tangents):
 
 
 _moments.defjvp(_moments_jvp, symbolic_zeros=True)
+
+
+@functools.partial(jax.custom_jvp, nondiff_argnums=(0,))
+def _balance(calm, surface, heel, sinkage, trim, zeta_mid, wavelength, amidships, lpp):
+    verts, h, tau = _heights(surface, sinkage, trim, zeta_mid, wavelength, amidships, lpp, calm)
+    return jnp.stack(_clipped(verts, h, tau, heel, _BALANCE))
+
+
+def _balance_jvp(calm, primals, tangents):
+    surface, heel, sinkage, trim, zeta_mid, wavelength, amidships, lpp = primals
+    t_other = jax.tree.leaves((tangents[0], tangents[1], *tangents[4:]))
+    if all(isinstance(t, jax.custom_derivatives.SymbolicZero) or _is_zero(t) for t in t_other):
+        verts, h, tau = _heights(surface, sinkage, trim, zeta_mid, wavelength, amidships, lpp, calm)
+        out = _clipped(verts, h, tau, heel, _BALANCE + _BALANCE_SLOPES)
+        zero = lambda t: 0.0 if isinstance(t, jax.custom_derivatives.SymbolicZero) else t
+        ds, dt = jnp.stack(out[2:4]), jnp.stack(out[4:6])
+        return jnp.stack(out[:2]), ds * zero(tangents[2]) + dt * zero(tangents[3])
+    plain = lambda *p: _balance.fun(calm, *p)
+    return jax.jvp(plain, primals, tuple(_instantiate(t, p) for t, p in zip(tangents, primals)))
+
+
+_balance.defjvp(_balance_jvp, symbolic_zeros=True)
+
+
+def balance_integrals(surface: HullSurface, heel, sinkage, trim, zeta_mid, wavelength, amidships, lpp, *,
+                      calm: bool = False):
+    """(volume [m³], ∫x dV [m⁴]) as [`surface_integrals`][] gives them, computing only these two (the balance's
+    residual; its sinkage and trim derivatives are closed-form)."""
+    f = lambda v: jnp.asarray(v, dtype=float)
+    out = _balance(calm, surface, f(heel), f(sinkage), f(trim), f(zeta_mid), f(wavelength), f(amidships), f(lpp))
+    return out[0], out[1]
 
 
 def _is_zero(t) -> bool:
