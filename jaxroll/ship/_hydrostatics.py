@@ -177,9 +177,7 @@ class _Integrals(eqx.Module):
 
 
 def _integrals(hull: Hull, heel, sinkage, trim, zeta_mid, wavelength, calm: bool = False) -> _Integrals:
-    """The immersed integrals: from the hull's surface where it has one (exact for the polyhedron), else from its
-    offsets (exact for the section polygons, trapezoid rule along x). `calm=True` where ζ_mid is 0 (the surface's
-    unsplit triangles)."""
+    """The immersed integrals: of the hull's surface (exact) or offsets; `calm=True` where ζ_mid is 0."""
     if hull.surface is not None:
         lam = hull.lpp if wavelength is None else wavelength
         vol, mx, mu, mz = _surface.surface_integrals(
@@ -480,9 +478,8 @@ def _balance_residual(y, args):
     hull, loading, heel, zeta_mid, wavelength, calm = args
     if hull.surface is not None:  # only ∇ and ∫x dV, with closed-form Jacobians
         lam = hull.lpp if wavelength is None else wavelength
-        volume, moment_x = _surface.balance_integrals(
-            hull.surface, heel, y[0], y[1], zeta_mid, lam, hull.amidships, hull.lpp, calm=calm
-        )
+        args = (hull.surface, heel, y[0], y[1], zeta_mid, lam, hull.amidships, hull.lpp)
+        volume, moment_x = _surface.balance_integrals(*args, calm=calm)
     else:
         ints = _integrals(hull, heel, y[0], y[1], zeta_mid, wavelength, calm)
         volume, moment_x = ints.volume, ints.moment_x
