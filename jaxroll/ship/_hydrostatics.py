@@ -391,8 +391,7 @@ def loading_condition(
                 f"{float(hv[0][0])} m: "
                 "the hull would not float. Give a draught above the keel."
             )
-    c_kg = _concrete(kg)
-    if c_kg is not None and hv[1] is not None and c_kg.shape == () and float(c_kg) > float(hv[1]):
+    if (c_kg := _concrete(kg)) is not None and hv[1] is not None and c_kg.shape == () and c_kg > hv[1]:
         warnings.warn(
             f"KG = {float(c_kg):.4g} m is above the deck: the hull's depth is D = {float(hv[1]):.4g} m above the "
             "baseline. Possible only with tall superstructure or deck cargo: check that KG is measured from the "
