@@ -521,3 +521,8 @@ def test_cli_sgisc_box_barge_names_ikedas_range_and_damping(tmp_path, capsys, mo
                          r"0\.5–0\.85\), CM = 1\.000 \(range 0\.9–0\.99\); it extrapolates to a NEGATIVE damping .* "
                          r"--damping B1 B2 B3", out.err), out.err  # fmt: skip
         assert "damping coefficients must be >= 0" not in out.err
+
+
+def test_kg_above_the_deck_warns():
+    with pytest.warns(UserWarning, match=r"KG = 12 m is above the deck: the hull's depth is D = 10 m .*--baseline-z"):
+        jxr.loading_condition(jxr.box_hull(L, B, D), kg=12.0, draught=d)
