@@ -10,7 +10,7 @@ import numpy as np
 from ..ship._fits import ship_from_hull
 from ..ship._hull import Hull
 from ..ship._hydrostatics import GRAVITY, Loading, loading_condition
-from ..ship._ikeda import ikeda_damping
+from ..ship._ikeda import IkedaRangeError, ikeda_damping
 from ..ship._ship import Ship
 from ._c2 import C2Result, effective_wave_height, level2_c2
 from ._parametric_roll import (
@@ -114,6 +114,21 @@ def assess_parametric_roll(
             "keels (conservative), since it needs their length and breadth."
         )
     t_phi, t_source = _roll_period(calm, hull, roll_period, roll_gyradius)
+    if damping is None:  # before Level 1 and C1: an unusable estimate is reported at once
+        try:
+            fit = _ikeda(hull, calm, t_phi, bilge_keel_length, bilge_keel_breadth)
+        except IkedaRangeError as e:
+            if not skip_c2:
+                raise
+            fit = dict(source=f"not usable: {e}", b1=None, b2=None, b3=None, out_of_range=[])
+            notes.append("C2 skipped; the simplified Ikeda damping is not usable for this hull (see `damping`).")
+        if fit["out_of_range"]:
+            notes.append(
+                f"Ikeda damping: {', '.join(fit['out_of_range'])} outside the regression's range (extrapolated)."
+            )
+    else:
+        b = [float(v) for v in damping]
+        fit = dict(source=damping_source or "given", b1=b[0], b2=b[1], b3=b[2])
     l1 = level1(
         hull,
         loading,
@@ -129,26 +144,6 @@ def assess_parametric_roll(
         bilge_keel_area=bilge_keel_area,
         sharp_bilge=sharp_bilge,
     )
-    if damping is None:
-        fit = ikeda_damping(
-            lpp=float(hull.lpp),
-            breadth=float(calm.waterline_breadth),
-            draught=float(calm.draught),
-            block_coefficient=float(calm.block_coefficient),
-            midship_coefficient=float(calm.midship_coefficient),
-            kg=float(calm.kg),
-            gm=float(calm.gm),
-            roll_period=t_phi,
-            bilge_keel_length=bilge_keel_length,
-            bilge_keel_breadth=bilge_keel_breadth,
-        )
-        if fit["out_of_range"]:
-            notes.append(
-                f"Ikeda damping: {', '.join(fit['out_of_range'])} outside the regression's range (extrapolated)."
-            )
-    else:
-        b = [float(v) for v in damping]
-        fit = dict(source=damping_source or "given", b1=b[0], b2=b[1], b3=b[2])
     ship, c2 = None, None
     if not skip_c2:
         heff_max = float(np.max(effective_wave_height(float(hull.lpp), REC34_HS[-1], REC34_TZ)))
@@ -185,6 +180,21 @@ def assess_parametric_roll(
         verdict=verdict,
         vulnerable=verdict.startswith("VULNERABLE"),
         notes=notes,
+    )
+
+
+def _ikeda(hull, calm, t_phi, bilge_keel_length, bilge_keel_breadth) -> dict:
+    return ikeda_damping(
+        lpp=float(hull.lpp),
+        breadth=float(calm.waterline_breadth),
+        draught=float(calm.draught),
+        block_coefficient=float(calm.block_coefficient),
+        midship_coefficient=float(calm.midship_coefficient),
+        kg=float(calm.kg),
+        gm=float(calm.gm),
+        roll_period=t_phi,
+        bilge_keel_length=bilge_keel_length,
+        bilge_keel_breadth=bilge_keel_breadth,
     )
 
 

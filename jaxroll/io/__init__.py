@@ -30,6 +30,7 @@ from ._mesh import (
     ModelScaleError as ModelScaleError,
     hull_from_triangles as hull_from_triangles,
     read_hull as read_hull,
+    read_mesh as read_mesh,
     read_offsets_csv as read_offsets_csv,
     read_stl as read_stl,
     read_stl_hull as read_stl_hull,

@@ -36,6 +36,7 @@ from ._hydrostatics import (
 from ._ikeda import (
     IKEDA_SOURCE as IKEDA_SOURCE,
     IkedaDamping as IkedaDamping,
+    IkedaRangeError as IkedaRangeError,
     ikeda_damping as ikeda_damping,
     simplified_ikeda as simplified_ikeda,
 )
