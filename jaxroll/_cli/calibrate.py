@@ -188,7 +188,13 @@ def _fmt(e) -> str:
 def run_decay(args) -> int:
     import matplotlib.pyplot as plt
 
-    from ..calibration import calibrated_ship, decay_agreement, fit_decay_ode, fit_extinction
+    from ..calibration import (
+        calibrated_ship,
+        decay_agreement,
+        fit_decay_ode,
+        fit_extinction,
+        nonnegative_damping,
+    )
     from ..plotting import plot_decay_fit, plot_extinction
 
     ship = load_ship_arg(args.ship)
@@ -218,7 +224,12 @@ def run_decay(args) -> int:
             "bias_correction": not args.no_bias_correction,
         },
         "estimates": {"extinction": ext.to_dict(), "ode": ode.to_dict()},
-        "written": {"damping": chosen.to_dict()["damping"], "roll_period_s": float(fitted.roll_period)},
+        # what ship.toml holds (a negative coefficient held at 0, the others moved: `constrained`, and a warning)
+        "written": {
+            "damping": dict(zip(("b1", "b2", "b3"), (float(b) for b in fitted.damping), strict=True)),
+            "roll_period_s": float(fitted.roll_period),
+            "constrained": nonnegative_damping(("b1", "b2", "b3"), chosen.b, chosen.damping_covariance)[1],
+        },
         "agreement_z": agree,
         "run_time_s": time.time() - t0,
     }
