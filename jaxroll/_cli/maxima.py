@@ -18,7 +18,15 @@ from ._common import (
     save_figure,
     write_json,
 )
-from ._sea import add_sea_options, build_problem, heading_phrase, parse_heading, sea_config
+from ._sea import (
+    add_sea_options,
+    build_problem,
+    check_sea_options,
+    check_steps,
+    heading_phrase,
+    parse_heading,
+    sea_config,
+)
 
 
 def register(sub) -> None:
@@ -95,6 +103,11 @@ def run(args) -> int:
     out = Path(args.out)
     check_out(out)
     ship = load_ship_arg(args.ship)
+    check_sea_options(args)
+    longest = args.duration if args.duration is not None else (  # as jaxroll.roll.default_duration
+        args.discard + (1.6 * max(n0_all) + 4) * float(ship.roll_period) / 2)
+    check_steps(args.dt, {"--duration" if args.duration is not None else "the duration max(--n0) needs (--duration)":
+                          max(longest, 3600.0)})  # the trials of the maxima, and of the amplitude law (3600 s)
     problem, fit, sea = build_problem(args, ship)
     groups = [(g, n) for g, n in (([v for v in n0_all if v < 10_000], args.realizations),
                                   ([v for v in n0_all if v >= 10_000], args.realizations_large)) if g]

@@ -18,7 +18,16 @@ from ._common import (
     save_figure,
     write_json,
 )
-from ._sea import add_sea_options, build_problem, check_positive, heading_phrase, parse_heading, sea_config
+from ._sea import (
+    add_sea_options,
+    build_problem,
+    check_positive,
+    check_sea_options,
+    check_steps,
+    heading_phrase,
+    parse_heading,
+    sea_config,
+)
 
 
 def register(sub) -> None:
@@ -87,6 +96,8 @@ def run(args) -> int:
     check_chunk_size(args)
     if not (math.isfinite(args.discard) and 0 <= args.discard < args.duration):
         raise CLIError(f"--discard must be in [0, --duration) = [0, {args.duration:g}) s; got {args.discard:g}.")
+    check_sea_options(args)
+    check_steps(args.dt, {"--duration": args.duration, "--discard + --hours": args.discard + args.hours * 3600.0})
     budget = memory_budget(args)
     out = Path(args.out)
     check_out(out)
