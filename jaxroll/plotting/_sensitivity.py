@@ -81,12 +81,11 @@ def sensitivity_bar_chart(payload: Mapping, *, statistics: Sequence[str] | None 
         ax.axhline(0.0, color="k", lw=0.6)
         ax.set_xticks(x, [parameter_label(p, steps[p]) for p in params], fontsize=8)
         ax.set_ylabel(f"Δ {statistic_label(stat)}", fontsize=9)
-        ax.set_title("for the step under each parameter (10 % of its value; 1 unit where it is 0)", fontsize=8)
         ax.grid(axis="y", alpha=0.3)
     for ax in axes.ravel()[len(names):]:
         ax.set_visible(False)
     axes.ravel()[0].legend(fontsize=8)
-    if title:
-        fig.suptitle(title)
+    note = "bars: the change for the step under each parameter (10 % of its value; 1 unit where it is 0)"
+    fig.suptitle(f"{title}\n{note}" if title else note, fontsize=10)
     fig.tight_layout()
     return fig
