@@ -318,3 +318,72 @@ def test_unwritable_out_is_refused_before_any_fit(no_computation, capsys, comman
     """A folder no one can write into (here /proc, refused even for root, unlike a chmod) is reported at once."""
     assert main([command, "--out", "/proc/jaxroll-audit"]) == 2
     assert "--out '/proc/jaxroll-audit': cannot write into '/proc'" in capsys.readouterr().err
+
+
+# ----------------------------------------------------------------------------------------------------------------
+# Figures and words
+# ----------------------------------------------------------------------------------------------------------------
+
+
+def test_sparse_tail_merged_so_p_star_has_no_zeros_inside_the_data():
+    """P* of the Monte Carlo amplitude law had zeros near 65-70° at N0 = 10⁴: empty 1° bins in its tail."""
+    from jaxroll.roll._statistics import _merge_sparse_bins
+
+    counts = np.array([0.0, 3, 50, 40, 20, 8, 0, 1, 0, 2, 0, 0, 0])
+    merged, edges = _merge_sparse_bins(counts, np.arange(14.0), 10)
+    np.testing.assert_array_equal(merged, [53, 40, 20, 11, 0, 0, 0])
+    np.testing.assert_array_equal(edges, [0, 3, 4, 5, 10, 11, 12, 13])
+    stats = jxr.AmplitudeStatistics(
+        edges_deg=np.arange(0, 90.0001, 0.05), counts_zero_crossing=np.zeros(1800), counts_envelope=np.zeros(1800),
+        capsized=np.zeros(1, bool), capsize_time=np.zeros(1))
+    per_degree = np.zeros(90)
+    per_degree[:50] = 1000.0 * np.exp(-(((np.arange(50) - 15.0) / 10.0) ** 2))  # a bulk around 15°
+    per_degree[45:52] = [40, 12, 5, 0, 2, 0, 1]  # a sparse tail with empty 1° bins, as 2000 trials give
+    stats.counts_zero_crossing[::20] = np.round(per_degree)
+    law = stats.law("zero_crossing", pool=20, min_count=10)
+    a = np.deg2rad(np.linspace(44.0, 51.9, 80))  # the tail, up to the last amplitude seen
+    assert np.all(np.asarray(jxr.max_pdf(law, a, 10_000)) > 0)
+    sparse = stats.law("zero_crossing", pool=20)
+    assert np.any(np.asarray(jxr.max_pdf(sparse, a, 10_000)) == 0)  # what it was
+
+
+def test_maxima_terminal_line_has_no_infinity():
+    from jaxroll._cli.maxima import maxima_line
+
+    v = {"quantiles_deg": {"99": None}, "n_known": 500, "n_capsized": 50, "capsize_probability": 0.1,
+         "mean_deg": None, "mean_deg_given_no_capsize": 59.4}
+    line = maxima_line(v)
+    assert "∞" not in line and "mean max 59.40° for the trials that did not capsize" in line
+    assert maxima_line({**v, "n_capsized": 0, "mean_deg": 20.0, "quantiles_deg": {"99": 40.0}}).startswith(
+        "mean max 20.00°, 99 % 40.00°")
+
+
+def test_risk_probability_near_one_keeps_its_digits():
+    from jaxroll._cli.risk import _no_exceedance, probability_text
+
+    q, n = 0.03, 885.0
+    complement = _no_exceedance(q, n)
+    np.testing.assert_allclose(complement, (1 - q) ** n, rtol=1e-12, atol=0)
+    assert probability_text(1 - complement, complement) == "1 − 2e-12"  # it printed 1.0000 (CI 1.0000–1.0000)
+    assert probability_text(0.25, 0.75) == "0.2500" and probability_text(1.0, 0.0) == "1"
+
+
+def test_sensitivity_chart_labels_are_words():
+    from jaxroll.plotting._sensitivity import parameter_label, statistic_label
+
+    assert statistic_label("E_phi2_deg2") == "E[φ²] [deg²]"  # it read 'Δ E_phi2_deg2'
+    assert statistic_label("P_exceed_20deg") == "P(envelope > 20°)"
+    assert statistic_label("P_exceed_zc_30deg") == "P(zero-crossing amplitude > 30°)"
+    assert parameter_label("hs", 0.7) == "H1/3\n+0.7 m"
+
+
+def test_polar_chart_speed_labels_stop_short_of_the_rim():
+    import matplotlib.pyplot as plt
+
+    from jaxroll.plotting import polar_risk_chart
+
+    fig, ax = plt.subplots(subplot_kw={"projection": "polar"})
+    polar_risk_chart(ax, [0, 90, 180], [0, 2, 4], np.zeros((3, 3)))
+    labels = [t.get_text() for t in ax.get_yticklabels()]
+    assert labels == ["0", "2", "4 m/s"]  # the grid's speeds; nothing at the rim (5 m/s), where it hit "180° head"
+    plt.close(fig)
