@@ -299,7 +299,7 @@ def no_computation(monkeypatch):
     [
         (["pdf", "--dt", "1e-9"], r"--duration / --dt = 3600 s / 1e-09 s = 3.6e\+12 time steps per realization"),
         (["pdf", "--duration", "1e12"], r"--duration / --dt = 1e\+12 s / 0.5 s = 2e\+12 time steps"),
-        (["maxima", "--dt", "1e-9"], r"--duration / --dt = .* time steps per realization"),
+        (["maxima", "--dt", "1e-9"], r"the duration max\(--n0\) needs \(--duration\) / --dt = 195749 s / 1e-09 s"),
         (["maxima", "--n0", "1000000000"], r"the duration max\(--n0\) needs \(--duration\) / --dt"),
         (["risk", "--hours", "1e9"], r"--discard \+ --hours / --dt = 3.6e\+12 s"),
         (["sweep", "--duration", "1e12"], r"--duration / --dt = 1e\+12 s"),
