@@ -224,9 +224,11 @@ def run_decay(args) -> int:
             "bias_correction": not args.no_bias_correction,
         },
         "estimates": {"extinction": ext.to_dict(), "ode": ode.to_dict()},
-        # what ship.toml holds (a negative coefficient held at 0, the others moved: `constrained`, and a warning)
+        # what ship.toml holds: the fit's estimates, but a negative coefficient held at 0 and the others moved to the
+        # constrained fit (`constrained`: fitted and written values; a warning says so)
         "written": {
-            "damping": dict(zip(("b1", "b2", "b3"), (float(b) for b in fitted.damping), strict=True)),
+            "damping": {k: {**e, "value": float(b)} for (k, e), b in zip(chosen.to_dict()["damping"].items(),
+                                                                        fitted.damping, strict=True)},
             "roll_period_s": float(fitted.roll_period),
             "constrained": nonnegative_damping(("b1", "b2", "b3"), chosen.b, chosen.damping_covariance)[1],
         },
