@@ -327,12 +327,12 @@ def test_unwritable_out_is_refused_before_any_fit(no_computation, capsys, comman
 
 def test_sparse_tail_merged_so_p_star_has_no_zeros_inside_the_data():
     """P* of the Monte Carlo amplitude law had zeros near 65-70° at N0 = 10⁴: empty 1° bins in its tail."""
-    from jaxroll.roll._statistics import _merge_sparse_bins
+    from jaxroll.roll._statistics import _spread_sparse_bins
 
     counts = np.array([0.0, 3, 50, 40, 20, 8, 0, 1, 0, 2, 0, 0, 0])
-    merged, edges = _merge_sparse_bins(counts, np.arange(14.0), 10)
-    np.testing.assert_array_equal(merged, [53, 40, 20, 11, 0, 0, 0])
-    np.testing.assert_array_equal(edges, [0, 3, 4, 5, 10, 11, 12, 13])
+    spread = _spread_sparse_bins(counts, 10)
+    np.testing.assert_allclose(spread, [53 / 3] * 3 + [40, 20] + [11 / 5] * 5 + [0, 0, 0], rtol=1e-15, atol=0)
+    assert spread.sum() == counts.sum()
     stats = jxr.AmplitudeStatistics(
         edges_deg=np.arange(0, 90.0001, 0.05), counts_zero_crossing=np.zeros(1800), counts_envelope=np.zeros(1800),
         capsized=np.zeros(1, bool), capsize_time=np.zeros(1))

@@ -33,7 +33,7 @@ from ._sea import (
 THEORIES = ("roberts", "esam", "moment", "envelope_fpk")
 #: Above this capsize probability the Monte Carlo's PDF (of the survivors) and the theories' stationary laws are not
 #: comparable: `jaxroll pdf` warns.
-CAPSIZE_THEORY_LIMIT = 0.1
+CAPSIZE_LIMIT_FOR_THEORIES = 0.1
 # the theories `jaxroll pdf` overlays unless --theory says otherwise (docs/theory.md, "Speed": what they cost)
 DEFAULT_OVERLAY = ("roberts", "esam", "moment")
 
@@ -257,7 +257,7 @@ def run(args) -> int:
             payload["total_run_time_s"] = earlier + elapsed
         if fit is not None:
             payload["filter_fit"] = fit.summary()
-        if summary.get("theory") and stats.capsize_probability > CAPSIZE_THEORY_LIMIT:
+        if summary.get("theory") and stats.capsize_probability > CAPSIZE_LIMIT_FOR_THEORIES:
             import warnings
 
             warnings.warn(
@@ -265,7 +265,7 @@ def run(args) -> int:
                 f"{stats.capsize_probability:.3g}): the theories overlaid ({', '.join(summary['theory'])}) are "
                 "stationary laws of a roll that never capsizes, so they do not describe this sea state, and the "
                 f"Monte Carlo's PDF is that of the {stats.n_realizations - stats.n_capsized} survivors only. This "
-                f"warning appears because more than {CAPSIZE_THEORY_LIMIT:.0%} of the realizations capsized.",
+                f"warning appears because more than {CAPSIZE_LIMIT_FOR_THEORIES:.0%} of the realizations capsized.",
                 stacklevel=2,
             )
         caption = capsize_caption(stats.n_realizations, stats.n_capsized)

@@ -70,14 +70,16 @@ STATIONARITY_TOLERANCE = 0.10
 STATIONARITY_SE = 3.0
 
 
-def _merge_sparse_bins(counts: np.ndarray, edges: np.ndarray, min_count: int) -> tuple[np.ndarray, np.ndarray]:
-    """Merge neighbouring histogram bins, from the last occupied one towards 0, until each merged bin holds at
-    least `min_count` counts (the lowest group, if short, joins its upper neighbour); empty bins beyond the last
-    occupied one are kept as they are (nothing was seen there). Returns `(counts, edges)`."""
+def _spread_sparse_bins(counts: np.ndarray, min_count: int) -> np.ndarray:
+    """Histogram counts with the sparse tail evened out: from the last occupied bin towards 0, neighbouring bins are
+    grouped until each group holds at least `min_count` counts (the lowest group, if short, joins the one above it),
+    and each group's count is spread evenly over its bins; empty bins beyond the last occupied one stay empty
+    (nothing was seen there). The bins keep their edges, so the law's density and its masses stay consistent."""
+    counts = np.asarray(counts, dtype=float)
     if min_count <= 1 or not counts.any():
-        return counts, edges
+        return counts
     last = int(np.nonzero(counts)[0][-1])
-    groups, total, top = [], 0.0, last + 1  # merged bins as (first, stop) index ranges, from the top down
+    groups, total, top = [], 0.0, last + 1  # (first, stop) index ranges, from the top down
     for i in range(last, -1, -1):
         total += counts[i]
         if total >= min_count:
@@ -85,10 +87,10 @@ def _merge_sparse_bins(counts: np.ndarray, edges: np.ndarray, min_count: int) ->
             total, top = 0.0, i
     if top > 0:  # the lowest bins hold fewer than min_count: they join the group above them (or form the only one)
         groups[-1:] = [(0, groups[-1][1])] if groups else [(0, top)]
-    groups.reverse()
-    merged = np.array([counts[a:b].sum() for a, b in groups] + list(counts[last + 1 :]))
-    new_edges = np.array([edges[a] for a, _ in groups] + list(edges[last + 1 :]))
-    return merged, new_edges
+    out = counts.copy()
+    for a, b in groups:
+        out[a:b] = counts[a:b].sum() / (b - a)
+    return out
 
 
 @dataclass
@@ -133,9 +135,9 @@ class AmplitudeStatistics(CapsizeCounts):
         """The amplitude law of the histogram (radians), labelled with what it is a law of.
 
         `pool` merges that many fine bins (0.05° each; e.g. 20 → 1° bins): the maximum-value formulas amplify
-        histogram noise. `min_count` then merges neighbouring bins, from the last occupied one down, until each
-        holds at least that many amplitudes (wider bins where the tail is sparse): a law whose tail has no empty
-        bin, so that P*(A_M), which follows the density at its 1 − 1/N0 quantile, has no zeros inside the data
+        histogram noise. `min_count` then groups neighbouring bins, from the last occupied one down, until each
+        group holds at least that many amplitudes, and spreads each group's count evenly over its bins: a law whose
+        tail has no empty bin, so that P*(A_M), which follows the density at its 1 − 1/N0 quantile, has no zeros inside the data
         (`jaxroll maxima` uses 1° bins and 10 amplitudes). Zero-crossing amplitudes give the per-half-cycle law the
         maxima and risk formulas need.
 
@@ -146,9 +148,9 @@ class AmplitudeStatistics(CapsizeCounts):
             raise ValueError(f"`pool` must divide the {counts.size} fine bins; got {pool}.")
         if not (isinstance(min_count, int) and min_count >= 1):
             raise ValueError(f"`min_count` must be an integer >= 1; got {min_count!r}.")
-        counts = counts.reshape(-1, pool).sum(1)
-        counts, edges = _merge_sparse_bins(counts, self.edges_deg[::pool], min_count)
-        return law_from_histogram(counts, np.deg2rad(edges), estimator=estimator, n_samples=int(counts.sum()))
+        counts = _spread_sparse_bins(counts.reshape(-1, pool).sum(1), min_count)
+        return law_from_histogram(counts, np.deg2rad(self.edges_deg[::pool]), estimator=estimator,
+                                  n_samples=int(round(counts.sum())))
 
     def quantiles(self, estimator: str, levels=QUANTILE_LEVELS) -> np.ndarray:
         """Quantiles [rad] of the amplitude (linear within the fine bins, ±half a fine bin); NaN when none."""
