@@ -201,10 +201,12 @@ from .sea import (
     EffectiveWave as EffectiveWave,
     FilterFit as FilterFit,
     ShapingFilter as ShapingFilter,
+    breaking_steepness as breaking_steepness,
     encounter_frequency as encounter_frequency,
     encounter_spectrum as encounter_spectrum,
     fit_filter as fit_filter,
     grim_transfer as grim_transfer,
+    sea_steepness as sea_steepness,
     spectral_moment as spectral_moment,
     superpose as superpose,
 )

@@ -67,12 +67,14 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 def _warning_line(command: str, message, category, filename, lineno, file=None, line=None) -> None:
     """A warning of the library (or of the libraries under it) as the command shows it: one line on stderr,
-    `jaxroll COMMAND: warning: …` (no source path or code line), and kept for the JSON it writes (`warnings`)."""
+    `jaxroll COMMAND: warning: …` (no source path or code line; a message already shown is not shown again), and
+    kept for the JSON it writes (`warnings`)."""
     from ._common import WARNINGS
 
     text = str(message)
+    if text not in WARNINGS:  # once: a check made before the computation and again inside it says it once
+        print(f"jaxroll {command}: warning: {text}", file=sys.stderr)
     WARNINGS.append(text)
-    print(f"jaxroll {command}: warning: {text}", file=sys.stderr)
 
 
 def _run(args) -> int:

@@ -203,7 +203,13 @@ def _fmt(e) -> str:
 def run_decay(args) -> int:
     import matplotlib.pyplot as plt
 
-    from ..calibration import calibrated_ship, decay_agreement, fit_decay_ode, fit_extinction
+    from ..calibration import (
+        calibrated_ship,
+        decay_agreement,
+        fit_decay_ode,
+        fit_extinction,
+        nonnegative_damping,
+    )
     from ..plotting import plot_decay_fit, plot_extinction
 
     ship = load_ship_arg(args.ship)
@@ -225,6 +231,12 @@ def run_decay(args) -> int:
     plot_extinction([ext, ode], ax=ax1)
     fig2, ax2 = plt.subplots(figsize=(8, 4))
     plot_decay_fit(ode, ax=ax2)
+    constrained = nonnegative_damping(("b1", "b2", "b3"), chosen.b, chosen.damping_covariance)[1]
+    written_damping = {  # the fit's estimates; where constrained, the value ship.toml holds (no interval: not fitted)
+        k: ({**e, "value": constrained[k]["written"], "fitted_value": e["value"], "ci95": None} if k in constrained
+            else e)
+        for k, e in chosen.to_dict()["damping"].items()
+    }
     payload = {
         "config": {
             **_base_config(args, ship, records),
@@ -233,7 +245,13 @@ def run_decay(args) -> int:
             "bias_correction": not args.no_bias_correction,
         },
         "estimates": {"extinction": ext.to_dict(), "ode": ode.to_dict()},
-        "written": {"damping": chosen.to_dict()["damping"], "roll_period_s": float(fitted.roll_period)},
+        # what ship.toml holds: the fit's estimates, but a negative coefficient held at 0 and the others moved to the
+        # constrained fit (`constrained`: fitted and written values; a warning says so)
+        "written": {
+            "damping": written_damping,
+            "roll_period_s": float(fitted.roll_period),
+            "constrained": constrained,
+        },
         "agreement_z": agree,
         "run_time_s": time.time() - t0,
     }

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import os
 import time
 from pathlib import Path
 
@@ -23,12 +24,16 @@ from ._sea import (
     build_problem,
     check_positive,
     check_sea_options,
+    check_steps,
     heading_phrase,
     parse_heading,
     sea_config,
 )
 
 THEORIES = ("roberts", "esam", "moment", "envelope_fpk")
+#: Above this capsize probability the Monte Carlo's PDF (of the survivors) and the theories' stationary laws are not
+#: comparable: `jaxroll pdf` warns.
+CAPSIZE_LIMIT_FOR_THEORIES = 0.1
 # the theories `jaxroll pdf` overlays unless --theory says otherwise (docs/theory.md, "Speed": what they cost)
 DEFAULT_OVERLAY = ("roberts", "esam", "moment")
 
@@ -117,8 +122,24 @@ def check_phi0(phi0_deg: float, ship) -> None:
 
 
 def check_out(out: Path) -> None:
+    """--out, from the options alone, before any computation: not a file, and writable — the set is written into a
+    temporary folder beside it (in its parent) and renamed into place, so the parent (or the nearest folder above
+    it that exists) must be writable, and so must `out` itself when it exists (its entries are carried over)."""
+    import tempfile
+
     if out.exists() and not out.is_dir():
         raise CLIError(f"--out {str(out)!r} exists and is not a folder.")
+    parent = out.resolve().parent
+    while not parent.exists() and parent != parent.parent:
+        parent = parent.parent
+    for folder in ([out] if out.exists() else []) + [parent]:
+        try:  # a folder made and removed: what permissions, a read-only file system or quotas allow, for any user
+            os.rmdir(tempfile.mkdtemp(dir=folder, prefix=".jaxroll-write-check-"))
+        except OSError as e:
+            raise CLIError(
+                f"--out {str(out)!r}: cannot write into {str(folder)!r} ({e.strerror or e}; the results are written "
+                "into a temporary folder beside --out and renamed into place). Choose a folder you can write."
+            ) from None
 
 
 def capsize_caption(n_realizations: int, n_capsized: int) -> str:
@@ -145,6 +166,7 @@ def run(args) -> int:
     theories = parse_theories(",".join(DEFAULT_OVERLAY) if args.theory is None else args.theory)
     check_sea_options(args)
     check_positive(args, "duration", "bin_width_deg")
+    check_steps(args.dt, {"--duration": args.duration})
     if args.realizations < 1:
         raise CLIError(f"--realizations must be >= 1; got {args.realizations}.")
     check_chunk_size(args)
@@ -235,8 +257,20 @@ def run(args) -> int:
             payload["total_run_time_s"] = earlier + elapsed
         if fit is not None:
             payload["filter_fit"] = fit.summary()
+        if summary.get("theory") and stats.capsize_probability > CAPSIZE_LIMIT_FOR_THEORIES:
+            import warnings
+
+            warnings.warn(
+                f"{stats.n_capsized} of {stats.n_realizations} realizations capsized (P = "
+                f"{stats.capsize_probability:.3g}): the theories overlaid ({', '.join(summary['theory'])}) are "
+                "stationary laws of a roll that never capsizes, so they do not describe this sea state, and the "
+                f"Monte Carlo's PDF is that of the {stats.n_realizations - stats.n_capsized} survivors only. This "
+                f"warning appears because more than {CAPSIZE_LIMIT_FOR_THEORIES:.0%} of the realizations capsized.",
+                stacklevel=2,
+            )
         caption = capsize_caption(stats.n_realizations, stats.n_capsized)
-        title = f"{ship.name}: H1/3 = {args.hs:g} m, T01 = {args.t01:g} s, U = {args.speed:g} m/s, {caption}"
+        title = (f"{ship.name}: H1/3 = {args.hs:g} m, T01 = {args.t01:g} s, U = {args.speed:g} m/s, "
+                 f"{heading_phrase(parse_heading(args.heading))}, {caption}")
         fig_lin, fig_log = amplitude_pdf_figures(payload, title=title)
         save_figure(fig_lin, tmp / "pdf_linear.png")
         save_figure(fig_log, tmp / "pdf_log.png")

@@ -18,7 +18,16 @@ from ._common import (
     save_figure,
     write_json,
 )
-from ._sea import add_sea_options, build_problem, check_positive, heading_phrase, parse_heading, sea_config
+from ._sea import (
+    add_sea_options,
+    build_problem,
+    check_positive,
+    check_sea_options,
+    check_steps,
+    heading_phrase,
+    parse_heading,
+    sea_config,
+)
 
 
 def register(sub) -> None:
@@ -47,12 +56,35 @@ def _deg(value) -> str:
     return "capsize" if value is None else f"{value:.1f}°"
 
 
+def _no_exceedance(q: float, n: float) -> float:
+    """1 − P = (1 − q)ⁿ, the probability of no exceedance in n independent cycles, computed as exp(n log1p(−q)) so
+    that it keeps its digits where P rounds to 1 (P = 1 − 2e-12 is not 1.0000)."""
+    if not (math.isfinite(q) and math.isfinite(n)):
+        return math.nan
+    return 0.0 if q >= 1 else math.exp(n * math.log1p(-q))
+
+
+def probability_text(p: float, complement: float) -> str:
+    """A probability for the terminal: 4 decimals, or 1 − x where it rounds to 1 (a CI "1.0000–1.0000" said
+    nothing), or 1 exactly."""
+    if not math.isfinite(p):
+        return "n/a"
+    if p >= 0.99995:
+        return "1" if not complement > 0 else f"1 − {complement:.2g}"
+    return f"{p:.4f}"
+
+
 def _risk_dict(r) -> dict:
+    q, lo, hi, n = (float(r.exceedance_per_cycle), float(r.exceedance_per_cycle_lower),
+                    float(r.exceedance_per_cycle_upper), float(r.n_cycles))
     return {
-        "n_cycles": float(r.n_cycles),
-        "exceedance_per_cycle": float(r.exceedance_per_cycle),
-        "exceedance_per_cycle_ci95": [float(r.exceedance_per_cycle_lower), float(r.exceedance_per_cycle_upper)],
+        "n_cycles": n,
+        "exceedance_per_cycle": q,
+        "exceedance_per_cycle_ci95": [lo, hi],
         "probability": float(r.probability),
+        # 1 − P with its digits (P itself rounds to 1 in float64 below 1e-16): (1 − q)^n and its interval
+        "probability_complement": _no_exceedance(q, n),
+        "probability_complement_ci95": [_no_exceedance(hi, n), _no_exceedance(lo, n)],
         "probability_poisson": float(r.probability_poisson),
         "probability_ci95": [float(r.probability_lower), float(r.probability_upper)],
         "most_probable_largest_deg": float(r.most_probable_largest_deg),
@@ -87,6 +119,8 @@ def run(args) -> int:
     check_chunk_size(args)
     if not (math.isfinite(args.discard) and 0 <= args.discard < args.duration):
         raise CLIError(f"--discard must be in [0, --duration) = [0, {args.duration:g}) s; got {args.discard:g}.")
+    check_sea_options(args)
+    check_steps(args.dt, {"--duration": args.duration, "--discard + --hours": args.discard + args.hours * 3600.0})
     budget = memory_budget(args)
     out = Path(args.out)
     check_out(out)
@@ -177,21 +211,24 @@ def run(args) -> int:
     m, d = result["monte_carlo"], result["direct"]
     print(f"Sea: H1/3 {args.hs} m, T01 {args.t01} s, {heading_phrase(parse_heading(args.heading))}, U {args.speed} m/s; ship {ship.name}")
     print(f"Direct ({args.realizations} trials of {args.hours:g} h after {args.discard:g} s): "
-          f"P(roll > {angle_used:g}° within {args.hours:g} h) = {d['probability']:.4f} "
-          f"(95 % CI {d['probability_ci95'][0]:.4f}–{d['probability_ci95'][1]:.4f}); "
+          f"P(roll > {angle_used:g}° within {args.hours:g} h) = {probability_text(d['probability'], 1 - d['probability'])} "
+          f"(95 % CI {probability_text(d['probability_ci95'][0], 1 - d['probability_ci95'][0])}–"
+          f"{probability_text(d['probability_ci95'][1], 1 - d['probability_ci95'][1])}); "
           f"median largest roll {_deg(d['largest_roll_quantiles_deg']['50'])}, "
           f"90 % {_deg(d['largest_roll_quantiles_deg']['90'])}; "
           f"P(capsize) = {d['capsize_probability']:.4f} "
           f"(95 % CI {d['capsize_probability_ci95'][0]:.4f}–{d['capsize_probability_ci95'][1]:.4f})")
     print(f"Independent amplitudes ({n_amp} amplitudes, {rate * 3600:.0f} per hour): "
-          f"P = {m['probability']:.4f} (95 % CI {m['probability_ci95'][0]:.4f}–{m['probability_ci95'][1]:.4f}); "
+          f"P = {probability_text(m['probability'], m['probability_complement'])} (95 % CI "
+          f"{probability_text(m['probability_ci95'][0], m['probability_complement_ci95'][1])} … "
+          f"{probability_text(m['probability_ci95'][1], m['probability_complement_ci95'][0])}); "
           f"characteristic largest {m['characteristic_largest_deg']:.1f}°, expected largest "
           f"{m['expected_largest_deg']:.1f}° (assumes independent amplitudes)")
     if stationarity["note"]:
         print(f"warning: the amplitudes behind the independent-amplitude estimate: {stationarity['note']}")
     for name in theories:
         t = result[name]
-        print(f"{name}: P = {t['probability']:.4f}, most probable largest {t['most_probable_largest_deg']:.1f}°"
+        print(f"{name}: P = {probability_text(t['probability'], t['probability_complement'])}, most probable largest {t['most_probable_largest_deg']:.1f}°"
               f"{closure_note(t['theory_details'])}")
     print(f"wrote {out}/risk.json, risk.png")
     return 0

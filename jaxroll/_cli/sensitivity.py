@@ -12,6 +12,7 @@ from ._sea import (
     add_sea_options,
     check_positive,
     check_sea_options,
+    check_steps,
     heading_for_api,
     parse_heading,
     sea_config,
@@ -196,6 +197,9 @@ def run(args) -> int:
         raise CLIError(f"--chunk-size must be >= 1; got {args.chunk_size}.")
     if not (math.isfinite(args.discard) and 0 <= args.discard < args.duration):
         raise CLIError(f"--discard must be in [0, --duration) = [0, {args.duration:g}) s; got {args.discard:g}.")
+    check_steps(args.dt, {"--duration": args.duration})
+    if args.method != "filter" and any(p in ("hs", "t01", "speed") for p in wrt):
+        raise CLIError("sea-parameter derivatives need the filter excitation (--method filter).")
     out = Path(args.out)
     check_out(out)
     ship = load_ship_arg(args.ship)
@@ -203,8 +207,6 @@ def run(args) -> int:
         ship, hs=args.hs, t01=args.t01, speed=args.speed, heading=heading_for_api(parse_heading(args.heading)), excitation=args.method,
         dt=args.dt, filter_order=args.filter_order, phi0=math.radians(args.phi0_deg),
     )  # fmt: skip
-    if args.method != "filter" and any(p in ("hs", "t01", "speed") for p in wrt):
-        raise CLIError("sea-parameter derivatives need the filter excitation (--method filter).")
     print(
         f"Sensitivities: {args.realizations} realizations × {args.duration:g} s (window {args.window:g} s, "
         f"burn-in {args.burn_in:g} s), H1/3 {args.hs} m, T01 {args.t01} s, U {args.speed} m/s; "

@@ -20,7 +20,7 @@ from ._common import (
     save_figure,
     write_json,
 )
-from ._sea import check_filter_order, heading_for_api, heading_number, heading_phrase
+from ._sea import check_filter_order, check_steps, heading_for_api, heading_number, heading_phrase
 
 
 def register(sub) -> None:
@@ -290,6 +290,7 @@ def run(args) -> int:
     if not 0 < args.confidence < 1:
         raise CLIError(f"--confidence must be in (0, 1); got {args.confidence}.")
     check_filter_order(args)
+    check_steps(args.dt, {"--duration": args.duration})
     if args.devices is not None and not 1 <= args.devices <= jax.device_count():
         raise CLIError(
             f"--devices must be between 1 and {jax.device_count()} (the devices JAX sees); "

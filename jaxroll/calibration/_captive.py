@@ -20,7 +20,7 @@ from ..sea._grim import grim_transfer
 from ..sea._spectra import GRAVITY, wave_frequencies_from_encounter
 from ..ship._restoring import delta_gm
 from ..ship._ship import Ship
-from ._inputs import PAPER_WINDOW_MODEL_S, _as_list, _check_kind
+from ._inputs import PAPER_WINDOW_MODEL_S, _as_list, _check_kind, check_wave_heights
 from ._least_squares import Estimate, LeastSquaresInfo, _estimates, _least_squares, _sandwich
 
 
@@ -180,6 +180,7 @@ def fit_captive(
     """
     records = _as_list(records)
     _check_kind(records, "captive")
+    wave_heights = check_wave_heights(records, window_model_s)
     series, clusters = [], []
     cid = 0
     for r in records:
@@ -262,5 +263,6 @@ def fit_captive(
             "records": [r.source for r in records],
             "fit_polynomial": fit_polynomial,
             "theory": "Grim effective wave from the probe (FFT, dispersion) + ship ΔGM polynomial",
+            "wave_height_check": wave_heights,
         },
     )

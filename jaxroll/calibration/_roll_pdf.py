@@ -25,7 +25,7 @@ from ..roll._monte_carlo import simulate_chunk
 from ..roll._observers import AbstractObserver
 from ..sea._spectra import ITTC
 from ..ship._ship import Ship
-from ._inputs import PAPER_WINDOW_MODEL_S, _as_list, _check_kind, _noise_std
+from ._inputs import PAPER_WINDOW_MODEL_S, _as_list, _check_kind, _noise_std, check_wave_heights
 from ._least_squares import (
     _PARAMS,
     Estimate,
@@ -381,6 +381,7 @@ def fit_roll_pdf(
             "('zero_crossing',)."
         )
     bands = tuple(float(q) for q in bands)
+    check_wave_heights(records, window_model_s)
     groups = group_by_sea_state(records)
     for (hs, t01), recs in groups.items():
         if len(recs) < 3:

@@ -39,7 +39,7 @@ from ..sea._grim import _fft_length, grim_transfer
 from ..sea._spectra import GRAVITY, wave_frequencies_from_encounter
 from ..ship._restoring import parametric_excitation
 from ..ship._ship import Ship
-from ._inputs import PAPER_WINDOW_MODEL_S, _as_list, _noise_std
+from ._inputs import PAPER_WINDOW_MODEL_S, _as_list, _noise_std, check_wave_heights
 from ._least_squares import _least_squares
 from ._time_domain_results import (
     ParameterEstimate,
@@ -325,6 +325,7 @@ def check_time_domain_inputs(
                 "resample the records to one rate."
             )
     spans = [analysis_span(r, span_model_s) for r in records]
+    check_wave_heights(records, span_model_s)
     if not check_window:
         return CheckedInputs(params, records, spans, float(dt), math.nan, 0)
     if window is None:

@@ -23,12 +23,13 @@ import jax.random as jr
 import numpy as np
 from jaxtyping import Array, Float, PRNGKeyArray
 
-from .._compiled import cached_program, filter_jit
+from .._compiled import filter_jit
 from ..sea._filters import FilterFit, check_filter_fit, fit_filter
-from ..sea._grim import EffectiveWave
+from ..sea._grim import SPECTRUM_GRID, EffectiveWave, spectrum_on_grid
 from ..sea._spectra import AbstractWaveSpectrum
 from ..ship._restoring import parametric_excitation, restoring_moment, vanishing_angle
 from ..ship._ship import Ship
+from ..ship._validity import warn_outside_validity
 from ._excitation import BLOCK, AbstractExcitation, FilterExcitation, SuperpositionExcitation
 
 
@@ -82,16 +83,10 @@ def rk4_step(ship: Ship, y, p, m, h, one=None):
 # ----------------------------------------------------------------------------------------------------------------
 
 
-@cached_program
-def _bandwidth_spectrum(wave: EffectiveWave):
-    """S_G on the bandwidth grid, one stored program."""
-    return wave.spectrum(jnp.linspace(0.0, 6.0, 12001))
-
-
 def excitation_bandwidth(wave: EffectiveWave, fraction: float = 0.999) -> float:
     """Encounter frequency [rad/s] below which `fraction` of the effective-wave variance lies."""
-    w = np.linspace(0.0, 6.0, 12001)
-    s = np.asarray(_bandwidth_spectrum(wave))
+    w = SPECTRUM_GRID
+    s = np.asarray(spectrum_on_grid(wave))
     cum = np.concatenate([[0.0], np.cumsum((s[1:] + s[:-1]) / 2 * np.diff(w))])
     if not cum[-1] > 0:
         return 0.0  # beam seas: ζ_G ≡ 0, no excitation bandwidth
@@ -227,6 +222,7 @@ class RollProblem(eqx.Module):
                 if not math.isfinite(value):
                     raise ValueError(f"`{name}` must be finite; got {value!r}.")
             check_time_step(dt, ship, wave)
+            warn_outside_validity(ship, wave, stacklevel=2)
             capsize = float(vanishing_angle(ship))
             if abs(phi0) >= capsize:
                 raise ValueError(

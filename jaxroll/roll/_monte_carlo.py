@@ -129,6 +129,7 @@ def monte_carlo(
             devices=devices,
             checkpoint=checkpoint,
             checkpoint_every=checkpoint_every,
+            consistency=observer.consistency,
         )
     config = {"num_realizations": num_realizations, "duration_s": float(duration), "dt_s": problem.dt,
               "chunk_size": chunk_size}

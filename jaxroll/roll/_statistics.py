@@ -70,6 +70,29 @@ STATIONARITY_TOLERANCE = 0.10
 STATIONARITY_SE = 3.0
 
 
+def _spread_sparse_bins(counts: np.ndarray, min_count: int) -> np.ndarray:
+    """Histogram counts with the sparse tail evened out: from the last occupied bin towards 0, neighbouring bins are
+    grouped until each group holds at least `min_count` counts (the lowest group, if short, joins the one above it),
+    and each group's count is spread evenly over its bins; empty bins beyond the last occupied one stay empty
+    (nothing was seen there). The bins keep their edges, so the law's density and its masses stay consistent."""
+    counts = np.asarray(counts, dtype=float)
+    if min_count <= 1 or not counts.any():
+        return counts
+    last = int(np.nonzero(counts)[0][-1])
+    groups, total, top = [], 0.0, last + 1  # (first, stop) index ranges, from the top down
+    for i in range(last, -1, -1):
+        total += counts[i]
+        if total >= min_count:
+            groups.append((i, top))
+            total, top = 0.0, i
+    if top > 0:  # the lowest bins hold fewer than min_count: they join the group above them (or form the only one)
+        groups[-1:] = [(0, groups[-1][1])] if groups else [(0, top)]
+    out = counts.copy()
+    for a, b in groups:
+        out[a:b] = counts[a:b].sum() / (b - a)
+    return out
+
+
 @dataclass
 class AmplitudeStatistics(CapsizeCounts):
     """Reduced Monte Carlo statistics of roll amplitudes (host numpy arrays).
@@ -125,21 +148,26 @@ class AmplitudeStatistics(CapsizeCounts):
         name = {1: "sum", 2: "sumsq"}[order]
         return float(self.per_realization[f"{name}_{key}"].sum() / n) if n else float("nan")
 
-    def law(self, estimator: str = "zero_crossing", *, pool: int = 1) -> TabulatedAmplitudeLaw:
+    def law(self, estimator: str = "zero_crossing", *, pool: int = 1, min_count: int = 1) -> TabulatedAmplitudeLaw:
         """The amplitude law of the histogram (radians), labelled with what it is a law of.
 
         `pool` merges that many fine bins (0.05° each; e.g. 20 → 1° bins): the maximum-value formulas amplify
-        histogram noise. Zero-crossing amplitudes give the per-half-cycle law the maxima and risk formulas need.
+        histogram noise. `min_count` then groups neighbouring bins, from the last occupied one down, until each
+        group holds at least that many amplitudes, and spreads each group's count evenly over its bins: a law whose
+        tail has no empty bin, so that P*(A_M), which follows the density at its 1 − 1/N0 quantile, has no zeros inside the data
+        (`jaxroll maxima` uses 1° bins and 10 amplitudes). Zero-crossing amplitudes give the per-half-cycle law the
+        maxima and risk formulas need.
 
         **Raises:** `ValueError` when no amplitude survived (all capsized, or too short a run).
         """
         counts = self._counts(estimator)
         if counts.size % pool:
             raise ValueError(f"`pool` must divide the {counts.size} fine bins; got {pool}.")
-        counts = counts.reshape(-1, pool).sum(1)
-        return law_from_histogram(
-            counts, np.deg2rad(self.edges_deg[::pool]), estimator=estimator, n_samples=int(counts.sum())
-        )
+        if not (isinstance(min_count, int) and min_count >= 1):
+            raise ValueError(f"`min_count` must be an integer >= 1; got {min_count!r}.")
+        counts = _spread_sparse_bins(counts.reshape(-1, pool).sum(1), min_count)
+        return law_from_histogram(counts, np.deg2rad(self.edges_deg[::pool]), estimator=estimator,
+                                  n_samples=int(round(counts.sum())))
 
     def quantiles(self, estimator: str, levels=QUANTILE_LEVELS) -> np.ndarray:
         """Quantiles [rad] of the amplitude (linear within the fine bins, ±half a fine bin); NaN when none."""

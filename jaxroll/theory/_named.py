@@ -43,6 +43,7 @@ from ..laws._abstract import (
 )
 from ..sea._filters import FilterFit, ShapingFilter, fitted_form
 from ..ship._ship import Ship
+from ..ship._validity import warn_outside_validity
 from ._averaging import _finish, esam_pdf, roberts_pdf
 from ._envelope_fpk import dies_out_error, envelope_fpk_pdf
 from ._moment_equations import _roll_sde, moment_equations, zero_pattern
@@ -276,6 +277,7 @@ def theory_law(
     shaping_filter = _filter(shaping_filter)
     if not is_concrete((ship, wave, shaping_filter)):
         return _traced(name, ship, wave, shaping_filter, filter_order, estimator)
+    warn_outside_validity(ship, wave, (name,))
     return _start(name, ship, wave, shaping_filter, filter_order, estimator, None, (), warn=warn)()[0]
 
 
@@ -353,6 +355,7 @@ def iter_theory_summaries(
     if not all(0 < q < 1 for q in levels):
         raise ValueError(f"`levels` must lie strictly between 0 and 1; got {levels!r}.")
     edges = np.deg2rad(bins)
+    warn_outside_validity(ship, wave, names)
     # Each theory's program is traced (or loaded) and compiled in a thread of its own: XLA compiles without the
     # GIL, so one theory's compilation overlaps another's tracing and the caller's own work (`jaxroll pdf`: the
     # Monte Carlo's).
