@@ -225,6 +225,7 @@ from .ship import (
     metacentric_height as metacentric_height,
     parametric_excitation as parametric_excitation,
     restoring_moment as restoring_moment,
+    restoring_potential as restoring_potential,
     righting_lever as righting_lever,
     ship_from_hull as ship_from_hull,
     vanishing_angle as vanishing_angle,

@@ -118,6 +118,35 @@ def test_genealogy_variance_is_binomial_for_one_stage():
     assert sp.genealogy_relative_variance(np.zeros(0, int), 100, 4) == 0.0
 
 
+def test_block_normals_rows_are_the_blocks_rows():
+    # A clone's noise for 16 source steps from row r of a block: the same numbers as rows r … r + 15 of the whole
+    # block (even and odd filter orders; a traced first row), so a run's noise does not depend on where it starts.
+    from jaxroll.roll._excitation import block_normals_by_column
+
+    key = jax.random.key(11)
+    for n in (3, 4):
+        whole = np.stack(block_normals_by_column(key, 5, n), -1)
+        part = jax.jit(lambda r, n=n: jnp.stack(block_normals_by_column(key, 5, n, r, 16), -1))(jnp.int32(48))
+        np.testing.assert_array_equal(np.asarray(part), whole[48:64])
+
+
+def test_restoring_potential_and_energy_amplitude():
+    # V' = the restoring moment (central differences, float64), V(0) = 0; the energy amplitude inverts V (three
+    # Newton steps: to 1e-7 rad, 6e-6°, up to 60°; clipped at the vanishing angle beyond V's maximum).
+    ship = jxr.c11_representative()
+    phi = jnp.linspace(0.05, 1.2, 24)
+    h = 1e-6
+    dv = (jxr.restoring_potential(ship, phi + h) - jxr.restoring_potential(ship, phi - h)) / (2 * h)
+    np.testing.assert_allclose(dv, jxr.restoring_moment(ship, phi), rtol=1e-7, atol=1e-12)
+    assert float(jxr.restoring_potential(ship, 0.0)) == 0.0
+    vanishing = jxr.vanishing_angle(ship)
+    angles = jnp.radians(jnp.linspace(1.0, 60.0, 60))
+    back = sp.energy_amplitude(ship, jxr.restoring_potential(ship, angles), vanishing)
+    np.testing.assert_allclose(back, angles, rtol=0, atol=1e-7)
+    beyond = sp.energy_amplitude(ship, 2 * jxr.restoring_potential(ship, vanishing), vanishing)
+    assert float(beyond) == float(vanishing)
+
+
 # ----------------------------------------------------------------------------------------------------------------
 # The roll problem
 # ----------------------------------------------------------------------------------------------------------------

@@ -117,7 +117,9 @@ def block_normals_by_column(key: PRNGKeyArray, index, n: int, first_row=0, rows:
         z = jax.lax.dynamic_slice_in_dim(block_normals(key, index, (BLOCK, n)), first_row, rows)
         return tuple(z[:, i] for i in range(n))
     kd = jr.key_data(jr.fold_in(key, index))
-    s = jnp.arange(rows, dtype=jnp.uint32) + jnp.asarray(first_row).astype(jnp.uint32)
+    s = jnp.arange(rows, dtype=jnp.uint32)
+    if not (isinstance(first_row, int) and first_row == 0):
+        s = s + jnp.asarray(first_row).astype(jnp.uint32)
     zero = jnp.zeros_like(s)
     words = []
     if n % 2 == 0:
