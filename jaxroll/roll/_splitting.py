@@ -373,7 +373,7 @@ def _split(stages, key, num: int, levels: Sequence[float], progress=None) -> dic
 
 def genealogy_relative_variance(eves, num: int, num_stages: int) -> float:
     """Estimated relative variance Var(P̂)/P̂² of a fixed-effort splitting estimate from its genealogy (Lee &
-    Whiteley 2018, Theorem 1, for an indicator test function): 1 − (N/(N−1))^K (1 − Σ_e c_e²/S²), where c_e is
+    Whiteley 2018, for an indicator test function): 1 − (N/(N−1))^K (1 − Σ_e c_e²/S²), where c_e is
     the number of the last stage's successes descending from stage-0 run e, S = Σ c_e, N runs a stage and K stages
     (K − 1 multinomial resamplings). Unbiased for Var(P̂) once multiplied by P̂²; one stage gives the binomial
     (1 − p̂)/((N − 1) p̂). 0 when S = 0. [-]"""
