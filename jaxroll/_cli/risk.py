@@ -46,6 +46,10 @@ def register(sub) -> None:
     add_chunk_option(p, streaming=True, what="trials")
     add_memory_option(p)
     p.add_argument("--theory", default="", help="also from theory: roberts,esam,moment,envelope_fpk")
+    p.add_argument("--estimator", choices=("direct", "splitting"), default="direct",
+                   help="direct: trials of the exposure's length (always run); splitting: also multilevel splitting "
+                        "for the direct probability, for rare exceedances (risk.json 'splitting'; docs/rare_events.md)")
+    p.add_argument("--splitting-trials", type=int, default=1000, help="splitting: runs a stage (1000)")
     p.add_argument("--out", default="jaxroll-out/risk", help="output folder for risk.json and risk.png")
     p.add_argument("--quiet", action="store_true", help="no progress display")
     p.set_defaults(func=run)
@@ -105,6 +109,7 @@ def run(args) -> int:
         exposure_risk,
         monte_carlo_amplitudes,
         monte_carlo_max_roll,
+        monte_carlo_splitting,
         vanishing_angle,
     )
     from ..plotting import risk_figure
@@ -116,6 +121,8 @@ def run(args) -> int:
         raise CLIError(f"--angle must be in (0, 90) degrees; got {args.angle}.")
     if args.realizations < 1:
         raise CLIError(f"--realizations must be >= 1; got {args.realizations}.")
+    if args.estimator == "splitting" and args.splitting_trials < 10:
+        raise CLIError(f"--splitting-trials must be >= 10; got {args.splitting_trials}.")
     check_chunk_size(args)
     if not (math.isfinite(args.discard) and 0 <= args.discard < args.duration):
         raise CLIError(f"--discard must be in [0, --duration) = [0, {args.duration:g}) s; got {args.discard:g}.")
@@ -174,6 +181,12 @@ def run(args) -> int:
         direct["largest_roll_quantiles_reason"] = (
             f"null: beyond the angle of vanishing stability ({direct_stats.n_capsized} of "
             f"{direct_stats.n_realizations} trials capsized)")
+    if args.estimator == "splitting":
+        # The same probability by multilevel splitting on the roll energy (unbiased; for rare exceedances).
+        split = monte_carlo_splitting(problem, jax.random.key(args.seed + 2), angle_deg=angle_used, exposure=exposure,
+                                      discard=args.discard, num_trials=args.splitting_trials)
+        direct_splitting = {**split.to_dict(), "method": "fixed-effort multilevel splitting on the roll energy and "
+                            "wave envelope; the same event as direct (docs/rare_events.md)"}
     result = {"direct": direct,
               "monte_carlo": {"angle_deg": angle_used, "rate_per_s": rate, "n_amplitudes": n_amp,
                               "n_exceed": n_exceed, **_risk_dict(mc),
@@ -182,6 +195,8 @@ def run(args) -> int:
                               "method": "per-cycle amplitude distribution, amplitudes assumed independent; "
                                         "the amplitudes of the trials that did not capsize (conditional on "
                                         "survival: see direct.capsize_probability)"}}
+    if args.estimator == "splitting":
+        result["splitting"] = direct_splitting
     # The risk curve P(max |φ| > x within the exposure) over x, for the figure and the JSON.
     curve_deg = np.arange(0.0, math.floor(vanishing_deg) + 1e-9, 0.5)
     curve_rad = jnp.deg2rad(curve_deg)
@@ -198,7 +213,7 @@ def run(args) -> int:
     result["curve"] = {"angle_deg": curve_deg, "direct": direct_curve, **curves}
     payload = {"config": {**sea_config(args, ship), "angle_deg": args.angle, "hours": args.hours,
                           "realizations": args.realizations, "duration_s": args.duration,
-                          "discard_s": args.discard, "theory": theories,
+                          "discard_s": args.discard, "theory": theories, "estimator": args.estimator,
                           "amplitudes": "zero-crossing, per half cycle; amplitudes assumed independent"},
                **result, "run_time_s": time.time() - t0}
     title = (f"{ship.name}: H1/3 = {args.hs:g} m, T01 = {args.t01:g} s, U = {args.speed:g} m/s, "
@@ -224,6 +239,11 @@ def run(args) -> int:
           f"{probability_text(m['probability_ci95'][1], m['probability_complement_ci95'][0])}); "
           f"characteristic largest {m['characteristic_largest_deg']:.1f}°, expected largest "
           f"{m['expected_largest_deg']:.1f}° (assumes independent amplitudes)")
+    if args.estimator == "splitting":
+        s = result["splitting"]
+        print(f"Splitting ({args.splitting_trials} runs a stage, {len(s['levels_deg'])} stages): "
+              f"P = {s['probability']:.3g} (95 % CI {s['probability_ci95'][0]:.3g}–{s['probability_ci95'][1]:.3g}); "
+              f"{s['total_simulated_seconds'] / 3600:.0f} realization-hours")
     if stationarity["note"]:
         print(f"warning: the amplitudes behind the independent-amplitude estimate: {stationarity['note']}")
     for name in theories:

@@ -44,6 +44,7 @@ from ._restoring import (
     delta_gm as delta_gm,
     parametric_excitation as parametric_excitation,
     restoring_moment as restoring_moment,
+    restoring_potential as restoring_potential,
     righting_lever as righting_lever,
     vanishing_angle as vanishing_angle,
 )
