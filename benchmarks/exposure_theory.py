@@ -24,7 +24,8 @@ from pathlib import Path
 import numpy as np
 
 REFERENCE = Path(__file__).parent / "data" / "exposure_mc_reference.json"
-GRIDS = {"default": {}, "coarse": dict(num_rho=8, num_theta=12)}
+GRIDS = {"default": {}, "coarse": dict(num_rho=8, num_theta=12), "coarse-40": dict(num_rho=8, num_theta=12, num_s=40),
+         "single": dict(extrapolate=False), "single-fine": dict(extrapolate=False, num_s=120)}
 
 
 def main() -> None:
@@ -75,6 +76,17 @@ def main() -> None:
             mark = "" if target else " †"
             print(f"| {case['hs']:g} m | {case['hours']:g} h | {a:g}° | {p_mc:.4g} ({lo:.4g}–{hi:.4g}){mark} | "
                   + " | ".join(cells) + " |")
+    print("\n| H1/3 | T | Monte Carlo P(capsize) (95 % CI) | first passage P(capsize) (ratio) |")
+    print("|---|---|---|---|")
+    for case in ref["cases"]:
+        j = list(durations).index(3600.0 * case["hours"])
+        k, n = case["n_capsized"], case["n_realizations"]
+        p = float(risks["peaks", case["hs"]].capsize_probability[j])
+        from jaxroll import wilson_interval
+
+        lo, hi = (float(x) for x in wilson_interval(k, n))
+        ratio = f" (×{p / (k / n):.2f})" if k else ""
+        print(f"| {case['hs']:g} m | {case['hours']:g} h | {k / n:.3g} ({lo:.2g}–{hi:.2g}) | {p:.3g}{ratio} |")
     print(f"\nworst first-passage ratio where 1e-3 <= P_MC <= 0.95: ×{worst:.3f} (target 1.25); † outside the target range")
     for observe, hs, t in times:
         print(f"time {observe:10s} H1/3 {hs:g} m: {t:.2f} s{' (with compilation)' if hs == 5.0 else ''}")

@@ -30,36 +30,35 @@ def _wave(hs, t01=10.0):
 
 
 def test_survival_equals_the_system_marched_in_time():
-    """S(T) from the inverse-iteration moments (slowest mode + one lumped fast mode) against the same second-order
-    operator with the same killing marched by backward Euler (dt 2 s and 1 s, Richardson-extrapolated)."""
+    """S(T) from the inverse-iteration moments (slowest mode + one lumped fast mode) against the same operator
+    with the same killing and start marched by backward Euler (dt 2 s and 1 s, Richardson-extrapolated)."""
     angle, durations = 30 * DEG, np.array([600.0, 1200.0, 1800.0])
-    risk = theory.passage_risk(SHIP, _wave(6.0), [angle], durations, **SMALL)
-    grid = fpk._grid(**{**dict(num_s=60, num_s_coarse=10, num_rho=12, num_theta=20, rho_max=5.5,
-                               a_fine=math.radians(0.5), a_min=math.radians(1e-4), num_corrections=4), **SMALL})
+    risk = theory.passage_risk(SHIP, _wave(6.0), [angle], durations, extrapolate=False, **SMALL)
+    grid = fpk._grid(SMALL["num_s"], SMALL["num_s_coarse"], SMALL["num_rho"], SMALL["num_theta"], 5.5,
+                     math.radians(0.5), math.radians(1e-4), 0)
     levels = passage._levels(SHIP, grid, [angle])
     face = grid.num_s_coarse + levels[0][0]
 
     @eqx.filter_jit
     def marched(dt):
-        md, md_out, p, peaks, _ = passage._setup(SHIP, _wave(6.0), None, grid, levels)
-        kill = jnp.where((jnp.arange(md.sc.shape[0]) >= face)[:, None], peaks, 0.0)
-        factors = fpk._factorise(md_out, 1.0 / dt, False, kill)
-        q0 = p / md.ds[:, None]  # density per unit s
+        md, _ = passage._model(SHIP, _wave(6.0), None, grid, levels)
+        ns = md.sc.shape[0]
+        capsize = fpk._factorise(md, 0.0, False)
+        guess = jnp.ones((ns, md.m)) * md.ds[:, None]
+        _, p = passage._survival_moments(md, capsize, guess / jnp.sum(guess), 8)  # the start law
+        kill = jnp.where((jnp.arange(ns) >= face)[:, None], passage._peak_rate(md), 0.0)
+        factors = fpk._factorise(md, 1.0 / dt, False, kill)
 
         def step(q, _):
-            rhs = -q / dt
-            qn = fpk._solve(md_out, factors, rhs)
-            for _ in range(grid.num_corrections):
-                qn = fpk._solve(md_out, factors, rhs - fpk._defect(md_out, qn))
+            qn = fpk._solve(md, factors, -q / dt)
             return qn, jnp.sum(qn * md.ds[:, None])
 
-        _, mass = jax.lax.scan(step, q0, None, length=int(round(1800 / dt)))
+        _, mass = jax.lax.scan(step, p / md.ds[:, None], None, length=int(round(1800 / dt)))
         return mass
 
     m2, m1 = np.asarray(marched(2.0)), np.asarray(marched(1.0))
     exact = np.array([2 * m1[int(t) - 1] - m2[int(t) // 2 - 1] for t in durations])  # first-order error removed
     theory_s = 1.0 - np.asarray(risk.probability[0])
-    # measured: 0.10 %, 0.10 %, 0.27 % at 900, 1800, 3600 s (the lumped fast mode and the marching's O(dt²))
     np.testing.assert_allclose(theory_s, exact, rtol=3e-3)
     assert np.all(np.diff(exact) < 0) and 0.5 < exact[-1] < 0.9  # a case where the survival really moves
 
@@ -71,14 +70,15 @@ def _reference_cases():
 
 @pytest.fixture(scope="module")
 def default_grid_risks():
-    """The default grid at H1/3 5–8 m, 25°/30°/40°, 1 h and 3 h (one compiled program for the four seas)."""
+    """The default grid at H1/3 5–8 m, 25°/30°/40°, 1 h and 3 h (one compiled program per grid for the four
+    seas)."""
     return {hs: theory.passage_risk(SHIP, _wave(hs), np.deg2rad([25.0, 30.0, 40.0]), [3600.0, 10800.0])
             for hs in (5.0, 6.0, 7.0, 8.0)}
 
 
 def test_within_a_factor_1_25_of_the_direct_monte_carlo(default_grid_risks):
     """Issue 34's target: wherever the Monte Carlo's P lies in [1e-3, 0.95], theory / MC within [1/1.25, 1.25];
-    the independent-amplitude route of the same model misses it (×1.6–2.8 at the rare end)."""
+    the independent-amplitude route of the same model misses it (measured ×1.16–2.29; ×1.15 worst here)."""
     checked, worst, independent_worst = 0, 1.0, 1.0
     for case in _reference_cases():
         risk = default_grid_risks[case["hs"]]
@@ -93,8 +93,8 @@ def test_within_a_factor_1_25_of_the_direct_monte_carlo(default_grid_risks):
             independent_worst = max(independent_worst, float(risk.independent_probability[i, j]) / p_mc)
             checked += 1
     assert checked >= 12
-    assert independent_worst > 1.5  # what treating the amplitudes as independent gives (same model)
-    assert worst < 1.25
+    assert independent_worst > 1.8  # what treating the amplitudes as independent gives (same model)
+    assert worst < 1.2  # measured 1.174
 
 
 def test_clusters_and_rates_are_consistent(default_grid_risks):
@@ -104,7 +104,7 @@ def test_clusters_and_rates_are_consistent(default_grid_risks):
     p = np.asarray(risk.probability)
     lam = np.asarray(risk.cluster_rate)
     np.testing.assert_allclose(p[2], 1 - (1 - np.asarray(risk.start_exceedance)[2]) * np.exp(-lam[2] * np.array(
-        [3600.0, 10800.0])), rtol=2e-2)
+        [3600.0, 10800.0])), rtol=3e-2)
     theta = np.asarray(risk.extremal_index)
     assert np.all(theta < 1) and np.all(np.diff(theta) > 0)
     caps = [float(default_grid_risks[h].capsize_probability[1]) for h in (6.0, 7.0, 8.0)]
