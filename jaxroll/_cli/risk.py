@@ -45,7 +45,10 @@ def register(sub) -> None:
     p.add_argument("--discard", type=float, default=500.0, help="initial transient left out [s] (500)")
     add_chunk_option(p, streaming=True, what="trials")
     add_memory_option(p)
-    p.add_argument("--theory", default="", help="also from theory: roberts,esam,moment,envelope_fpk")
+    p.add_argument("--theory", default="",
+                   help="also from theory: first_passage (the envelope FPK model followed through the exposure: large "
+                   "rolls come in groups) and/or the amplitude laws roberts,esam,moment,envelope_fpk (amplitudes "
+                   "taken as independent); all: every one")
     p.add_argument("--estimator", choices=("direct", "splitting"), default="direct",
                    help="direct: trials of the exposure's length (always run); splitting: also multilevel splitting "
                         "for the direct probability, for rare exceedances (risk.json 'splitting'; docs/rare_events.md)")
@@ -99,6 +102,63 @@ def _risk_dict(r) -> dict:
     }
 
 
+def parse_risk_theories(text: str) -> tuple[list[str], bool]:
+    """--theory of `jaxroll risk`: (the amplitude-law theories, whether the first passage is asked for); `all`:
+    every theory."""
+    from ..theory import THEORIES
+    from .pdf import parse_theories
+
+    names = [t.strip().lower() for t in text.split(",") if t.strip()]
+    if names == ["all"]:
+        return list(THEORIES), True
+    first_passage = "first_passage" in names
+    return parse_theories(",".join(n for n in names if n != "first_passage") or "none"), first_passage
+
+
+def _first_passage(problem, angle_deg: float, exposure: float, curve_deg, vanishing_deg: float):
+    """risk.json's `first_passage` entry and its risk curve on `curve_deg` (NaN outside the levels computed):
+    `jaxroll.theory.passage_risk` at the threshold, and at levels 1.2 apart in amplitude for the curve, the curve
+    interpolated in ln(−ln(1 − P)) against ln x, as the model varies smoothly there."""
+    import math
+
+    import numpy as np
+
+    from ..theory import passage_risk
+    from ._theory import first_line
+
+    try:
+        risk = passage_risk(problem.ship, problem.wave, [math.radians(angle_deg)], [exposure])
+        levels = 2.0 * 1.2 ** np.arange(int(math.log(0.93 * vanishing_deg / 2.0) / math.log(1.2)) + 1)
+        curve = passage_risk(problem.ship, problem.wave, np.deg2rad(levels), [exposure])
+    except ValueError as e:
+        raise CLIError(f"first_passage: {first_line(e)}") from None
+    p = np.asarray(curve.probability[:, 0])
+    loglog = np.log(-np.log(np.clip(1 - p, 1e-300, 1 - 1e-16)))
+    x = np.asarray(curve_deg, float)
+    inside = (x >= levels[0]) & (x <= levels[-1])
+    on_curve = np.where(inside, -np.expm1(-np.exp(np.interp(np.log(np.maximum(x, 1e-9)), np.log(levels), loglog))),
+                        np.nan)
+    theta = float(risk.extremal_index[0])
+    entry = {
+        "probability": float(risk.probability[0, 0]),
+        "capsize_probability": float(risk.capsize_probability[0]),
+        "clusters_per_hour": 3600.0 * float(risk.cluster_rate[0]),
+        "amplitudes_per_cluster": 1.0 / theta if theta > 0 else None,
+        "extremal_index": theta,
+        "mean_passage_time_s": float(risk.mean_passage_time[0]),
+        "start_exceedance": float(risk.start_exceedance[0]),
+        "exceedance_per_cycle": float(risk.exceedance_per_cycle[0]),
+        "independent_probability": float(risk.independent_probability[0, 0]),
+        "lyapunov_exponent_per_s": float(risk.lyapunov_exponent),
+        "exists": bool(risk.exists),
+        "method": "envelope FPK model followed through the exposure: the roll is seen at its peaks (a Poisson "
+                  "stream at the model's half-cycle rate), the exposure starts in the stationary law; P = 1 − "
+                  "survival (docs/theory.md, 'Exposure risk')",
+        "grid": dict(risk.grid),
+    }
+    return entry, on_curve
+
+
 def run(args) -> int:
     import jax
     import jax.numpy as jnp
@@ -113,9 +173,9 @@ def run(args) -> int:
         vanishing_angle,
     )
     from ..plotting import risk_figure
-    from .pdf import check_out, parse_theories
+    from .pdf import check_out
 
-    theories = parse_theories(args.theory)
+    theories, first_passage = parse_risk_theories(args.theory)
     check_positive(args, "hours", "duration")
     if not (math.isfinite(args.angle) and 0 < args.angle < 90):
         raise CLIError(f"--angle must be in (0, 90) degrees; got {args.angle}.")
@@ -209,11 +269,15 @@ def run(args) -> int:
             result[name] = _risk_dict(exposure_risk(tdist, jnp.deg2rad(angle_used), rate=rate, duration=exposure))
             result[name]["theory_details"] = tdist.details()
             curves[name] = np.asarray(exceedance_probability(tdist, curve_rad, rate=rate, duration=exposure))
+    if first_passage:
+        result["first_passage"], curves["first_passage"] = _first_passage(problem, angle_used, exposure, curve_deg,
+                                                                          vanishing_deg)
     direct_curve = np.array([direct_stats.exceedance_probability(x) for x in curve_deg])
     result["curve"] = {"angle_deg": curve_deg, "direct": direct_curve, **curves}
     payload = {"config": {**sea_config(args, ship), "angle_deg": args.angle, "hours": args.hours,
                           "realizations": args.realizations, "duration_s": args.duration,
-                          "discard_s": args.discard, "theory": theories, "estimator": args.estimator,
+                          "discard_s": args.discard, "theory": theories + (["first_passage"] if first_passage else []),
+                          "estimator": args.estimator,
                           "amplitudes": "zero-crossing, per half cycle; amplitudes assumed independent"},
                **result, "run_time_s": time.time() - t0}
     title = (f"{ship.name}: H1/3 = {args.hs:g} m, T01 = {args.t01:g} s, U = {args.speed:g} m/s, "
@@ -246,9 +310,14 @@ def run(args) -> int:
               f"{s['total_simulated_seconds'] / 3600:.0f} realization-hours")
     if stationarity["note"]:
         print(f"warning: the amplitudes behind the independent-amplitude estimate: {stationarity['note']}")
+    if first_passage:
+        f = result["first_passage"]
+        print(f"first_passage (envelope FPK followed through the exposure): P = {f['probability']:.4f}, "
+              f"P(capsize) = {f['capsize_probability']:.2g}; {f['clusters_per_hour']:.3g} groups of large rolls per "
+              f"hour, {f['amplitudes_per_cluster']:.2f} amplitudes above {angle_used:g}° per group")
     for name in theories:
         t = result[name]
-        print(f"{name}: P = {probability_text(t['probability'], t['probability_complement'])}, most probable largest {t['most_probable_largest_deg']:.1f}°"
-              f"{closure_note(t['theory_details'])}")
+        print(f"{name} (independent amplitudes): P = {probability_text(t['probability'], t['probability_complement'])}, "
+              f"most probable largest {t['most_probable_largest_deg']:.1f}°{closure_note(t['theory_details'])}")
     print(f"wrote {out}/risk.json, risk.png")
     return 0

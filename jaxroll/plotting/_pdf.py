@@ -13,9 +13,11 @@ from dataclasses import dataclass
 import matplotlib.pyplot as plt
 import numpy as np
 
-THEORY_COLOURS = {"roberts": "tab:blue", "esam": "gold", "moment": "purple", "envelope_fpk": "teal"}
+THEORY_COLOURS = {"roberts": "tab:blue", "esam": "gold", "moment": "purple", "envelope_fpk": "teal",
+                  "first_passage": "tab:orange"}
 THEORY_LABELS = {"roberts": "Roberts (SAM)", "esam": "ESAM", "moment": "moment method",
-                 "envelope_fpk": "envelope FPK (coloured averaging)"}
+                 "envelope_fpk": "envelope FPK (coloured averaging)",
+                 "first_passage": "envelope FPK, first passage (large rolls in groups)"}
 
 
 @dataclass

@@ -3,7 +3,8 @@
 Every theory returns an amplitude law (`jaxroll.AbstractAmplitudeLaw`, radians) of the estimator asked for:
 stochastic averaging (Roberts' SAM, energy-based ESAM) in `_averaging.py` with the parametric-excitation spectrum
 in `_excitation.py`; the moment method in `_moments.py`.
-Coloured-noise averaging (the envelope Fokker–Planck method) in `_envelope_fpk.py`. `theory_law` and
+Coloured-noise averaging (the envelope Fokker–Planck method) in `_envelope_fpk.py`, and the exposure risk from the
+first passage of its amplitude (large rolls come in groups) in `_envelope_fpk_passage.py`. `theory_law` and
 `theory_summary` (`_named.py`) call any of them by name, each as one compiled program kept between runs.
 """
 
@@ -30,6 +31,10 @@ from ._envelope_fpk import (  # coloured-noise averaging: the envelope Fokker–
 from ._envelope_fpk_law import (
     EnvelopeExcitation as EnvelopeExcitation,
     EnvelopeFPKLaw as EnvelopeFPKLaw,
+)
+from ._envelope_fpk_passage import (  # exposure risk: first passage of the envelope FPK model's amplitude
+    PassageRisk as PassageRisk,
+    passage_risk as passage_risk,
 )
 from ._excitation import (
     ParametricSpectrum as ParametricSpectrum,
