@@ -8,7 +8,7 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
-from ._common import CLIError, atomic_write_text, load_ship_arg, save_figure, write_json
+from ._common import CLIError, atomic_write_text, load_ship_arg, save_figure, write_json, write_netcdf
 
 
 def _common(p) -> None:
@@ -153,7 +153,7 @@ def _load(args, kind):
     return load_records(args.records, kind=kind, resample=args.resample)
 
 
-def _finish(args, kind, ship, fitted, payload, figures) -> int:
+def _finish(args, kind, ship, fitted, payload, figures, fit=None) -> int:
     from .. import ship_to_toml
     from ..io import load_ship
 
@@ -163,8 +163,11 @@ def _finish(args, kind, ship, fitted, payload, figures) -> int:
     for name, fig in figures.items():
         save_figure(fig, out / name)
     write_json(out / "calibration.json", payload)
+    layout = kind if kind != "roll" else f"roll-{'pdf' if args.estimator == 'pdf' else 'time-domain'}"
+    write_netcdf(out / "calibration.nc", f"calibrate-{layout}", payload, None if fit is None else {"fit": fit})
     print(
-        f"wrote {out / 'ship.toml'}, {out / 'calibration.json'}, " + ", ".join(str(out / n) for n in figures)
+        f"wrote {out / 'ship.toml'}, {out / 'calibration.json'}, {out / 'calibration.nc'}, "
+        + ", ".join(str(out / n) for n in figures)
     )
     return 0
 
@@ -222,7 +225,8 @@ def run_decay(args) -> int:
         "agreement_z": agree,
         "run_time_s": time.time() - t0,
     }
-    return _finish(args, "decay", ship, fitted, payload, {"extinction.png": fig1, "decay_fit.png": fig2})
+    return _finish(args, "decay", ship, fitted, payload, {"extinction.png": fig1, "decay_fit.png": fig2},
+                   chosen.to_xarray())
 
 
 def run_captive(args) -> int:
@@ -264,7 +268,8 @@ def run_captive(args) -> int:
         "run_time_s": time.time() - t0,
     }
     return _finish(
-        args, "captive", ship, fitted, payload, {"captive_ratio.png": fig1, "captive_series.png": fig2}
+        args, "captive", ship, fitted, payload, {"captive_ratio.png": fig1, "captive_series.png": fig2},
+        fit.to_xarray(),
     )
 
 
@@ -319,7 +324,8 @@ def run_roll(args) -> int:
         "estimates": fit.to_dict(),
         "run_time_s": time.time() - t0,
     }
-    return _finish(args, "roll", ship, fitted, payload, {"roll_pdfs.png": plot_roll_calibration(fit)})
+    return _finish(args, "roll", ship, fitted, payload, {"roll_pdfs.png": plot_roll_calibration(fit)},
+                   fit.to_xarray())
 
 
 def _run_roll_time_domain(args) -> int:
@@ -405,4 +411,4 @@ def _run_roll_time_domain(args) -> int:
         "run_time_s": time.time() - t0,
     }
     figures = {"roll_fit.png": plot_time_domain_fit(fit), "residual_spectrum.png": plot_residual_spectrum(fit).figure}
-    return _finish(args, "roll", ship, fitted, payload, figures)
+    return _finish(args, "roll", ship, fitted, payload, figures, fit.to_xarray())

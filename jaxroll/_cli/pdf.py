@@ -17,6 +17,7 @@ from ._common import (
     memory_budget,
     save_figure,
     write_json,
+    write_netcdf,
 )
 from ._sea import (
     add_sea_options,
@@ -241,6 +242,7 @@ def run(args) -> int:
         save_figure(fig_lin, tmp / "pdf_linear.png")
         save_figure(fig_log, tmp / "pdf_log.png")
         write_json(tmp / "pdf.json", payload)
+        write_netcdf(tmp / "pdf.nc", "pdf", payload, stats.to_xarray(bins))
     took = f"done in {elapsed:.1f} s" + (f" (resumed; {earlier + elapsed:.1f} s in total)" if resumed else "")
     capsized = f"capsized {stats.n_capsized}/{stats.n_realizations} (P = {stats.capsize_probability:.4f})"
     print(f"{took}; {capsized}")
@@ -265,5 +267,5 @@ def run(args) -> int:
             + ("" if args.theory is not None else "; --theory none leaves them out"))  # fmt: skip
     for name, reason in theories_failed.items():
         print(f"theory overlay: {name} left out: {reason}")
-    print(f"wrote {out / 'pdf_linear.png'}, {out / 'pdf_log.png'}, {out / 'pdf.json'}")
+    print(f"wrote {out / 'pdf_linear.png'}, {out / 'pdf_log.png'}, {out / 'pdf.json'}, {out / 'pdf.nc'}")
     return 0

@@ -17,6 +17,7 @@ from ._common import (
     memory_budget,
     save_figure,
     write_json,
+    write_netcdf,
 )
 from ._sea import add_sea_options, build_problem, check_positive, heading_phrase, parse_heading, sea_config
 
@@ -174,6 +175,8 @@ def run(args) -> int:
                           capsize_probability=direct_stats.capsize_probability, title=title)
         save_figure(fig, tmp / "risk.png")
         write_json(tmp / "risk.json", payload)
+        write_netcdf(tmp / "risk.nc", "risk", payload, {"direct": direct_stats.to_xarray(),
+                                                        "monte_carlo": stats.to_xarray()})
     m, d = result["monte_carlo"], result["direct"]
     print(f"Sea: H1/3 {args.hs} m, T01 {args.t01} s, {heading_phrase(parse_heading(args.heading))}, U {args.speed} m/s; ship {ship.name}")
     print(f"Direct ({args.realizations} trials of {args.hours:g} h after {args.discard:g} s): "
@@ -193,5 +196,5 @@ def run(args) -> int:
         t = result[name]
         print(f"{name}: P = {t['probability']:.4f}, most probable largest {t['most_probable_largest_deg']:.1f}°"
               f"{closure_note(t['theory_details'])}")
-    print(f"wrote {out}/risk.json, risk.png")
+    print(f"wrote {out}/risk.json, risk.nc, risk.png")
     return 0

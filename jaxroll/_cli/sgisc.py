@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-from ._common import CLIError, OutputFolder, atomic_write_text, save_figure, write_json
+from ._common import CLIError, OutputFolder, atomic_write_text, save_figure, write_json, write_netcdf
 from ._sea import check_positive
 
 DEFAULT_OUT = Path("jaxroll-out") / "sgisc"
@@ -378,8 +378,9 @@ def run(args) -> int:
             "summary": lines,
         }
         write_json(out / "sgisc.json", payload)
+        write_netcdf(out / "sgisc.nc", "sgisc", payload)
     print("\n".join(lines))
     if is_c11:
         print("Note: the c11 hull is REPRESENTATIVE (parametric), not the real C11 lines.")
-    print(f"wrote {final / 'sgisc.json'}, {', '.join(files[1:])}")
+    print(f"wrote {final / 'sgisc.json'}, sgisc.nc, {', '.join(files[1:])}")
     return 0

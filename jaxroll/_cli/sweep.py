@@ -19,6 +19,7 @@ from ._common import (
     load_ship_arg,
     save_figure,
     write_json,
+    write_netcdf,
 )
 from ._sea import check_filter_order, heading_for_api, heading_number, heading_phrase
 
@@ -418,6 +419,7 @@ def run(args) -> int:
         if polar:
             save_figure(sweep_polar_figure(payload), tmp / "sweep_polar.png")
         write_json(tmp / "sweep.json", payload)
+        write_netcdf(tmp / "sweep.nc", "sweep", payload, result.to_xarray())
     def where(p):
         return f"{heading_phrase(p['heading_deg'])}, U {p['speed_m_s']:g} m/s, H1/3 {p['hs_m']:g} m, T01 {p['t01_s']:g} s"
 
@@ -432,5 +434,5 @@ def run(args) -> int:
               if e["n_exceeded"] else f"no trial beyond {args.angle:g}° at any point")
     print(f"done in {elapsed:.1f} s: {capsize}; {exceed}")
     polar_note = f", {out / 'sweep_polar.png'}" if polar else ""
-    print(f"wrote {out / 'sweep.png'}{polar_note}, {out / 'sweep.json'}")
+    print(f"wrote {out / 'sweep.png'}{polar_note}, {out / 'sweep.json'}, {out / 'sweep.nc'}")
     return 0

@@ -1,0 +1,5 @@
+"""Labelled results: results as `xarray.Dataset`s with named dimensions, units and long names (infrastructure every
+stage may use: no numerics; xarray is imported only when a dataset is built)."""
+
+from ._layouts import OUTPUTS as OUTPUTS
+from ._tree import Layout as Layout, labelled_values as labelled_values, tree_to_dataset as tree_to_dataset
