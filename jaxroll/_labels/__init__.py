@@ -2,4 +2,9 @@
 stage may use: no numerics; xarray is imported only when a dataset is built)."""
 
 from ._layouts import OUTPUTS as OUTPUTS
-from ._tree import Layout as Layout, labelled_values as labelled_values, tree_to_dataset as tree_to_dataset
+from ._tree import (
+    Layout as Layout,
+    labelled_values as labelled_values,
+    merge as merge,
+    tree_to_dataset as tree_to_dataset,
+)

@@ -352,3 +352,10 @@ def labelled_values(pairs: Mapping[str, tuple], attrs: Mapping[str, Any] | None 
         k: xr.Variable(dims, np.asarray(v), {"long_name": ln, **({} if u is None else {"units": u})})
         for k, (dims, v, u, ln) in d.items()}
     return xr.Dataset(make(pairs), coords=make(coords or {}), attrs=dict(attrs or {}))
+
+
+def merge(*datasets):
+    """The datasets as one (their coordinates must agree exactly; attributes kept where they do not conflict)."""
+    import xarray as xr
+
+    return xr.merge(list(datasets), join="exact", compat="no_conflicts", combine_attrs="drop_conflicts")

@@ -31,8 +31,8 @@ def output_dataset(command: str, payload: Mapping[str, Any], parts=None, *, warn
     """The labelled twin of a command's JSON file: its numbers as an `xarray.Dataset` (the variables named like
     the JSON fields, `units`, `long_name` and `json_path` on each; docs/outputs.md), plus `parts`: the result
     objects' own datasets (`.to_xarray()`: per-trial arrays, histogram counts, …) — one dataset, or a dict
-    `{prefix: dataset}` whose variables are named `<prefix>_<name>` ("" for none); a list of datasets is combined
-    by its coordinates first (`xarray.combine_by_coords`, NaN where one has no value). Variables the JSON already gives are taken
+    `{prefix: dataset}` whose variables are named `<prefix>_<name>` ("" for none); a list of datasets (maxima of
+    groups of N0) is concatenated along `n0` first (NaN where a group has fewer trials). Variables the JSON already gives are taken
     from the JSON; a dimension of a part that the JSON labels differently is renamed `<prefix>_<dim>`.
 
     Attributes: `dataset_attrs(payload["config"])` (the configuration as JSON text, the versions of jaxroll, jax,
@@ -51,8 +51,9 @@ def output_dataset(command: str, payload: Mapping[str, Any], parts=None, *, warn
     ds = tree_to_dataset({k: v for k, v in payload.items() if k not in _NOT_RESULTS}, layout)
     if parts is not None:
         for prefix, part in (parts.items() if isinstance(parts, dict) else [("", parts)]):  # a Dataset is a Mapping
-            if isinstance(part, list | tuple):  # e.g. the maxima of two groups of N0: combined along `n0`
-                part = xr.combine_by_coords(list(part), join="outer", combine_attrs="drop_conflicts")
+            if isinstance(part, list | tuple):  # the maxima of two groups of N0 (other trial counts)
+                part = xr.concat(list(part), dim="n0", data_vars="minimal", coords="minimal", compat="override",
+                                 join="outer", combine_attrs="drop_conflicts")
             ds = _add_part(ds, part, prefix)
     skipped = {p: "the same numbers as the arrays beside them, one record per point" for p in layout.skip}
     attrs = {**ds.attrs, **dataset_attrs(payload.get("config"), command=command.split("-")[0],

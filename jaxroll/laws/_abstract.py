@@ -162,7 +162,7 @@ class AbstractAmplitudeLaw(eqx.Module):
         unbounded): `pdf_per_degree` [1/deg], `sf` and `cdf` [-], the `summary()` numbers (`mean_amplitude_deg`,
         `quantiles_deg` on `percentile`), and as attributes the law's type, `estimator` and `amplitude_sampling`.
         `amplitude_rad` is a second coordinate (the law's own unit)."""
-        from .._labels import Layout, labelled_values, tree_to_dataset
+        from .._labels import Layout, labelled_values, merge, tree_to_dataset
 
         if amplitude_deg is None:
             lo, hi = (float(v) for v in self.support())
@@ -175,7 +175,7 @@ class AbstractAmplitudeLaw(eqx.Module):
         ds = tree_to_dataset(summary, Layout(labels={"quantiles_deg": "percentile"},
                                              coords={"percentile": ("percent", "quantile level")}))
         a = ("amplitude_deg",)
-        return ds.merge(labelled_values(
+        return merge(ds, labelled_values(
             {"pdf_per_degree": (a, np.asarray(self.pdf(rad)) * np.pi / 180, "degree-1", "PDF of the amplitude per "
                                 "degree"),
              "sf": (a, np.asarray(self.sf(rad)), "1", "P(A > amplitude)"),

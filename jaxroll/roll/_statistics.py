@@ -291,7 +291,7 @@ class AmplitudeStatistics(CapsizeCounts):
         names; PDFs on `amplitude_deg`, the centres of `bins_deg`, by default 1° bins over the fine grid), the
         histogram `counts_zero_crossing`, `counts_envelope` on the fine grid (`fine_amplitude_deg`), and per
         realization `capsized`, `capsize_time_s` (inf: did not capsize) and the exact sums behind the means."""
-        from .._labels import labelled_values, tree_to_dataset
+        from .._labels import labelled_values, merge, tree_to_dataset
         from .._labels._layouts import AMPLITUDES
 
         edges = np.asarray(self.edges_deg, dtype=float)
@@ -317,7 +317,7 @@ class AmplitudeStatistics(CapsizeCounts):
         per = {name: (r, np.rad2deg(pr[k]) if unit == "degree" else pr[k], unit, f"per realization: {long}")
                for k, (name, unit, long) in sums.items() if k in pr}
         hist = "amplitudes per fine bin (the last bin also holds those beyond the grid)"
-        return ds.merge(labelled_values(
+        return merge(ds, labelled_values(
             {"counts_zero_crossing": (fine, self.counts_zero_crossing, "1", f"zero-crossing {hist}"),
              "counts_envelope": (fine, self.counts_envelope, "1", f"envelope {hist}"),
              **_per_trial(self), **per},
@@ -421,7 +421,7 @@ class MaximaStatistics(CapsizeCounts):
         `per_n0` fields, on the dimension `n0`; default 1° bins to 90°) and per trial `maxima_deg` (NaN: the trial
         capsized or ended before N0 amplitudes), `capsized`, `capsize_time_s` and `amplitude_count` (amplitudes the trial
         contributed), all on (`n0`, `realization`) so that runs with other N0 concatenate along `n0`."""
-        from .._labels import labelled_values, tree_to_dataset
+        from .._labels import labelled_values, merge, tree_to_dataset
         from .._labels._layouts import MAXIMA_SUMMARY
 
         bins = np.arange(0.0, 90.0 + 1e-9, 1.0) if bins_deg is None else np.asarray(bins_deg, dtype=float)
@@ -429,14 +429,14 @@ class MaximaStatistics(CapsizeCounts):
         ds = tree_to_dataset(tree, MAXIMA_SUMMARY)
         dims = ("n0", "realization")
         n = (len(self.n0), self.n_realizations)
-        return ds.merge(labelled_values(
+        return merge(ds, labelled_values(
             {"maxima_deg": (dims, np.asarray(self.maxima_deg).T, "degree",
                             "largest of the trial's first N0 zero-crossing amplitudes (NaN: capsized or ended "
                             "before N0 amplitudes)"),
              **_per_trial(self, dims),
              "amplitude_count": (dims, np.broadcast_to(self.count, n), "1",
                                  "zero-crossing amplitudes the trial recorded (at most max(N0) of its run)")},
-            coords=_realizations(self), attrs=_config_attrs(self.config)), join="exact")
+            coords=_realizations(self), attrs=_config_attrs(self.config)))
 
 
 @dataclass
@@ -478,7 +478,7 @@ class MaxRollStatistics(CapsizeCounts):
         """The result as an `xarray.Dataset` (docs/outputs.md): per trial `max_abs_phi_deg` (the largest roll),
         `capsized`, `capsize_time_s`; the exceedance and capsize probabilities with 95 % Wilson intervals
         (`bound`), and `largest_roll_quantiles_deg` (NaN: among the capsizes)."""
-        from .._labels import labelled_values, tree_to_dataset
+        from .._labels import labelled_values, merge, tree_to_dataset
         from .._labels._layouts import MAX_ROLL
 
         tree = {"angle_deg": self.angle_deg, "n_realizations": self.n_realizations, "n_capsized": self.n_capsized,
@@ -486,7 +486,7 @@ class MaxRollStatistics(CapsizeCounts):
                 "probability_ci95": list(self.exceedance_interval()), "capsize_probability": self.capsize_probability,
                 "capsize_probability_ci95": list(self.capsize_interval()),
                 "largest_roll_quantiles_deg": self.largest_roll_quantiles_deg()}
-        return tree_to_dataset(tree, MAX_ROLL).merge(labelled_values(
+        return merge(tree_to_dataset(tree, MAX_ROLL), labelled_values(
             {"max_abs_phi_deg": (("realization",), self.max_abs_phi_deg, "degree",
                                  "largest |φ| of the trial after the discard (up to its capsize)"), **_per_trial(self)},
             coords=_realizations(self), attrs=_config_attrs(self.config)))
