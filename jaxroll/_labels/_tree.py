@@ -359,3 +359,10 @@ def merge(*datasets):
     import xarray as xr
 
     return xr.merge(list(datasets), join="exact", compat="no_conflicts", combine_attrs="drop_conflicts")
+
+
+def config_attrs(config: Mapping[str, Any]) -> dict[str, str]:
+    """A result's `config` as a dataset attribute: `{"config_json": JSON text}` (attributes hold no mappings)."""
+    from ._provenance import to_jsonable
+
+    return {"config_json": json.dumps(to_jsonable(dict(config)), sort_keys=True)}

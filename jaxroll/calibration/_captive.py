@@ -122,9 +122,7 @@ class CaptiveFit:
         solver's diagnostics, and per (H1/3, T01, heel) group on `group`: `wave_height_m`, `wave_period_s`,
         `heel_deg`, `n_records`, `std_observed_m`, `std_theory_m`, `group_std_ratio`, `group_ls_scale` (and their
         standard errors), `per_record_ratio` on (`group`, `group_record`; NaN beyond a group's records)."""
-        import json
-
-        from .._labels._provenance import to_jsonable
+        from .._labels import config_attrs
         from ._least_squares import estimates_dataset
 
         g, gr = ("group",), ("group", "group_record")
@@ -148,7 +146,7 @@ class CaptiveFit:
         }
         estimates = {"std_ratio": self.std_ratio, "ls_scale": self.ls_scale}
         return estimates_dataset(estimates, None, info=self.info, residual_unit="m", extra=extra,
-                                 attrs={"config_json": json.dumps(to_jsonable(self.config))})
+                                 attrs=config_attrs(self.config))
 
 
 def _scale_residual(theta, args):

@@ -165,9 +165,7 @@ class DecayFit:
         """The fit as an `xarray.Dataset` on `parameter` (b1, b2, b3; `estimates_dataset`): estimates, standard
         errors, 95 % intervals and covariance, the solver's diagnostics, the extinction coefficients a, b, c
         (`extinction_*`), the roll period Tφ and ω0; `method` and the configuration as attributes."""
-        import json
-
-        from .._labels._provenance import to_jsonable
+        from .._labels import config_attrs
         from ._least_squares import estimates_dataset
 
         extra = {"roll_period_s": ((), self.roll_period.value, "s", "roll period Tφ"),
@@ -179,7 +177,7 @@ class DecayFit:
             extra[f"extinction_{k}_std_error"] = ((), e.std_error, unit, f"standard error of {k}")
         return estimates_dataset(self.damping, self.damping_covariance, info=self.info, residual_unit="rad",
                                  extra=extra, attrs={"method": self.method,
-                                                     "config_json": json.dumps(to_jsonable(self.config))})
+                                                     **config_attrs(self.config)})
 
 
 def _extinction_residual(theta, args):

@@ -265,9 +265,7 @@ class RollFit:
         with `initial` values, and per sea state on `sea_state`: `wave_height_m`, `wave_period_s`, `n_records`,
         the experiment's and the model's band means [deg] on (`sea_state`, `estimator_band`: the estimators' bands
         one after the other, as in calibration.json) and the model's capsizes before and after the fit."""
-        import json
-
-        from .._labels._provenance import to_jsonable
+        from .._labels import config_attrs
         from ._least_squares import estimates_dataset
 
         c, cb = ("sea_state",), ("sea_state", "estimator_band")
@@ -292,7 +290,7 @@ class RollFit:
         }
         return estimates_dataset(self.estimates, self.covariance, info=self.info,
                                  residual_unit="1 (each residual in its standard errors)", extra=extra,
-                                 attrs={"config_json": json.dumps(to_jsonable(self.config))})
+                                 attrs=config_attrs(self.config))
 
 
 def _experiment_samples(records: Sequence[Record], window, hysteresis):

@@ -152,7 +152,7 @@ class TimeDomainFit:
         attributes."""
         import json
 
-        from .._labels._provenance import to_jsonable
+        from .._labels import config_attrs
         from ._least_squares import estimates_dataset
 
         p, pp, r = ("parameter",), ("parameter", "parameter_2"), ("record",)
@@ -181,7 +181,7 @@ class TimeDomainFit:
         ds = estimates_dataset(self.estimates, self.covariance, extra=extra, attrs={
             "method": self.method, "covariance_kind": self.covariance_kind, "identifiability": ident.message,
             "not_identified": json.dumps(list(ident.not_identified)), "warnings": json.dumps(list(self.warnings)),
-            "config_json": json.dumps(to_jsonable(self.config))})
+            **config_attrs(self.config)})
         return ds.assign_coords(record_source=(r, col(lambda x: x.source), {"long_name": "record file"}))
 
 

@@ -421,7 +421,7 @@ class SensitivityResult(eqx.Module):
         `value_std_error`, `unsmoothed`, `gradient`, `std_error`, `parameter_value`, per realization `influence`
         (the contributions whose mean is the gradient; NaN for the realizations left out) and `kept`, and with the
         windowed estimator `by_burn_in` (the estimates per burn-in before extrapolation)."""
-        from .._labels import labelled_values
+        from .._labels import config_attrs, labelled_values
 
         st, pa = list(self.statistics), list(self.parameters)
         kept = np.asarray(self.kept, dtype=bool)
@@ -449,24 +449,18 @@ class SensitivityResult(eqx.Module):
             "n_capsized": ((), self.n_capsized, "1", "number of realizations that capsized"),
         }
         coords = {
-            "statistic": (("statistic",), st, None, "statistic"),
-            "parameter": (("parameter",), pa, None, "parameter"),
+            "statistic": (("statistic",), st, None, "statistic"), "parameter": (("parameter",), pa, None, "parameter"),
             "realization": (r, np.arange(kept.size), "1", "realization (trial) index, in the Monte Carlo's order"),
-        }
+            "statistic_unit": (("statistic",), ["rad2" if x == "E_phi2" else "rad" if x.startswith("mean_") else "1"
+                                                for x in st], None, "unit of the statistic"),
+            "parameter_unit": (("parameter",), [SENSITIVITY_PARAMETERS.get(p, "?") for p in pa], None,
+                               "unit of the parameter")}  # fmt: skip
         if self.by_burn_in:
             burns = sorted(self.by_burn_in)
             out["by_burn_in"] = (("burn_in_s", *sp), np.stack([grid(self.by_burn_in[b]) for b in burns]), mixed,
                                  "windowed gradient estimate per burn-in, before extrapolation")
             coords["burn_in_s"] = (("burn_in_s",), np.asarray(burns, dtype=float), "s", "burn-in of the tangent")
-        import json
-
-        from .._labels._provenance import to_jsonable
-
-        coords["statistic_unit"] = (("statistic",), ["rad2" if x == "E_phi2" else "rad" if x.startswith("mean_")
-                                                     else "1" for x in st], None, "unit of the statistic")
-        coords["parameter_unit"] = (("parameter",), [SENSITIVITY_PARAMETERS.get(p, "?") for p in pa], None,
-                                    "unit of the parameter")
-        return labelled_values(out, coords=coords, attrs={"config_json": json.dumps(to_jsonable(self.config))})
+        return labelled_values(out, coords=coords, attrs=config_attrs(self.config))
 
 
 def _ratio(num, den):

@@ -51,15 +51,6 @@ def _per_trial(result, dims=("realization",)) -> dict:
     }
 
 
-def _config_attrs(config: dict) -> dict:
-    """A result's `config` as a dataset attribute (JSON text)."""
-    import json
-
-    from .._labels._provenance import to_jsonable
-
-    return {"config_json": json.dumps(to_jsonable(config), sort_keys=True)}
-
-
 class CapsizeCounts:
     """Capsize counts of a Monte Carlo result with a per-realization boolean array `capsized`."""
 
@@ -291,7 +282,7 @@ class AmplitudeStatistics(CapsizeCounts):
         names; PDFs on `amplitude_deg`, the centres of `bins_deg`, by default 1° bins over the fine grid), the
         histogram `counts_zero_crossing`, `counts_envelope` on the fine grid (`fine_amplitude_deg`), and per
         realization `capsized`, `capsize_time_s` (inf: did not capsize) and the exact sums behind the means."""
-        from .._labels import labelled_values, merge, tree_to_dataset
+        from .._labels import config_attrs, labelled_values, merge, tree_to_dataset
         from .._labels._layouts import AMPLITUDES
 
         edges = np.asarray(self.edges_deg, dtype=float)
@@ -323,7 +314,7 @@ class AmplitudeStatistics(CapsizeCounts):
              **_per_trial(self), **per},
             coords={"fine_amplitude_deg": (fine, (edges[1:] + edges[:-1]) / 2, "degree", "centres of the fine bins"),
                     **_realizations(self)},
-            attrs=_config_attrs(self.config)))
+            attrs=config_attrs(self.config)))
 
 
 @dataclass
@@ -421,7 +412,7 @@ class MaximaStatistics(CapsizeCounts):
         `per_n0` fields, on the dimension `n0`; default 1° bins to 90°) and per trial `maxima_deg` (NaN: the trial
         capsized or ended before N0 amplitudes), `capsized`, `capsize_time_s` and `amplitude_count` (amplitudes the trial
         contributed), all on (`n0`, `realization`) so that runs with other N0 concatenate along `n0`."""
-        from .._labels import labelled_values, merge, tree_to_dataset
+        from .._labels import config_attrs, labelled_values, merge, tree_to_dataset
         from .._labels._layouts import MAXIMA_SUMMARY
 
         bins = np.arange(0.0, 90.0 + 1e-9, 1.0) if bins_deg is None else np.asarray(bins_deg, dtype=float)
@@ -436,7 +427,7 @@ class MaximaStatistics(CapsizeCounts):
              **_per_trial(self, dims),
              "amplitude_count": (dims, np.broadcast_to(self.count, n), "1",
                                  "zero-crossing amplitudes the trial recorded (at most max(N0) of its run)")},
-            coords=_realizations(self), attrs=_config_attrs(self.config)))
+            coords=_realizations(self), attrs=config_attrs(self.config)))
 
 
 @dataclass
@@ -478,7 +469,7 @@ class MaxRollStatistics(CapsizeCounts):
         """The result as an `xarray.Dataset` (docs/outputs.md): per trial `max_abs_phi_deg` (the largest roll),
         `capsized`, `capsize_time_s`; the exceedance and capsize probabilities with 95 % Wilson intervals
         (`bound`), and `largest_roll_quantiles_deg` (NaN: among the capsizes)."""
-        from .._labels import labelled_values, merge, tree_to_dataset
+        from .._labels import config_attrs, labelled_values, merge, tree_to_dataset
         from .._labels._layouts import MAX_ROLL
 
         tree = {"angle_deg": self.angle_deg, "n_realizations": self.n_realizations, "n_capsized": self.n_capsized,
@@ -489,7 +480,7 @@ class MaxRollStatistics(CapsizeCounts):
         return merge(tree_to_dataset(tree, MAX_ROLL), labelled_values(
             {"max_abs_phi_deg": (("realization",), self.max_abs_phi_deg, "degree",
                                  "largest |φ| of the trial after the discard (up to its capsize)"), **_per_trial(self)},
-            coords=_realizations(self), attrs=_config_attrs(self.config)))
+            coords=_realizations(self), attrs=config_attrs(self.config)))
 
 
 @dataclass
