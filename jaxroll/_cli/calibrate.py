@@ -38,7 +38,7 @@ def register(sub) -> None:
         help="fit damping (decay), the GM correction (captive) or the model to free-running roll records (roll: "
         "amplitude PDFs, or the time series) from tank records",
         description="Calibrates a ship from tank records (docs/records.md, docs/calibration.md) and writes "
-        "ship.toml, calibration.json and figures into --out.",
+        "ship.toml, calibration.json, calibration.nc (docs/outputs.md) and figures into --out.",
     )
     kinds = p.add_subparsers(dest="kind", metavar="KIND", required=True)
     d = kinds.add_parser(

@@ -39,7 +39,7 @@ def register(sub) -> None:
         "pdf",
         help="Monte Carlo roll-amplitude PDFs, paper style (default: C11 representative, H1/3 7 m, T01 10 s)",
         description="Runs the paper's MCS protocol (φ(0)=5°, 3600 s, 10⁴ realizations) and writes pdf_linear.png, "
-        "pdf_log.png and pdf.json into --out.",
+        "pdf_log.png, pdf.json and pdf.nc (docs/outputs.md) into --out.",
     )
     add_sea_options(p)
     m = p.add_argument_group("Monte Carlo")

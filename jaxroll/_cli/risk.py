@@ -38,7 +38,7 @@ def register(sub) -> None:
     add_chunk_option(p, streaming=True, what="trials")
     add_memory_option(p)
     p.add_argument("--theory", default="", help="also from theory: roberts,esam,moment,envelope_fpk")
-    p.add_argument("--out", default="jaxroll-out/risk", help="output folder for risk.json and risk.png")
+    p.add_argument("--out", default="jaxroll-out/risk", help="output folder for risk.json, risk.nc and risk.png")
     p.add_argument("--quiet", action="store_true", help="no progress display")
     p.set_defaults(func=run)
 

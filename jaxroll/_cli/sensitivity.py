@@ -28,8 +28,8 @@ def register(sub) -> None:
         "sensitivity",
         help="d(roll statistic)/d(ship or sea parameter) by Monte Carlo (windowed pathwise AD) and by theory",
         description="Derivatives of E[φ²], the mean envelope and zero-crossing amplitudes and smoothed exceedance "
-        "probabilities with respect to ship and sea parameters (docs/sensitivity.md); writes sensitivity.json and "
-        "sensitivity.png into --out.",
+        "probabilities with respect to ship and sea parameters (docs/sensitivity.md); writes sensitivity.json, "
+        "sensitivity.nc and sensitivity.png into --out.",
     )
     add_sea_options(p)
     m = p.add_argument_group("sensitivities")

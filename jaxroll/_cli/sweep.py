@@ -31,7 +31,7 @@ def register(sub) -> None:
         description="For every sea state of the grid, runs a Monte Carlo of --realizations trials of "
         "--duration s "
         "and estimates P(capsize) and P(max |φ| > --angle within the duration), with Wilson confidence "
-        "intervals. Writes sweep.png and sweep.json into --out, and sweep_polar.png (the polar risk chart: "
+        "intervals. Writes sweep.png, sweep.json and sweep.nc into --out, and sweep_polar.png (the polar risk chart: "
         "probability over speed × heading for each sea state) when two or more headings and speeds are given.",
     )
     g = p.add_argument_group("grid (comma-separated lists; full scale)")
