@@ -131,7 +131,10 @@ EXPOSURE_UNITS = {"*exceedance_per_cycle": "1", "*exceedance_per_cycle_ci95": "1
 EXPOSURE_LONG_NAMES = {
     "*n_cycles": "number of amplitudes in the exposure (rate × duration)",
     "*exceedance_per_cycle": "probability that one amplitude exceeds the angle",
-    "*_probability": "probability of at least one exceedance within the exposure",
+    **{f"{source}_probability": "P(at least one amplitude beyond the angle within the exposure): independent "
+       f"amplitudes of the {'Monte Carlo' if source == 'monte_carlo' else source + ' law'}"
+       for source in ("monte_carlo", "roberts", "esam", "moment", "envelope_fpk")},
+    "direct_probability": "P(max |φ| > angle within the exposure, or a capsize): trials of the exposure's length",
     "*probability_poisson": "Poisson approximation of that probability",
     "*most_probable_largest_deg": "mode of the largest amplitude in the exposure",
     "*characteristic_largest_deg": "characteristic largest amplitude (F̄ = 1 − e^(−1/n))",
@@ -210,17 +213,19 @@ SENSITIVITY = Layout(
 # Hydrostatics (HydrostaticsSolution, Particulars; hydrostatics.json)
 # --------------------------------------------------------------------------------------------------------------
 
-PARTICULARS_LONG_NAMES = {
-    "*displacement_kg": "displacement Δ", "*volume_m3": "displaced volume ∇", "*draught_m": "draught amidships",
-    "*draught_ap_m": "draught at the AP", "*draught_fp_m": "draught at the FP", "*trim_m": "trim d_FP − d_AP",
-    "*lcb_m": "longitudinal centre of buoyancy from the AP", "*lcg_m": "longitudinal centre of gravity from the AP",
-    "*kb_m": "KB", "*bm_m": "transverse BM", "*km_m": "transverse KM", "*kg_m": "KG",
-    "*gm_m": "transverse metacentric height GM", "*bm_longitudinal_m": "longitudinal BM",
-    "*gm_longitudinal_m": "longitudinal GM", "*waterplane_area_m2": "waterplane area",
-    "*lcf_m": "longitudinal centre of flotation from the AP", "*waterline_breadth_m": "waterline breadth B_WL",
-    "*block_coefficient": "block coefficient ∇/(Lpp B_WL d)", "*midship_coefficient": "midship coefficient",
-    "*prismatic_coefficient": "prismatic coefficient", "*waterplane_coefficient": "waterplane coefficient",
+_PARTICULARS = {
+    "displacement_kg": "displacement Δ", "volume_m3": "displaced volume ∇", "draught_m": "draught amidships",
+    "draught_ap_m": "draught at the AP", "draught_fp_m": "draught at the FP", "trim_m": "trim d_FP − d_AP",
+    "lcb_m": "longitudinal centre of buoyancy from the AP", "lcg_m": "longitudinal centre of gravity from the AP",
+    "kb_m": "KB", "bm_m": "transverse BM", "km_m": "transverse KM", "kg_m": "KG",
+    "gm_m": "transverse metacentric height GM", "bm_longitudinal_m": "longitudinal BM",
+    "gm_longitudinal_m": "longitudinal GM", "waterplane_area_m2": "waterplane area",
+    "lcf_m": "longitudinal centre of flotation from the AP", "waterline_breadth_m": "waterline breadth B_WL",
+    "block_coefficient": "block coefficient ∇/(Lpp B_WL d)", "midship_coefficient": "midship coefficient",
+    "prismatic_coefficient": "prismatic coefficient", "waterplane_coefficient": "waterplane coefficient",
 }
+# Particulars.as_dict()'s names, alone (Particulars.to_xarray) and as hydrostatics.json's and sgisc.json's `calm_water`
+PARTICULARS_LONG_NAMES = {**_PARTICULARS, **{f"calm_water_{k}": v for k, v in _PARTICULARS.items()}}
 PARTICULARS = Layout(long_names=PARTICULARS_LONG_NAMES)
 
 HYDRO = ("zeta_mid_m", "heel_deg")

@@ -108,6 +108,31 @@ GLOSSARY = {
     "theory": "theoretical method",
     "bound": "interval bound",
     "realization": "realization (trial) index, in the Monte Carlo's order",
+    # risk
+    "angle_deg": "threshold roll angle", "rate_per_s": "zero-crossing amplitudes per second of roll",
+    "n_exceed": "amplitudes above the angle", "duration_s": "duration",
+    # the filter fit (Method 2)
+    "relative_l2_error": "relative L2 error of the filter's spectrum", "variance_target_m2": "target variance",
+    "variance_filter_m2": "the filter's variance", "match_frequency_rad_s": "frequency where the spectra are matched",
+    "spectrum_target_at_match_m2s": "target spectrum there", "spectrum_filter_at_match_m2s": "the filter's spectrum there",
+    # IMO criteria
+    "r_pr": "standard R_PR", "reserve_ratio": "reserve ratio", "draught_high": "higher draught of Level 1",
+    "draught_low": "lower draught of Level 1", "delta_gm1": "ΔGM1 (Level 1)", "ratio": "ΔGM/GM",
+    "delta_gm1_waterplane": "ΔGM1 from the waterplane", "delta_gm1_waves": "ΔGM1 from the GM on waves",
+    "c1": "C1 (weighted share of wave cases that fail)", "c2": "C2 (mean share of sea states with roll > 25°)",
+    "standard": "the check's standard", "weight": "weight of the wave case", "wavelength_m": "wavelength",
+    "height_m": "wave height", "gm_mean_m": "mean GM on the wave", "delta_gm_m": "half the range of GM on the wave",
+    "v_pr_m_s": "speed of principal parametric resonance", "stable": "whether GM stays positive (1: yes)",
+    "c": "the case's contribution (0 or 1)", "fit_rms": "rms residual of the damping fit",
+    "zeta_eq": "equivalent damping ratio", "b_hat": "non-dimensional damping B̂44", "froude": "Froude number",
+    "speed_factor": "speed factor K", "encounter_frequency_rad_s": "encounter frequency",
+    "effective_wave_height_m": "effective wave height h_eff", "max_roll_deg": "largest roll",
+    # fits and diagnostics
+    "gm0_m": "calm-water GM0", "gz_fit_rms_m": "rms residual of the GZ fit",
+    "delta_gm_fit_rms_m": "rms residual of the ΔGM fit", "dof": "degrees of freedom of the 95 % interval",
+    "n_obs": "number of residuals", "n_params": "number of fitted parameters", "rss": "sum of squared residuals",
+    "sigma": "residual standard deviation", "num_steps": "solver steps", "condition_number": "condition number",
+    "omega0_rad_s": "natural roll frequency ω0", "agreement_z": "difference between the fits in combined SEs",
 }
 
 
