@@ -98,9 +98,6 @@ def _is_number(x) -> bool:
 
 def _array(node) -> np.ndarray | None:
     """A number array from a list/array leaf (None → NaN), or None when it is not one."""
-    if isinstance(node, np.ndarray) or hasattr(node, "__array__"):
-        arr = np.asarray(node)
-        return arr if arr.dtype.kind in "biuf" else None
     try:
         arr = np.asarray(node)
     except ValueError:  # ragged
