@@ -352,6 +352,7 @@ def test_pdf_all_capsized_reports_null_not_invented_numbers(tmp_path, monkeypatc
     printed = capsys.readouterr().out
     assert "no statistics:" in printed and "nan" not in printed.lower()
     assert (out / "pdf_linear.png").stat().st_size > 0
+    assert_labelled_output(out, "pdf")  # the nulls are NaN in pdf.nc
 
 
 def test_pdf_warns_when_the_roll_is_not_stationary(tmp_path, monkeypatch, capsys):

@@ -137,6 +137,8 @@ class _Builder:
             self.add_text(name, labels, _plain(node), True)
             return
         dim = _find(lay.labels, path) if path else None
+        if dim is not None and node is None:  # a null labelled level (no amplitude: no quantiles): NaN there
+            return
         if dim is not None:
             keep = not dim.startswith("(")
             dim = dim.strip("()")
@@ -287,6 +289,12 @@ def tree_to_dataset(tree: Mapping, layout: Layout, *, attrs: Mapping[str, Any] |
                     if sizes.setdefault(d, n) != n:
                         raise ValueError(f"labelled results: dimension {d!r} is {sizes[d]} long elsewhere but {n} in "
                                          f"{'/'.join(e.path)}.")
+    for name, edges in layout.centres.items():  # bin centres: before the variables, which may be on them
+        if edges in b.entries and b.entries[edges].values.get(()) is not None:
+            v = np.asarray(b.entries[edges].values[()], dtype=float)
+            coords[name] = xr.Variable((name,), (v[1:] + v[:-1]) / 2, {"units": _units(layout, b.entries[edges]),
+                                                                       "long_name": f"bin centres of {edges}"})
+            sizes[name] = v.size - 1
     variables: dict[str, Any] = {}
     for e in b.entries.values():
         unit = _units(layout, e)
@@ -323,12 +331,6 @@ def tree_to_dataset(tree: Mapping, layout: Layout, *, attrs: Mapping[str, Any] |
         long_name = _long_name(layout, e)
         variables[e.name] = xr.Variable((*e.label_dims, *e.array_dims), data, {
             "units": unit, "long_name": long_name, "json_path": "/".join(e.path)})
-    for name, edges in layout.centres.items():
-        if edges in variables:
-            v = variables[edges]
-            mid = (v.values[1:] + v.values[:-1]) / 2
-            coords[name] = xr.Variable((name,), mid, {"units": v.attrs["units"],
-                                                      "long_name": f"bin centres of {edges}"})
     for dim, labels in layout.index.items():
         if dim in sizes and dim not in coords and dim not in variables:
             coords[dim] = xr.Variable((dim,), np.asarray(labels), {"long_name": GLOSSARY.get(dim, dim.replace("_", " "))})
@@ -360,6 +362,6 @@ def merge(*datasets):
 
 def config_attrs(config: Mapping[str, Any]) -> dict[str, str]:
     """A result's `config` as a dataset attribute: `{"config_json": JSON text}` (attributes hold no mappings)."""
-    from ._provenance import to_jsonable
+    from ..io._dataset import to_jsonable  # (io: no numerics at module level)
 
     return {"config_json": json.dumps(to_jsonable(dict(config)), sort_keys=True)}

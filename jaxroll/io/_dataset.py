@@ -1,27 +1,79 @@
-"""Labelled results on disk: netCDF files written completely or not at all, and each command's dataset.
+"""Labelled results: the provenance every output records, and netCDF files written completely or not at all.
 
 Every command's numbers also go into an `xarray.Dataset` (named dimensions, `units` and `long_name` attributes on
 each variable, the configuration and `provenance()` in the dataset's attributes) written by `write_dataset` with
-the h5netcdf engine: netCDF4 files (HDF5 underneath) that `xarray.open_dataset`, netCDF4-python, ncdump and
-MATLAB read; h5netcdf needs only h5py, whose wheels also read labs' HDF5 tank records, so one dependency serves
-both (netCDF4-python would add a second HDF5 build of its own). docs/outputs.md lists each file's variables.
+the h5netcdf engine (netCDF4/HDF5 files; h5py also reads labs' HDF5 tank records, so one dependency serves both;
+netCDF4-python would bring a second HDF5 build of its own). `output_dataset` builds a command's dataset from its
+JSON payload and its results' `.to_xarray()` (docs/outputs.md).
 """
 
 from __future__ import annotations
 
+import importlib.metadata
 import json
+import math
 import os
 import tempfile
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from .._labels import OUTPUTS, tree_to_dataset
-from .._labels._provenance import (
-    dataset_attrs as dataset_attrs,
-    provenance as provenance,
-    to_jsonable as to_jsonable,
-)
+
+#: The libraries whose versions every output records (the bit-for-bit claims depend on them).
+_LIBRARIES = ("jaxroll", "jax", "jaxlib", "equinox", "diffrax", "optimistix", "numpy")
+
+
+def to_jsonable(obj: Any) -> Any:
+    """Arrays → lists, NaN/inf → null, numpy/JAX scalars → Python numbers."""
+    if isinstance(obj, dict):
+        return {str(k): to_jsonable(v) for k, v in obj.items()}
+    if isinstance(obj, list | tuple):
+        return [to_jsonable(v) for v in obj]
+    if hasattr(obj, "__array__") and not isinstance(obj, str | bytes):
+        arr = np.asarray(obj)
+        if arr.ndim == 0:
+            return to_jsonable(arr.item())
+        return to_jsonable(arr.tolist())
+    if isinstance(obj, float):
+        return obj if math.isfinite(obj) else None
+    if isinstance(obj, np.generic):
+        return to_jsonable(obj.item())
+    return obj
+
+
+def provenance() -> dict[str, str]:
+    """What produced a result: `jaxroll_version`, `jax_version`, `jaxlib_version`, …, the JAX `backend` and the
+    first device's `device_kind` (e.g. "cpu", "NVIDIA H100 80GB HBM3"), and `x64` ("true"/"false").
+
+    **Returns:** a dict of strings (netCDF attributes and JSON fields alike). Starts JAX's backend if not started.
+    """
+    import jax
+
+    out = {}
+    for lib in _LIBRARIES:
+        try:
+            out[f"{lib}_version"] = importlib.metadata.version(lib)
+        except importlib.metadata.PackageNotFoundError:  # pragma: no cover - a source tree without metadata
+            out[f"{lib}_version"] = "unknown"
+    out["backend"] = jax.default_backend()
+    out["device_kind"] = str(jax.devices()[0].device_kind)
+    out["x64"] = "true" if jax.config.jax_enable_x64 else "false"
+    return out
+
+
+def dataset_attrs(config: dict[str, Any] | None = None, **extra: Any) -> dict[str, str]:
+    """Dataset attributes: `provenance()`, the configuration as JSON text (`config_json`; netCDF attributes
+    cannot hold nested mappings) and `extra` attributes (strings or numbers)."""
+    attrs: dict[str, Any] = dict(provenance())
+    if config is not None:
+        attrs["config_json"] = json.dumps(to_jsonable(config), sort_keys=True)
+    for k, v in extra.items():
+        attrs[k] = v if isinstance(v, int | float | str) else json.dumps(to_jsonable(v))
+    return attrs
+
 
 #: Top-level JSON fields that are not results: in the dataset's attributes instead (`config_json`, versions).
 _NOT_RESULTS = ("config", "jaxroll_version", "warnings")
@@ -32,8 +84,9 @@ def output_dataset(command: str, payload: Mapping[str, Any], parts=None, *, warn
     the JSON fields, `units`, `long_name` and `json_path` on each; docs/outputs.md), plus `parts`: the result
     objects' own datasets (`.to_xarray()`: per-trial arrays, histogram counts, …) — one dataset, or a dict
     `{prefix: dataset}` whose variables are named `<prefix>_<name>` ("" for none); a list of datasets (maxima of
-    groups of N0) is concatenated along `n0` first (NaN where a group has fewer trials). Variables the JSON already gives are taken
-    from the JSON; a dimension of a part that the JSON labels differently is renamed `<prefix>_<dim>`.
+    groups of N0) is concatenated along `n0` first (NaN where a group has fewer trials). Variables the JSON already
+    gives are taken from the JSON; a dimension of a part that the JSON labels differently is renamed
+    `<prefix>_<dim>`.
 
     Attributes: `dataset_attrs(payload["config"])` (the configuration as JSON text, the versions of jaxroll, jax,
     jaxlib, …, the backend and device kind), `command`, `json_file`, the JSON's text fields, the `warnings`.
