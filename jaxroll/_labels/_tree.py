@@ -312,6 +312,8 @@ def tree_to_dataset(tree: Mapping, layout: Layout, *, attrs: Mapping[str, Any] |
                 continue
             raise ValueError(f"labelled results: no unit for {'/'.join(e.path)} (variable {e.name!r}); give it in "
                              "the layout (`units`) or name the field with its unit (`_deg`, `_s`, `_m`, …).")
+        if any(d not in sizes for d in e.array_dims):  # an array that is null throughout: nothing to store
+            continue
         shape_a = tuple(sizes[d] for d in e.array_dims)
         missing = len(present) < len(e.values) or len(e.values) < int(np.prod([sizes[d] for d in e.label_dims]))
         if kinds <= {"b"} and not missing:
