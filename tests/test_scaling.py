@@ -16,7 +16,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
-from helpers import default_problem
+from helpers import assert_labelled_output, default_problem
 
 import jaxroll
 from jaxroll import monte_carlo_max_roll, realization_mesh, wilson_interval
@@ -539,6 +539,7 @@ def test_sweep_cli_writes_map_and_json(tmp_path, capsys):
     np.testing.assert_array_equal(np.array(d["exceedance_probability"]), counts / 5)
     assert np.all(counts >= np.array(d["n_capsized"]))
     assert len(d["points"]) == 4 and d["points"][0]["hs_m"] == 5.0
+    assert_labelled_output(out, "sweep")
     # The 7 m, T01 = 10 s point equals the stand-alone Monte Carlo with the same seed (common random numbers).
     problem = jaxroll.RollProblem.from_sea(jaxroll.c11_representative(), jaxroll.ITTC(7.0, 10.0))
     stats = monte_carlo_max_roll(

@@ -57,6 +57,16 @@ def write_json(path: str | Path, payload: dict[str, Any]) -> None:
     atomic_write_text(path, json.dumps(to_jsonable(data), indent=2) + "\n")
 
 
+def write_netcdf(path: str | Path, command: str, payload: dict[str, Any], parts=None) -> None:
+    """Write the labelled twin of a command's JSON (`payload`) as netCDF, atomically: its numbers with dimensions,
+    units and long names, plus `parts` (the results' `.to_xarray()`: per-trial arrays, histogram counts), the
+    configuration, versions and this command's warnings in the attributes (`jaxroll.io.output_dataset`;
+    docs/outputs.md)."""
+    from ..io import output_dataset, write_dataset
+
+    write_dataset(path, output_dataset(command, payload, parts, warnings=list(dict.fromkeys(WARNINGS))))
+
+
 def save_figure(fig, path: str | Path) -> None:
     """Save a matplotlib figure atomically (PNG, 150 dpi) and close it."""
     import io

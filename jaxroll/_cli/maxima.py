@@ -17,6 +17,7 @@ from ._common import (
     memory_budget,
     save_figure,
     write_json,
+    write_netcdf,
 )
 from ._sea import (
     add_sea_options,
@@ -134,7 +135,7 @@ def run(args) -> int:
     centres = (bins[1:] + bins[:-1]) / 2
     grid_deg = np.linspace(0.0, 89.0, 891)
     per_n0: dict[str, dict] = {}
-    amplitude_summaries = []
+    amplitude_summaries, per_trial = [], []
     t0 = time.time()
     resumed = False
     # The per-cycle amplitude PDF of the same sea (zero-crossing, after the discard), for P*(A_M).
@@ -165,6 +166,7 @@ def run(args) -> int:
                                    progress=progress,
                                    checkpoint=group_checkpoint)
         amplitude_summaries.append({"n0": n0s, "n_trials": n_trials})
+        per_trial.append(stats.to_xarray(bins))
         for j, n0 in enumerate(stats.n0):
             a = np.deg2rad(grid_deg)
             curves, p_star = {}, {}
@@ -219,6 +221,7 @@ def run(args) -> int:
                                            n_trials=v["n_known"])
             save_figure(fig, tmp / f"maxima_N0_{k}.png")
         write_json(tmp / "maxima.json", payload)
+        write_netcdf(tmp / "maxima.nc", "maxima", payload, {"": per_trial, "amplitude_pdf": amp.to_xarray(bins)})
     for k, v in per_n0.items():
         print(f"N0 = {k:>6}: {maxima_line(v)}")
         for name, p in v["p_star"].items():
@@ -227,5 +230,5 @@ def run(args) -> int:
             mean = "beyond the grid" if p["mean_deg"] is None else f"{p['mean_deg']:.2f}°"
             print(f"  {label}: mode {p['mode_deg']:.2f}°, mean {mean}, P(max > 30°) = "
                   f"{p['p_exceed']['30']:.3g} (Monte Carlo maxima: {v['p_exceed']['30']:.3g}){note}")
-    print(f"done in {elapsed:.1f} s{' (resumed from the checkpoint; this run only)' if resumed else ''}; wrote {out}/maxima_linear.png, maxima_log.png, maxima_N0_*.png, maxima.json")
+    print(f"done in {elapsed:.1f} s{' (resumed from the checkpoint; this run only)' if resumed else ''}; wrote {out}/maxima_linear.png, maxima_log.png, maxima_N0_*.png, maxima.json, maxima.nc")
     return 0

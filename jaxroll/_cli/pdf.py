@@ -18,6 +18,7 @@ from ._common import (
     memory_budget,
     save_figure,
     write_json,
+    write_netcdf,
 )
 from ._sea import (
     add_sea_options,
@@ -43,7 +44,7 @@ def register(sub) -> None:
         "pdf",
         help="Monte Carlo roll-amplitude PDFs, paper style (default: C11 representative, H1/3 7 m, T01 10 s)",
         description="Runs the paper's MCS protocol (φ(0)=5°, 3600 s, 10⁴ realizations) and writes pdf_linear.png, "
-        "pdf_log.png and pdf.json into --out.",
+        "pdf_log.png, pdf.json and pdf.nc (docs/outputs.md) into --out.",
     )
     add_sea_options(p)
     m = p.add_argument_group("Monte Carlo")
@@ -275,6 +276,7 @@ def run(args) -> int:
         save_figure(fig_lin, tmp / "pdf_linear.png")
         save_figure(fig_log, tmp / "pdf_log.png")
         write_json(tmp / "pdf.json", payload)
+        write_netcdf(tmp / "pdf.nc", "pdf", payload, stats.to_xarray(bins))
     took = f"done in {elapsed:.1f} s" + (f" (resumed; {earlier + elapsed:.1f} s in total)" if resumed else "")
     capsized = f"capsized {stats.n_capsized}/{stats.n_realizations} (P = {stats.capsize_probability:.4f})"
     print(f"{took}; {capsized}")
@@ -299,5 +301,5 @@ def run(args) -> int:
             + ("" if args.theory is not None else "; --theory none leaves them out"))  # fmt: skip
     for name, reason in theories_failed.items():
         print(f"theory overlay: {name} left out: {reason}")
-    print(f"wrote {out / 'pdf_linear.png'}, {out / 'pdf_log.png'}, {out / 'pdf.json'}")
+    print(f"wrote {out / 'pdf_linear.png'}, {out / 'pdf_log.png'}, {out / 'pdf.json'}, {out / 'pdf.nc'}")
     return 0

@@ -17,6 +17,7 @@ from ._common import (
     memory_budget,
     save_figure,
     write_json,
+    write_netcdf,
 )
 from ._sea import (
     add_sea_options,
@@ -53,7 +54,7 @@ def register(sub) -> None:
                    help="direct: trials of the exposure's length (always run); splitting: also multilevel splitting "
                         "for the direct probability, for rare exceedances (risk.json 'splitting'; docs/rare_events.md)")
     p.add_argument("--splitting-trials", type=int, default=1000, help="splitting: runs a stage (1000)")
-    p.add_argument("--out", default="jaxroll-out/risk", help="output folder for risk.json and risk.png")
+    p.add_argument("--out", default="jaxroll-out/risk", help="output folder for risk.json, risk.nc and risk.png")
     p.add_argument("--quiet", action="store_true", help="no progress display")
     p.set_defaults(func=run)
 
@@ -287,6 +288,8 @@ def run(args) -> int:
                           capsize_probability=direct_stats.capsize_probability, title=title)
         save_figure(fig, tmp / "risk.png")
         write_json(tmp / "risk.json", payload)
+        write_netcdf(tmp / "risk.nc", "risk", payload, {"direct": direct_stats.to_xarray(),
+                                                        "monte_carlo": stats.to_xarray()})
     m, d = result["monte_carlo"], result["direct"]
     print(f"Sea: H1/3 {args.hs} m, T01 {args.t01} s, {heading_phrase(parse_heading(args.heading))}, U {args.speed} m/s; ship {ship.name}")
     print(f"Direct ({args.realizations} trials of {args.hours:g} h after {args.discard:g} s): "
@@ -319,5 +322,5 @@ def run(args) -> int:
         t = result[name]
         print(f"{name} (independent amplitudes): P = {probability_text(t['probability'], t['probability_complement'])}, "
               f"most probable largest {t['most_probable_largest_deg']:.1f}°{closure_note(t['theory_details'])}")
-    print(f"wrote {out}/risk.json, risk.png")
+    print(f"wrote {out}/risk.json, risk.nc, risk.png")
     return 0

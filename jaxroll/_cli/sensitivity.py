@@ -7,7 +7,7 @@ import math
 import time
 from pathlib import Path
 
-from ._common import CLIError, OutputFolder, Progress, load_ship_arg, save_figure, write_json
+from ._common import CLIError, OutputFolder, Progress, load_ship_arg, save_figure, write_json, write_netcdf
 from ._sea import (
     add_sea_options,
     check_positive,
@@ -29,8 +29,8 @@ def register(sub) -> None:
         "sensitivity",
         help="d(roll statistic)/d(ship or sea parameter) by Monte Carlo (windowed pathwise AD) and by theory",
         description="Derivatives of E[φ²], the mean envelope and zero-crossing amplitudes and smoothed exceedance "
-        "probabilities with respect to ship and sea parameters (docs/sensitivity.md); writes sensitivity.json and "
-        "sensitivity.png into --out.",
+        "probabilities with respect to ship and sea parameters (docs/sensitivity.md); writes sensitivity.json, "
+        "sensitivity.nc and sensitivity.png into --out.",
     )
     add_sea_options(p)
     m = p.add_argument_group("sensitivities")
@@ -271,6 +271,7 @@ def run(args) -> int:
     with OutputFolder(out) as tmp:
         save_figure(sensitivity_bar_chart(payload, title=title), tmp / "sensitivity.png")
         write_json(tmp / "sensitivity.json", payload)
+        write_netcdf(tmp / "sensitivity.nc", "sensitivity", payload, {"monte_carlo": res.to_xarray()})
 
     print(f"Monte Carlo done in {elapsed:.1f} s (capsized {res.n_capsized}); theories in {theory_time:.1f} s")
     for n, t in theory.items():
@@ -283,5 +284,5 @@ def run(args) -> int:
             mc = e["monte_carlo"]
             th = "  ".join(f"{n} {v:+.4g}" for n, v in e["theory"].items() if v is not None)
             print(f"  d/d{p:<14s} {mc['value']:+.4g} ± {mc['std_error']:.2g} per {parameters[p]['unit']}   {th}")
-    print(f"wrote {out / 'sensitivity.json'}, {out / 'sensitivity.png'}")
+    print(f"wrote {out / 'sensitivity.json'}, {out / 'sensitivity.nc'}, {out / 'sensitivity.png'}")
     return 0

@@ -171,6 +171,24 @@ class DecayFit:
             "config": self.config,
         }
 
+    def to_xarray(self):
+        """The fit as an `xarray.Dataset` on `parameter` (b1, b2, b3; `estimates_dataset`): estimates, standard
+        errors, 95 % intervals and covariance, the solver's diagnostics, the extinction coefficients a, b, c
+        (`extinction_*`), the roll period Tφ and ω0; `method` and the configuration as attributes."""
+        from .._labels import config_attrs
+        from ._least_squares import estimates_dataset
+
+        extra = {"roll_period_s": ((), self.roll_period.value, "s", "roll period Tφ"),
+                 "roll_period_std_error_s": ((), self.roll_period.std_error, "s", "standard error of Tφ"),
+                 "omega0_rad_s": ((), self.omega0, "rad s-1", "natural roll frequency ω0")}
+        for k, e in self.extinction.items():
+            unit = {"-": "1", "1/rad": "rad-1", "1/rad^2": "rad-2"}.get(e.unit, e.unit)
+            extra[f"extinction_{k}"] = ((), e.value, unit, f"extinction coefficient {k} (decrement per half cycle)")
+            extra[f"extinction_{k}_std_error"] = ((), e.std_error, unit, f"standard error of {k}")
+        return estimates_dataset(self.damping, self.damping_covariance, info=self.info, residual_unit="rad",
+                                 extra=extra, attrs={"method": self.method,
+                                                     **config_attrs(self.config)})
+
 
 def _extinction_residual(theta, args):
     x, y = args

@@ -173,6 +173,35 @@ class AbstractAmplitudeLaw(eqx.Module):
         return out
 
 
+    def to_xarray(self, amplitude_deg: ArrayLike | None = None):
+        """The law as an `xarray.Dataset` on the amplitude grid `amplitude_deg` [deg] (default: 0.1° steps from 0 to
+        the end of the support, or to the amplitude exceeded with probability 1e-12 where the support is
+        unbounded): `pdf_per_degree` [1/deg], `sf` and `cdf` [-], the `summary()` numbers (`mean_amplitude_deg`,
+        `quantiles_deg` on `percentile`), and as attributes the law's type, `estimator` and `amplitude_sampling`.
+        `amplitude_rad` is a second coordinate (the law's own unit)."""
+        from .._labels import Layout, labelled_values, merge, tree_to_dataset
+
+        if amplitude_deg is None:
+            lo, hi = (float(v) for v in self.support())
+            top = hi if np.isfinite(hi) else float(self.isf(1e-12))
+            amplitude_deg = np.arange(0.0, np.rad2deg(top) + 0.1, 0.1)
+        grid = np.asarray(amplitude_deg, dtype=float)
+        rad = np.deg2rad(grid)
+        summary = self.summary()
+        text = {k: summary.pop(k) for k in ("estimator", "amplitude_sampling")}
+        ds = tree_to_dataset(summary, Layout(labels={"quantiles_deg": "percentile"},
+                                             coords={"percentile": ("percent", "quantile level")}))
+        a = ("amplitude_deg",)
+        return merge(ds, labelled_values(
+            {"pdf_per_degree": (a, np.asarray(self.pdf(rad)) * np.pi / 180, "degree-1", "PDF of the amplitude per "
+                                "degree"),
+             "sf": (a, np.asarray(self.sf(rad)), "1", "P(A > amplitude)"),
+             "cdf": (a, np.asarray(self.cdf(rad)), "1", "P(A <= amplitude)")},
+            coords={"amplitude_deg": (a, grid, "degree", "roll amplitude A"),
+                    "amplitude_rad": (a, rad, "rad", "roll amplitude A")},
+            attrs={"law": type(self).__name__, **text}))
+
+
 def require_zero_crossing(law: AbstractAmplitudeLaw, what: str) -> None:
     """Refuse a law of envelope amplitudes where the per-half-cycle law is needed (maxima, risk)."""
     if not isinstance(law, AbstractAmplitudeLaw):

@@ -203,6 +203,8 @@ class AmplitudeHistogram(AbstractObserver):
             "n_samples": kf * n,
             "sum_phi2": kf * sum_phi2,
             "sum_phi4": kf * sum_phi4,
+            # the largest envelope amplitude after the discard [rad] (NaN: capsized): the trial's largest roll
+            "max_env": jnp.where(keep, jnp.max(env, 1, initial=0.0).astype(jnp.float64), jnp.nan),
         }
         return summed, per
 

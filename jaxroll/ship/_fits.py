@@ -133,6 +133,34 @@ class HydrostaticsSolution(eqx.Module):
         """GZ(ζ, φ) − GZ(calm, φ) [m]."""
         return self.gz - self.gz_calm[None, :]
 
+    def to_xarray(self):
+        """The tables and fits as an `xarray.Dataset` named as in hydrostatics.json: `tables_gz_m`,
+        `tables_sinkage_m`, `tables_trim_m`, `tables_converged` on (`zeta_mid_m`, `heel_deg`), `tables_gz_calm_m`,
+        `tables_gm_m`, `tables_delta_gm_m`, the calm-water particulars (`calm_water_*`), the polynomial fits
+        (`fits_*`), the balance check and `wavelength_m`."""
+        from .._labels import Layout, tree_to_dataset
+        from .._labels._layouts import HYDROSTATICS
+
+        h = lambda x: np.asarray(x)  # noqa: E731
+        tree = {
+            "wavelength_m": float(self.wavelength),
+            "calm_water": self.particulars.as_dict(),
+            "tables": {"zeta_mid_m": h(self.zeta_mid), "heel_deg": np.degrees(h(self.heels)), "gz_m": h(self.gz),
+                       "sinkage_m": h(self.sinkage), "trim_m": h(self.trim), "gz_calm_m": h(self.gz_calm),
+                       "gm_m": h(self.gm), "delta_gm_m": h(self.delta_gm), "converged": h(self.converged)},
+            "fits": {"gm0_m": float(self.particulars.gm),
+                     "gz_coefficients_m": dict(zip(("g3", "g5", "g7", "g9"), h(self.gz_coefficients).tolist())),
+                     "gz_fit_rms_m": float(self.gz_fit_rms),
+                     "delta_gm_coefficients": {f"c{k}": float(c) for k, c in enumerate(h(self.delta_gm_coefficients))},
+                     "delta_gm_fit_rms_m": float(self.delta_gm_fit_rms)},
+            "balance_check": {"max_relative_volume_error": float(self.max_volume_error),
+                              "max_lcb_minus_lcg_m": float(self.max_lcb_error),
+                              "all_converged": bool(np.all(h(self.converged)))},
+        }
+        extra = Layout(arrays={"tables/converged": ("zeta_mid_m", "heel_deg")},
+                       long_names={"tables_converged": "whether the sinkage-and-trim balance converged"})
+        return tree_to_dataset(tree, HYDROSTATICS + extra)
+
 
 HydrostaticsSolution.__init__.__doc__ = """Fields: `particulars` (calm water, [`Particulars`][]); the grids
 `zeta_mid` [m] (> 0 trough amidships) and `heels` [rad]; `wavelength` λ [m]; tables `gz`, `sinkage`, `trim`
