@@ -160,7 +160,7 @@ def _maxima_and_risk_with_the_moment_method(tmp_path, capsys):
     code = main(["risk", "--hs", "5", "--angle", "20", "--hours", "3", "--realizations", "8", "--duration", "1200",
                  "--theory", "moment", "--out", str(tmp_path / "risk"), "--quiet"])
     assert code == 0
-    line = [x for x in capsys.readouterr().out.splitlines() if x.startswith("moment:")]
+    line = [x for x in capsys.readouterr().out.splitlines() if x.startswith("moment (independent amplitudes):")]
     assert line and line[0].endswith("closure order 4: order 6 has no stable fixed point here"), line
     d = json.loads((tmp_path / "risk" / "risk.json").read_text())
     assert d["moment"]["theory_details"]["closure_fallback"] and 0 <= d["moment"]["probability"] <= 1
@@ -249,6 +249,29 @@ def test_risk_command(tmp_path, capsys):
     assert_labelled_output(tmp_path, "risk")  # with each trial's largest roll (direct_max_abs_phi_deg)
     assert main(["risk", "--angle", "95", "--out", str(tmp_path)]) == 2
     assert "--angle must be in (0, 90)" in capsys.readouterr().err
+
+
+def test_risk_first_passage(tmp_path, capsys):
+    """`risk --theory first_passage`: the envelope FPK model followed through the exposure, in risk.json (with
+    the group statistics), on the risk curve (equal to the headline probability at the threshold) and in risk.nc;
+    it is below the same model's independent-amplitude probability (large rolls come in groups)."""
+    code = main(["risk", "--hs", "6", "--angle", "30", "--hours", "1", "--realizations", "8", "--duration", "1200",
+                 "--theory", "first_passage", "--out", str(tmp_path), "--quiet"])
+    assert code == 0
+    d = json.loads((tmp_path / "risk.json").read_text())
+    f = d["first_passage"]
+    assert d["config"]["theory"] == ["first_passage"]
+    assert 0.3 < f["probability"] < 0.5  # 40 000 Monte Carlo trials: 0.407 (benchmarks/data)
+    assert f["probability"] < f["independent_probability"]
+    assert f["amplitudes_per_cluster"] > 1.5 and f["clusters_per_hour"] > 0 and f["exists"]
+    assert 0 < f["capsize_probability"] < 1e-3
+    curve = d["curve"]
+    i = curve["angle_deg"].index(30.0)
+    assert curve["first_passage"][i] == pytest.approx(f["probability"], rel=0.02)  # interpolated between levels
+    assert "first_passage (envelope FPK followed through the exposure)" in capsys.readouterr().out
+    assert_labelled_output(tmp_path, "risk")
+    assert main(["risk", "--theory", "first_passage,nonsense", "--out", str(tmp_path)]) == 2
+    assert "unknown method" in capsys.readouterr().err
 
 
 def test_theory_command(tmp_path, capsys):

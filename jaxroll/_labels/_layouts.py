@@ -147,17 +147,60 @@ MAX_ROLL = Layout(labels={"largest_roll_quantiles_deg": "percentile"}, coords=PE
 
 EXPOSURE = Layout(units=EXPOSURE_UNITS, long_names=EXPOSURE_LONG_NAMES)
 
+_STAGE = ("splitting_stage",)
+FIRST_PASSAGE_UNITS = {
+    "first_passage_capsize_probability": "1", "first_passage_clusters_per_hour": "h-1",
+    "first_passage_amplitudes_per_cluster": "1", "first_passage_extremal_index": "1",
+    "first_passage_start_exceedance": "1", "first_passage_independent_probability": "1",
+    "first_passage_lyapunov_exponent_per_s": "s-1", "first_passage_exists": "1",
+}
+FIRST_PASSAGE_LONG_NAMES = {
+    "first_passage_probability": "P(max |φ| > angle within the exposure): the envelope FPK model followed through "
+                                 "the exposure (large rolls in groups)",
+    "first_passage_capsize_probability": "P(capsize within the exposure) of the envelope FPK model",
+    "first_passage_clusters_per_hour": "groups of large rolls (first passages once the start is forgotten) per hour",
+    "first_passage_amplitudes_per_cluster": "mean number of amplitudes above the angle per group (1/θ)",
+    "first_passage_extremal_index": "extremal index θ = cluster rate / (amplitude rate × F̄)",
+    "first_passage_mean_passage_time_s": "mean time to the first peak above the angle",
+    "first_passage_start_exceedance": "probability of being above the angle when the exposure starts",
+    "first_passage_independent_probability": "the same model's amplitudes taken as independent",
+    "first_passage_lyapunov_exponent_per_s": "Lyapunov exponent of the linearised roll (growth rate of ln A)",
+    "first_passage_exists": "sustained parametric roll (Lyapunov exponent > 0; 1: yes)",
+}
+SPLITTING_UNITS = {
+    "splitting_standard_error": "1", "splitting_capsize_standard_error": "1", "splitting_relative_error": "1",
+    "splitting_relative_variance_independent": "1", "splitting_conditional_probabilities": "1",
+    "splitting_simulated_seconds": "s", "splitting_pilot_simulated_seconds": "s", "splitting_lane_seconds": "s",
+    "splitting_total_simulated_seconds": "s", "splitting_stage_simulated_seconds": "s",
+}
+SPLITTING_LONG_NAMES = {
+    "splitting_probability": "P(max |φ| > angle within the exposure, or a capsize): multilevel splitting",
+    "splitting_standard_error": "standard error of the splitting estimate (genealogy estimator)",
+    "splitting_levels_deg": "splitting levels of the score (the last is the angle itself)",
+    "splitting_conditional_probabilities": "fraction of each stage's runs that reached the next level",
+    "splitting_n_successes": "runs of each stage that reached the next level",
+    "splitting_simulated_seconds": "simulated realization-seconds of the estimate",
+    "splitting_total_simulated_seconds": "simulated realization-seconds, the pilot included",
+}
+
 RISK = Layout(
     labels={"direct/largest_roll_quantiles_deg": "percentile"},
-    arrays={"curve/*": ("curve_angle_deg",)},
+    arrays={"curve/*": ("curve_angle_deg",), "splitting/levels_deg": _STAGE,
+            "splitting/conditional_probabilities": _STAGE, "splitting/n_successes": _STAGE,
+            "splitting/stage_simulated_seconds": _STAGE, "splitting/stage_wall_time_s": _STAGE},
     names={"curve/angle_deg": "curve_angle_deg"},
-    units={"curve_*": "1", **STATIONARITY_UNITS, **EXPOSURE_UNITS, **THEORY_UNITS},
+    units={"curve_*": "1", **STATIONARITY_UNITS, **EXPOSURE_UNITS, **THEORY_UNITS, **FIRST_PASSAGE_UNITS,
+           **SPLITTING_UNITS},
     long_names={"curve_angle_deg": "roll angle x of the risk curve",
                 "curve_direct": "P(max |φ| > x within the exposure): trials of the exposure's length",
                 "curve_monte_carlo": "P(max |φ| > x within the exposure): independent Monte Carlo amplitudes",
                 "direct_largest_roll_quantiles_deg": "quantiles of the largest |φ| per trial (NaN: among capsizes)",
-                **EXPOSURE_LONG_NAMES, **THEORY_LONG_NAMES},
-    coords={**PERCENTILE, "curve_angle_deg": ("degree", "roll angle x of the risk curve")},
+                "curve_first_passage": "P(max |φ| > x within the exposure): the envelope FPK model followed through "
+                                       "the exposure",
+                **EXPOSURE_LONG_NAMES, **THEORY_LONG_NAMES, **FIRST_PASSAGE_LONG_NAMES, **SPLITTING_LONG_NAMES},
+    coords={**PERCENTILE, "curve_angle_deg": ("degree", "roll angle x of the risk curve"),
+            "splitting_stage": (None, "stage of the splitting estimate")},
+    text=("first_passage/grid", "splitting/config"),
 )
 
 # --------------------------------------------------------------------------------------------------------------
