@@ -61,10 +61,19 @@ def write_netcdf(path: str | Path, command: str, payload: dict[str, Any], parts=
     """Write the labelled twin of a command's JSON (`payload`) as netCDF, atomically: its numbers with dimensions,
     units and long names, plus `parts` (the results' `.to_xarray()`: per-trial arrays, histogram counts), the
     configuration, versions and this command's warnings in the attributes (`jaxroll.io.output_dataset`;
-    docs/outputs.md)."""
+    docs/outputs.md). A JSON field the output's layout does not describe leaves the netCDF out with a warning
+    (the set is still written: a run's results are never lost to their labels; the tests refuse it)."""
     from ..io import output_dataset, write_dataset
 
-    write_dataset(path, output_dataset(command, payload, parts, warnings=list(dict.fromkeys(WARNINGS))))
+    try:
+        dataset = output_dataset(command, payload, parts, warnings=list(dict.fromkeys(WARNINGS)))
+    except ValueError as e:  # a field its layout does not describe: the JSON and figures are still written
+        if not str(e).startswith("labelled results:"):
+            raise
+        print(f"jaxroll {command}: warning: {Path(path).name} not written ({e}); the JSON holds every number. "
+              "Please report it.", file=sys.stderr)
+        return
+    write_dataset(path, dataset)
 
 
 def save_figure(fig, path: str | Path) -> None:
