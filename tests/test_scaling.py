@@ -40,6 +40,8 @@ CHILD = textwrap.dedent(
     import jaxroll
     from jaxroll import monte_carlo_max_roll
 
+    jaxroll.configure()  # float64, platform-independent math: results independent of the devices, bit for bit
+
     problem = pickle.load(open(problem_file, "rb"))
     key = jax.random.key(11)
     results = {"device_count": jax.device_count()}
@@ -421,7 +423,7 @@ def test_pdf_cli_checkpoint(tmp_path, capsys):
 
 
 def test_every_cpu_core_is_a_device_unless_the_user_chose():
-    code = "import os, jaxroll, jax; print(jax.device_count(), len(os.sched_getaffinity(0)))"
+    code = "import os, jax, jaxroll; jaxroll.configure(); print(jax.device_count(), len(os.sched_getaffinity(0)))"
     env = {k: v for k, v in os.environ.items() if k not in ("JAX_NUM_CPU_DEVICES", "XLA_FLAGS")}
     env["JAX_PLATFORMS"] = "cpu"
     devices, cores = map(int, subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True,
@@ -432,9 +434,10 @@ def test_every_cpu_core_is_a_device_unless_the_user_chose():
     assert out.split()[0] == "1"
 
 
-def test_small_loops_compile_as_one_function_and_user_flags_are_kept():
-    # jaxroll's XLA_FLAGS (set on import, before JAX started here): a loop over a 32 kB carry — over XLA's default
-    # 1 kB, under jaxroll's 4 MB — is compiled as one function (a "small call"), not kernel by kernel
+def test_small_loops_compile_as_one_function():
+    # jaxroll.configure()'s XLA_FLAGS (tests/conftest.py, before JAX started here): a loop over a 32 kB carry —
+    # over XLA's default 1 kB, under jaxroll's 4 MB — is compiled as one function (a "small call"), not kernel by
+    # kernel (the user's own flags are kept: tests/test_configure.py)
     def loop(x):
         return jax.lax.fori_loop(0, 10, lambda i, x: jnp.sin(x) * 1.01, x)
 
@@ -444,17 +447,6 @@ def test_small_loops_compile_as_one_function_and_user_flags_are_kept():
     for _ in range(10):
         want = np.sin(want) * 1.01
     np.testing.assert_allclose(np.asarray(jax.jit(loop)(x)), want, rtol=1e-14)  # and computed right
-    added = jaxroll._with_jaxroll_flags("")
-    assert added == ("--xla_cpu_enable_platform_dependent_math=false "
-                     "--xla_backend_extra_options=xla_cpu_small_while_loop_byte_threshold=4000000")
-    # the user's choices stay; their own extra options are kept beside jaxroll's (XLA merges the flags)
-    mine = ("--xla_cpu_enable_platform_dependent_math=true "
-            "--xla_backend_extra_options=xla_cpu_small_while_loop_byte_threshold=8")
-    assert jaxroll._with_jaxroll_flags(mine) == mine
-    other = "--xla_backend_extra_options=xla_cpu_disable_loop_unrolling=true"
-    assert jaxroll._with_jaxroll_flags(other).split() == [
-        other, "--xla_cpu_enable_platform_dependent_math=false",
-        "--xla_backend_extra_options=xla_cpu_small_while_loop_byte_threshold=4000000"]
 
 
 def test_devices_argument():

@@ -57,11 +57,15 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.command is None:
         parser.print_help()
         return 2
+    from .. import configure
     from ._common import WARNINGS
 
     WARNINGS.clear()
     with warnings.catch_warnings():
         warnings.showwarning = functools.partial(_warning_line, args.command)
+        # The command's own process, set up fully: float64, XLA:CPU's platform-independent math and small loops
+        # compiled whole, one JAX device per CPU core (docs/architecture.md, "Process-wide settings").
+        configure()
         return _run(args)
 
 

@@ -48,10 +48,14 @@ WARNINGS: list[str] = []
 
 
 def write_json(path: str | Path, payload: dict[str, Any]) -> None:
-    """Write `payload` as JSON atomically, with `jaxroll_version` first and the command's `warnings` (if any)."""
+    """Write `payload` as JSON atomically, with `jaxroll_version` first, then the payload's fields, `versions`
+    (`jaxroll.io.provenance()`: the versions of jaxroll, JAX, jaxlib and the libraries under it, the backend, the
+    device kind and whether float64 was on — what the bit-for-bit claims depend on; the fields of the netCDF
+    files' attributes) and the command's `warnings` (if any)."""
     from .. import __version__
+    from ..io import provenance
 
-    data = {"jaxroll_version": __version__, **payload}
+    data = {"jaxroll_version": __version__, **payload, "versions": provenance()}
     if WARNINGS:
         data["warnings"] = list(dict.fromkeys(WARNINGS))
     atomic_write_text(path, json.dumps(to_jsonable(data), indent=2) + "\n")

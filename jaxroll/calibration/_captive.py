@@ -15,6 +15,7 @@ from typing import Any
 import jax.numpy as jnp
 import numpy as np
 
+from .._config import require_float64
 from ..io._records import Record
 from ..sea._grim import grim_transfer
 from ..sea._spectra import GRAVITY, wave_frequencies_from_encounter
@@ -209,6 +210,7 @@ def fit_captive(
     [s, model scale] of each record as clusters (the sandwich for the LS fits, the delta method for the
     ratio).
     """
+    require_float64("jaxroll.fit_captive")
     records = _as_list(records)
     _check_kind(records, "captive")
     wave_heights = check_wave_heights(records, window_model_s)

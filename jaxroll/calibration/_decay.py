@@ -18,6 +18,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from .._compiled import filter_jit
+from .._config import require_float64
 from ..io._records import Record, RecordError
 from ..ship._restoring import restoring_moment
 from ..ship._ship import Ship
@@ -231,6 +232,7 @@ def fit_extinction(
     ship with damping b, sampled and analysed like the record, gives the measured a, b, c (two fixed-point
     iterations b ← b + (b̂ − b̂_sim)). The raw conversion is kept in `curves["uncorrected"]`.
     """
+    require_float64("jaxroll.fit_extinction")
     records = _as_list(records)
     _check_kind(records, "decay")
     thresholds = [_extinction_thresholds(r, hysteresis_deg, min_amplitude_deg) for r in records]
@@ -363,6 +365,7 @@ def fit_decay_ode(
     `samples_per_period`: records sampled more densely than this many samples per roll period are decimated (every
     k-th sample) before the fit: a 10⁶-row record then fits in seconds, and the standard errors are not made
     over-confident by residuals correlated over neighbouring samples. The factor k is in `config["decimation"]`."""
+    require_float64("jaxroll.fit_decay_ode")
     if not (isinstance(samples_per_period, int) and samples_per_period >= 8):
         raise ValueError(f"`samples_per_period` must be an integer >= 8; got {samples_per_period!r}.")
     records = _as_list(records)

@@ -19,6 +19,7 @@ import jax.random as jr
 import numpy as np
 
 from .._compiled import filter_jit
+from .._config import require_float64
 from ..io._records import Record, RecordError, group_by_sea_state
 from ..roll._amplitudes import amplitude_samples
 from ..roll._monte_carlo import simulate_chunk
@@ -393,6 +394,7 @@ def fit_roll_pdf(
 
     **Returns:** `RollFit`.
     """
+    require_float64("jaxroll.fit_roll_pdf")
     from ..roll._equation import RollProblem
 
     records = _as_list(records)

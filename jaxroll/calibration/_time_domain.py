@@ -33,6 +33,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from .._config import require_float64
 from ..io._records import Record
 from ..roll._equation import rk4_step
 from ..sea._grim import _fft_length, grim_transfer
@@ -594,6 +595,7 @@ def fit_roll_time_domain(
     column or without its probe position, a window longer than a record's analysis span, an unknown
     parameter, records of different sampling rates, an analysis span the record does not cover.
     """
+    require_float64("jaxroll.fit_roll_time_domain")
     if initial_state not in ("free", "record"):
         raise ValueError(f"`initial_state` must be 'free' or 'record'; got {initial_state!r}.")
     if not (isinstance(max_dt, int | float) and max_dt > 0):

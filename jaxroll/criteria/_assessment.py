@@ -7,6 +7,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .._config import require_float64
 from ..ship._fits import ship_from_hull
 from ..ship._hull import Hull
 from ..ship._hydrostatics import GRAVITY, Loading, loading_condition
@@ -122,6 +123,7 @@ def assess_parametric_roll(
 
     **Returns:** a [`ParametricRollAssessment`][].
     """
+    require_float64("jaxroll.criteria.assess_parametric_roll")
     calm = _calm(hull, loading)
     notes = []
     if bilge_keel_area is None:
@@ -263,6 +265,7 @@ def kg_max_curve(
 
     **Returns:** a [`KGMaxCurve`][].
     """
+    require_float64("jaxroll.criteria.kg_max_curve")
     ds = np.atleast_1d(np.asarray(draughts, float))
     out = {k: [] for k in ("km", "l1", "c1", "dgm1", "rpr")}
     lam, h = C1_WAVE_CASES[:, 1], C1_WAVE_CASES[:, 2]

@@ -9,6 +9,7 @@ import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
 from .._compiled import filter_jit, require
+from .._config import require_float64
 from ..laws._abstract import (
     AbstractAmplitudeLaw,
     _bracket_targets,
@@ -69,6 +70,7 @@ def exceedance_probability(
 
     **Returns:** the probability [-], shape of `angle`. Differentiable in the distribution's parameters.
     """
+    require_float64("jaxroll.exceedance_probability")
     require_zero_crossing(dist, "`exceedance_probability`")
     n = _exposure_cycles(rate, duration)
     angle = _check_angle(angle)
@@ -300,6 +302,7 @@ def exposure_risk(
     **Raises:** `ValueError` for a negative or non-scalar angle, non-positive rate/duration/n_amplitudes, a
     confidence outside (0, 1), `n_exceed` without `n_amplitudes`, or `n_exceed` outside [0, n_amplitudes].
     """
+    require_float64("jaxroll.exposure_risk")
     require_zero_crossing(dist, "`exposure_risk`")
     n = _exposure_cycles(rate, duration)
     angle = _check_angle(angle)

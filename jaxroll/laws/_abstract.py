@@ -9,6 +9,7 @@ import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
 from .._compiled import filter_jit
+from .._config import require_float64
 from ._checks import (
     _BISECTION_STEPS,
     _DOUBLING_STEPS,
@@ -107,42 +108,51 @@ class AbstractAmplitudeLaw(eqx.Module):
 
     def logpdf(self, a: ArrayLike) -> Float[Array, "..."]:
         """log P(a), P in [1/rad]; −inf outside the support. `a` [rad], any shape."""
+        _require_float64(self, "logpdf")
         return _evaluate("_logpdf", self, jnp.asarray(a, dtype=float))
 
     def logsf(self, a: ArrayLike) -> Float[Array, "..."]:
         r"""$\log \bar F(a) = \log \int_a^\infty P\,dA$ [-], accurate far into the upper tail."""
+        _require_float64(self, "logsf")
         return _evaluate("_logsf", self, jnp.asarray(a, dtype=float))
 
     def logcdf(self, a: ArrayLike) -> Float[Array, "..."]:
         r"""$\log(1 - \bar F(a))$ [-], accurate where $\bar F \to 0$ (as `log1p(−F̄)`) and where
         $\bar F \to 1$."""
+        _require_float64(self, "logcdf")
         return _evaluate("_logcdf", self, jnp.asarray(a, dtype=float))
 
     def pdf(self, a: ArrayLike) -> Float[Array, "..."]:
         """P(a) [1/rad] at amplitudes `a` [rad]."""
+        _require_float64(self, "pdf")
         return _evaluate("_logpdf", self, jnp.asarray(a, dtype=float), True)
 
     def sf(self, a: ArrayLike) -> Float[Array, "..."]:
         r"""Survival $\bar F(a) = \Pr(A > a)$ [-] at amplitudes `a` [rad]."""
+        _require_float64(self, "sf")
         return _evaluate("_logsf", self, jnp.asarray(a, dtype=float), True)
 
     def cdf(self, a: ArrayLike) -> Float[Array, "..."]:
         r"""$1 - \bar F(a) = \Pr(A \le a)$ [-] at amplitudes `a` [rad]."""
+        _require_float64(self, "cdf")
         return _evaluate("_logcdf", self, jnp.asarray(a, dtype=float), True)
 
     def quantile(self, q: ArrayLike) -> Float[Array, "..."]:
         """The amplitude [rad] with `cdf(a) = q`, 0 < q < 1, any shape. Differentiable (implicit function)."""
+        _require_float64(self, "quantile")
         q = _probability_levels(q)
         return _solve_levels_jit(self, jnp.log(q), jnp.log1p(-q))
 
     def isf(self, s: ArrayLike) -> Float[Array, "..."]:
         r"""Inverse survival: the amplitude [rad] with $\bar F(a) = s$, accurate for tiny `s` (e.g. 1e-12)."""
+        _require_float64(self, "isf")
         s = _probability_levels(s, "s")
         return _solve_levels_jit(self, jnp.log1p(-s), jnp.log(s))
 
     def mean(self) -> Float[Array, ""]:
         r"""Mean amplitude [rad], $\int_0^\infty \bar F\,da$ (Gauss–Legendre; the $N_0 = 1$ case of
         `expected_maximum`)."""
+        _require_float64(self, "mean")
         return _expected_maximum(self, jnp.asarray(1.0), 256)
 
     def pdf_per_degree(self, bins_deg: ArrayLike) -> np.ndarray:
@@ -200,6 +210,12 @@ class AbstractAmplitudeLaw(eqx.Module):
             coords={"amplitude_deg": (a, grid, "degree", "roll amplitude A"),
                     "amplitude_rad": (a, rad, "rad", "roll amplitude A")},
             attrs={"law": type(self).__name__, **text}))
+
+
+def _require_float64(law: AbstractAmplitudeLaw, method: str) -> None:
+    """`require_float64`, naming the law's method (e.g. "RobertsLaw.sf"); the laws' public methods call it."""
+    if not jax.config.jax_enable_x64:
+        require_float64(f"{type(law).__name__}.{method}")
 
 
 def require_zero_crossing(law: AbstractAmplitudeLaw, what: str) -> None:

@@ -24,6 +24,7 @@ import numpy as np
 from jaxtyping import Array, Float, PRNGKeyArray
 
 from .._compiled import filter_jit
+from .._config import require_float64
 from ..sea._filters import FilterFit, check_filter_fit, fit_filter
 from ..sea._grim import SPECTRUM_GRID, EffectiveWave, spectrum_on_grid
 from ..sea._spectra import AbstractWaveSpectrum
@@ -157,6 +158,7 @@ class RollProblem(eqx.Module):
         - `wave`, `filter_fit`: the effective wave and the shaping-filter fit behind `excitation`, when known
           (`from_sea` sets them), so the theories use exactly what the Monte Carlo simulates.
         """
+        require_float64("jaxroll.RollProblem")
         self.ship = ship
         self.excitation = excitation
         self.phi0 = jnp.asarray(phi0, dtype=float)
@@ -214,6 +216,7 @@ class RollProblem(eqx.Module):
         **Raises:** `ValueError` for a bad method, time step, filter fit or initial roll (beyond the vanishing
         angle).
         """
+        require_float64("jaxroll.RollProblem.from_sea")
         if excitation not in ("filter", "superposition"):
             raise ValueError(f"`excitation` must be 'filter' or 'superposition'; got {excitation!r}.")
         wave = EffectiveWave(sea, ship.lpp, speed, heading, validate=validate)
@@ -358,6 +361,7 @@ def simulate(
     **Raises:** `ValueError` when `record_every` does not divide m, or for 2³¹ or more time steps (the capsize step
     is kept as an int32).
     """
+    require_float64("jaxroll.simulate")
     problem = as_dtype(problem, dtype)
     ship, h, m = problem.ship, problem.dt, problem.excitation.substeps
     if not (isinstance(record_every, int) and record_every >= 1 and m % record_every == 0):
@@ -430,6 +434,7 @@ def roll_time_series(problem: RollProblem, key: PRNGKeyArray, duration: float, *
     The realization keyed `fold_in(key, i)` is trial i of `monte_carlo(problem, key, ...)` (which integrates in
     float32: the two agree to ~1e-5 deg). One compiled program per problem structure, duration and dtype (a
     second call with another key or another sea of the same form runs at once)."""
+    require_float64("jaxroll.roll_time_series")
     return _roll_time_series(problem, key, int(round(duration / problem.dt)), dtype)
 
 

@@ -44,6 +44,7 @@ import numpy as np
 from jax.scipy.stats import norm
 
 from .._compiled import MONTE_CARLO_PROGRAM, SMALL_PROGRAM, cached_program, compiled_with
+from .._config import require_float64
 from .._display import progress_bar
 from ..sea._spectra import ITTC
 from ..ship._ship import Ship
@@ -611,6 +612,7 @@ def monte_carlo_sensitivity(
     **Raises:** `ValueError` for an unknown parameter or statistic, a window or burn-in that does not fit the
     run, or bad counts.
     """
+    require_float64("jaxroll.monte_carlo_sensitivity")
     params = {str(k): float(v) for k, v in dict(params).items()}
     for k, v in params.items():
         if not math.isfinite(v):

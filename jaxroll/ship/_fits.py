@@ -21,6 +21,7 @@ import optimistix as optx
 from jaxtyping import Array, ArrayLike, Bool, Float
 
 from .._compiled import filter_jit
+from .._config import require_float64
 from ._hull import Hull, _bare, _concrete, c11_hull
 from ._hydrostatics import (
     GRAVITY,
@@ -272,6 +273,7 @@ def hull_hydrostatics(
 
     **Returns:** a [`HydrostaticsSolution`][].
     """
+    require_float64("jaxroll.hull_hydrostatics")
     zeta = jnp.asarray(default_zeta_grid() if zeta_mid is None else zeta_mid, dtype=float)
     phi = jnp.asarray(default_heel_grid() if heels is None else heels, dtype=float)
     if zeta.ndim != 1 or phi.ndim != 1:

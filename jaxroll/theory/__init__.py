@@ -58,10 +58,8 @@ from ._moment_solver import (
     stationary_moments as stationary_moments,
 )
 from ._moments import (
-    AmplitudeFamily as AmplitudeFamily,
     MomentSolution as MomentSolution,
     envelope_moments as envelope_moments,
-    fit_amplitude_family as fit_amplitude_family,
     moment_pdf as moment_pdf,
     moment_pdf_first_stable as moment_pdf_first_stable,
     roll_moments as roll_moments,
@@ -72,4 +70,8 @@ from ._named import (  # the theories by name, each in one compiled program (the
     iter_theory_summaries as iter_theory_summaries,
     theory_law as theory_law,
     theory_summary as theory_summary,
+)
+from ._sensitivity import (  # the theories' design sensitivities (jax.jacfwd), beside the Monte Carlo's
+    SENSITIVITY_THEORIES as SENSITIVITY_THEORIES,
+    theory_sensitivities as theory_sensitivities,
 )

@@ -49,6 +49,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from .._compiled import filter_jit
+from .._config import require_float64
 from ..laws._abstract import check_estimator
 from ..ship._restoring import vanishing_angle
 from ..ship._ship import Ship
@@ -562,6 +563,7 @@ def envelope_fpk_pdf(
     **Raises:** `ValueError` for bad arguments or (with `throw`) λ ≤ 0; `EquinoxRuntimeError` for the latter
     under `jit`/`grad`.
     """
+    require_float64("jaxroll.theory.envelope_fpk_pdf")
     check_estimator(estimator)
     grid = _grid(num_s, num_s_coarse, num_rho, num_theta, rho_max, a_fine, a_min, num_corrections)
     protocol = None
@@ -641,5 +643,6 @@ def envelope_lyapunov_exponent(
 
     **Returns:** `(λ [1/s], EnvelopeExcitation)`.
     """
+    require_float64("jaxroll.theory.envelope_lyapunov_exponent")
     grid = _grid(2, 2, num_rho, num_theta, rho_max, _Grid.a_fine, _Grid.a_min, 0)
     return _lyapunov_only(ship, wave, excitation, grid)

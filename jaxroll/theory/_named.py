@@ -32,6 +32,7 @@ import numpy as np
 from jaxtyping import ArrayLike
 
 from .._compiled import SMALL_PROGRAM, SOLVER_PROGRAM, cached_program, is_concrete
+from .._config import require_float64
 from ..laws._abstract import (
     QUANTILE_LEVELS,
     SAMPLING,
@@ -272,6 +273,7 @@ def theory_law(
     method); a `UserWarning` when the moment method falls back to closure order 4 (unless `warn=False`). Under
     `jax.jit`, `grad` or `vmap` the public function itself is called (it is the same computation).
     """
+    require_float64("jaxroll.theory.theory_law")
     _check_name(name)
     check_estimator(estimator)
     shaping_filter = _filter(shaping_filter)
@@ -308,6 +310,7 @@ def theory_summary(
     compiled program: the summary's numbers are those `law.summary` computes (mean, quantiles at `levels`, the PDF
     per degree on the bin edges `bins_deg` [deg], the mass beyond the last edge; angles in degrees). Concrete
     inputs only."""
+    require_float64("jaxroll.theory.theory_summary")
     ((_, result),) = iter_theory_summaries(
         (name,), ship, wave, bins_deg, shaping_filter=shaping_filter, filter_order=filter_order,
         estimator=estimator, levels=levels,
@@ -343,6 +346,7 @@ def iter_theory_summaries(
     the `UserWarning` of the moment method's closure fallback (its law records it: `details()["closure_fallback"]`).
     Concrete inputs only.
     """
+    require_float64("jaxroll.theory.iter_theory_summaries")
     names = tuple(names)
     for name in names:
         _check_name(name)
