@@ -39,6 +39,7 @@ import numpy as np
 import scipy.linalg
 from jaxtyping import Array
 
+from .._config import require_float64
 from ..ship._restoring import parametric_excitation, restoring_moment, restoring_potential
 from ._equation import RollProblem, as_dtype, computed_once, rk4_step, runtime_one
 from ._excitation import BLOCK, FilterExcitation, block_normals_by_column
@@ -576,6 +577,7 @@ def monte_carlo_splitting(
     **Raises:** `ValueError` for an excitation other than the shaping filter, a moment excitation, an angle not
     below the vanishing angle, bad levels, counts or durations.
     """
+    require_float64("jaxroll.monte_carlo_splitting")
     if not isinstance(problem.excitation, FilterExcitation):
         raise ValueError(
             f"monte_carlo_splitting needs the shaping-filter excitation (RollProblem.from_sea(..., "

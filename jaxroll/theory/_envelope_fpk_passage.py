@@ -48,6 +48,7 @@ import numpy as np
 from jaxtyping import Array, Bool, Float
 
 from .._compiled import filter_jit
+from .._config import require_float64
 from ..ship._restoring import vanishing_angle
 from ..ship._ship import Ship
 from ._envelope_fpk import (
@@ -265,6 +266,7 @@ def passage_risk(
     **Raises:** `ValueError` for angles outside (a_fine, vanishing angle) or within one cell of each other,
     non-positive durations, or an unknown `observe` (concrete inputs).
     """
+    require_float64("jaxroll.theory.passage_risk")
     grid = _grid(num_s, num_s_coarse, num_rho, num_theta, rho_max, a_fine, a_min, 0)
     angles = np.atleast_1d(np.asarray(angles, dtype=float))
     durations = jnp.atleast_1d(jnp.asarray(durations, dtype=float))
