@@ -7,15 +7,26 @@ run time (best of repeats) are reported separately, plus the gradient of the fit
 respect to a breadth scale factor. Target: seconds on a laptop CPU. Wall and CPU (process) times are both
 printed: on a shared machine the wall time of the compilation mostly measures the other users.
 
-Run: `python benchmarks/hydrostatics.py [--n-zeta 13] [--n-heel 15] [--repeat 10]`. Output: `name=value`
-lines.
+Mesh hulls (issue 36): `--mesh` also times `jaxroll hydrostatics` end to end on a generated frigate-like STL
+of about 3 500 triangles (tests/hull_meshes.py), each run a fresh process, cold (empty compilation cache) then warm
+(the cache the cold run filled), for the exact surface (the default) beside the sliced 61 × 41 offsets of jaxroll
+0.1 (`--sliced`, today's code path before issue 36), in the same run; and the calm GZ of both against the exact
+answer at 0–70°.
+
+Run: `python benchmarks/hydrostatics.py [--n-zeta 13] [--n-heel 15] [--repeat 10] [--mesh] [--mesh-only]`.
+Output: `name=value` lines.
 """
 
 from __future__ import annotations
 
 import argparse
+import os
+import subprocess
+import sys
+import tempfile
 import time
 import timeit
+from pathlib import Path
 
 import jax
 import jax.numpy as jnp
@@ -33,7 +44,13 @@ def main() -> None:
     parser.add_argument("--n-zeta", type=int, default=13)
     parser.add_argument("--n-heel", type=int, default=15)
     parser.add_argument("--repeat", type=int, default=10)
+    parser.add_argument("--mesh", action="store_true", help="also the STL end-to-end comparison")
+    parser.add_argument("--mesh-only", action="store_true", help="only the STL end-to-end comparison")
     args = parser.parse_args()
+    if args.mesh or args.mesh_only:
+        mesh_benchmark()
+    if args.mesh_only:
+        return
 
     hull = c11_hull()
     loading = c11_hull_loading()
@@ -82,5 +99,42 @@ def main() -> None:
     print(f"grad_run_s={grad_best:.4f}")
 
 
+def mesh_benchmark() -> None:
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+    import hull_meshes
+
+    from jaxroll import gz_curve, io
+
+    with tempfile.TemporaryDirectory() as tmp:
+        stl = io.write_stl(Path(tmp) / "frigate.stl", hull_meshes.frigate(dome=3.0))
+        print(f"mesh_triangles={io.read_stl(stl).shape[0]}")
+        argv = [sys.executable, "-m", "jaxroll", "hydrostatics", str(stl), "--lpp", "142", "--x-ap", "0",
+                "--draught", "6.15", "--kg", "7.555", "--roll-period", "12"]  # fmt: skip
+        for label, extra in (("sliced", ["--sliced"]), ("exact", [])):
+            cache = Path(tmp) / f"cache-{label}"
+            for phase in ("cold", "warm"):
+                env = {**os.environ, "JAXROLL_CACHE_DIR": str(cache)}
+                t0 = time.perf_counter()
+                res = subprocess.run([*argv, *extra, "--out", str(Path(tmp) / f"out-{label}")], env=env,
+                                     capture_output=True, text=True)  # fmt: skip
+                wall = time.perf_counter() - t0
+                if res.returncode:
+                    raise SystemExit(res.stderr[-2000:])
+                print(f"cli_{label}_{phase}_s={wall:.2f}")
+        # calm GZ of the sliced offsets and of the exact surface, KG = 7.555 m at d = 6.15 m
+        phi = jnp.radians(jnp.arange(0.0, 75.0, 5.0))
+        curves = {}
+        for label, exact in (("sliced", False), ("exact", True)):
+            h = io.read_stl_hull(stl, lpp=142.0, x_ap=0.0, exact=exact)
+            curves[label] = np.asarray(gz_curve(h, loading_condition(h, kg=7.555, draught=6.15), phi))
+        err = curves["sliced"] - curves["exact"]
+        print("gz_heel_deg=" + ",".join(f"{v:g}" for v in np.degrees(np.asarray(phi))))
+        print("gz_exact_m=" + ",".join(f"{v:.4f}" for v in curves["exact"]))
+        print("gz_sliced_minus_exact_mm=" + ",".join(f"{1000 * v:.1f}" for v in err))
+
+
 if __name__ == "__main__":
+    import jaxroll
+
+    jaxroll.configure()  # float64, XLA:CPU's options, every core a JAX device (docs/architecture.md)
     main()

@@ -10,7 +10,11 @@ compilation on a warm run, but not the Python tracing and lowering that come bef
 (the optimistix filter fit alone ~0.7 s), which is most of a warm command's set-up. `cached_program` removes it:
 the first call with a given static configuration and argument shapes exports the program (`jax.export`, StableHLO)
 and keeps it on disk beside JAX's cache, in `<cache dir>/jaxroll-programs/`; a later process deserializes it and
-calls it, and XLA's cache supplies the compiled kernel.
+calls it, and XLA's cache supplies the compiled kernel. A stored program is data, never pickled
+(`jaxroll._cache_files`): an `.npz` entry holding the `jax.export` bytes as they are and the output's skeleton as
+JSON (its static parts: equinox Modules of jaxroll and the libraries it builds on, numbers, strings, NumPy arrays),
+with a digest and the versions that wrote it; anything else found there is a miss. The folder is used only where
+no one else can write to it (`cache_subfolder`; docs/scaling.md, "The compilation cache and what it trusts").
 
 Keys: the function's name, its static arguments (non-array leaves, as for `eqx.filter_jit`), the shapes and dtypes
 of its array arguments, and `package_key()` — a hash of jaxroll's whole source, the versions of JAX and its
@@ -38,6 +42,7 @@ import pickle
 import re
 import tempfile
 import threading
+import warnings
 from collections.abc import Callable
 
 import equinox as eqx
@@ -45,7 +50,10 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-_FORMAT = "1"  # bump to invalidate every stored program
+from . import _cache_files as files
+from ._config import require_float64
+
+_FORMAT = "2"  # bump to invalidate every stored program
 _PACKAGE = pathlib.Path(__file__).resolve().parent
 
 
@@ -55,10 +63,19 @@ def enable_compilation_cache(path: str | os.PathLike | None = None) -> pathlib.P
     `JAXROLL_CACHE_DIR` leaves it off), every compilation kept, and jaxroll's stored programs beside it
     (`cache_dir()`), so that a new session loads what an earlier one compiled instead of tracing and compiling it
     again (the README's example: 18 s in every new session without it; with it 19 s the first time, then
-    3.4–4.1 s). Call it before the first computation. **Returns:** the folder, or None when left off."""
+    3.4–4.1 s). Call it before the first computation. A folder that others can write to (it, or one above it) is
+    refused with a warning: JAX runs the compiled code it finds there (docs/scaling.md, "The compilation cache and
+    what it trusts"). **Returns:** the folder, or None when left off or refused."""
     if path is None:
         path = os.environ.get("JAXROLL_CACHE_DIR", os.path.join(os.path.expanduser("~"), ".cache", "jaxroll", "xla"))
     if not str(path):
+        return None
+    reason = files.unsafe_reason(os.path.abspath(path))
+    if reason is not None:  # JAX would load compiled code that someone else may have put there
+        warnings.warn(f"the compilation cache {str(path)!r} is not used: {reason}, so others could plant "
+                      "compiled code there, which JAX and jaxroll would run. Every program is compiled afresh "
+                      "(slower). Use a folder only you can write: 'chmod go-w' the folder named, or set "
+                      "JAXROLL_CACHE_DIR to a folder of your own.", stacklevel=2)
         return None
     jax.config.update("jax_compilation_cache_dir", str(path))
     jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.0)
@@ -66,9 +83,31 @@ def enable_compilation_cache(path: str | os.PathLike | None = None) -> pathlib.P
 
 
 def cache_dir() -> pathlib.Path | None:
-    """`<jax_compilation_cache_dir>/jaxroll-programs`, or None when JAX's persistent cache is off."""
+    """`<jax_compilation_cache_dir>/jaxroll-programs`, or None when JAX's persistent cache is off (or in a folder
+    others can write to)."""
+    return cache_subfolder("jaxroll-programs")
+
+
+_REFUSED: set[str] = set()  # the folders a warning has named
+
+
+def cache_subfolder(name: str) -> pathlib.Path | None:
+    """`<jax_compilation_cache_dir>/NAME` (created, mode 0700), where jaxroll keeps its own files; None when JAX's
+    persistent cache is off, or where that folder, or one above it, can be written by someone else (said once, in a
+    warning): jaxroll's files are data and verified, but whoever writes there chooses the programs run."""
     base = jax.config.jax_compilation_cache_dir
-    return pathlib.Path(base) / "jaxroll-programs" if base else None
+    if not base:
+        return None
+    folder = os.path.join(os.path.abspath(base), name)
+    reason = files.unsafe_reason(folder)
+    if reason is None:
+        return pathlib.Path(folder)
+    if base not in _REFUSED:  # said once for the folder
+        _REFUSED.add(base)
+        warnings.warn(f"jaxroll keeps no programs or tables in {base!r}: {reason}, so others could plant files "
+                      "there. Use a compilation cache only you can write (JAXROLL_CACHE_DIR, "
+                      "jaxroll.enable_compilation_cache).", stacklevel=3)
+    return None
 
 
 def _sha(*parts) -> str:
@@ -122,24 +161,40 @@ def require(value, bad, message: str):
     return value
 
 
-def _read(path: pathlib.Path) -> bytes | None:
-    try:
-        return path.read_bytes()
-    except OSError:
-        return None
-
-
 def write_atomic(path: pathlib.Path, data: bytes) -> None:
-    """Write `data` to `path` through a temporary file renamed into place; a cache that cannot be written is not
-    an error (the program is simply traced again next time)."""
+    """Write `data` to `path` (mode 0600) through a temporary file renamed into place; a cache that cannot be
+    written is not an error (the program is simply traced again next time)."""
     try:
-        path.parent.mkdir(parents=True, exist_ok=True)
+        path.parent.mkdir(mode=0o700, parents=True, exist_ok=True)
         fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=".tmp-")
         with os.fdopen(fd, "wb") as f:
             f.write(data)
         os.replace(tmp, path)
     except OSError:
         pass
+
+
+def store_data(path: pathlib.Path, key: str, obj) -> None:
+    """Keep `obj` (a structure of numbers, strings, tuples, dicts, NumPy arrays and jaxroll's data classes) at
+    `path` as a cache entry under `key`: data, not a pickle (`_cache_files`). Nothing is stored where `obj` holds
+    anything else or the folder cannot be written."""
+    try:
+        text, arrays = files.encode(obj)
+    except files.Unencodable:
+        return
+    write_atomic(path, files.entry_bytes(key, {"data": files.text_member(text), **arrays}))
+
+
+def load_data(path: pathlib.Path, key: str):
+    """The structure `store_data` kept at `path` under `key`, or None where there is none, or it cannot be read back
+    as such (corrupt, foreign, other versions, a digest that does not match, a file others could write)."""
+    members = files.read_entry(path, key)
+    if members is None or "data" not in members:
+        return None
+    try:
+        return files.decode(files.member_text(members.pop("data")), members)
+    except Exception:
+        return None
 
 
 def _export(flat_fn, leaves):
@@ -249,13 +304,15 @@ def cached_program(fn: Callable | None = None, *, compiler_options: dict | None 
             stored = _LOADED.get(key, False)
             if stored is False:  # with the cache off, the same program is traced and compiled with the same options
                 stored = _LOADED[key] = (_Stored(*_flat(fn, in_tree, static)) if d is None else
-                                         _load_or_export(d / f"{key}.bin", fn, leaves, in_tree, static))
+                                         _load_or_export(d / f"{key}.npz", key, fn, leaves, in_tree, static))
             if stored is not None and compile and stored.compiled is None:
                 stored.compiled = _compiled(stored.exported, leaves, options)
         return None if stored is None else (stored, leaves)
 
     @functools.wraps(fn)
     def wrapper(*args):
+        if not jax.config.jax_enable_x64:  # a safety net: the public entry points check first, by their names
+            require_float64(name)
         found = entry_for(args)
         if found is None:
             return jitted(*args)
@@ -280,6 +337,8 @@ def cached_program(fn: Callable | None = None, *, compiler_options: dict | None 
                     tuple((x.shape, x.dtype, getattr(x, "weak_type", False), getattr(x, "sharding", None))
                           for x in leaves))
             if memo.get("kind") != kind:
+                if not jax.config.jax_enable_x64:
+                    require_float64(name)
                 found = entry_for((*fixed, *rest))
                 if found is None:
                     return jitted(*fixed, *rest)
@@ -325,14 +384,15 @@ def filter_jit(fn: Callable | None = None, *, compiler_options: dict | None = SO
     if fn is None:
         return functools.partial(filter_jit, compiler_options=compiler_options)
     plain = eqx.filter_jit(fn)
-    if not compiler_options:
-        return plain
-    tuned = eqx.filter_jit(fn, compiler_options=compiler_options)
-    items = tuple(sorted(compiler_options.items()))
+    tuned = eqx.filter_jit(fn, compiler_options=compiler_options) if compiler_options else plain
+    items = tuple(sorted((compiler_options or {}).items()))
+    name = f"{fn.__module__}.{fn.__qualname__}"
 
     @functools.wraps(fn)
     def wrapper(*args, **kwargs):
-        if _on_cpu(compiler_options) and is_concrete((args, kwargs)) and _accepted(items):
+        if not jax.config.jax_enable_x64:  # a safety net: the public entry points check first, by their names
+            require_float64(name)
+        if compiler_options and _on_cpu(compiler_options) and is_concrete((args, kwargs)) and _accepted(items):
             try:
                 return tuned(*args, **kwargs)
             except ValueError as e:  # inside another trace after all (a tracer in a closure)
@@ -381,24 +441,33 @@ def _flat(fn, in_tree, static):
     return flat, box
 
 
-def _load_or_export(path: pathlib.Path, fn, leaves, in_tree, static) -> _Stored | None:
-    blob = _read(path)
-    if blob is not None:
+def _load_or_export(path: pathlib.Path, key: str, fn, leaves, in_tree, static) -> _Stored | None:
+    """The program stored at `path` (an entry of `_cache_files`: the export's bytes and the output skeleton), or,
+    where there is none (or it is unreadable, foreign, of other versions or not what its digest says), the program
+    exported now and stored there; None where it cannot be exported (stored as such: run the usual way)."""
+    members = files.read_entry(path, key)
+    if members is not None:
         try:
-            payload = pickle.loads(blob)
-            if payload is None:
+            if "exported" not in members:
                 return None  # stored as not exportable
-            exp_bytes, skeleton = payload
-            return _Stored(jax.export.deserialize(bytearray(exp_bytes)).call, {"skeleton": skeleton})
-        except Exception:  # corrupt or foreign file: export afresh and overwrite it
+            slots: list[int] = []
+            skeleton = files.decode(files.member_text(members["skeleton"]), members,
+                                    leaf=lambda i: slots.append(int(i)) or _Slot(slots[-1]))
+            exported = jax.export.deserialize(bytearray(members["exported"].tobytes()))
+            if sorted(slots) != list(range(len(exported.out_avals))):
+                raise ValueError("the skeleton does not match the program's outputs")
+            return _Stored(exported.call, {"skeleton": skeleton})
+        except Exception:  # not what jaxroll writes: export afresh and overwrite it
             pass
     flat, box = _flat(fn, in_tree, static)
     try:
         exp = _export(flat, leaves)
-        data = pickle.dumps((bytes(exp.serialize()), box["skeleton"]), protocol=4)
-        pickle.loads(data)  # the skeleton must come back (an output that cannot is run the usual way)
-    except Exception:  # host callbacks, unpicklable outputs, `flatbuffers` missing: run it the usual way
-        write_atomic(path, pickle.dumps(None))
+        text, arrays = files.encode(box["skeleton"], leaf=lambda x: x.index if isinstance(x, _Slot) else None)
+        files.decode(text, arrays, leaf=_Slot)  # the skeleton must come back (else: run the usual way)
+        members = {"exported": np.frombuffer(bytes(exp.serialize()), np.uint8),
+                   "skeleton": files.text_member(text), **arrays}
+    except Exception:  # host callbacks, outputs that are not data, `flatbuffers` missing: run it the usual way
+        write_atomic(path, files.entry_bytes(key, {}))
         return None
-    write_atomic(path, data)
+    write_atomic(path, files.entry_bytes(key, members))
     return _Stored(exp.call, box)

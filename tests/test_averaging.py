@@ -522,11 +522,11 @@ def test_stored_program_is_read_back_with_the_same_numbers(tmp_path, monkeypatch
     monkeypatch.setattr(_compiled, "_LOADED", {})
     wave = _wave(7.0)
     first = jxr.theory.theory_summary("roberts", SHIP, wave, BINS)[1]
-    stored = sorted(tmp_path.glob("*.bin"))
+    stored = sorted(tmp_path.glob("*.npz"))
     assert stored and all(p.stat().st_size > 1000 for p in stored)  # programs, not "cannot export" markers
     _compiled._LOADED.clear()
     again = jxr.theory.theory_summary("roberts", SHIP, wave, BINS)[1]
-    assert sorted(tmp_path.glob("*.bin")) == stored  # read, not exported again
+    assert sorted(tmp_path.glob("*.npz")) == stored  # read, not exported again
     _same(again, first, rtol=0)
     with pytest.raises(ValueError, match=r"roll dies out.*K = .* below b1/2"):
         jxr.theory.theory_summary("roberts", SHIP, _wave(1.0), BINS)
@@ -547,7 +547,7 @@ def test_roberts_and_esam_together_are_one_program_with_the_same_numbers(tmp_pat
     wave = _wave(7.0)
     both = dict(jxr.theory.iter_theory_summaries(("esam", "roberts"), SHIP, wave, BINS))
     assert list(both) == ["esam", "roberts"]
-    assert len(list(tmp_path.glob("*.bin"))) == 1
+    assert len(list(tmp_path.glob("*.npz"))) == 1
     for name in ("roberts", "esam"):
         law, summary = jxr.theory.theory_summary(name, SHIP, wave, BINS)
         _same(both[name][1], summary)

@@ -1,9 +1,12 @@
 """The command line: `jaxroll pdf` and `jaxroll ship show`, outputs and error messages."""
 
+import contextlib
 import json
+import subprocess
 
 import numpy as np
 import pytest
+from helpers import assert_labelled_output
 
 import jaxroll
 from jaxroll._cli import main
@@ -24,6 +27,7 @@ def test_pdf_writes_figures_and_json(tmp_path, capsys):
     assert code == 0
     for name in ("pdf_linear.png", "pdf_log.png", "pdf.json"):
         assert (out / name).stat().st_size > 0
+    assert_labelled_output(out, "pdf")  # pdf.nc: the JSON's numbers, the histograms, the per-trial arrays
     d = json.loads((out / "pdf.json").read_text())
     assert d["jaxroll_version"] == jaxroll.__version__
     assert d["config"]["ship"]["name"] == "C11 (representative)" and "representative" in d["config"]["ship_note"]
@@ -135,6 +139,7 @@ def test_maxima_command(tmp_path):
         assert p["mean_deg"] == pytest.approx(np.trapezoid(grid * exact, grid) / p["mass_on_grid"])
     for name in ("maxima_linear.png", "maxima_log.png", "maxima_N0_10.png", "maxima_N0_30.png"):
         assert (tmp_path / name).stat().st_size > 0
+    assert_labelled_output(tmp_path, "maxima")
 
 
 def _maxima_and_risk_with_the_moment_method(tmp_path, capsys):
@@ -155,7 +160,7 @@ def _maxima_and_risk_with_the_moment_method(tmp_path, capsys):
     code = main(["risk", "--hs", "5", "--angle", "20", "--hours", "3", "--realizations", "8", "--duration", "1200",
                  "--theory", "moment", "--out", str(tmp_path / "risk"), "--quiet"])
     assert code == 0
-    line = [x for x in capsys.readouterr().out.splitlines() if x.startswith("moment:")]
+    line = [x for x in capsys.readouterr().out.splitlines() if x.startswith("moment (independent amplitudes):")]
     assert line and line[0].endswith("closure order 4: order 6 has no stable fixed point here"), line
     d = json.loads((tmp_path / "risk" / "risk.json").read_text())
     assert d["moment"]["theory_details"]["closure_fallback"] and 0 <= d["moment"]["probability"] <= 1
@@ -241,8 +246,32 @@ def test_risk_command(tmp_path, capsys):
     assert curve["direct"][i] == pytest.approx(direct["probability"])
     assert np.all(np.diff(curve["direct"]) <= 0) and np.all(np.diff(curve["monte_carlo"]) <= 1e-12)
     assert (tmp_path / "risk.png").stat().st_size > 0
+    assert_labelled_output(tmp_path, "risk")  # with each trial's largest roll (direct_max_abs_phi_deg)
     assert main(["risk", "--angle", "95", "--out", str(tmp_path)]) == 2
     assert "--angle must be in (0, 90)" in capsys.readouterr().err
+
+
+def test_risk_first_passage(tmp_path, capsys):
+    """`risk --theory first_passage`: the envelope FPK model followed through the exposure, in risk.json (with
+    the group statistics), on the risk curve (equal to the headline probability at the threshold) and in risk.nc;
+    it is below the same model's independent-amplitude probability (large rolls come in groups)."""
+    code = main(["risk", "--hs", "6", "--angle", "30", "--hours", "1", "--realizations", "8", "--duration", "1200",
+                 "--theory", "first_passage", "--out", str(tmp_path), "--quiet"])
+    assert code == 0
+    d = json.loads((tmp_path / "risk.json").read_text())
+    f = d["first_passage"]
+    assert d["config"]["theory"] == ["first_passage"]
+    assert 0.3 < f["probability"] < 0.5  # 40 000 Monte Carlo trials: 0.407 (benchmarks/data)
+    assert f["probability"] < f["independent_probability"]
+    assert f["amplitudes_per_cluster"] > 1.5 and f["clusters_per_hour"] > 0 and f["exists"]
+    assert 0 < f["capsize_probability"] < 1e-3
+    curve = d["curve"]
+    i = curve["angle_deg"].index(30.0)
+    assert curve["first_passage"][i] == pytest.approx(f["probability"], rel=0.02)  # interpolated between levels
+    assert "first_passage (envelope FPK followed through the exposure)" in capsys.readouterr().out
+    assert_labelled_output(tmp_path, "risk")
+    assert main(["risk", "--theory", "first_passage,nonsense", "--out", str(tmp_path)]) == 2
+    assert "unknown method" in capsys.readouterr().err
 
 
 def test_theory_command(tmp_path, capsys):
@@ -256,6 +285,7 @@ def test_theory_command(tmp_path, capsys):
         np.testing.assert_allclose(np.sum(np.array(t["pdf"]) * np.diff(edges)), 1.0, atol=1e-3)
         assert 0 < t["quantiles_deg"]["50"] < t["quantiles_deg"]["99"]
     assert (tmp_path / "theory_log.png").stat().st_size > 0
+    assert_labelled_output(tmp_path, "theory")
 
 
 def test_theory_default_set_leaves_out_the_theories_without_a_law(tmp_path, capsys, monkeypatch):
@@ -347,6 +377,7 @@ def test_pdf_all_capsized_reports_null_not_invented_numbers(tmp_path, monkeypatc
     printed = capsys.readouterr().out
     assert "no statistics:" in printed and "nan" not in printed.lower()
     assert (out / "pdf_linear.png").stat().st_size > 0
+    assert_labelled_output(out, "pdf")  # the nulls are NaN in pdf.nc
 
 
 def test_pdf_warns_when_the_roll_is_not_stationary(tmp_path, monkeypatch, capsys):
@@ -508,35 +539,54 @@ def test_library_warnings_are_one_line_and_in_the_json(tmp_path, capsys):
     assert d["warnings"] == [line.removeprefix("jaxroll pdf: warning: ") for line in lines[:2]]
 
 
+@contextlib.contextmanager
+def _running(cmd, **kwargs):
+    """`subprocess.Popen(cmd)` with text pipes, killed (if still running) and its pipes closed on the way out, also
+    after a failed assertion."""
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, **kwargs)
+    try:
+        yield proc
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+        proc.wait()
+        for pipe in (proc.stdout, proc.stderr):
+            pipe.close()
+
+
 def test_ctrl_c_while_the_theories_compile_exits_at_once(tmp_path):
     """The `jaxroll` command (console entry) on Ctrl-C while the theories' programs compile in their threads: exit
     code 130 and the one-line message, at once (it used to wait for the compilations; `jaxroll pdf` had crashed
     with a segfault in the interpreter's teardown), and no output folder."""
     import os
     import signal
-    import subprocess
     import sys
     import time
 
     cache = tmp_path / "cache"
     env = {**os.environ, "JAXROLL_CACHE_DIR": str(cache)}
     cmd = [sys.executable, "-m", "jaxroll", "theory", "--theory", "roberts,esam,moment", "--out", str(tmp_path / "out")]
-    proc = subprocess.Popen(cmd, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    t_start = time.monotonic()
     programs = cache / "jaxroll-programs"
-    deadline = time.monotonic() + 120
-    # the set-up's three programs are stored first; the theories' threads start right after them
-    while proc.poll() is None and time.monotonic() < deadline:
-        if programs.is_dir() and len([p for p in programs.iterdir() if p.suffix == ".bin"]) >= 4:
-            break
-        time.sleep(0.02)
-    assert proc.poll() is None, "the command ended before it could be interrupted"
-    proc.send_signal(signal.SIGINT)
-    t0 = time.monotonic()
-    _, err = proc.communicate(timeout=60)
-    waited = time.monotonic() - t0
+    with _running(cmd, env=env) as proc:
+        deadline = time.monotonic() + 300
+        # the set-up's three programs are stored first; the theories' threads start right after them (the readiness
+        # signal: no fixed sleep, which a loaded machine outruns)
+        while proc.poll() is None and time.monotonic() < deadline:
+            if programs.is_dir() and len([p for p in programs.iterdir() if p.suffix == ".npz"]) >= 4:
+                break
+            time.sleep(0.02)
+        assert proc.poll() is None, "the command ended before it could be interrupted"
+        started = time.monotonic() - t_start
+        proc.send_signal(signal.SIGINT)
+        t0 = time.monotonic()
+        _, err = proc.communicate(timeout=300)
+        waited = time.monotonic() - t0
     assert proc.returncode == 130, err[-2000:]
     assert err.strip().splitlines()[-1].startswith("jaxroll theory: interrupted") and "Traceback" not in err
-    assert waited < 10.0  # not a benchmark: measured 0.0–0.3 s, and 2–8 s when the compilations were waited for
+    # Not a benchmark: measured 0.0–0.3 s (2–8 s when the compilations were waited for). The limit grows with the
+    # machine's load, read from how long the command took to get here (5–8 s on an idle 2-core machine).
+    assert waited < max(10.0, started), (waited, started)
     assert not (tmp_path / "out").exists()
 
 
@@ -553,7 +603,8 @@ gc.callbacks.append(callback)
 t0 = time.monotonic()
 try:
     gc.collect()
-    time.sleep(20)  # the signal raised again interrupts this
+    time.sleep(60)  # the signal raised again interrupts this
+    print("not interrupted")
 except KeyboardInterrupt:
     print(f"interrupted after {time.monotonic() - t0:.2f} s, callback phases {seen}")
     sys.exit(130)
@@ -564,13 +615,89 @@ def test_ctrl_c_inside_a_garbage_collector_callback_is_not_lost():
     """Python ignores (prints) an exception raised in a garbage-collector callback, and JAX registers one: a Ctrl-C
     that lands there would not stop the command (seen: a cold `jaxroll theory` ran to its end). The command's
     handler (`jaxroll._cli.console` installs it in its own process; here a process of its own too) raises the
-    signal again, to the main thread, once the callback has returned."""
+    signal again, to the main thread, once the callback has returned — and again every 0.2 s until it has been
+    raised: a signal that lands just before the main thread enters a blocking call is seen only when the call
+    returns (under load this test's sleep once ran to its end, 'interrupted after 20.06 s')."""
     import subprocess
     import sys
 
-    done = subprocess.run([sys.executable, "-c", _GC_INTERRUPT], capture_output=True, text=True, timeout=60)
+    done = subprocess.run([sys.executable, "-c", _GC_INTERRUPT], capture_output=True, text=True, timeout=300)
     assert done.returncode == 130, done.stdout + done.stderr
-    assert "callback phases ['start']" in done.stdout and float(done.stdout.split()[2]) < 10.0
+    # what it asserts: the Ctrl-C is not lost (the 60 s sleep is cut short); measured 0.05–1.3 s under load
+    assert "callback phases ['start']" in done.stdout and float(done.stdout.split()[2]) < 30.0
+
+
+def test_a_deferred_ctrl_c_is_sent_again_until_it_is_raised(monkeypatch):
+    """`_raise_again` (the Ctrl-C deferred out of a gc callback) sends SIGINT to the main thread again and again
+    until the handler has raised `KeyboardInterrupt` (one signal may be seen only after a blocking call), then
+    stops; a repeat landing just after the raise is not raised a second time (it would interrupt the report)."""
+    import gc
+    import signal
+    import sys
+    import time
+
+    from jaxroll import _cli
+
+    sent = []
+    monkeypatch.setattr(signal, "pthread_kill", lambda ident, sig: sent.append(time.monotonic()))
+    monkeypatch.setattr(_cli, "_STATE", {"deferred": None, "raised": None})
+    def callback(phase, info):
+        pass
+
+    gc_frame = type("Frame", (), {"f_code": callback.__code__, "f_back": None})()  # as if inside the callback
+    monkeypatch.setattr(gc, "callbacks", [*gc.callbacks, callback])
+    _cli._on_interrupt(signal.SIGINT, gc_frame)  # deferred: no exception here
+    time.sleep(0.75)
+    assert len(sent) >= 3, sent  # the first at 0.05 s, then every 0.2 s while nothing has raised
+    with pytest.raises(KeyboardInterrupt):
+        _cli._on_interrupt(signal.SIGINT, sys._getframe())  # the main thread, outside callbacks: raised
+    n = len(sent)
+    time.sleep(0.5)
+    assert len(sent) <= n + 1  # stopped (one may have been in flight)
+    _cli._on_interrupt(signal.SIGINT, sys._getframe())  # that echo, within 1 s: not raised again
+    time.sleep(1.05)
+    with pytest.raises(KeyboardInterrupt):  # a later Ctrl-C is one again
+        _cli._on_interrupt(signal.SIGINT, sys._getframe())
+
+
+def test_ctrl_c_while_the_command_starts_is_one_line(tmp_path):
+    """Ctrl-C during the first seconds of the `jaxroll` command — `import jaxroll` (JAX, XLA), before the command's
+    own handling could be installed — printed a KeyboardInterrupt traceback. The console script (pyproject's entry
+    point, run here as pip's launcher runs it) guards the imports: one line, exit code 130, nothing written. The
+    signal is sent once JAX's library is mapped into the process (its import under way: no fixed sleep)."""
+    import os
+    import pathlib
+    import signal
+    import sys
+    import time
+    import tomllib
+
+    maps = pathlib.Path("/proc/self/maps")
+    if not maps.exists():
+        pytest.skip("needs /proc to see the import under way")
+    root = pathlib.Path(__file__).resolve().parents[1]
+    target = tomllib.loads((root / "pyproject.toml").read_text())["project"]["scripts"]["jaxroll"]
+    module, func = target.split(":")
+    launcher = f"import sys\nfrom {module} import {func}\nsys.argv[0] = 'jaxroll'\nsys.exit({func}())\n"
+    env = {**os.environ, "JAXROLL_CACHE_DIR": str(tmp_path / "cache"),
+           "PYTHONPATH": os.pathsep.join([str(root), os.environ.get("PYTHONPATH", "")])}
+    out = tmp_path / "out"
+    with _running([sys.executable, "-c", launcher, "theory", "--out", str(out)], env=env) as proc:
+        deadline = time.monotonic() + 120
+        while proc.poll() is None and time.monotonic() < deadline:
+            try:
+                if "jaxlib" in pathlib.Path(f"/proc/{proc.pid}/maps").read_text():
+                    break
+            except OSError:
+                pass
+            time.sleep(0.005)
+        assert proc.poll() is None, "the command ended before it could be interrupted"
+        proc.send_signal(signal.SIGINT)
+        _, err = proc.communicate(timeout=300)
+    assert proc.returncode == 130, err[-2000:]
+    assert "Traceback" not in err and err.strip().splitlines() == [
+        "jaxroll theory: interrupted while starting; nothing was written."], err[-2000:]
+    assert not out.exists()
 
 
 def test_interrupted_run_leaves_the_previous_set_untouched(tmp_path, monkeypatch, capsys):
@@ -680,6 +807,7 @@ def test_sensitivity_command(tmp_path, capsys):
     assert g["b1"]["theory"]["envelope_fpk"] < 0 and g["gm_correction"]["theory"]["envelope_fpk"] > 0
     assert d["estimator"]["n_realizations"] == 16
     assert (tmp_path / "sensitivity.png").stat().st_size > 0
+    assert_labelled_output(tmp_path, "sensitivity")
 
 
 def test_a_filter_that_cannot_follow_the_sea_says_to_use_superposition(tmp_path, capsys):

@@ -41,7 +41,7 @@ def test_a_stored_program_gives_the_same_numbers_without_tracing(program_cache):
     calls.clear()
     first = _program(params, x, 3)
     assert calls == [3]  # traced once, to export it
-    assert len(list(program_cache.glob("*.bin"))) == 1
+    assert len(list(program_cache.glob("*.npz"))) == 1
     _compiled._LOADED.clear()  # as a new process: the program comes from disk
     second = _program(params, x, 3)
     assert calls == [3]  # not traced again
@@ -52,7 +52,7 @@ def test_a_stored_program_gives_the_same_numbers_without_tracing(program_cache):
     _program(params, x, 2)
     _program(params, jnp.linspace(0.0, 1.0, 6), 3)
     _program(_Params(jnp.asarray(2.0), "b"), x, 3)
-    assert len(list(program_cache.glob("*.bin"))) == 4
+    assert len(list(program_cache.glob("*.npz"))) == 4
 
 
 def test_bind_looks_the_program_up_once_and_follows_a_change_of_kind(program_cache, monkeypatch):
@@ -83,10 +83,10 @@ def test_traced_calls_and_a_cache_that_is_off_trace_as_usual(program_cache, monk
     calls.clear()
     g = jax.grad(lambda s: jnp.sum(_program(_Params(s, "a"), x, 2)["y"]))(jnp.asarray(2.0))
     np.testing.assert_allclose(g, np.sum(np.arange(3.0) ** 2))
-    assert calls and not list(program_cache.glob("*.bin"))  # a derivative never touches the store
+    assert calls and not list(program_cache.glob("*.npz"))  # a derivative never touches the store
     monkeypatch.setattr(_compiled, "cache_dir", lambda: None)
     np.testing.assert_allclose(_program(params, x, 2)["y"], 2.0 * np.arange(3.0) ** 2)
-    assert not list(program_cache.glob("*.bin"))
+    assert not list(program_cache.glob("*.npz"))
 
 
 def test_a_program_that_cannot_be_exported_runs_the_usual_way(program_cache):
@@ -95,8 +95,8 @@ def test_a_program_that_cannot_be_exported_runs_the_usual_way(program_cache):
         return eqx.error_if(x, x < 0, "negative")  # a host callback: not exportable
 
     np.testing.assert_array_equal(checked(jnp.arange(3.0)), np.arange(3.0))
-    marker = list(program_cache.glob("*.bin"))
-    assert len(marker) == 1 and marker[0].stat().st_size < 100  # remembered as not exportable
+    marker = list(program_cache.glob("*.npz"))
+    assert len(marker) == 1 and _compiled.files.read_entry(marker[0], marker[0].stem) == {}  # not exportable
     with pytest.raises(Exception, match="negative"):
         checked(-jnp.ones(3))
 
@@ -145,7 +145,7 @@ def test_compiler_options_the_same_with_the_cache_on_or_off(program_cache, monke
 def test_a_corrupt_stored_program_is_replaced(program_cache):
     params, x = _Params(jnp.asarray(3.0), "c"), jnp.arange(4.0)
     ref = _program(params, x, 1)["y"]
-    (path,) = program_cache.glob("*.bin")
+    (path,) = program_cache.glob("*.npz")
     path.write_bytes(b"not a program")
     _compiled._LOADED.clear()
     np.testing.assert_array_equal(_program(params, x, 1)["y"], ref)
@@ -157,7 +157,7 @@ def test_set_up_from_stored_programs_equals_a_fresh_one(program_cache, monkeypat
     the problem a traced set-up gives, bit for bit."""
     ship, sea = jaxroll.c11_representative(), jaxroll.ITTC(7.0, 10.0)
     stored = jaxroll.RollProblem.from_sea(ship, sea)  # runs the exported programs (as a warm run loads them)
-    assert len(list(program_cache.glob("*.bin"))) >= 5
+    assert len(list(program_cache.glob("*.npz"))) >= 5
     monkeypatch.setattr(_compiled, "cache_dir", lambda: None)
     fresh = jaxroll.RollProblem.from_sea(ship, sea)
     for a, b in zip(jax.tree.leaves(stored), jax.tree.leaves(fresh), strict=True):
@@ -182,12 +182,13 @@ import jaxroll
 from jaxroll import _compiled
 from jaxroll.roll import _sharding
 
+jaxroll.configure()
 assert jax.device_count() == 2, jax.devices()
 # jaxroll's store in a folder of its own; XLA's cache is the test session's (inherited through the environment)
 folder = _compiled.pathlib.Path(sys.argv[1]) / "jaxroll-programs"
 _compiled.cache_dir = lambda: folder
 problem = jaxroll.RollProblem.from_sea(jaxroll.c11_representative(), jaxroll.ITTC(7.0, 10.0))
-before = sum(1 for p in folder.glob("*.bin") if p.stat().st_size > 100)
+before = sum(1 for p in folder.glob("*.npz") if p.stat().st_size > 100)
 
 def run():
     _sharding._COMPILED.clear()
@@ -204,12 +205,12 @@ for a in (stored, loaded):
     np.testing.assert_array_equal(a.counts_envelope, traced.counts_envelope)
     for k, v in traced.per_realization.items():
         np.testing.assert_array_equal(a.per_realization[k], v)
-print("new programs", sum(1 for p in folder.glob("*.bin") if p.stat().st_size > 100) - before)
+print("new programs", sum(1 for p in folder.glob("*.npz") if p.stat().st_size > 100) - before)
 """
 
 
 def test_stored_monte_carlo_program_over_two_devices_equals_a_traced_one(tmp_path):
-    """The Monte Carlo chunk sharded over two CPU devices (as `import jaxroll` makes of two cores), from a
+    """The Monte Carlo chunk sharded over two CPU devices (as `jaxroll.configure()` makes of two cores), from a
     stored program: the same numbers as traced, also when loaded from disk (in a child process: the devices are
     fixed when JAX starts)."""
     import os
@@ -227,6 +228,7 @@ _SET_UP_CHILD = """
 import jax, numpy as np
 import jaxroll
 
+jaxroll.configure()
 compiles = []
 jax.monitoring.register_event_duration_secs_listener(
     lambda event, secs, **kw: compiles.append(event) if event == "/jax/core/compile/backend_compile_duration" else None)
@@ -283,7 +285,7 @@ def test_enable_compilation_cache_keeps_programs_for_a_new_session(tmp_path, mon
         monkeypatch.setattr(_compiled, "_LOADED", {})
         angle = float(jaxroll.vanishing_angle(jaxroll.c11_representative(), num=1237))
         assert angle == pytest.approx(np.deg2rad(71.598), abs=1e-4)
-        assert [p.suffix for p in (tmp_path / "xla" / "jaxroll-programs").iterdir()] == [".bin"]
+        assert [p.suffix for p in (tmp_path / "xla" / "jaxroll-programs").iterdir()] == [".npz"]
         monkeypatch.setenv("JAXROLL_CACHE_DIR", str(tmp_path / "env"))
         assert jaxroll.enable_compilation_cache() == tmp_path / "env"
         monkeypatch.setenv("JAXROLL_CACHE_DIR", "")

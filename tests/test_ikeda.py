@@ -14,7 +14,7 @@ import tomllib
 import pytest
 
 import jaxroll as jxr
-from jaxroll.ship import ikeda_damping, simplified_ikeda
+from jaxroll.ship import IkedaRangeError, ikeda_damping, simplified_ikeda
 
 LPP = 300.0
 B = LPP / 6
@@ -80,3 +80,15 @@ def test_ship_file_records_the_damping_source():
     data["damping"]["source"] = 1.0
     with pytest.raises(ValueError, match="source must be text"):
         jxr.ship_from_dict(data)
+
+
+def test_negative_estimate_outside_the_range_is_an_error_naming_the_parameters():
+    # a box barge 100 × 20 × 5 m (C_B = C_m = 1): the eddy term's regression goes negative (issue 37 item 12)
+    box = dict(lpp=100.0, breadth=20.0, draught=5.0, block_coefficient=1.0, midship_coefficient=1.0, kg=6.0,
+               gm=3.1667, roll_period=12.0)  # fmt: skip
+    with pytest.raises(IkedaRangeError, match=r"outside its validity range: CB = 1\.000 \(range 0\.5–0\.85\), CM = "
+                       r"1\.000 \(range 0\.9–0\.99\); it extrapolates to a NEGATIVE damping .*--damping B1 B2 B3"):  # fmt: skip
+        ikeda_damping(**box)
+    assert issubclass(IkedaRangeError, ValueError)
+    # inside the ranges the estimate stands (the C11 reference case)
+    assert ikeda_damping(**C11)["b1"] > 0

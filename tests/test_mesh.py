@@ -10,6 +10,8 @@ tests of this file and of tests/test_sgisc.py (a new hull shape or name costs ~2
 """
 
 import math
+import re
+import warnings
 
 import numpy as np
 import pytest
@@ -151,8 +153,14 @@ def test_axes_convention_and_half_hull(tmp_path):
     # a half-hull open along its centre plane is mirrored
     half = cuboid(0, L, 0, B / 2, 0, D)
     half = half[~np.all(np.abs(half[:, :, 1]) < 1e-12, axis=1)]  # remove the centre-plane face
-    hh = read(io.write_stl(tmp_path / "half.stl", half), stations=11, waterlines=3)
+    path = io.write_stl(tmp_path / "half.stl", half)
+    with pytest.raises(io.MeshError, match=r"OPEN along the whole of its flat side y = 0 m .* HALF hull .*--half-hull"):
+        read(path, stations=11, waterlines=3)  # refused without the flag, with the reason
+    hh = read(path, stations=11, waterlines=3, half_hull=True)
     np.testing.assert_allclose(hh.half_breadths, B / 2, atol=1e-9)
+    assert "half-hull, mirrored" in hh.provenance
+    with pytest.raises(io.MeshError, match=r"half_hull=True \(--half-hull\) but the mesh is closed"):
+        read(io.write_stl(tmp_path / "whole.stl", tri), half_hull=True)
 
 
 def test_hydrostatics_cli_reads_stl_and_refuses_an_open_one_first(tmp_path, capsys, monkeypatch):
@@ -359,3 +367,162 @@ def test_stl_reader_agrees_with_numpy_stl(tmp_path, binary):
     p = jxr.hydrostatic_particulars(h, jxr.loading_condition(h, kg=KG, draught=d))
     assert float(p.volume) == pytest.approx(float(v_box) * d / D, rel=1e-6)  # a box: V(d) = V d / D
     assert float(p.waterplane_area) == pytest.approx(float(v_box) / D, rel=1e-6)  # A_WP = V / D
+
+
+# ----------------------------------------------------------------------------------------------------------------
+# Issue 36 / 37: symmetry, orientation, the datum, other formats, bad input (meshes generated in tests/hull_meshes.py)
+# ----------------------------------------------------------------------------------------------------------------
+
+
+def test_asymmetric_and_skewed_hulls_are_refused_with_the_measured_asymmetry(tmp_path):
+    import hull_meshes as hm
+
+    # issue 37 item 1: port side at y = −8 m, starboard flaring from 8 to 10 m (hand: TCB = −0.49 m of the middle)
+    path = io.write_stl(tmp_path / "asym.stl", hm.asymmetric_prism())
+    with pytest.raises(io.MeshError, match=r"not port–starboard symmetric: .* lies 0\.4[89]\d* m to one side .* "
+                       r"differ by up to 2 m \(starboard 7 m, port 9 m"):  # fmt: skip
+        read(path, x_ap=0.0)
+    skew = box_triangles().copy()
+    skew[..., 1] += 0.05 * skew[..., 0]  # sections shifted sideways along the length: TCB 0, still asymmetric
+    with pytest.raises(io.MeshError, match=r"not port–starboard symmetric: .* lies 2\.5 m to one side"):
+        read(io.write_stl(tmp_path / "skew.stl", skew))
+
+
+def test_inconsistent_normals_refused_then_fixed_and_inverted_meshes_accepted(tmp_path):
+    tri = box_triangles()
+    bad = tri.copy()
+    bad[:5] = bad[:5, ::-1]  # five triangles reversed
+    with pytest.raises(io.MeshError, match=r"orientations \(normals\) are inconsistent: .* 5 of \d+ triangles .*--fix-normals"):
+        read(io.write_stl(tmp_path / "bad.stl", bad))
+    ref = plain(read(io.write_stl(tmp_path / "box.stl", tri)))
+    fixed = plain(read(tmp_path / "bad.stl", fix_normals=True))
+    inverted = plain(read(io.write_stl(tmp_path / "inv.stl", tri[:, ::-1])))  # all inward: turned outward
+    vols = [float(jxr.hydrostatic_particulars(h, jxr.loading_condition(h, kg=KG, draught=d)).volume)
+            for h in (ref, fixed, inverted)]  # fmt: skip
+    np.testing.assert_allclose(vols, L * B * d, rtol=1e-12)
+
+
+def _dome_file(tmp_path, name, **kw):
+    import hull_meshes as hm
+
+    return io.write_stl(tmp_path / name, hm.frigate(length=L, breadth=B, draught=d, depth=D, ns=31, nr=9, **kw))
+
+
+def test_datum_sonar_dome_skeg_and_z0_at_the_waterline(tmp_path):
+    import hull_meshes as hm
+
+    # a sonar dome 3 m below the keel line at file z = 0: the keel line is the default baseline, with a warning
+    # naming both datums and the option
+    path = _dome_file(tmp_path, "dome.stl", dome=3.0)
+    with pytest.warns(UserWarning, match=r"lowest point \(file z = -2\.9\d* m.* local protrusion .* keel line at "
+                      r"file z = 0 m .*--baseline-z -2\.9"):  # fmt: skip
+        h = read(path, x_ap=0.0)
+    assert h.datum.baseline_file_z == 0.0 and h.datum.lowest_point_file_z == pytest.approx(-2.99, abs=0.01)
+    assert "keel line" in h.datum.source
+    assert float(h.waterlines[0]) == pytest.approx(-2.99, abs=0.01)  # the dome stays below the baseline
+    # the draught measured from the keel line: the same hull volume as without the dome plus the dome's
+    plain_hull = read(_dome_file(tmp_path, "nodome.stl"), x_ap=0.0)
+    v = [float(jxr.hydrostatic_particulars(x, jxr.loading_condition(x, kg=KG, draught=d)).volume)
+         for x in (h, plain_hull)]  # fmt: skip
+    dome_volume = hm.volume(hm.frigate(length=L, breadth=B, draught=d, depth=D, ns=31, nr=9, dome=3.0)) - hm.volume(
+        hm.frigate(length=L, breadth=B, draught=d, depth=D, ns=31, nr=9))
+    # the dome's stations are meshed at other heights, so the hulls above the keel differ by their chords: 1 %
+    assert v[0] - v[1] == pytest.approx(dome_volume, rel=1e-2)
+    # the lowest point on request: no warning, the datum recorded as given
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        low = read(path, x_ap=0.0, baseline_z=h.datum.lowest_point_file_z)
+    assert low.datum.source.startswith("given") and float(low.waterlines[0]) == pytest.approx(0.0, abs=1e-12)
+    # a skeg aft is a protrusion too
+    with pytest.warns(UserWarning, match=r"local protrusion below the keel line"):
+        read(_dome_file(tmp_path, "skeg.stl", skeg=1.5), x_ap=0.0)
+    # file z = 0 at the waterline: the lowest point is the baseline, the warning gives the draught it implies
+    with pytest.warns(UserWarning, match=r"the file's z = 0 lies inside the hull, 5 m above its lowest point .* "
+                      r"--baseline-z 0 .* the draught is 5 m"):  # fmt: skip
+        wl = read(_dome_file(tmp_path, "wl.stl", z0=-d), x_ap=0.0)
+    assert wl.datum.baseline_file_z == pytest.approx(-d)
+    # file z = 0 at the deck: nothing to warn about
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        deck = read(_dome_file(tmp_path, "deck.stl", z0=-D), x_ap=0.0)
+    assert deck.datum.baseline_file_z == pytest.approx(-D)
+
+
+def test_datum_options_contradicting_the_geometry_are_refused(tmp_path):
+    path = _dome_file(tmp_path, "dome.stl", dome=3.0)
+    with pytest.raises(io.MeshError, match=r"baseline z = 2 m \[file z, m\] is 2 m ABOVE the keel line .*"
+                       r"--baseline-z 0 \(the keel line\) or -2\.9"):  # fmt: skip
+        read(path, x_ap=0.0, baseline_z=2.0)
+    with pytest.raises(io.MeshError, match=r"baseline z = -20 m .* BELOW the lowest point"):
+        read(path, x_ap=0.0, baseline_z=-20.0)
+
+
+def test_meshio_formats_read_like_the_stl(tmp_path):
+    meshio = pytest.importorskip("meshio")
+    tri = box_triangles()
+    pts = tri.reshape(-1, 3)
+    cells = np.arange(pts.shape[0]).reshape(-1, 3)
+    ref = read(io.write_stl(tmp_path / "box.stl", tri))
+    for suffix in (".obj", ".ply", ".vtk", ".msh"):
+        path = tmp_path / f"box{suffix}"
+        meshio.write(str(path), meshio.Mesh(pts, [("triangle", cells)]), **({"binary": False} if suffix == ".msh" else {}))
+        h, loading = io.read_hull(path, lpp=L, stations=N_ST, waterlines=N_WL)
+        assert loading == {}
+        np.testing.assert_allclose(h.half_breadths, ref.half_breadths, rtol=0, atol=1e-9)
+        assert h.surface is not None and h.surface.n_triangles == ref.surface.n_triangles
+    # the same checks as an STL: an open OBJ is refused
+    meshio.write(str(tmp_path / "open.obj"), meshio.Mesh(pts, [("triangle", cells[:-2])]))
+    with pytest.raises(io.MeshError, match="the mesh is OPEN"):
+        io.read_hull(tmp_path / "open.obj", lpp=L)
+    meshio.write(str(tmp_path / "tet.vtk"), meshio.Mesh(pts[:4], [("tetra", np.array([[0, 1, 2, 3]]))]))
+    with pytest.raises(io.MeshError, match=r"no triangle or quad cells \(cells: \['tetra'\]\)"):
+        io.read_hull(tmp_path / "tet.vtk", lpp=L)
+
+
+def _cli(argv, tmp_path, capsys):
+    from jaxroll._cli import main
+
+    code = main([*argv, "--out", str(tmp_path / "out")])
+    return code, capsys.readouterr()
+
+
+def test_cli_bad_hull_input_exits_2_with_the_numbers(tmp_path, capsys, monkeypatch):
+    import hull_meshes as hm
+
+    monkeypatch.setenv("JAXROLL_CACHE_DIR", "")
+    box = io.write_stl(tmp_path / "box.stl", box_triangles())
+    base = ["hydrostatics", str(box), "--lpp", "100", "--roll-period", "10"]
+    cases = [
+        ([*base, "--kg", "6", "--draught", "12"], r"draught d = 12\.0 m is at or above the depth D = 10\.0 m"),
+        ([*base, "--kg", "6", "--draught", "5", "--baseline-z", "3"], r"is 3 m ABOVE the keel line"),
+        ([*base, "--kg", "6", "--draught", "5", "--half-hull"], r"--half-hull\) but the mesh is closed"),
+        ([*base, "--kg", "6", "--displacement", "10250"], r"only 0\.\d+ % of the hull's height .*tonnes given as kg"),
+        (["hydrostatics", str(io.write_stl(tmp_path / "mm.stl", box_triangles() * 1000)), "--lpp", "100", "--kg",
+          "6", "--draught", "5", "--roll-period", "10"], r"length 100000 m is outside 24–500 m.*--units mm"),
+        (["hydrostatics", str(io.write_stl(tmp_path / "a.stl", hm.asymmetric_prism())), "--lpp", "100", "--kg",
+          "6", "--draught", "5", "--roll-period", "10"], r"not port–starboard symmetric"),
+    ]  # fmt: skip
+    for argv, match in cases:
+        code, out = _cli(argv, tmp_path, capsys)
+        assert code == 2, (argv, out.err)
+        assert re.search(match, out.err), (match, out.err)
+        assert not (tmp_path / "out").exists()
+
+
+def test_cli_sgisc_box_barge_names_ikedas_range_and_damping(tmp_path, capsys, monkeypatch):
+    # issue 37 item 12: a valid box barge (C_B = C_m = 1) is outside simplified Ikeda's range
+    monkeypatch.setenv("JAXROLL_CACHE_DIR", "")
+    for path in (io.write_stl(tmp_path / "box.stl", box_triangles()), write_box_gdf(tmp_path)):
+        argv = ["sgisc", str(path), "--lpp", "100", "--kg", "6", "--draught", "5", "--speed-kn", "10",
+                "--roll-period", "12"]  # fmt: skip
+        code, out = _cli(argv, tmp_path, capsys)
+        assert code == 2
+        assert re.search(r"simplified Ikeda roll damping is outside its validity range: CB = 1\.000 \(range "
+                         r"0\.5–0\.85\), CM = 1\.000 \(range 0\.9–0\.99\); it extrapolates to a NEGATIVE damping .* "
+                         r"--damping B1 B2 B3", out.err), out.err  # fmt: skip
+        assert "damping coefficients must be >= 0" not in out.err
+
+
+def test_kg_above_the_deck_warns():
+    with pytest.warns(UserWarning, match=r"KG = 12 m is above the deck: the hull's depth is D = 10 m .*--baseline-z"):
+        jxr.loading_condition(jxr.box_hull(L, B, D), kg=12.0, draught=d)

@@ -16,6 +16,7 @@ import pkgutil
 import signal
 import sys
 import threading
+import time
 import warnings
 from collections.abc import Sequence
 
@@ -44,46 +45,65 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the `jaxroll` command. Returns the process exit code."""
-    import matplotlib
+    try:
+        import matplotlib
 
-    matplotlib.use("Agg")  # the CLI only writes files; never needs a display
-    parser = build_parser()
+        matplotlib.use("Agg")  # the CLI only writes files; never needs a display
+        parser = build_parser()
+    except KeyboardInterrupt:  # Ctrl-C while the command starts: nothing has been written
+        print(_starting_interrupted(argv), file=sys.stderr)
+        return 130
     args = parser.parse_args(argv)
-    from .. import enable_compilation_cache
-
-    enable_compilation_cache()  # JAXROLL_CACHE_DIR, default ~/.cache/jaxroll/xla; empty: off
     if args.command is None:
         parser.print_help()
         return 2
+    from .. import configure
     from ._common import WARNINGS
 
     WARNINGS.clear()
     with warnings.catch_warnings():
         warnings.showwarning = functools.partial(_warning_line, args.command)
+        # The command's own process, set up fully: float64, XLA:CPU's platform-independent math and small loops
+        # compiled whole, one JAX device per CPU core (docs/architecture.md, "Process-wide settings").
+        configure()
         return _run(args)
 
 
 def _warning_line(command: str, message, category, filename, lineno, file=None, line=None) -> None:
     """A warning of the library (or of the libraries under it) as the command shows it: one line on stderr,
-    `jaxroll COMMAND: warning: …` (no source path or code line), and kept for the JSON it writes (`warnings`)."""
+    `jaxroll COMMAND: warning: …` (no source path or code line; a message already shown is not shown again), and
+    kept for the JSON it writes (`warnings`)."""
     from ._common import WARNINGS
 
     text = str(message)
+    if text not in WARNINGS:  # once: a check made before the computation and again inside it says it once
+        print(f"jaxroll {command}: warning: {text}", file=sys.stderr)
     WARNINGS.append(text)
-    print(f"jaxroll {command}: warning: {text}", file=sys.stderr)
 
 
 def _run(args) -> int:
-    """The command's `func`, its errors as one line and exit code 2, Ctrl-C as 130."""
-    from ._common import CLIError
+    """The command's `func`, its errors as one line and exit code 2, Ctrl-C as 130. `--out` is checked first (a
+    folder it can write, the debris of an earlier killed run cleared), before any computation; the compilation
+    cache is switched on (JAXROLL_CACHE_DIR, default ~/.cache/jaxroll/xla; empty: off; refused, with a warning,
+    where others could write to it)."""
+    from .. import enable_compilation_cache
+    from ._common import CLIError, os_error_message, prepare_out
 
+    if signal.getsignal(signal.SIGINT) is _exit_at_once:  # the `jaxroll` command: its Ctrl-C handling from now
+        signal.signal(signal.SIGINT, _on_interrupt)
     try:
+        if getattr(args, "out", None) is not None:
+            prepare_out(args.out)
+        enable_compilation_cache()
         return int(args.func(args) or 0)
     except CLIError as e:
         print(f"jaxroll {args.command}: error: {e}", file=sys.stderr)
         return 2
     except (ValueError, FileNotFoundError) as e:
         print(f"jaxroll {args.command}: error: {e}", file=sys.stderr)
+        return 2
+    except OSError as e:  # a folder that cannot be written, a full disk, …: one line, not a traceback
+        print(f"jaxroll {args.command}: error: {os_error_message(e)}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         from ._common import interrupted_message
@@ -95,30 +115,75 @@ def _run(args) -> int:
 def _on_interrupt(signum, frame) -> None:
     """Ctrl-C: `KeyboardInterrupt`, as Python's own handler — except inside a garbage-collector callback (JAX has
     one), where Python would ignore the exception (print it and carry on: the command would not stop); there the
-    signal is raised again once the callback has returned."""
+    signal is raised again once the callback has returned (`_raise_again`)."""
     callbacks = {getattr(cb, "__code__", None) for cb in gc.callbacks}
+    now = time.monotonic()
     while frame is not None:
         if frame.f_code in callbacks:
-            threading.Timer(0.05, _interrupt_main_thread).start()
+            with _LOCK:
+                if _STATE["raised"] is not None and now - _STATE["raised"] < 1.0:
+                    return  # a repeat of the Ctrl-C just raised (`_raise_again`'s, in flight)
+                start = _STATE["deferred"] is None
+                _STATE["deferred"] = now
+            if start:
+                threading.Thread(target=_raise_again, daemon=True).start()
             return
         frame = frame.f_back
+    with _LOCK:
+        echo = _STATE["raised"] is not None and now - _STATE["raised"] < 1.0 and _STATE["deferred"] is None
+        _STATE["raised"], _STATE["deferred"] = now, None  # (no deferred signal: `_raise_again` stops)
+    if echo:  # a repeat sent by `_raise_again` just as the first was raised (the command is reporting it)
+        return
     raise KeyboardInterrupt
 
 
-def _interrupt_main_thread() -> None:
-    """SIGINT to the main thread itself, so that a blocking call there (a wait, a sleep) is interrupted too."""
-    if hasattr(signal, "pthread_kill"):
-        signal.pthread_kill(threading.main_thread().ident, signal.SIGINT)
-    else:  # pragma: no cover  (Windows)
-        signal.raise_signal(signal.SIGINT)
+_STATE: dict[str, float | None] = {"deferred": None, "raised": None}  # when a Ctrl-C was deferred / last raised
+_LOCK = threading.Lock()
+
+
+def _raise_again() -> None:
+    """SIGINT to the main thread itself (so that a blocking call there, a wait or a sleep, is interrupted too),
+    every 0.2 s until the handler has raised `KeyboardInterrupt` (for 10 s at most). More than once: a signal that
+    lands after the main thread's last check and before it enters a blocking call is seen only when that call
+    returns (the suite's `time.sleep(20)` then ran to its end under load: 'interrupted after 20.06 s')."""
+    time.sleep(0.05)
+    for _ in range(50):
+        with _LOCK:
+            if _STATE["deferred"] is None:
+                return
+        if hasattr(signal, "pthread_kill"):
+            signal.pthread_kill(threading.main_thread().ident, signal.SIGINT)
+        else:  # pragma: no cover  (Windows)
+            signal.raise_signal(signal.SIGINT)
+        time.sleep(0.2)
+    with _LOCK:
+        _STATE["deferred"] = None
+
+
+def _exit_at_once(signum, frame) -> None:
+    """Ctrl-C before the command has started (imports, parsing): one line, exit code 130 at once (nothing has been
+    written). The `jaxroll` console script (`_jaxroll_console`) installs the same before `import jaxroll`."""
+    sys.stdout.flush()
+    print(_starting_interrupted(None), file=sys.stderr, flush=True)
+    os._exit(130)
+
+
+def _starting_interrupted(argv: Sequence[str] | None) -> str:
+    """The line printed on Ctrl-C while the command starts (its name read from the arguments, where there is one)."""
+    words = [a for a in (sys.argv[1:] if argv is None else argv) if not a.startswith("-")]
+    return f"jaxroll{' ' + words[0] if words else ''}: interrupted while starting; nothing was written."
 
 
 def console() -> None:  # pragma: no cover  (the console script; tests call `main`)
     """The `jaxroll` command: `main()`, and after Ctrl-C (exit code 130) an immediate exit. The theories' programs
     compile in background threads (`jaxroll.theory.iter_theory_summaries`): a normal exit would wait for them (up
     to 8 s measured), and the interpreter's teardown while XLA is busy in another thread could crash (a segfault
-    was seen on Ctrl-C during `jaxroll pdf`). Nothing is lost: outputs and checkpoints are written atomically."""
-    signal.signal(signal.SIGINT, _on_interrupt)
+    was seen on Ctrl-C during `jaxroll pdf`). Nothing is lost: outputs and checkpoints are written atomically.
+    Ctrl-C while the command starts (importing, parsing) exits at once with one line (`_exit_at_once`); once it
+    runs, `_on_interrupt` turns Ctrl-C into `KeyboardInterrupt`, reported by `main`. A process started with Ctrl-C
+    ignored (a background job of a script) keeps ignoring it."""
+    if signal.getsignal(signal.SIGINT) is not signal.SIG_IGN:
+        signal.signal(signal.SIGINT, _exit_at_once)
     code = main()
     if code == 130:
         sys.stdout.flush()

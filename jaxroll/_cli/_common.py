@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import math
 import os
+import re
 import sys
 import tempfile
 import time
@@ -47,13 +48,36 @@ WARNINGS: list[str] = []
 
 
 def write_json(path: str | Path, payload: dict[str, Any]) -> None:
-    """Write `payload` as JSON atomically, with `jaxroll_version` first and the command's `warnings` (if any)."""
+    """Write `payload` as JSON atomically, with `jaxroll_version` first, then the payload's fields, `versions`
+    (`jaxroll.io.provenance()`: the versions of jaxroll, JAX, jaxlib and the libraries under it, the backend, the
+    device kind and whether float64 was on — what the bit-for-bit claims depend on; the fields of the netCDF
+    files' attributes) and the command's `warnings` (if any)."""
     from .. import __version__
+    from ..io import provenance
 
-    data = {"jaxroll_version": __version__, **payload}
+    data = {"jaxroll_version": __version__, **payload, "versions": provenance()}
     if WARNINGS:
         data["warnings"] = list(dict.fromkeys(WARNINGS))
     atomic_write_text(path, json.dumps(to_jsonable(data), indent=2) + "\n")
+
+
+def write_netcdf(path: str | Path, command: str, payload: dict[str, Any], parts=None) -> None:
+    """Write the labelled twin of a command's JSON (`payload`) as netCDF, atomically: its numbers with dimensions,
+    units and long names, plus `parts` (the results' `.to_xarray()`: per-trial arrays, histogram counts), the
+    configuration, versions and this command's warnings in the attributes (`jaxroll.io.output_dataset`;
+    docs/outputs.md). A JSON field the output's layout does not describe leaves the netCDF out with a warning
+    (the set is still written: a run's results are never lost to their labels; the tests refuse it)."""
+    from ..io import output_dataset, write_dataset
+
+    try:
+        dataset = output_dataset(command, payload, parts, warnings=list(dict.fromkeys(WARNINGS)))
+    except ValueError as e:  # a field its layout does not describe: the JSON and figures are still written
+        if not str(e).startswith("labelled results:"):
+            raise
+        print(f"jaxroll {command}: warning: {Path(path).name} not written ({e}); the JSON holds every number. "
+              "Please report it.", file=sys.stderr)
+        return
+    write_dataset(path, dataset)
 
 
 def save_figure(fig, path: str | Path) -> None:
@@ -115,14 +139,17 @@ def memory_budget(args) -> float | None:
 
 
 class Progress:
-    """A one-line progress display on stderr (only when stderr is a terminal, or when forced)."""
+    """A one-line progress display on stderr (only when stderr is a terminal, or when forced); run inside a Jupyter
+    kernel (`jaxroll._cli.main([...])` in a notebook), tqdm's notebook bar instead, when tqdm and ipywidgets are
+    installed."""
 
     def __init__(self, total: int, label: str, *, enabled: bool | None = None, resuming: str | None = None):
         """`resuming`: a line printed (stdout) at the first call, which a Monte Carlo resumed from a checkpoint makes
         once it has read the checkpoint and found it belongs to this run; the time left is then estimated from the
         realizations done in this run only."""
         self.total, self.label, self.start = total, label, time.time()
-        self.enabled = sys.stderr.isatty() if enabled is None else enabled
+        self.bar = _notebook_bar(total, label) if enabled is None else None
+        self.enabled = (sys.stderr.isatty() or self.bar is not None) if enabled is None else enabled
         self.done = self.baseline = 0
         self.resuming = resuming
 
@@ -133,6 +160,11 @@ class Progress:
         self.done = done
         if not self.enabled:
             return
+        if self.bar is not None:
+            self.bar.update(done - self.bar.n)
+            if done >= self.total:
+                self.bar.close()
+            return
         elapsed = time.time() - self.start
         eta = elapsed / (done - self.baseline) * (self.total - done) if done > self.baseline else float("nan")
         sys.stderr.write(f"\r{self.label}: {done}/{self.total} ({100 * done / self.total:5.1f} %), "
@@ -142,25 +174,55 @@ class Progress:
             sys.stderr.write("\n")
 
 
-class OutputFolder:
-    """Write a command's outputs as one set: into a temporary sibling folder, renamed into place at the end.
+def _notebook_bar(total: int, label: str):
+    """tqdm's notebook widget when this process is a Jupyter kernel and tqdm and ipywidgets are installed, else
+    None (the stderr line)."""
+    from ..notebook import in_notebook
 
-    Use as `with OutputFolder(out) as tmp:` and write every file under `tmp`. On success the new set replaces the
-    previous contents of `out` (files of `out` the new set does not write — e.g. a user's own files — are kept);
-    on an error or Ctrl-C the temporary folder is removed and `out` is left exactly as it was. A folder never
-    holds the figures of one run beside the JSON of another.
+    if not in_notebook():
+        return None
+    try:
+        import ipywidgets  # noqa: F401  (tqdm's widget needs it)
+        from tqdm.notebook import tqdm
+    except ImportError:
+        return None
+    return tqdm(total=total, desc=label, unit=" realizations")
+
+
+class OutputFolder:
+    """Write a command's outputs as one set: a folder never holds the figures of one run beside the JSON of another,
+    and an interrupted or failed run leaves `out` as it was.
+
+    Use as `with OutputFolder(out) as tmp:` and write every file under `tmp`. The set is written inside `out`'s own
+    file system — in a hidden folder inside `out` (`.jaxroll-partial.HOST.PID.RANDOM`), or, where `out` does not
+    exist yet, beside it (`.NAME.jaxroll-partial.…`, renamed to `out` at the end) — so that a mount point (a Docker
+    volume, a tmpfs) or `--out .` (the working directory, never renamed) work like any folder. On success each entry
+    of the new set takes the place of the entry of that name in `out` (files of `out` the new set does not write —
+    e.g. a user's own files — are kept): the entries it replaces are first moved aside
+    (`.jaxroll-replaced.HOST.PID.RANDOM`), with a journal of the moves, then the new entries moved in, renames
+    within one folder that take microseconds. A run killed during those renames (even by SIGKILL) is rolled back
+    by the next command writing to `out` (`prepare_out`), which also removes the hidden folders of killed runs
+    — only those with this machine's name and the PID of a process that no longer runs. The commit and that
+    clean-up hold an exclusive lock on `out` (`flock`, where the system has it), so two runs writing into one
+    folder do not interleave their sets.
     """
 
     def __init__(self, out: str | Path):
         self.out = Path(out)
         self.tmp: Path | None = None
+        self.beside = False  # the set is written beside `out` (which did not exist), to be renamed to it
 
     def __enter__(self) -> Path:
-        parent = self.out.resolve().parent
-        parent.mkdir(parents=True, exist_ok=True)
         if self.out.exists() and not self.out.is_dir():
             raise CLIError(f"--out {str(self.out)!r} exists and is not a folder.")
-        self.tmp = Path(tempfile.mkdtemp(dir=parent, prefix=f".{self.out.resolve().name}.partial-"))
+        self.beside = not self.out.is_dir()
+        if not self.beside:
+            self.tmp = self.out / _hidden_name(_PARTIAL)
+        else:
+            target = Path(os.path.abspath(self.out))
+            target.parent.mkdir(parents=True, exist_ok=True)
+            self.tmp = target.parent / _hidden_name(f".{target.name}{_PARTIAL}")
+        self.tmp.mkdir()
         return self.tmp
 
     def __exit__(self, exc_type, exc, tb) -> bool:
@@ -170,33 +232,196 @@ class OutputFolder:
         if exc_type is not None:
             shutil.rmtree(self.tmp, ignore_errors=True)
             return False
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(self.tmp, 0o777 & ~umask)
-        target = self.out.resolve()
-        if not target.exists():
-            os.rename(self.tmp, target)
-            return False
-        # Carry the entries the new set does not write over into it, then swap the folders.
-        new = {p.name for p in self.tmp.iterdir()}
-        for entry in target.iterdir():
-            if entry.name not in new and not entry.name.startswith(f".{target.name}.partial-"):
-                os.replace(entry, self.tmp / entry.name) if not entry.is_dir() else shutil.move(entry, self.tmp)
-        old = Path(tempfile.mkdtemp(dir=target.parent, prefix=f".{target.name}.old-"))
         try:
-            os.replace(target, old / "x")
-        except OSError:  # a mount point or the working directory: move the entries one by one instead
-            for entry in self.tmp.iterdir():
-                dest = target / entry.name
-                if dest.is_dir() and not dest.is_symlink():
-                    shutil.rmtree(dest)
-                os.replace(entry, dest)
+            if self.beside and not self.out.exists():
+                try:
+                    os.rename(self.tmp, self.out)  # the whole set appears at once
+                    return False
+                except OSError:
+                    if not self.out.is_dir():  # not a folder created meanwhile by another run
+                        raise
+            with _locked(self.out):
+                try:
+                    _commit(self.tmp, self.out)
+                except BaseException:  # a rename refused, or Ctrl-C, half way: the previous set back in place
+                    if (self.tmp / _JOURNAL).exists():
+                        _roll_back(self.tmp, self.out, killed=False)
+                    raise
+        except BaseException:
             shutil.rmtree(self.tmp, ignore_errors=True)
-            shutil.rmtree(old, ignore_errors=True)
-            return False
-        os.rename(self.tmp, target)
-        shutil.rmtree(old, ignore_errors=True)
+            raise
         return False
+
+
+_PARTIAL = ".jaxroll-partial"  # the new set, being written
+_REPLACED = ".jaxroll-replaced"  # the entries it replaces, during the commit
+_JOURNAL = ".jaxroll-commit.json"  # in the partial folder: what the commit moves (present only while it moves)
+
+
+def _host() -> str:
+    import socket
+
+    return re.sub(r"[^A-Za-z0-9-]", "-", socket.gethostname())[:40] or "host"
+
+
+def _hidden_name(prefix: str) -> str:
+    """`PREFIX.HOST.PID.RANDOM`: whose it is, so that a later run can tell when it is stale."""
+    return f"{prefix}.{_host()}.{os.getpid()}.{os.urandom(4).hex()}"
+
+
+def _commit(tmp: Path, out: Path) -> None:
+    """Move the entries of `tmp` into `out`, those they replace aside first, with a journal (see `OutputFolder`)."""
+    import shutil
+
+    new = sorted(p.name for p in tmp.iterdir())
+    replaced = [n for n in new if os.path.lexists(out / n)]
+    aside = out / _hidden_name(_REPLACED)
+    aside.mkdir()
+    atomic_write_text(tmp / _JOURNAL, json.dumps({"new": new, "replaced": replaced, "aside": aside.name}))
+    for name in replaced:
+        os.rename(out / name, aside / name)
+    for name in new:
+        os.rename(tmp / name, out / name)
+    os.unlink(tmp / _JOURNAL)  # the commit point: the new set is in place
+    shutil.rmtree(aside, ignore_errors=True)
+    shutil.rmtree(tmp, ignore_errors=True)
+
+
+class _locked:
+    """An exclusive `flock` on folder `path` (none where the system or the file system has none)."""
+
+    def __init__(self, path: Path):
+        self.path, self.fd = path, None
+
+    def __enter__(self):
+        try:
+            import fcntl
+
+            self.fd = os.open(self.path, os.O_RDONLY)
+            fcntl.flock(self.fd, fcntl.LOCK_EX)
+        except (ImportError, OSError):
+            if self.fd is not None:
+                os.close(self.fd)
+            self.fd = None
+        return self
+
+    def __exit__(self, *exc):
+        if self.fd is not None:
+            os.close(self.fd)  # releases the lock
+
+
+def _process_ended(host: str, pid: str) -> bool:
+    """Whether the process that named a folder `…HOST.PID…` has ended: only for this machine (a PID of another
+    machine writing to a shared folder says nothing here), and never on Windows (`os.kill` would end it)."""
+    if host != _host() or os.name == "nt" or int(pid) == os.getpid():
+        return False
+    try:
+        os.kill(int(pid), 0)
+    except ProcessLookupError:
+        return True
+    except OSError:  # PermissionError: it runs, as another user
+        return False
+    return False
+
+
+def prepare_out(out: str | Path) -> None:
+    """Check `--out` before any computation, and clear what killed runs left there.
+
+    Raises `CLIError` where `out` is a file, or where no file can be created in it (or, where it does not exist
+    yet, in the nearest folder above it that does): read-only, no permission. Rolls back a commit that a killed
+    run left half done (`OutputFolder`) and removes the hidden folders of killed runs (this machine, PID no
+    longer running). Folders left by jaxroll before 0.2 beside `out` (`.NAME.partial-*`, `.NAME.old-*`: no PID in
+    their names, so not provably stale) are named in a warning."""
+    import errno
+    import shutil
+    import warnings
+
+    out = Path(out)
+    if out.exists() and not out.is_dir():
+        raise CLIError(f"--out {str(out)!r} exists and is not a folder.")
+    base = Path(os.path.abspath(out))
+    while not base.exists() and base != base.parent:
+        base = base.parent
+    if not base.is_dir():
+        raise CLIError(f"--out {str(out)!r}: {str(base)!r} is a file, so the folder cannot be created there.")
+    try:
+        fd, probe = tempfile.mkstemp(dir=base, prefix=".jaxroll-probe.")
+        os.close(fd)
+        os.unlink(probe)
+    except OSError as e:
+        why = "it is on a read-only file system" if e.errno == errno.EROFS else (e.strerror or str(e)).lower()
+        raise CLIError(f"--out {str(out)!r} cannot be written: no file can be created in {str(base)!r} ({why}). "
+                       "Choose a folder you can write, or fix its permissions.") from None
+    pattern = re.compile(rf"^({re.escape(_PARTIAL)}|{re.escape(_REPLACED)})\.([A-Za-z0-9-]+)\.(\d+)\.[0-9a-f]+$")
+    if out.is_dir():
+        with _locked(out):
+            stale = [(m.group(1), p) for p in out.iterdir()
+                     if (m := pattern.match(p.name)) and _process_ended(m.group(2), m.group(3))]
+            for kind, path in sorted(stale, key=lambda x: x[0] != _PARTIAL):  # roll back before clearing
+                if kind == _PARTIAL and (path / _JOURNAL).exists():
+                    try:
+                        _roll_back(path, out)
+                    except (ValueError, KeyError, TypeError):  # not a journal jaxroll wrote: leave it alone
+                        continue
+                shutil.rmtree(path, ignore_errors=True)
+    parent, name = Path(os.path.abspath(out)).parent, Path(os.path.abspath(out)).name
+    if parent.is_dir():
+        beside = re.compile(rf"^\.{re.escape(name)}{re.escape(_PARTIAL)}\.([A-Za-z0-9-]+)\.(\d+)\.[0-9a-f]+$")
+        old = []
+        for p in parent.iterdir():
+            if (m := beside.match(p.name)) and _process_ended(m.group(1), m.group(2)):
+                shutil.rmtree(p, ignore_errors=True)
+            elif p.name.startswith((f".{name}.partial-", f".{name}.old-")) and p.is_dir():
+                old.append(p.name)
+        if old:
+            warnings.warn(f"{len(old)} folder(s) beside --out were left by an interrupted run of an earlier jaxroll "
+                          f"(before 0.2): {', '.join(sorted(old))} in {str(parent)!r}. Remove them once no jaxroll "
+                          "command writes there (a '.old-' folder holds that run's previous set).", stacklevel=2)
+
+
+def _roll_back(tmp: Path, out: Path, killed: bool = True) -> None:
+    """Undo a commit left half done (by a run `killed` since, or by this one): its new entries out of `out`, the
+    entries it replaced back, the folder they were moved aside to removed."""
+    import shutil
+    import warnings
+
+    journal = json.loads((tmp / _JOURNAL).read_text())
+    names = [*journal["new"], *journal["replaced"]]
+    if not (all(isinstance(n, str) and n not in ("", ".", "..") and os.sep not in n and "/" not in n for n in names)
+            and re.fullmatch(rf"{re.escape(_REPLACED)}\.[A-Za-z0-9-]+\.\d+\.[0-9a-f]+", str(journal["aside"]))):
+        raise ValueError(f"{tmp / _JOURNAL} is not a journal jaxroll wrote")  # names outside `out`: touch nothing
+    aside = out / journal["aside"]
+    for name in journal["new"]:
+        moved_in = not os.path.lexists(tmp / name)
+        if moved_in and os.path.lexists(out / name):
+            target = out / name
+            shutil.rmtree(target) if target.is_dir() and not target.is_symlink() else target.unlink()
+    for name in journal["replaced"]:
+        if os.path.lexists(aside / name) and not os.path.lexists(out / name):
+            os.rename(aside / name, out / name)
+    shutil.rmtree(aside, ignore_errors=True)
+    (tmp / _JOURNAL).unlink()
+    if killed:
+        warnings.warn(f"--out {str(out)!r}: a run killed while it renamed its files into place was rolled back; the "
+                      "folder holds the set it held before that run.", stacklevel=3)
+
+
+def os_error_message(e: OSError) -> str:
+    """An operating-system error (a folder that cannot be written, a full disk, …) as one line that says what to
+    do; the command's outputs are written as a set, so `--out` is unchanged."""
+    import errno
+
+    advice = {
+        errno.ENOSPC: "free some space or choose another --out",
+        errno.EDQUOT: "free some space (a disk quota is full) or choose another --out",
+        errno.EROFS: "choose a folder on a writable file system (--out)",
+        errno.EACCES: "fix the permissions or choose another path",
+        errno.EPERM: "fix the permissions or choose another path",
+    }.get(e.errno, "")
+    where = f" ({e.filename})" if e.filename else ""
+    text = f"{e.strerror or e}{where}"
+    return f"{text}; outputs are written as a complete set or not at all, so --out is unchanged" + (
+        f"; {advice}." if advice else ".")
 
 
 def interrupted_message(command: str, out: str | None) -> str:

@@ -8,12 +8,25 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
-from ._common import CLIError, atomic_write_text, load_ship_arg, save_figure, write_json
+from ._common import (
+    CLIError,
+    OutputFolder,
+    atomic_write_text,
+    load_ship_arg,
+    save_figure,
+    write_json,
+    write_netcdf,
+)
+from ._lab import add_lab_options, import_lab_files, lab_mode, lab_settings
 
 
-def _common(p) -> None:
+def _common(p, kind: str) -> None:
     p.add_argument(
-        "records", nargs="+", metavar="RECORD", help="record files (.csv, .csv.gz) or folders of them"
+        "records",
+        nargs="+",
+        metavar="RECORD",
+        help="record files (.csv, .csv.gz) or folders of them; with the lab-file options below, a lab's files "
+        "(CSV of any layout, HDF5 FILE.h5[:/group])",
     )
     p.add_argument(
         "--ship",
@@ -21,7 +34,8 @@ def _common(p) -> None:
         default=None,
         help="ship file (TOML) whose other coefficients are kept; default C11 (representative)",
     )
-    p.add_argument("--out", default=None, help="output folder (default ./jaxroll-out/calibrate-KIND)")
+    p.add_argument("--out", default=f"jaxroll-out/calibrate-{kind}",
+                   help=f"output folder (default ./jaxroll-out/calibrate-{kind})")
     p.add_argument(
         "--resample",
         action="store_true",
@@ -30,6 +44,7 @@ def _common(p) -> None:
     p.add_argument(
         "--name", default=None, help="name of the calibrated ship (default: '<ship> (calibrated)')"
     )
+    add_lab_options(p, for_calibrate=True)
 
 
 def register(sub) -> None:
@@ -38,13 +53,13 @@ def register(sub) -> None:
         help="fit damping (decay), the GM correction (captive) or the model to free-running roll records (roll: "
         "amplitude PDFs, or the time series) from tank records",
         description="Calibrates a ship from tank records (docs/records.md, docs/calibration.md) and writes "
-        "ship.toml, calibration.json and figures into --out.",
+        "ship.toml, calibration.json, calibration.nc (docs/outputs.md) and figures into --out.",
     )
     kinds = p.add_subparsers(dest="kind", metavar="KIND", required=True)
     d = kinds.add_parser(
         "decay", help="b1, b2, b3 from free-roll decay records (extinction curve and ODE fit)"
     )
-    _common(d)
+    _common(d, "decay")
     d.add_argument(
         "--method",
         choices=("ode", "extinction"),
@@ -65,7 +80,7 @@ def register(sub) -> None:
     c = kinds.add_parser(
         "captive", help="σ_obs/σ_thr from captive tests (ΔGM at fixed heel with a wave probe)"
     )
-    _common(c)
+    _common(c, "captive")
     c.add_argument(
         "--estimator",
         choices=("std_ratio", "ls"),
@@ -97,7 +112,7 @@ def register(sub) -> None:
         "filter likelihood with fitted process noise (use it when the model is not exact; "
         "docs/calibration.md, 'Time-domain calibration').",
     )
-    _common(r)
+    _common(r, "roll")
     r.add_argument(
         "--estimator",
         choices=("pdf", "time-domain", "kalman"),
@@ -148,23 +163,31 @@ def register(sub) -> None:
 
 
 def _load(args, kind):
+    """The records: jaxroll record files, or lab files read with the lab-file options (all checked first)."""
     from ..io import load_records
 
+    if lab_mode(args):
+        return import_lab_files(args.records, kind or "roll", lab_settings(args, kind or "roll"),
+                                resample=args.resample)
     return load_records(args.records, kind=kind, resample=args.resample)
 
 
-def _finish(args, kind, ship, fitted, payload, figures) -> int:
+def _finish(args, kind, ship, fitted, payload, figures, fit=None) -> int:
     from .. import ship_to_toml
     from ..io import load_ship
 
-    out = Path(args.out or f"jaxroll-out/calibrate-{kind}")
-    atomic_write_text(out / "ship.toml", ship_to_toml(fitted))
-    load_ship(out / "ship.toml")  # the file must feed straight back into `jaxroll pdf --ship`
-    for name, fig in figures.items():
-        save_figure(fig, out / name)
-    write_json(out / "calibration.json", payload)
+    out = Path(args.out)
+    layout = kind if kind != "roll" else f"roll-{'pdf' if args.estimator == 'pdf' else 'time-domain'}"
+    with OutputFolder(out) as tmp:  # one set: never a new ship.toml beside an old calibration.json
+        atomic_write_text(tmp / "ship.toml", ship_to_toml(fitted))
+        load_ship(tmp / "ship.toml")  # the file must feed straight back into `jaxroll pdf --ship`
+        for name, fig in figures.items():
+            save_figure(fig, tmp / name)
+        write_json(tmp / "calibration.json", payload)
+        write_netcdf(tmp / "calibration.nc", f"calibrate-{layout}", payload, None if fit is None else {"fit": fit})
     print(
-        f"wrote {out / 'ship.toml'}, {out / 'calibration.json'}, " + ", ".join(str(out / n) for n in figures)
+        f"wrote {out / 'ship.toml'}, {out / 'calibration.json'}, {out / 'calibration.nc'}, "
+        + ", ".join(str(out / n) for n in figures)
     )
     return 0
 
@@ -172,13 +195,16 @@ def _finish(args, kind, ship, fitted, payload, figures) -> int:
 def _base_config(args, ship, records):
     from .. import ship_to_dict
 
-    return {
+    config = {
         "kind": args.kind,
         "records": [r.source for r in records],
         "ship_file": args.ship,
         "ship": ship_to_dict(ship),
         "resample": args.resample,
     }
+    if lab_mode(args):
+        config["lab_import"] = [r.meta["imported_from"] for r in records]
+    return config
 
 
 def _fmt(e) -> str:
@@ -188,7 +214,13 @@ def _fmt(e) -> str:
 def run_decay(args) -> int:
     import matplotlib.pyplot as plt
 
-    from ..calibration import calibrated_ship, decay_agreement, fit_decay_ode, fit_extinction
+    from ..calibration import (
+        calibrated_ship,
+        decay_agreement,
+        fit_decay_ode,
+        fit_extinction,
+        nonnegative_damping,
+    )
     from ..plotting import plot_decay_fit, plot_extinction
 
     ship = load_ship_arg(args.ship)
@@ -210,6 +242,12 @@ def run_decay(args) -> int:
     plot_extinction([ext, ode], ax=ax1)
     fig2, ax2 = plt.subplots(figsize=(8, 4))
     plot_decay_fit(ode, ax=ax2)
+    constrained = nonnegative_damping(("b1", "b2", "b3"), chosen.b, chosen.damping_covariance)[1]
+    written_damping = {  # the fit's estimates; where constrained, the value ship.toml holds (no interval: not fitted)
+        k: ({**e, "value": constrained[k]["written"], "fitted_value": e["value"], "ci95": None} if k in constrained
+            else e)
+        for k, e in chosen.to_dict()["damping"].items()
+    }
     payload = {
         "config": {
             **_base_config(args, ship, records),
@@ -218,11 +256,18 @@ def run_decay(args) -> int:
             "bias_correction": not args.no_bias_correction,
         },
         "estimates": {"extinction": ext.to_dict(), "ode": ode.to_dict()},
-        "written": {"damping": chosen.to_dict()["damping"], "roll_period_s": float(fitted.roll_period)},
+        # what ship.toml holds: the fit's estimates, but a negative coefficient held at 0 and the others moved to the
+        # constrained fit (`constrained`: fitted and written values; a warning says so)
+        "written": {
+            "damping": written_damping,
+            "roll_period_s": float(fitted.roll_period),
+            "constrained": constrained,
+        },
         "agreement_z": agree,
         "run_time_s": time.time() - t0,
     }
-    return _finish(args, "decay", ship, fitted, payload, {"extinction.png": fig1, "decay_fit.png": fig2})
+    return _finish(args, "decay", ship, fitted, payload, {"extinction.png": fig1, "decay_fit.png": fig2},
+                   chosen.to_xarray())
 
 
 def run_captive(args) -> int:
@@ -264,7 +309,8 @@ def run_captive(args) -> int:
         "run_time_s": time.time() - t0,
     }
     return _finish(
-        args, "captive", ship, fitted, payload, {"captive_ratio.png": fig1, "captive_series.png": fig2}
+        args, "captive", ship, fitted, payload, {"captive_ratio.png": fig1, "captive_series.png": fig2},
+        fit.to_xarray(),
     )
 
 
@@ -319,7 +365,8 @@ def run_roll(args) -> int:
         "estimates": fit.to_dict(),
         "run_time_s": time.time() - t0,
     }
-    return _finish(args, "roll", ship, fitted, payload, {"roll_pdfs.png": plot_roll_calibration(fit)})
+    return _finish(args, "roll", ship, fitted, payload, {"roll_pdfs.png": plot_roll_calibration(fit)},
+                   fit.to_xarray())
 
 
 def _run_roll_time_domain(args) -> int:
@@ -335,7 +382,6 @@ def _run_roll_time_domain(args) -> int:
         fit_roll_kalman,
         fit_roll_time_domain,
     )
-    from ..io import load_records
     from ..plotting import plot_residual_spectrum, plot_time_domain_fit
 
     kalman = args.estimator == "kalman"
@@ -356,7 +402,7 @@ def _run_roll_time_domain(args) -> int:
     if args.shooting_window is not None and not args.shooting_window > 0:
         raise CLIError(f"--shooting-window must be > 0 [s, full scale]; got {args.shooting_window:g}.")
     ship = load_ship_arg(args.ship)
-    records = load_records(args.records, resample=args.resample)
+    records = _load(args, None)
     span = None if args.window is None else tuple(args.window)
     checked = check_time_domain_inputs(
         ship,
@@ -405,4 +451,4 @@ def _run_roll_time_domain(args) -> int:
         "run_time_s": time.time() - t0,
     }
     figures = {"roll_fit.png": plot_time_domain_fit(fit), "residual_spectrum.png": plot_residual_spectrum(fit).figure}
-    return _finish(args, "roll", ship, fitted, payload, figures)
+    return _finish(args, "roll", ship, fitted, payload, figures, fit.to_xarray())

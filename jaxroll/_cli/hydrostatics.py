@@ -5,9 +5,16 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-from ._common import CLIError, OutputFolder, atomic_write_text, save_figure, write_json
+from ._common import CLIError, OutputFolder, atomic_write_text, save_figure, write_json, write_netcdf
 from ._sea import check_positive
-from .sgisc import MESH_SUFFIXES, add_hull_options, check_hull_options, read_hull_arg
+from .sgisc import (
+    MESH_SUFFIXES,
+    add_hull_options,
+    check_hull_options,
+    check_plausible,
+    datum_record,
+    read_hull_arg,
+)
 
 DEFAULT_OUT = Path("jaxroll-out") / "hydrostatics"
 
@@ -140,6 +147,7 @@ def run(args) -> int:
             )
         roll_period = 24.4
 
+    check_plausible(hull, loading)
     sol = hull_hydrostatics(hull, loading, zeta_mid=zeta, heels=heels, wavelength=args.wavelength)
     ship = ship_from_hydrostatics(
         sol,
@@ -212,8 +220,14 @@ def run(args) -> int:
                 "n_zeta": args.n_zeta,
                 "heel_max_deg": args.heel_max_deg,
                 "n_heel": args.n_heel,
-                "method": "sectional polygon clipping (exact for the offsets polygons), trapezoid rule along x, "
-                "sinkage and trim balanced by optimistix Newton at every heel and wave (Froude–Krylov)",
+                "method": (
+                    "exact for the mesh: its triangles clipped by the water surface (divergence theorem, no "
+                    f"waterplane cap), waves L2-projected on linear functions in {hull.surface.strips} strips along x"
+                    if hull.surface is not None
+                    else "sectional polygon clipping (exact for the offsets polygons), trapezoid rule along x"
+                )
+                + "; sinkage and trim balanced by optimistix Newton at every heel and wave (Froude–Krylov)",
+                "datum": datum_record(hull, args),
                 "wave_profile": "eta(x) = -zeta_mid cos(2 pi (x - Lpp/2) / wavelength); zeta_mid > 0: trough "
                 "amidships",
             },
@@ -224,6 +238,7 @@ def run(args) -> int:
                 "depth_m": float(hull.depth),
                 "n_stations": int(hull.stations.shape[0]),
                 "n_waterlines": int(hull.waterlines.shape[0]),
+                "n_triangles": None if hull.surface is None else hull.surface.n_triangles,
             },
             "calm_water": p.as_dict(),
             "tables": {
@@ -269,6 +284,7 @@ def run(args) -> int:
             "ship": ship_to_dict(ship),
         }
         write_json(out / "hydrostatics.json", payload)
+        write_netcdf(out / "hydrostatics.nc", "hydrostatics", payload, sol.to_xarray())
         atomic_write_text(out / "ship.toml", ship_to_toml(ship))
         if is_mesh:  # the sliced offsets, to inspect and reuse as a TOML hull file
             atomic_write_text(out / "hull.toml", hull_to_toml(hull, header=f"sliced from {args.hull}"))
@@ -291,6 +307,7 @@ def run(args) -> int:
     if is_c11:
         print("Note: the c11 hull is REPRESENTATIVE (parametric), not the real C11 lines.")
     print(
-        f"wrote {final / 'hydrostatics.json'}, {final / 'ship.toml'}, gz_curves.png, delta_gm.png, body_plan.png"
+        f"wrote {final / 'hydrostatics.json'}, hydrostatics.nc, {final / 'ship.toml'}, gz_curves.png, delta_gm.png, "
+        "body_plan.png"
     )
     return 0

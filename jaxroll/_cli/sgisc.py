@@ -5,13 +5,14 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-from ._common import CLIError, OutputFolder, atomic_write_text, save_figure, write_json
+from ._common import CLIError, OutputFolder, atomic_write_text, save_figure, write_json, write_netcdf
 from ._sea import check_positive
 
 DEFAULT_OUT = Path("jaxroll-out") / "sgisc"
 MESH_UNITS = ("m", "mm", "cm", "dm", "hm", "in", "ft")
 AXES = ("+x", "-x", "+y", "-y", "+z", "-z")
-MESH_SUFFIXES = (".stl", ".gdf", ".csv")  # hull files read with the mesh options (jaxroll.io.read_hull)
+MESH_SUFFIXES = (".stl", ".gdf", ".csv", ".obj", ".ply", ".off", ".vtk", ".vtu", ".msh", ".mesh", ".medit", ".xdmf",
+                 ".nas", ".bdf")  # hull files read with the mesh options (jaxroll.io.read_hull; jaxroll.io MESH_SUFFIXES)
 
 
 
@@ -34,6 +35,18 @@ def add_hull_options(p) -> None:
     )
     g.add_argument("--forward", choices=AXES, default="+x", help="file axis pointing forward (default: +x)")
     g.add_argument("--up", choices=AXES, default="+z", help="file axis pointing up (default: +z)")
+    g.add_argument(
+        "--baseline-z", type=float, metavar="Z",
+        help="z of the baseline in the file [m, full scale]: draughts and KG are measured from it (default: the "
+        "keel line where the lowest point is a sonar dome, skeg or bulb, else the lowest point; a warning names both)",
+    )  # fmt: skip
+    g.add_argument("--half-hull", action="store_true", help="the file holds one side, open on the centre plane: mirror it")
+    g.add_argument("--fix-normals", action="store_true", help="orient inconsistent triangles consistently")
+    g.add_argument(
+        "--sliced", action="store_true",
+        help="hydrostatics from the sliced stations × waterlines instead of the exact surface (the method of jaxroll "
+        "0.1; for comparison)",
+    )  # fmt: skip
     g.add_argument("--stations", type=int, default=61, metavar="N", help="stations sliced from an STL/GDF (61)")
     g.add_argument(
         "--waterlines", type=int, default=41, metavar="N", help="waterlines sliced from an STL/GDF (41)"
@@ -45,8 +58,9 @@ def check_hull_options(args) -> None:
     for flag, value in (("--lpp", args.lpp), ("--scale", args.scale)):
         if value is not None and not (math.isfinite(value) and value > 0):
             raise CLIError(f"{flag} must be a finite number > 0; got {value}.")
-    if args.x_ap is not None and not math.isfinite(args.x_ap):
-        raise CLIError(f"--x-ap must be a finite number; got {args.x_ap}.")
+    for flag, value in (("--x-ap", args.x_ap), ("--baseline-z", args.baseline_z)):
+        if value is not None and not math.isfinite(value):
+            raise CLIError(f"{flag} must be a finite number; got {value}.")
     if args.forward[1] == args.up[1]:
         raise CLIError(f"--forward {args.forward} and --up {args.up} must be different axes.")
     for flag, value, least in (("--stations", args.stations, 5), ("--waterlines", args.waterlines, 5)):
@@ -62,6 +76,8 @@ def check_hull_options(args) -> None:
         for flag, value, default in (
             ("--lpp", args.lpp, None), ("--x-ap", args.x_ap, None), ("--units", args.units, "m"),
             ("--scale", args.scale, 1.0), ("--forward", args.forward, "+x"), ("--up", args.up, "+z"),
+            ("--baseline-z", args.baseline_z, None), ("--half-hull", args.half_hull, False),
+            ("--fix-normals", args.fix_normals, False), ("--sliced", args.sliced, False),
         )
         if value != default
     ]  # fmt: skip
@@ -79,11 +95,42 @@ def read_hull_arg(args):
 
     if args.hull.lower() == "c11":
         return (*read_hull(c11_hull_path()), True)
+    mesh = Path(args.hull).suffix.lower() in MESH_SUFFIXES and Path(args.hull).suffix.lower() != ".csv"
+    extra = dict(baseline_z=args.baseline_z, half_hull=args.half_hull, fix_normals=args.fix_normals,
+                 exact=not args.sliced) if mesh else {}  # fmt: skip
     hull, loading = read_hull(
         args.hull, lpp=args.lpp, x_ap=args.x_ap, units=args.units, scale=args.scale, forward=args.forward,
-        up=args.up, stations=args.stations, waterlines=args.waterlines,
+        up=args.up, stations=args.stations, waterlines=args.waterlines, **extra,
     )  # fmt: skip
     return hull, loading, False
+
+
+def check_plausible(hull, loading) -> None:
+    """Refuse a loading whose proportions betray a unit slip (a hull in feet or millimetres read as metres, a
+    displacement in tonnes given as kg), before the tables are computed (from the loading's even-keel draught and
+    the hull's largest breadth: nothing to compile)."""
+    d, depth, b = float(loading.draught), float(hull.depth), float(hull.max_breadth)
+    lo = float(hull.waterlines[0])
+    if d - lo < 0.04 * (depth - lo):
+        raise CLIError(
+            f"the draught d = {d:.4g} m is only {100 * (d - lo) / (depth - lo):.2g} % of the hull's height "
+            f"({depth - lo:.4g} m, L = {float(hull.lpp):.4g} m, B = {b:.4g} m, Δ = "
+            f"{float(loading.displacement):.4g} kg): a unit slip? (a displacement in tonnes given as kg, or a hull "
+            "file in feet or inches read as metres: --units ft). Check --displacement/--draught and --units."
+        )
+    if b / max(d, 1e-9) > 15:
+        raise CLIError(
+            f"B/d = {b / d:.3g} (B = {b:.4g} m, d = {d:.4g} m): no ship floats so shallow for its "
+            "breadth; a unit slip? (--units, --scale, or a draught/displacement in the wrong unit)."
+        )
+
+
+def datum_record(hull, args) -> dict | None:
+    """The vertical datum of a hull read from a mesh, for the JSON outputs (None for TOML/CSV hulls)."""
+    if hull.datum is None:
+        return None
+    return {**hull.datum.as_dict(), "baseline_z_option": args.baseline_z,
+            "note": "draughts, KG and every height are measured from the baseline (z = 0 of jaxroll's frame)"}
 
 
 def register(subparsers) -> None:
@@ -95,7 +142,7 @@ def register(subparsers) -> None:
             "parametric rolling (MSC.1/Circ.1627 section 2.5): Level 1 (ΔGM1/GM against R_PR), Level 2 first "
             "check C1 (16 wave cases) and second check C2 (roll in the scatter table's regular waves, jaxroll's "
             "roll equation with the simplified Ikeda damping). Prints the values with their standards and a "
-            "verdict, writes sgisc.json (every intermediate) and figures. HULL is a hull file (TOML), an STL "
+            "verdict, writes sgisc.json (every intermediate), sgisc.nc and figures. HULL is a hull file (TOML), an STL "
             "(ascii or binary), a WAMIT low-order GDF (the whole hull, not only the wetted surface), an offsets CSV, or `c11` (the REPRESENTATIVE C11-like hull). The Level-2 "
             "standards are transcribed, not verified against the guideline's text: see docs/sgisc.md."
         ),
@@ -232,6 +279,7 @@ def run(args) -> int:
         hull, file_loading, kg=args.kg, draught=args.draught, displacement=args.displacement,
         water_density=args.water_density,
     )  # fmt: skip
+    check_plausible(hull, loading)
     calm = hydrostatic_particulars(hull, loading)
     if not float(calm.gm) > 0:
         raise CLIError(
@@ -327,7 +375,12 @@ def run(args) -> int:
                     "up": args.up,
                     "stations": args.stations,
                     "waterlines": args.waterlines,
+                    "baseline_z_m": args.baseline_z,
+                    "half_hull": args.half_hull,
+                    "fix_normals": args.fix_normals,
+                    "sliced": args.sliced,
                 },  # fmt: skip
+                "datum": datum_record(hull, args),
             },
             "hull": {
                 "name": hull.name,
@@ -378,8 +431,9 @@ def run(args) -> int:
             "summary": lines,
         }
         write_json(out / "sgisc.json", payload)
+        write_netcdf(out / "sgisc.nc", "sgisc", payload)
     print("\n".join(lines))
     if is_c11:
         print("Note: the c11 hull is REPRESENTATIVE (parametric), not the real C11 lines.")
-    print(f"wrote {final / 'sgisc.json'}, {', '.join(files[1:])}")
+    print(f"wrote {final / 'sgisc.json'}, sgisc.nc, {', '.join(files[1:])}")
     return 0

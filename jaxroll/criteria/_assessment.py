@@ -7,10 +7,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .._config import require_float64
 from ..ship._fits import ship_from_hull
 from ..ship._hull import Hull
 from ..ship._hydrostatics import GRAVITY, Loading, loading_condition
-from ..ship._ikeda import ikeda_damping
+from ..ship._ikeda import IkedaRangeError, ikeda_damping
 from ..ship._ship import Ship
 from ._c2 import C2Result, effective_wave_height, level2_c2
 from ._parametric_roll import (
@@ -49,6 +50,26 @@ class ParametricRollAssessment:
     verdict: str
     vulnerable: bool
     notes: list = field(default_factory=list)
+
+    def to_xarray(self):
+        """The assessment as an `xarray.Dataset` named as in sgisc.json: `level1_*` (with `level1_gm_waves` on
+        `crest_position`), `level2_c1_*` (its wave cases on `c1_case`), `damping_*` (on `damping_amplitude`),
+        `level2_c2_*` (per case on `c2_case`, `level2_c2_max_roll_deg` on (`c2_case`, `c2_hs`, `c2_tz`)) when C2
+        was computed, `vulnerable`; the verdict and notes as attributes."""
+        from .._labels import tree_to_dataset
+        from .._labels._layouts import SGISC
+
+        tree = {"level1": vars(self.level1), "level2_c1": vars(self.c1), "damping": self.damping,
+                "roll_period_s": self.roll_period, "roll_period_source": self.roll_period_source,
+                "bilge_keel_area_m2": self.bilge_keel_area, "service_speed_m_s": self.service_speed,
+                "verdict": self.verdict, "vulnerable": self.vulnerable, "notes": list(self.notes)}
+        if self.c2 is not None:
+            c2 = self.c2
+            tree["level2_c2"] = {"c2": c2.c2, "standard": c2.standard, "vulnerable": c2.vulnerable,
+                                 "per_case": c2.per_case, "hs_m": REC34_HS, "tz_s": REC34_TZ,
+                                 "effective_wave_height_m": c2.effective_wave_height,
+                                 "max_roll_deg": np.degrees(c2.max_roll)}
+        return tree_to_dataset(tree, SGISC)
 
 
 def _roll_period(calm, hull, roll_period, roll_gyradius):
@@ -102,6 +123,7 @@ def assess_parametric_roll(
 
     **Returns:** a [`ParametricRollAssessment`][].
     """
+    require_float64("jaxroll.criteria.assess_parametric_roll")
     calm = _calm(hull, loading)
     notes = []
     if bilge_keel_area is None:
@@ -114,6 +136,21 @@ def assess_parametric_roll(
             "keels (conservative), since it needs their length and breadth."
         )
     t_phi, t_source = _roll_period(calm, hull, roll_period, roll_gyradius)
+    if damping is None:  # before Level 1 and C1: an unusable estimate is reported at once
+        try:
+            fit = _ikeda(hull, calm, t_phi, bilge_keel_length, bilge_keel_breadth)
+        except IkedaRangeError as e:
+            if not skip_c2:
+                raise
+            fit = dict(source=f"not usable: {e}", b1=None, b2=None, b3=None, out_of_range=[])
+            notes.append("C2 skipped; the simplified Ikeda damping is not usable for this hull (see `damping`).")
+        if fit["out_of_range"]:
+            notes.append(
+                f"Ikeda damping: {', '.join(fit['out_of_range'])} outside the regression's range (extrapolated)."
+            )
+    else:
+        b = [float(v) for v in damping]
+        fit = dict(source=damping_source or "given", b1=b[0], b2=b[1], b3=b[2])
     l1 = level1(
         hull,
         loading,
@@ -129,26 +166,6 @@ def assess_parametric_roll(
         bilge_keel_area=bilge_keel_area,
         sharp_bilge=sharp_bilge,
     )
-    if damping is None:
-        fit = ikeda_damping(
-            lpp=float(hull.lpp),
-            breadth=float(calm.waterline_breadth),
-            draught=float(calm.draught),
-            block_coefficient=float(calm.block_coefficient),
-            midship_coefficient=float(calm.midship_coefficient),
-            kg=float(calm.kg),
-            gm=float(calm.gm),
-            roll_period=t_phi,
-            bilge_keel_length=bilge_keel_length,
-            bilge_keel_breadth=bilge_keel_breadth,
-        )
-        if fit["out_of_range"]:
-            notes.append(
-                f"Ikeda damping: {', '.join(fit['out_of_range'])} outside the regression's range (extrapolated)."
-            )
-    else:
-        b = [float(v) for v in damping]
-        fit = dict(source=damping_source or "given", b1=b[0], b2=b[1], b3=b[2])
     ship, c2 = None, None
     if not skip_c2:
         heff_max = float(np.max(effective_wave_height(float(hull.lpp), REC34_HS[-1], REC34_TZ)))
@@ -188,6 +205,21 @@ def assess_parametric_roll(
     )
 
 
+def _ikeda(hull, calm, t_phi, bilge_keel_length, bilge_keel_breadth) -> dict:
+    return ikeda_damping(
+        lpp=float(hull.lpp),
+        breadth=float(calm.waterline_breadth),
+        draught=float(calm.draught),
+        block_coefficient=float(calm.block_coefficient),
+        midship_coefficient=float(calm.midship_coefficient),
+        kg=float(calm.kg),
+        gm=float(calm.gm),
+        roll_period=t_phi,
+        bilge_keel_length=bilge_keel_length,
+        bilge_keel_breadth=bilge_keel_breadth,
+    )
+
+
 @dataclass
 class KGMaxCurve:
     """KGmax [m] against draught [m] for Level 1 and for C1 (NaN where no KG in the scanned range passes)."""
@@ -198,6 +230,15 @@ class KGMaxCurve:
     kg_max_c1: np.ndarray
     delta_gm1: np.ndarray
     r_pr: np.ndarray
+
+    def to_xarray(self):
+        """The curves as an `xarray.Dataset` on `kg_max_draught` (sgisc.json's `kg_max_*` names)."""
+        from .._labels import tree_to_dataset
+        from .._labels._layouts import SGISC
+
+        return tree_to_dataset({"kg_max": {"draught_m": self.draught, "km_m": self.km,
+                                           "kg_max_level1_m": self.kg_max_level1, "kg_max_c1_m": self.kg_max_c1,
+                                           "delta_gm1_m": self.delta_gm1, "r_pr": self.r_pr}}, SGISC)
 
 
 def kg_max_curve(
@@ -224,6 +265,7 @@ def kg_max_curve(
 
     **Returns:** a [`KGMaxCurve`][].
     """
+    require_float64("jaxroll.criteria.kg_max_curve")
     ds = np.atleast_1d(np.asarray(draughts, float))
     out = {k: [] for k in ("km", "l1", "c1", "dgm1", "rpr")}
     lam, h = C1_WAVE_CASES[:, 1], C1_WAVE_CASES[:, 2]

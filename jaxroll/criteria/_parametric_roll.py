@@ -32,8 +32,15 @@ import numpy as np
 
 from .._compiled import filter_jit
 from ..sea._spectra import GRAVITY
-from ..ship._hull import Hull
-from ..ship._hydrostatics import Loading, _equilibrium_single, _gm_at, buoyancy, hydrostatic_particulars
+from ..ship._hull import Hull, _bare, translate_hull
+from ..ship._hydrostatics import (
+    Loading,
+    _equilibrium_single,
+    _gm_at,
+    _integrals,
+    buoyancy,
+    hydrostatic_particulars,
+)
 
 # ==============================================================================================================
 # Constants and tables (sources and status in docs/sgisc.md)
@@ -186,7 +193,7 @@ def _gm_positions(hull: Hull, loading: Loading, shift, zeta, wavelength):
     """GM [m] (free trim) and convergence of the hull translated by −shift on waves (zeta, wavelength), vmapped."""
 
     def one(s, z, lam):
-        h = eqx.tree_at(lambda m: m.stations, hull, hull.stations - s)
+        h = translate_hull(hull, -s)
         ld = eqx.tree_at(lambda m: m.lcg, loading, loading.lcg - s)
         # Starting sinkage by bisection at zero trim (the Newton balance started at the calm draught diverges
         # when a high, long wave lifts or drops the whole hull by more than its freeboard).
@@ -251,7 +258,7 @@ def gm_in_waves(
         zeta = sign[None, :] * hb[:, None] / 2
         lam_b = np.broadcast_to(lb[:, None], shift.shape)
         gm, conv = _gm_positions(
-            hull, loading, jnp.asarray(shift.ravel()), jnp.asarray(zeta.ravel()), jnp.asarray(lam_b.ravel())
+            _bare(hull), loading, jnp.asarray(shift.ravel()), jnp.asarray(zeta.ravel()), jnp.asarray(lam_b.ravel())
         )
         out.append(np.asarray(gm).reshape(N_WAVES_BATCH, n_positions)[:n])
         ok.append(np.asarray(conv).reshape(N_WAVES_BATCH, n_positions)[:n])
@@ -270,6 +277,25 @@ def gm_in_waves(
 # ==============================================================================================================
 
 
+@filter_jit
+def _surface_waterplane(hull: Hull, draught):
+    """(∇ [m³], A_W [m²], I_T [m⁴]) of a hull surface at an even-keel draught [m], exact: A_W = ∂∇/∂d and
+    I_T = ∂(∫u dV)/∂φ − ∫z dV at φ = 0 (KM ∇ = KB ∇ + I_T)."""
+    zero = jnp.zeros(())
+
+    def ints(d, phi):
+        return _integrals(hull, phi, d, zero, zero, None, calm=True)
+
+    vol, area = jax.jvp(lambda d: ints(d, zero).volume, (draught,), (jnp.ones(()),))
+    base, dmu = jax.jvp(lambda p: ints(draught, p).moment_u, (zero,), (jnp.ones(()),))
+    return vol, area, dmu - ints(draught, zero).moment_vertical
+
+
+def _waterplane(hull: Hull, draught: float) -> tuple[float, float, float]:
+    v = _surface_waterplane(_bare(hull), jnp.asarray(float(draught)))
+    return tuple(float(a) for a in v)
+
+
 def _breadths_at(hull: Hull, draught: float) -> np.ndarray:
     """Half-breadths y(x_i, z = draught) [m] of the section polygons (linear between offsets, vertical above)."""
     z = np.asarray(hull.waterlines)
@@ -284,18 +310,24 @@ def _trapezoid(x: np.ndarray) -> np.ndarray:
 
 def waterplane_inertia(hull: Hull, draught: float) -> float:
     """Transverse inertia I_T [m⁴] of the even-keel waterplane at `draught` [m]: ∫ (2/3) y³ dx (trapezoid in x,
-    as the hydrostatics integrates)."""
+    as the hydrostatics integrates; exact for a hull surface)."""
+    if hull.surface is not None:
+        return _waterplane(hull, draught)[2]
     y = _breadths_at(hull, draught)
     return float(np.sum(_trapezoid(np.asarray(hull.stations)) * 2.0 / 3.0 * y**3))
 
 
 def waterplane_area(hull: Hull, draught: float) -> float:
     """Area A_W [m²] of the even-keel waterplane at `draught` [m]."""
+    if hull.surface is not None:
+        return _waterplane(hull, draught)[1]
     return float(np.sum(_trapezoid(np.asarray(hull.stations)) * 2.0 * _breadths_at(hull, draught)))
 
 
 def volume_to(hull: Hull, draught: float) -> float:
-    """Even-keel displaced volume [m³] up to `draught` [m] (exact for the section polygons)."""
+    """Even-keel displaced volume [m³] up to `draught` [m] (exact for the section polygons, or the surface)."""
+    if hull.surface is not None:
+        return _waterplane(hull, draught)[0]
     z = np.asarray(hull.waterlines)
     zz = np.unique(np.concatenate([z[z < draught], [draught]]))
     zz = zz[zz >= z[0]]

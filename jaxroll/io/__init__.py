@@ -1,7 +1,9 @@
-"""Every file format: tank records, ship files and hull files."""
+"""Every file format: tank records (and lab files of tank data), ship files, hull files, and the labelled results
+(netCDF)."""
 
 from ._dataset import (
     dataset_attrs as dataset_attrs,
+    output_dataset as output_dataset,
     provenance as provenance,
     read_dataset as read_dataset,
     to_jsonable as to_jsonable,
@@ -19,11 +21,18 @@ from ._hull_file import (
     loading_from_dict as loading_from_dict,
     read_hull_file as read_hull_file,
 )
+from ._lab_files import (
+    LabTable as LabTable,
+    describe_lab_file as describe_lab_file,
+    import_record as import_record,
+    read_lab_table as read_lab_table,
+)
 from ._mesh import (
     MeshError as MeshError,
     ModelScaleError as ModelScaleError,
     hull_from_triangles as hull_from_triangles,
     read_hull as read_hull,
+    read_mesh as read_mesh,
     read_offsets_csv as read_offsets_csv,
     read_stl as read_stl,
     read_stl_hull as read_stl_hull,
@@ -32,6 +41,7 @@ from ._mesh import (
     write_stl as write_stl,
 )
 from ._records import (
+    RECORD_COLUMNS as RECORD_COLUMNS,
     Record as Record,
     RecordError as RecordError,
     group_by_sea_state as group_by_sea_state,

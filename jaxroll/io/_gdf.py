@@ -251,8 +251,8 @@ def _read_gdf_hull(path: Path, *, units: str | None = None, **kwargs) -> tuple[H
             "the waterline: export the whole hull, sides up to a closed deck, as a GDF or an STL."
         )
     kwargs.setdefault("name", path.stem)
-    hull = hull_from_triangles(tri, units=units, source=str(path), **kwargs)
-    zb = z.min() if kwargs.get("z_baseline") is None else float(kwargs["z_baseline"])
+    hull = hull_from_triangles(tri, units=units, source=str(path), zero_is_waterline=True, **kwargs)
+    zb = hull.datum.baseline_file_z
     draught = float(-zb) if zb < -1e-6 * size else None
     note = (
         f"; WAMIT GDF '{header['title']}', ULEN {header['ulen']:g}, GRAV {header['grav']:g} (unit {units}), "
@@ -261,7 +261,7 @@ def _read_gdf_hull(path: Path, *, units: str | None = None, **kwargs) -> tuple[H
     )
     hull = Hull(
         stations=hull.stations, waterlines=hull.waterlines, half_breadths=hull.half_breadths, lpp=hull.lpp,
-        depth=hull.depth, name=hull.name, provenance=hull.provenance + note,
+        depth=hull.depth, surface=hull.surface, name=hull.name, provenance=hull.provenance + note, datum=hull.datum,
     )  # fmt: skip
     return hull, draught
 

@@ -9,29 +9,30 @@ same files with numpy-stl (a dev extra) and check the triangles agree. WAMIT GDF
 the same triangle array and take the same path ([`hull_from_triangles`][]).
 
 **Axes and units** (stated and checked). The result is in jaxroll's body frame (`docs/hydrostatics.md`): x [m]
-forward from the aft perpendicular (AP), y [m] to starboard, z [m] up from the baseline (keel). Input files may
-use another length unit (`units="mm"` etc.), another forward/up axis (`forward="+x"`, `up="+z"`, or e.g.
-`"-y"`), and may be model scale (`scale=100` multiplies every length). The hull must be port–starboard
-symmetric (the offsets are the starboard half-breadths, mirrored); the check is that the mesh's y extent is
-symmetric about its middle, so a file whose "up" axis is wrong fails it (or gives an implausible depth).
+forward from the aft perpendicular (AP), y [m] across (the file's y: the hull is symmetric), z [m] up from the
+baseline. Input files may use another length unit (`units="mm"` etc.), another forward/up axis (`forward="+x"`,
+`up="+z"`, or e.g. `"-y"`), and may be model scale (`scale=100` multiplies every length).
 
 - x origin: the AP (`x_ap`, in metres after the unit/scale conversion, in the file's x origin) — default: the
   aftmost point of the mesh;
-- z origin: the lowest point of the hull (the keel) unless `z_baseline` is given;
-- y origin: the centre plane, taken as the middle of the y extent; an asymmetric mesh is an error.
+- z origin: the baseline (`baseline_z`), by default the keel line where the lowest point is a local protrusion
+  (sonar dome, skeg, bulb), else the lowest point, with a warning naming both whenever they differ or the file's
+  z = 0 lies inside the hull (`jaxroll.io._mesh_geometry`);
+- y origin: the centre plane, the middle of the y extent; a hull whose sections' centroids lie off it (more than
+  0.2 % of the breadth) is refused with the measured asymmetry.
 
-**Slicing.** Each station x_i cuts the surface in segments, exactly for the triangulation (a vertex on the plane
-counts as forward of it — abaft it at the aftmost point — so meshes whose vertex columns lie on the stations,
-flat transoms included, are cut exactly). At each waterline z_j the half-breadth is the largest |y| where the
-section crosses z = z_j (0 where it does not; a horizontal segment on z_j gives its outer end, so flat bottoms
-and decks are exact). A section that is not "convex in y" (a tunnel, twin hulls) cannot be represented by
-half-breadths: the outermost breadth is used.
+**Hydrostatics.** The returned `Hull` keeps the closed, outward-oriented triangles (`Hull.surface`): its
+hydrostatics are those of the polyhedron itself (`jaxroll.ship._surface`). It also carries offsets sliced at
+stations × waterlines (each station plane cuts the triangles exactly; the half-breadth at a waterline is the
+largest |y| where the section crosses it) for the body plan and the exported hull file; `exact=False` uses them for
+the hydrostatics (jaxroll 0.1's method, O(Δx², Δz²) errors at large heel).
 
 **Checks.** The mesh must be closed and 2-manifold (every edge shared by exactly two triangles, after welding
-vertices closer than 1e-9 of the size). A half-hull (open only along the centre plane) is accepted and
-mirrored. Lengths under 24 m (the smallest ship the IS Code's criteria apply to) or over 500 m raise
-`ModelScaleError` — the classic unit error is a 1:100 model file (L = 2.62 instead of 262 m) or millimetres
-read as metres.
+vertices closer than 1e-9 of the size) and consistently oriented (`fix_normals=True` repairs it; all-inward normals
+are turned outward). A half-hull (open only along a flat side) is mirrored with `half_hull=True` and refused
+without it. Lengths under 24 m (the smallest ship the IS Code's criteria apply to) or over 500 m raise
+`ModelScaleError` — the classic unit error is a 1:100 model file (L = 2.62 instead of 262 m) or millimetres read
+as metres.
 """
 
 from __future__ import annotations
@@ -45,6 +46,18 @@ from pathlib import Path
 import numpy as np
 
 from ..ship._hull import Hull
+from ..ship._surface import DEFAULT_WAVE_STRIPS, hull_surface
+from ._mesh_geometry import (
+    ASYMMETRY_TOLERANCE,
+    MeshError,
+    _datum,
+    _inconsistent_edges,
+    _welded_faces,
+    mirror_half_hull,
+    orient_consistently,
+    slice_offsets,
+    symmetry_defect,
+)
 
 UNITS = {"m": 1.0, "mm": 1e-3, "cm": 1e-2, "dm": 0.1, "hm": 100.0, "in": 0.0254, "ft": 0.3048}
 """Length units accepted by the readers, in metres."""
@@ -52,10 +65,6 @@ UNITS = {"m": 1.0, "mm": 1e-3, "cm": 1e-2, "dm": 0.1, "hm": 100.0, "in": 0.0254,
 SHIP_LENGTH_RANGE_M = (24.0, 500.0)
 """Plausible full-scale L [m]: the IMO stability criteria (IS Code 2008 scope) apply to ships of 24 m and over; nothing afloat is
 over 500 m. Outside this range a file is almost surely model scale or in the wrong unit."""
-
-
-class MeshError(ValueError):
-    """The surface cannot define a hull (open, non-manifold, degenerate, asymmetric, unreadable)."""
 
 
 class ModelScaleError(ValueError):
@@ -210,63 +219,6 @@ def check_ship_scale(length: float, *, what: str = "hull") -> None:
 
 
 # --------------------------------------------------------------------------------------------------------------
-# Slicing
-# --------------------------------------------------------------------------------------------------------------
-
-
-def _section_segments(tri: np.ndarray, x: float, strict: bool = False) -> np.ndarray:
-    """Segments (s, 2, 2) of (y, z) where the plane x = const cuts the triangles.
-
-    A vertex on the plane counts as ahead of it (`strict=False`) or abaft it (`strict=True`, used at the aft
-    end, where every triangle is ahead of the plane)."""
-    side = tri[:, :, 0] > x if strict else tri[:, :, 0] >= x  # (n, 3)
-    cut = side.any(axis=1) & ~side.all(axis=1)
-    t = tri[cut]
-    s = side[cut]
-    pts = []
-    for a, b in ((0, 1), (1, 2), (2, 0)):
-        crosses = s[:, a] != s[:, b]
-        pa, pb = t[:, a], t[:, b]
-        frac = np.where(crosses, (x - pa[:, 0]) / np.where(crosses, pb[:, 0] - pa[:, 0], 1.0), 0.0)
-        pts.append((crosses, pa[:, 1:] + frac[:, None] * (pb[:, 1:] - pa[:, 1:])))
-    # exactly two of the three edges cross; keep them in order
-    flags = np.stack([c for c, _ in pts], axis=1)  # (m, 3)
-    coords = np.stack([p for _, p in pts], axis=1)  # (m, 3, 2)
-    order = np.argsort(~flags, axis=1, kind="stable")[:, :2]
-    return np.take_along_axis(coords, order[:, :, None], axis=1)
-
-
-def _half_breadths(seg: np.ndarray, z: np.ndarray) -> np.ndarray:
-    """Largest |y| where the segments (s, 2, 2) cross each height z (0 where none does)."""
-    if seg.shape[0] == 0:
-        return np.zeros_like(z)
-    y0, z0, y1, z1 = seg[:, 0, 0], seg[:, 0, 1], seg[:, 1, 0], seg[:, 1, 1]
-    zlo, zhi = np.minimum(z0, z1)[:, None], np.maximum(z0, z1)[:, None]
-    zz = z[None, :]
-    inside = (zz >= zlo) & (zz <= zhi)
-    dz = (z1 - z0)[:, None]
-    flat = np.abs(dz) <= 1e-15 * max(1.0, float(np.max(np.abs(z))))
-    t = np.where(flat, 0.0, (zz - z0[:, None]) / np.where(flat, 1.0, dz))
-    y = np.abs(y0[:, None] + t * (y1 - y0)[:, None])
-    y = np.where(flat, np.maximum(np.abs(y0), np.abs(y1))[:, None], y)
-    return np.max(np.where(inside, y, 0.0), axis=0)
-
-
-def slice_offsets(triangles: np.ndarray, stations: np.ndarray, waterlines: np.ndarray) -> np.ndarray:
-    """Half-breadths (stations, waterlines) [m] of a closed body-frame mesh (y centred, z from the keel).
-
-    Exact for the triangulation, also at the ends (flat transoms, flat bottoms and decks): a vertex on a station
-    plane counts as ahead of it, except at the aftmost point where it counts as abaft; horizontal segments on a
-    waterline give their outer end.
-    """
-    tri = np.asarray(triangles, dtype=float)
-    lo = tri.reshape(-1, 3).min(axis=0)
-    xs = np.asarray(stations, dtype=float)
-    zs = np.asarray(waterlines, dtype=float)
-    return np.stack([_half_breadths(_section_segments(tri, x, strict=x <= lo[0]), zs) for x in xs])
-
-
-# --------------------------------------------------------------------------------------------------------------
 # Public readers
 # --------------------------------------------------------------------------------------------------------------
 
@@ -276,14 +228,19 @@ def hull_from_triangles(
     *,
     lpp: float | None = None,
     x_ap: float | None = None,
-    z_baseline: float | None = None,
+    baseline_z: float | None = None,
     units: str = "m",
     scale: float = 1.0,
     forward: str = "+x",
     up: str = "+z",
+    half_hull: bool = False,
+    fix_normals: bool = False,
+    exact: bool = True,
+    strips: int = DEFAULT_WAVE_STRIPS,
     stations: np.ndarray | int = 61,
     waterlines: np.ndarray | int = 41,
     check_scale: bool = True,
+    zero_is_waterline: bool = False,
     name: str = "mesh hull",
     source: str = "<triangles>",
 ) -> Hull:
@@ -295,22 +252,39 @@ def hull_from_triangles(
     - `lpp`: L [m] (full scale). Default: the mesh's length overall, with a warning (SGISC use L = Lpp or the
       IS Code's L; give it).
     - `x_ap`: x of the aft perpendicular [m, full scale, file x origin]; default: the aftmost point.
-    - `z_baseline`: z of the baseline [m, full scale, file z origin]; default: the lowest point.
+    - `baseline_z`: z of the baseline [m, full scale, file z origin: the file's up axis, scaled to metres], from
+      which draughts and KG are measured. Default: the keel line when the lowest point is a local protrusion
+      (a sonar dome, skeg or bulb: less than 25 % of the length below the keel line), else the lowest point —
+      with a warning naming both candidates whenever the lowest point is a protrusion or the file's z = 0 lies
+      inside the hull. Refused above the keel line or far below the hull.
     - `units`: length unit of the file (`m`, `mm`, `cm`, `in`, `ft`); `scale`: model scale factor (100 for a
       1:100 model file), applied after `units`.
     - `forward`, `up`: file axes pointing forward and up (`"+x"`, `"-y"`, …).
-    - `stations`: x [m from the AP] of the stations, or a count (uniform over the mesh's x extent).
-    - `waterlines`: z [m above the baseline], or a count (uniform from keel to deck).
+    - `half_hull`: the file holds one side only, open along the centre plane: mirror it. A mesh open along a flat
+      side is refused without it, and `half_hull=True` on a closed mesh is an error.
+    - `fix_normals`: make inconsistent triangle orientations consistent (otherwise an error); a mesh whose
+      triangles are all inward is always turned outward.
+    - `exact`: keep the surface (`Hull.surface`): hydrostatics of the polyhedron itself (default). False: the
+      sliced offsets only (the method before jaxroll 0.2: O(Δx², Δz²) errors at large heel).
+    - `strips`: strips along x in which a wave surface is taken linear (`jaxroll.ship._surface`).
+    - `stations`: x [m from the AP] of the sliced stations, or a count (uniform over the mesh's x extent).
+    - `waterlines`: z [m above the baseline], or a count (uniform from the lowest point to the top).
     - `check_scale`: raise `ModelScaleError` for an implausible ship length (see `check_ship_scale`).
+    - `zero_is_waterline`: the file's z = 0 is its waterline by convention (a WAMIT GDF): no warning for it.
 
-    **Raises:** `MeshError` for an open (except a half-hull open along the centre plane), non-manifold, or
-    asymmetric mesh; `ModelScaleError`; `ValueError` for bad axes or units.
+    **Raises:** `MeshError` for an open (except a half-hull with `half_hull=True`), non-manifold, inconsistently
+    oriented or asymmetric mesh, or a baseline contradicting the geometry; `ModelScaleError`; `ValueError` for bad
+    axes or units.
     """
     if units not in UNITS:
         raise ValueError(f"units must be one of {sorted(UNITS)}; got {units!r}.")
     if not (math.isfinite(scale) and scale > 0):
         raise ValueError(f"scale must be a finite factor > 0 (model scale, e.g. 100); got {scale}.")
     tri = to_body_frame(np.asarray(triangles, dtype=float) * UNITS[units] * scale, forward=forward, up=up)
+    faces = _welded_faces(tri)
+    tri = tri[(faces[:, 0] != faces[:, 1]) & (faces[:, 1] != faces[:, 2]) & (faces[:, 0] != faces[:, 2])]
+    if tri.shape[0] < 4:
+        raise MeshError(f"{source}: fewer than 4 triangles with an area: not a closed surface.")
     topo = mesh_topology(tri)
     pts = tri.reshape(-1, 3)
     lo, hi = pts.min(axis=0), pts.max(axis=0)
@@ -329,7 +303,15 @@ def hull_from_triangles(
         span = np.ptp(bverts, axis=0)
         covers = span[0] >= 0.9 * (hi[0] - lo[0]) and span[2] >= 0.5 * (hi[2] - lo[2])
         if (np.all(on_plane[0]) or np.all(on_plane[1])) and covers:
-            half = True  # a half-hull, open along its flat centre plane (the whole profile): mirrored below
+            half = True  # one side, open along its flat centre plane (the whole profile)
+            side_y = lo[1] if np.all(on_plane[0]) else hi[1]
+            if not half_hull:
+                raise MeshError(
+                    f"{source}: the mesh is OPEN along the whole of its flat side y = {side_y:.6g} m [body frame] "
+                    f"({topo['boundary_edges'].shape[0]} boundary edges, all on that plane): it is a HALF hull (one "
+                    "side, open on the centre plane). Give half_hull=True (CLI --half-hull) to mirror it into the "
+                    "whole hull, or export the whole hull."
+                )
         else:
             off = bverts[~(on_plane[0] | on_plane[1])]
             bad = off[0] if off.shape[0] else bverts[0]
@@ -346,19 +328,33 @@ def hull_from_triangles(
                 f"{source}: the mesh is OPEN: {topo['boundary_edges'].shape[0]} boundary edge(s) (used by one "
                 f"triangle only), e.g. at {bad.round(4).tolist()} [m, body frame]. A hull must be a closed "
                 "surface (deck and transom included) so that it has a volume; close the holes in your CAD tool "
-                "(or export a half-hull open only along the centre plane)."
+                "(or export a half-hull open only along the centre plane and give --half-hull)."
             )
+    elif half_hull:
+        raise MeshError(
+            f"{source}: half_hull=True (--half-hull) but the mesh is closed (no boundary edge): it is a whole hull, "
+            "or a half hull closed by a face on the centre plane, which the mirror would put inside the hull. Leave "
+            "--half-hull out for a whole hull; export a half hull open on its centre plane."
+        )
     if half:
-        centre = lo[1] if np.all(on_plane[0]) else hi[1]
-        tri = tri.copy()
-        tri[:, :, 1] -= centre
-    else:
-        centre = (lo[1] + hi[1]) / 2
-        tri = tri.copy()
-        tri[:, :, 1] -= centre
-        ys = tri[:, :, 1]
-        if abs(ys.max() + ys.min()) > 1e-6 * size:
-            raise MeshError(f"{source}: the mesh is not port–starboard symmetric about y = {centre:.6g} m.")
+        tri = mirror_half_hull(tri, side_y)
+    bad_edges = _inconsistent_edges(tri)
+    if bad_edges and not fix_normals:
+        _, n_flipped = orient_consistently(tri)
+        raise MeshError(
+            f"{source}: the triangles' orientations (normals) are inconsistent: {bad_edges} edge(s) are traversed "
+            f"in the same direction by both of their triangles, and {n_flipped} of {tri.shape[0]} triangles face "
+            "the other way from their neighbours. Exact hydrostatics need every normal outward: fix the export, or "
+            "give fix_normals=True (CLI --fix-normals) to orient them consistently."
+        )
+    tri, n_reversed = orient_consistently(tri)
+    pts = tri.reshape(-1, 3)
+    lo, hi = pts.min(axis=0), pts.max(axis=0)
+    centre = 0.0 if half else (lo[1] + hi[1]) / 2
+    if half:
+        centre = side_y
+    tri = tri.copy()
+    tri[:, :, 1] -= centre
     ext = hi - lo
     if not (ext[0] > ext[1] and ext[0] > ext[2]):
         raise MeshError(
@@ -366,8 +362,23 @@ def hull_from_triangles(
             f"{ext[1]:.4g} m wide and {ext[2]:.4g} m high: a ship is longest along x. Check the file's axes "
             "(forward=, up=; CLI --forward, --up), e.g. forward='+y' or up='+y'."
         )
+    sym = symmetry_defect(tri)
+    if sym["section_offset"] > ASYMMETRY_TOLERANCE * sym["breadth"]:
+        raise MeshError(
+            f"{source}: the hull is not port–starboard symmetric: about its centre plane (the middle of its y "
+            f"extent, file y = {centre:.6g} m) the centroid of the section at x = {sym['section_x'] - lo[0]:.4g} m "
+            f"from the aft end lies {sym['section_offset']:.4g} m to one side (of the largest section's area), and "
+            f"the half-breadths differ by up to {sym['max_difference']:.4g} m (starboard {sym['starboard']:.4g} m, "
+            f"port {sym['port']:.4g} m at x = {sym['x'] - lo[0]:.4g} m, {sym['z'] - lo[2]:.4g} m above the lowest "
+            f"point); the enclosed volume's centre is {sym['tcb']:.4g} m off the centre plane. jaxroll's GZ, GM and "
+            f"roll model assume a symmetric hull (accepted: {ASYMMETRY_TOLERANCE * sym['breadth']:.3g} m, "
+            f"{100 * ASYMMETRY_TOLERANCE:g} % of the breadth): check that the file holds the whole hull in one "
+            "piece and its axes (--forward, --up)."
+        )
     x0 = lo[0] if x_ap is None else float(x_ap)
-    zb = lo[2] if z_baseline is None else float(z_baseline)
+    zb, datum, note = _datum(tri, baseline_z, source=source, zero_is_waterline=zero_is_waterline)
+    if note:
+        warnings.warn(note, stacklevel=2)
     tri[:, :, 0] -= x0
     tri[:, :, 2] -= zb
     loa = float(hi[0] - lo[0])
@@ -388,17 +399,26 @@ def hull_from_triangles(
         np.linspace(plo[2], phi[2], waterlines) if np.ndim(waterlines) == 0 else np.asarray(waterlines, float)
     )
     hb = slice_offsets(tri, st, wl)
+    surface = hull_surface(tri, strips=strips) if exact else None
+    method = (
+        f"exact surface ({tri.shape[0]} triangles, {strips} wave strips)"
+        if exact
+        else f"sliced into {len(st)} stations x {len(wl)} waterlines"
+    )
     return Hull(
         stations=st,
         waterlines=wl,
         half_breadths=hb,
         lpp=float(lpp),
         depth=float(max(phi[2], wl[-1])),
+        surface=surface,
         name=name,
+        datum=datum,
         provenance=(
-            f"sliced from {source}: {tri.shape[0]} triangles{' (half-hull, mirrored)' if half else ''}, "
-            f"units {units}, scale {scale:g}, forward {forward}, up {up}, AP at file x = {x0:.6g} m, "
-            f"baseline at file z = {zb:.6g} m, {len(st)} stations x {len(wl)} waterlines"
+            f"read from {source}: {tri.shape[0]} triangles{' (half-hull, mirrored)' if half else ''}"
+            f"{f', {n_reversed} reversed to orient them outward' if n_reversed else ''}, units {units}, scale "
+            f"{scale:g}, forward {forward}, up {up}, AP at file x = {x0:.6g} m, baseline at file z = {zb:.6g} m "
+            f"({datum.source}), {method}"
         ),
     )
 
@@ -574,9 +594,54 @@ def triangulate_offsets(stations, waterlines, half_breadths, *, depth: float | N
     return np.asarray(tris, dtype=float)
 
 
-MESH_SUFFIXES = (".stl", ".gdf", ".csv")
-"""File suffixes read by [`read_hull`][] as a mesh (STL, WAMIT GDF) or an offsets table (CSV); anything else is a
-TOML hull file."""
+MESHIO_SUFFIXES = (".obj", ".ply", ".off", ".vtk", ".vtu", ".msh", ".mesh", ".medit", ".xdmf", ".nas", ".bdf")
+"""Surface-mesh suffixes read through meshio (the optional extra `mesh`: `pip install "jaxroll[mesh]"`)."""
+
+MESH_SUFFIXES = (".stl", ".gdf", ".csv", *MESHIO_SUFFIXES)
+"""File suffixes read by [`read_hull`][] as a mesh (STL, WAMIT GDF, meshio's formats) or an offsets table (CSV);
+anything else is a TOML hull file."""
+
+
+def read_mesh(path: str | Path) -> np.ndarray:
+    """Triangles (n, 3, 3) [file units] of a surface mesh in any format meshio reads (OBJ, PLY, OFF, VTK, VTU,
+    Gmsh, Medit, …): its triangle cells, and its quadrilaterals split along a diagonal.
+
+    **Raises:** `ImportError` (with the install command) without meshio; `MeshError` for a file with no surface
+    cells or with volume cells only (a tetrahedral mesh: export its boundary surface), or non-finite coordinates.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"mesh file {str(path)!r} does not exist.")
+    try:
+        import meshio
+    except ImportError:
+        raise ImportError(
+            f"{path}: reading {path.suffix} files needs meshio, an optional dependency: pip install "
+            '"jaxroll[mesh]" (or pip install meshio); STL and WAMIT GDF files need nothing more.'
+        ) from None
+    try:
+        mesh = meshio.read(str(path))
+    except Exception as e:  # meshio raises many types for a malformed file
+        raise MeshError(f"{path}: meshio could not read it ({type(e).__name__}: {e}).") from None
+    pts = np.asarray(mesh.points, dtype=float)
+    if pts.ndim != 2 or pts.shape[1] < 2:
+        raise MeshError(f"{path}: the points have shape {pts.shape}; a hull needs 3-D points.")
+    if pts.shape[1] == 2:
+        raise MeshError(f"{path}: the mesh is 2-D (points (x, y) only); a hull surface is 3-D.")
+    parts, kinds = [], []
+    for block in mesh.cells:
+        kinds.append(block.type)
+        data = np.asarray(block.data)
+        if block.type == "triangle":
+            parts.append(pts[data])
+        elif block.type == "quad":
+            parts += [pts[data[:, [0, 1, 2]]], pts[data[:, [0, 2, 3]]]]
+    if not parts:
+        raise MeshError(
+            f"{path}: no triangle or quad cells (cells: {sorted(set(kinds)) or 'none'}). A hull file is the closed "
+            "surface of the hull; export the surface (a tetrahedral volume mesh's boundary), not its volume cells."
+        )
+    return _checked_triangles(np.concatenate(parts).astype(float), path)
 
 
 def read_hull(
@@ -584,54 +649,60 @@ def read_hull(
     *,
     lpp: float | None = None,
     x_ap: float | None = None,
+    baseline_z: float | None = None,
     units: str = "m",
     scale: float = 1.0,
     forward: str = "+x",
     up: str = "+z",
+    half_hull: bool = False,
+    fix_normals: bool = False,
+    exact: bool = True,
     stations: np.ndarray | int = 61,
     waterlines: np.ndarray | int = 41,
 ) -> tuple[Hull, dict[str, float]]:
     """Any hull file, chosen by its suffix: `.stl` ([`read_stl_hull`][]), `.gdf` (`read_gdf_hull`, WAMIT
-    low-order), `.csv` ([`read_offsets_csv`][]), else a TOML hull file (`read_hull_file`, whose `[loading]` table
-    comes back too).
+    low-order), OBJ/PLY/OFF/VTK/VTU/Gmsh/… through meshio ([`read_mesh`][], optional extra `mesh`), `.csv`
+    ([`read_offsets_csv`][]), else a TOML hull file (`read_hull_file`, whose `[loading]` table comes back too).
 
-    **Arguments:** `path`; for STL/GDF/CSV the reader options (`lpp` [m], `x_ap` [m], `units`, `scale`, `forward`,
-    `up`, `stations`, `waterlines`: see [`hull_from_triangles`][]). For a GDF, `units="m"` (the default) means the
-    unit its GRAV is given in (9.80665: m, 32.174: ft, …); another unit overrides GRAV's, with a warning. A TOML
-    hull file is full scale in metres, so the options must keep their defaults there.
+    **Arguments:** `path`; for meshes the reader options (`lpp` [m], `x_ap` [m], `baseline_z` [m], `units`,
+    `scale`, `forward`, `up`, `half_hull`, `fix_normals`, `exact`, `stations`, `waterlines`: see
+    [`hull_from_triangles`][]); a CSV takes `lpp`, `units`, `scale`, `waterlines`. For a GDF, `units="m"` (the
+    default) means the unit its GRAV is given in (9.80665: m, 32.174: ft, …); another unit overrides GRAV's, with
+    a warning. A TOML hull file is full scale in metres, so the options must keep their defaults there.
 
     **Returns:** `(hull, loading)`; `loading` is `{}` for STL and CSV (they carry no loading condition), and for
-    a GDF `{"draught_m": T}` when its waterplane z = 0 lies inside the hull (WAMIT's frame: T above the keel), the
-    default draught of the loading.
+    a GDF `{"draught_m": T}` when its waterplane z = 0 lies inside the hull (WAMIT's frame: T above the
+    baseline), the default draught of the loading.
     """
     from ._hull_file import read_hull_file
 
     path = Path(path)
     suffix = path.suffix.lower()
+    mesh_kw = dict(
+        lpp=lpp, x_ap=x_ap, baseline_z=baseline_z, scale=scale, forward=forward, up=up, half_hull=half_hull,
+        fix_normals=fix_normals, exact=exact, stations=stations, waterlines=waterlines,
+    )  # fmt: skip
     if suffix == ".stl":
-        hull = read_stl_hull(
-            path, lpp=lpp, x_ap=x_ap, units=units, scale=scale, forward=forward, up=up, stations=stations,
-            waterlines=waterlines,
-        )  # fmt: skip
-        return hull, {}
+        return read_stl_hull(path, units=units, **mesh_kw), {}
+    if suffix in MESHIO_SUFFIXES:
+        return hull_from_triangles(read_mesh(path), units=units, source=str(path), name=path.stem, **mesh_kw), {}
     if suffix == ".gdf":
         from ._gdf import _read_gdf_hull
 
-        hull, draught = _read_gdf_hull(
-            path, lpp=lpp, x_ap=x_ap, units=None if units == "m" else units, scale=scale, forward=forward, up=up,
-            stations=stations, waterlines=waterlines,
-        )  # fmt: skip
+        hull, draught = _read_gdf_hull(path, units=None if units == "m" else units, **mesh_kw)
         return hull, ({} if draught is None else {"draught_m": draught})
     if suffix == ".csv":
         n_wl = None if np.ndim(waterlines) == 0 and waterlines == 41 else waterlines
         return read_offsets_csv(path, lpp=lpp, units=units, scale=scale, waterlines=n_wl), {}
-    given = dict(x_ap=x_ap, forward=forward, up=up)
-    changed = [k for k, v in given.items() if v not in (None, "+x", "+z")] + (
-        ["lpp"] if lpp is not None else []
+    given = dict(x_ap=x_ap, baseline_z=baseline_z, forward=forward, up=up)
+    changed = (
+        [k for k, v in given.items() if v not in (None, "+x", "+z")]
+        + (["lpp"] if lpp is not None else [])
+        + [k for k, v in (("half_hull", half_hull), ("fix_normals", fix_normals)) if v]
     )
     if units != "m" or scale != 1.0 or changed:
         raise ValueError(
             f"{path}: a TOML hull file is full scale, SI, in jaxroll's axes; the mesh options (units, scale, "
-            f"lpp, x_ap, forward, up) apply to .stl, .gdf and .csv files only; got {changed + ['units'] * (units != 'm') + ['scale'] * (scale != 1.0)}."
+            f"lpp, x_ap, baseline_z, forward, up, half_hull, fix_normals) apply to mesh and .csv files only; got {changed + ['units'] * (units != 'm') + ['scale'] * (scale != 1.0)}."
         )
     return read_hull_file(path)

@@ -262,10 +262,22 @@ def _format_number(value: float, decimals: int) -> str:
     return "0." + "0" * decimals if s.lstrip("-").strip("0.") == "" else s
 
 
-def record_to_text(record: Record, *, decimals: Mapping[str, int] | None = None) -> str:
+def _shortest_decimals(values: np.ndarray, most: int = 12) -> int:
+    """The fewest digits after the point that write every value back to itself (to float round-off from the
+    unit and scale conversions), at most `most`."""
+    tol = 8 * np.spacing(np.abs(values))
+    for d in range(most):
+        if np.all(np.abs(np.round(values, d) - values) <= tol):
+            return d
+    return most
+
+
+def record_to_text(record: Record, *, decimals: Mapping[str, int] | str | None = None) -> str:
     """The record as file text (model scale, the units in `record.meta["units"]`).
 
-    `decimals`: digits after the point per column name (defaults by unit: s 4, deg 4, rad 6, mm 3, m 6)."""
+    `decimals`: digits after the point per column name (defaults by unit: s 4, deg 4, rad 6, mm 3, m 6), or
+    `"shortest"`: per column, the fewest digits (at most 12) that write every value exactly as it was read (what
+    `import_record`'s records are written with, so that nothing is rounded away)."""
     columns = RECORD_COLUMNS[record.kind]
     units = list(record.meta["units"])
     lam = record.scale
@@ -284,7 +296,10 @@ def record_to_text(record: Record, *, decimals: Mapping[str, int] | None = None)
     for name, unit in zip(columns, units):
         raw = record.time if name == "time" else record.channels[name]
         model = raw / lam ** _FROUDE_POWER[name] / COLUMN_UNITS[name][unit]
-        dec = (decimals or {}).get(name, default_dec[unit])
+        if decimals == "shortest":
+            dec = _shortest_decimals(model)
+        else:
+            dec = (decimals or {}).get(name, default_dec[unit])
         cols.append([_format_number(v, dec) for v in model])
     lines.extend(",".join(row) for row in zip(*cols))
     return "\n".join(lines) + "\n"
@@ -428,6 +443,36 @@ def _check_header(kind: str, meta: dict[str, Any], where: dict[str, int], source
             )
 
 
+def _parse_number(label: str, field: str, source: str, lineno: int | None, decimal: str = ".") -> float:
+    """One data field as a finite number, or a `RecordError` naming the column (`label`, e.g. "column `roll`"),
+    the line and the problem (the messages of docs/records.md, shared by the record loader and the lab-file
+    import)."""
+    if field == "":
+        raise _err(source, lineno, f"empty value in {label} (gaps are not allowed).")
+    try:
+        v = float(field if decimal == "." else field.replace(decimal, "."))
+    except ValueError:
+        raise _err(source, lineno, f"{label}: cannot read {field!r} as a number.") from None
+    if math.isnan(v):
+        raise _err(source, lineno, f"{label} is NaN (gaps and missing values are not allowed).")
+    if not math.isfinite(v):
+        raise _err(source, lineno, f"{label} is not finite ({field}).")
+    return v
+
+
+def _check_roll_range(roll_full: np.ndarray, unit: str, source: str, fix: str) -> None:
+    """Refuse a roll beyond 90°: no ship record holds that, so the unit is wrong (degrees labelled rad)."""
+    if roll_full.size:
+        peak = float(np.max(np.abs(roll_full)))
+        if peak > math.pi / 2:
+            raise _err(
+                source,
+                None,
+                f"the roll reaches {peak:.4g} rad ({math.degrees(peak):.4g}°) with unit `{unit}`: beyond 90°, no "
+                f"ship record holds that; the column is probably in degrees ({fix}).",
+            )
+
+
 def _parse_data(lines: list[str], start: int, ncol: int, columns, source: str):
     rows, linenos = [], []
     n_lines = len(lines)
@@ -452,22 +497,9 @@ def _parse_data(lines: list[str], start: int, ncol: int, columns, source: str):
                     f"({', '.join(columns)}).",
                 )
             raise _err(source, lineno, f"expected {ncol} columns ({', '.join(columns)}); got {len(fields)}.")
-        row = []
-        for name, field in zip(columns, fields):
-            if field == "":
-                raise _err(source, lineno, f"empty value in column `{name}` (gaps are not allowed).")
-            try:
-                v = float(field)
-            except ValueError:
-                raise _err(source, lineno, f"column `{name}`: cannot read {field!r} as a number.") from None
-            if math.isnan(v):
-                raise _err(
-                    source, lineno, f"column `{name}` is NaN (gaps and missing values are not allowed)."
-                )
-            if not math.isfinite(v):
-                raise _err(source, lineno, f"column `{name}` is not finite ({field}).")
-            row.append(v)
-        rows.append(row)
+        rows.append(
+            [_parse_number(f"column `{name}`", field, source, lineno) for name, field in zip(columns, fields)]
+        )
         linenos.append(lineno)
     return np.asarray(rows, dtype=float).reshape(-1, ncol), np.asarray(linenos, dtype=int)
 
@@ -561,16 +593,9 @@ def load_record(
     full = {}
     for j, (name, unit) in enumerate(zip(columns, meta["units"])):
         full[name] = data[:, j] * COLUMN_UNITS[name][unit] * lam ** _FROUDE_POWER[name]
-    if "roll" in full and full["roll"].size:
-        peak = float(np.max(np.abs(full["roll"])))
-        if peak > math.pi / 2:
-            unit = meta["units"][list(columns).index("roll")]
-            raise _err(
-                source,
-                None,
-                f"the roll reaches {peak:.4g} rad ({math.degrees(peak):.4g}°) with unit `{unit}`: beyond 90°, no "
-                "ship record holds that; the column is probably in degrees (set `units` to deg for roll).",
-            )
+    if "roll" in full:
+        unit = meta["units"][list(columns).index("roll")]
+        _check_roll_range(full["roll"], unit, source, "set `units` to deg for roll")
     time = full.pop("time")
     return Record(got, time, full, float(lam), meta, source, linenos)
 

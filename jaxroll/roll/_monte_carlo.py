@@ -14,6 +14,8 @@ import jax
 import jax.numpy as jnp
 import jax.random as jr
 
+from .._config import require_float64
+from .._display import progress_bar
 from ._equation import RollProblem, simulate
 from ._observers import AbstractObserver, AmplitudeHistogram, FirstMaxima, MaxRoll, envelope_record_every
 from ._sharding import chunk_size_for_memory, default_chunk_size, run_chunks
@@ -37,6 +39,7 @@ def simulate_chunk(
     objective. `dtype`: the integration's floating type (float64 here; `monte_carlo` runs float32). `remat=True`
     recomputes each realization in the backward pass instead of storing it (reverse-mode autodiff through long
     runs). Observers get the per-step (state, k, y, alive) of one realization, y in `dtype`."""
+    require_float64("jaxroll.simulate_chunk")
 
     def one(i):
         k = jr.fold_in(key, i)
@@ -68,7 +71,7 @@ def monte_carlo(
     num_realizations: int = 10_000,
     duration: float = 3600.0,
     chunk_size: int | None = None,
-    progress: Callable[[int], None] | None = None,
+    progress: Callable[[int], None] | bool | None = None,
     devices=None,
     checkpoint: str | os.PathLike | None = None,
     checkpoint_every: int | None = None,
@@ -92,7 +95,8 @@ def monte_carlo(
       significant binary digits, so it keeps its shape), so a small `dt` cannot exhaust memory. Results do not
       depend on the chunk.
     - `progress`: called with the number of realizations done after each chunk (and once after a checkpoint of
-      this run has been read, with the realizations it holds).
+      this run has been read, with the realizations it holds); `True`: a tqdm progress bar (the notebook widget
+      in Jupyter, a text bar on stderr elsewhere; needs tqdm, in the `notebook` extra).
     - `devices`: None (every device of every process), an int n (the first n) or a sequence of devices: the
       realization axis is sharded over them (`docs/scaling.md`).
     - `checkpoint`: a directory; the run saves its state there and resumes from it (`checkpoint_every` chunks,
@@ -102,6 +106,7 @@ def monte_carlo(
 
     **Returns:** `observer.result(...)` (e.g. `AmplitudeStatistics`), with `config` recording the run.
     """
+    require_float64("jaxroll.monte_carlo")
     _check_count("num_realizations", num_realizations)
     if chunk_size is None:
         chunk_size = default_chunk_size(observer.keeps_history, devices)
@@ -115,18 +120,20 @@ def monte_carlo(
     chunk_size = chunk_size_for_memory(chunk_size, num_steps, memory_budget,
                                       observer.bytes_per_realization(num_steps // observer.record_every(problem)),
                                       devices)
-    summed, per = run_chunks(
-        simulate_chunk,
-        problem,
-        key,
-        num_realizations,
-        chunk_size,
-        (observer, num_steps, dtype),
-        progress,
-        devices=devices,
-        checkpoint=checkpoint,
-        checkpoint_every=checkpoint_every,
-    )
+    with progress_bar(progress, num_realizations, "Monte Carlo") as report:
+        summed, per = run_chunks(
+            simulate_chunk,
+            problem,
+            key,
+            num_realizations,
+            chunk_size,
+            (observer, num_steps, dtype),
+            report,
+            devices=devices,
+            checkpoint=checkpoint,
+            checkpoint_every=checkpoint_every,
+            consistency=observer.consistency,
+        )
     config = {"num_realizations": num_realizations, "duration_s": float(duration), "dt_s": problem.dt,
               "chunk_size": chunk_size}
     return observer.result(summed, per, config)
@@ -169,6 +176,7 @@ def monte_carlo_amplitudes(
 
     **Returns:** `AmplitudeStatistics` (zero-crossing amplitudes per half cycle, envelope amplitudes per sample).
     """
+    require_float64("jaxroll.monte_carlo_amplitudes")
     _check_discard(discard, duration, problem.dt)
     observer = AmplitudeHistogram(float(discard), float(bin_width_deg), float(max_deg), envelope_record_every(problem))
     return monte_carlo(
@@ -208,6 +216,7 @@ def monte_carlo_maxima(
 
     **Returns:** `MaximaStatistics`.
     """
+    require_float64("jaxroll.monte_carlo_maxima")
     n0 = tuple(int(n) for n in n0)
     if not n0 or min(n0) < 1:
         raise ValueError(f"`n0` must be a non-empty list of integers >= 1; got {n0}.")
@@ -244,6 +253,7 @@ def monte_carlo_max_roll(
 
     **Returns:** `MaxRollStatistics`.
     """
+    require_float64("jaxroll.monte_carlo_max_roll")
     _check_discard(discard, duration, problem.dt, min_steps=1)
     capsize_deg = math.degrees(float(problem.capsize_angle))
     if not (0 < angle_deg < capsize_deg):

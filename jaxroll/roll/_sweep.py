@@ -16,6 +16,8 @@ from pathlib import Path
 
 import numpy as np
 
+from .._config import require_float64
+from .._display import progress_bar
 from ..sea._spectra import ITTC, heading_angle
 from ..ship._ship import Ship
 from ._equation import RollProblem
@@ -63,7 +65,7 @@ def sweep_sea_states(
     chunk_size: int | None = None,
     devices=None,
     checkpoint: str | os.PathLike | None = None,
-    progress: Callable[[int], None] | None = None,
+    progress: Callable[[int], None] | bool | None = None,
 ) -> SweepResult:
     """Capsize and exceedance probabilities of `ship` in ITTC seas over the grid hs × t01 × speed × heading.
 
@@ -74,10 +76,11 @@ def sweep_sea_states(
     χ [rad] in [0, π]: 0 following, π/2 beam, π head): the grid (the heading axis holds `heading_label`s); `angle_deg` [deg] and `confidence`: the exceedance angle and the interval level; the rest as in
     `monte_carlo_max_roll` and `RollProblem.from_sea`. `checkpoint`: a directory holding one sub-directory per grid
     point (`point_label`), so an interrupted sweep resumes at the point and chunk where it stopped.
-    `progress` is called with the realizations done over the whole sweep.
+    `progress` is called with the realizations done over the whole sweep (`True`: a tqdm bar, as in `monte_carlo`).
 
     **Returns:** `SweepResult`.
     """
+    require_float64("jaxroll.sweep_sea_states")
     headings = {heading_label(h): h for h in heading}  # validates; the API value behind each label
     axes = {
         "heading": [heading_label(h) for h in heading],
@@ -113,6 +116,15 @@ def sweep_sea_states(
         except ValueError as e:
             where = f"heading {h}, U {u:g} m/s, H1/3 {height:g} m, T01 {period:g} s"
             raise ValueError(f"sea state ({where}): {e}") from e
+    with progress_bar(progress, num_realizations * len(problems), "sweep") as report:
+        _run_sweep(problems, axes, shape, key, angle_deg, num_realizations, duration, discard, chunk_size, devices,
+                   checkpoint, report, n_capsized, n_exceeded)
+    return SweepResult(axes, num_realizations, float(angle_deg), confidence, n_capsized, n_exceeded)
+
+
+def _run_sweep(problems, axes, shape, key, angle_deg, num_realizations, duration, discard, chunk_size, devices,
+               checkpoint, progress, n_capsized, n_exceeded) -> None:
+    """The Monte Carlo at each grid point in turn, its counts into `n_capsized`, `n_exceeded`."""
     done = 0
     for index in np.ndindex(*shape):
         h, u, height, period = (values[i] for values, i in zip(axes.values(), index, strict=True))
@@ -133,4 +145,3 @@ def sweep_sea_states(
         n_capsized[index] = stats.n_capsized
         n_exceeded[index] = stats.n_exceeded
         done += num_realizations
-    return SweepResult(axes, num_realizations, float(angle_deg), confidence, n_capsized, n_exceeded)

@@ -4,10 +4,12 @@ Ship and hull files (TOML) are read and written by `jaxroll.io`.
 """
 
 from ._fits import (
+    HydrostaticsSolution as HydrostaticsSolution,
     c11_hull_ship as c11_hull_ship,
     default_heel_grid as default_heel_grid,
     default_zeta_grid as default_zeta_grid,
     hull_hydrostatics as hull_hydrostatics,
+    roll_period_from_gyradius as roll_period_from_gyradius,
     ship_from_hull as ship_from_hull,
     ship_from_hydrostatics as ship_from_hydrostatics,
 )
@@ -21,6 +23,9 @@ from ._hull import (
     wigley_hull as wigley_hull,
 )
 from ._hydrostatics import (
+    Equilibrium as Equilibrium,
+    Loading as Loading,
+    Particulars as Particulars,
     c11_hull_loading as c11_hull_loading,
     equilibrium as equilibrium,
     gz_curve as gz_curve,
@@ -31,6 +36,7 @@ from ._hydrostatics import (
 from ._ikeda import (
     IKEDA_SOURCE as IKEDA_SOURCE,
     IkedaDamping as IkedaDamping,
+    IkedaRangeError as IkedaRangeError,
     ikeda_damping as ikeda_damping,
     simplified_ikeda as simplified_ikeda,
 )
@@ -38,13 +44,21 @@ from ._restoring import (
     delta_gm as delta_gm,
     parametric_excitation as parametric_excitation,
     restoring_moment as restoring_moment,
+    restoring_potential as restoring_potential,
     righting_lever as righting_lever,
     vanishing_angle as vanishing_angle,
 )
 from ._ship import (
     DEFAULT_SHIP_NOTE as DEFAULT_SHIP_NOTE,
+    PLAUSIBLE as PLAUSIBLE,
     Ship as Ship,
     c11_representative as c11_representative,
+    max_possible_gm as max_possible_gm,
     restoring_fields_from_gz as restoring_fields_from_gz,
     validate_ship as validate_ship,
+)
+from ._validity import (
+    AVERAGING_LIMIT as AVERAGING_LIMIT,
+    excitation_validity as excitation_validity,
+    validity_warnings as validity_warnings,
 )

@@ -21,7 +21,8 @@ import optimistix as optx
 from jaxtyping import Array, ArrayLike, Bool, Float
 
 from .._compiled import filter_jit
-from ._hull import Hull, _concrete, c11_hull
+from .._config import require_float64
+from ._hull import Hull, _bare, _concrete, c11_hull
 from ._hydrostatics import (
     GRAVITY,
     Loading,
@@ -133,6 +134,34 @@ class HydrostaticsSolution(eqx.Module):
         """GZ(ζ, φ) − GZ(calm, φ) [m]."""
         return self.gz - self.gz_calm[None, :]
 
+    def to_xarray(self):
+        """The tables and fits as an `xarray.Dataset` named as in hydrostatics.json: `tables_gz_m`,
+        `tables_sinkage_m`, `tables_trim_m`, `tables_converged` on (`zeta_mid_m`, `heel_deg`), `tables_gz_calm_m`,
+        `tables_gm_m`, `tables_delta_gm_m`, the calm-water particulars (`calm_water_*`), the polynomial fits
+        (`fits_*`), the balance check and `wavelength_m`."""
+        from .._labels import Layout, tree_to_dataset
+        from .._labels._layouts import HYDROSTATICS
+
+        h = lambda x: np.asarray(x)  # noqa: E731
+        tree = {
+            "wavelength_m": float(self.wavelength),
+            "calm_water": self.particulars.as_dict(),
+            "tables": {"zeta_mid_m": h(self.zeta_mid), "heel_deg": np.degrees(h(self.heels)), "gz_m": h(self.gz),
+                       "sinkage_m": h(self.sinkage), "trim_m": h(self.trim), "gz_calm_m": h(self.gz_calm),
+                       "gm_m": h(self.gm), "delta_gm_m": h(self.delta_gm), "converged": h(self.converged)},
+            "fits": {"gm0_m": float(self.particulars.gm),
+                     "gz_coefficients_m": dict(zip(("g3", "g5", "g7", "g9"), h(self.gz_coefficients).tolist())),
+                     "gz_fit_rms_m": float(self.gz_fit_rms),
+                     "delta_gm_coefficients": {f"c{k}": float(c) for k, c in enumerate(h(self.delta_gm_coefficients))},
+                     "delta_gm_fit_rms_m": float(self.delta_gm_fit_rms)},
+            "balance_check": {"max_relative_volume_error": float(self.max_volume_error),
+                              "max_lcb_minus_lcg_m": float(self.max_lcb_error),
+                              "all_converged": bool(np.all(h(self.converged)))},
+        }
+        extra = Layout(arrays={"tables/converged": ("zeta_mid_m", "heel_deg")},
+                       long_names={"tables_converged": "whether the sinkage-and-trim balance converged"})
+        return tree_to_dataset(tree, HYDROSTATICS + extra)
+
 
 HydrostaticsSolution.__init__.__doc__ = """Fields: `particulars` (calm water, [`Particulars`][]); the grids
 `zeta_mid` [m] (> 0 trough amidships) and `heels` [rad]; `wavelength` λ [m]; tables `gz`, `sinkage`, `trim`
@@ -166,20 +195,26 @@ def _hydrostatics_core(hull, loading, zeta, heels, wavelength, throw):
     lam = hull.lpp if wavelength is None else jnp.asarray(wavelength, dtype=float)
     nz, nh = zeta.shape[0], heels.shape[0]
     zz, pp = jnp.meshgrid(zeta, heels, indexing="ij")
-    # One batch of balances: the table, the calm GZ curve, the upright wave conditions, and calm upright.
-    all_heel = jnp.concatenate([pp.ravel(), heels, jnp.zeros(nz + 1)])
-    all_zeta = jnp.concatenate([zz.ravel(), jnp.zeros(nh), zeta, jnp.zeros(1)])
-    eqs = _equilibrium_batch(hull, loading, all_heel, all_zeta, lam)
-    pick = lambda lo, hi: jax.tree_util.tree_map(lambda a: a[lo:hi], eqs)
-    table = jax.tree_util.tree_map(lambda a: a.reshape(nz, nh), pick(0, nz * nh))
-    calm = pick(nz * nh, nz * nh + nh)
-    upright = pick(nz * nh + nh, nz * nh + nh + nz + 1)
-    gms = jax.vmap(lambda s, t, z: _gm_at(hull, loading, s, t, z, lam))(
-        upright.sinkage, upright.trim, upright.zeta_mid
+    # Two batches of balances: in waves (the table and the upright wave conditions) and in calm water (the GZ
+    # curve and upright): a hull surface integrates calm water on its unsplit triangles.
+    wave_heel = jnp.concatenate([pp.ravel(), jnp.zeros(nz)])
+    wave_zeta = jnp.concatenate([zz.ravel(), zeta])
+    waves = _equilibrium_batch(hull, loading, wave_heel, wave_zeta, lam)
+    calm_heel = jnp.concatenate([heels, jnp.zeros(1)])
+    calms = _equilibrium_batch(hull, loading, calm_heel, jnp.zeros(nh + 1), lam, calm=True)
+    eqs = jax.tree_util.tree_map(lambda a, b: jnp.concatenate([a, b]), waves, calms)
+    pick = lambda tree, lo, hi: jax.tree_util.tree_map(lambda a: a[lo:hi], tree)
+    table = jax.tree_util.tree_map(lambda a: a.reshape(nz, nh), pick(waves, 0, nz * nh))
+    calm = pick(calms, 0, nh)
+    upright_waves = pick(waves, nz * nh, nz * nh + nz)
+    calm_upright = jax.tree_util.tree_map(lambda a: a[nh], calms)
+    gm = jax.vmap(lambda s, t, z: _gm_at(hull, loading, s, t, z, lam))(
+        upright_waves.sinkage, upright_waves.trim, upright_waves.zeta_mid
     )
-    gm, gm0 = gms[:nz], gms[nz]
-    calm_upright = jax.tree_util.tree_map(lambda a: a[nz], upright)
-    particulars = _particulars(hull, loading, calm_upright, gm0, jnp.zeros(()), lam)
+    zero = jnp.zeros(())
+    gm0 = _gm_at(hull, loading, calm_upright.sinkage, calm_upright.trim, zero, lam, True)
+    upright = jax.tree_util.tree_map(lambda a, b: jnp.concatenate([a, b[None]]), upright_waves, calm_upright)
+    particulars = _particulars(hull, loading, calm_upright, gm0, zero, lam, True)
     delta_gm = gm - gm0
     g, g_rms = fit_gz_polynomial(heels, calm.gz, gm0)
     c, c_rms = fit_delta_gm_polynomial(zeta, delta_gm)
@@ -238,6 +273,7 @@ def hull_hydrostatics(
 
     **Returns:** a [`HydrostaticsSolution`][].
     """
+    require_float64("jaxroll.hull_hydrostatics")
     zeta = jnp.asarray(default_zeta_grid() if zeta_mid is None else zeta_mid, dtype=float)
     phi = jnp.asarray(default_heel_grid() if heels is None else heels, dtype=float)
     if zeta.ndim != 1 or phi.ndim != 1:
@@ -260,7 +296,7 @@ def hull_hydrostatics(
             f"`heels` must be in radians within [−π/2, π/2]; got max |φ| = {np.max(np.abs(cp))}."
         )
     lam = None if wavelength is None else jnp.asarray(wavelength, dtype=float)
-    return _hydrostatics_core(hull, loading, zeta, phi, lam, throw)
+    return _hydrostatics_core(_bare(hull), loading, zeta, phi, lam, throw)
 
 
 # ------------------------------------------------------------------------------------------------------------

@@ -11,6 +11,7 @@ z [m] up from the baseline.
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Mapping
 from pathlib import Path
 
@@ -19,6 +20,8 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float
+
+from ._surface import HullSurface, scale_surface, translate_surface
 
 C11_HULL_NOTE = (
     "C11-like hull (REPRESENTATIVE): a parametric post-Panamax container-ship hull with the paper's Table 1 "
@@ -113,6 +116,26 @@ def _validate_offsets(stations, waterlines, half_breadths, lpp, depth, source: s
         )
 
 
+@dataclasses.dataclass(frozen=True)
+class Datum:
+    """The vertical datum of a hull read from a file: z = 0 of jaxroll's frame (the baseline, from which draughts
+    and KG are measured) in the file's z [m, full scale], how it was chosen, and the candidates."""
+
+    baseline_file_z: float
+    source: str
+    lowest_point_file_z: float
+    keel_line_file_z: float | None = None
+
+    def as_dict(self) -> dict:
+        """Plain values for JSON, lengths in metres (`*_m`)."""
+        return dict(
+            baseline_file_z_m=self.baseline_file_z,
+            source=self.source,
+            lowest_point_file_z_m=self.lowest_point_file_z,
+            keel_line_file_z_m=self.keel_line_file_z,
+        )
+
+
 class Hull(eqx.Module):
     """A ship hull described by station offsets (full scale, SI units).
 
@@ -127,8 +150,10 @@ class Hull(eqx.Module):
     half_breadths: Float[Array, "stations waterlines"]
     lpp: Float[Array, ""]
     depth: Float[Array, ""]
+    surface: HullSurface | None = None
     name: str = eqx.field(static=True, default="unnamed hull")
     provenance: str = eqx.field(static=True, default="")
+    datum: Datum | None = eqx.field(static=True, default=None)
 
     def __init__(
         self,
@@ -138,8 +163,10 @@ class Hull(eqx.Module):
         half_breadths: ArrayLike,
         lpp: ArrayLike,
         depth: ArrayLike,
+        surface: HullSurface | None = None,
         name: str = "unnamed hull",
         provenance: str = "",
+        datum: Datum | None = None,
     ):
         values = [_concrete(v) for v in (stations, waterlines, half_breadths, lpp, depth)]
         if all(v is not None for v in values):
@@ -149,8 +176,10 @@ class Hull(eqx.Module):
         self.half_breadths = jnp.asarray(half_breadths, dtype=float)
         self.lpp = jnp.asarray(lpp, dtype=float)
         self.depth = jnp.asarray(depth, dtype=float)
+        self.surface = surface
         self.name = name
         self.provenance = provenance
+        self.datum = datum
 
     @property
     def amidships(self) -> Float[Array, ""]:
@@ -172,7 +201,12 @@ Hull.__init__.__doc__ = """**Arguments:**
 - `half_breadths`: starboard half-breadths y [m] >= 0, shape `(stations, waterlines)`.
 - `lpp`: length between perpendiculars L [m] > 0; amidships is at x = L/2.
 - `depth`: moulded depth D [m] (deck at side), >= the highest waterline. The hull is closed at z = D.
-- `name`, `provenance`: free text carried into outputs.
+- `surface`: the closed triangulated surface the offsets were sliced from ([`jaxroll.ship.HullSurface`][], from a
+    mesh file), or None. When given, every immersed volume, centre, waterplane and GM is computed from the surface
+    itself, exactly for the polyhedron (`jaxroll.ship._surface`); the offsets then serve the body plan and the
+    exported hull file only.
+- `name`, `provenance`: free text carried into outputs. `datum`: where the baseline z = 0 lies in the file it was
+    read from ([`Datum`][]), or None.
 
 **Raises:** `ValueError` (for concrete inputs) naming the offending entry: wrong shapes, non-finite values,
 non-increasing stations or waterlines, negative half-breadths, a waterline above the deck, or stations that do
@@ -194,6 +228,10 @@ def scale_hull(
 
     **Returns:** a new `Hull` (no re-validation, so the factors may be JAX tracers, e.g. under `jax.grad`).
     """
+    if hull.surface is not None:
+        hull = eqx.tree_at(
+            lambda h: h.surface, hull, scale_surface(hull.surface, length, breadth, height)
+        )
     return eqx.tree_at(
         lambda h: (h.stations, h.lpp, h.half_breadths, h.waterlines, h.depth),
         hull,
@@ -205,6 +243,27 @@ def scale_hull(
             hull.depth * height,
         ),
     )
+
+
+def translate_hull(hull: Hull, dx: ArrayLike) -> Hull:
+    """The hull moved by `dx` [m] along x (stations and surface; Lpp and the AP stay), differentiable in `dx`."""
+    dx = jnp.asarray(dx, dtype=float)
+    if hull.surface is not None:
+        hull = eqx.tree_at(lambda h: h.surface, hull, translate_surface(hull.surface, dx))
+    return eqx.tree_at(lambda h: h.stations, hull, hull.stations + dx)
+
+
+def _bare(hull: Hull) -> Hull:
+    """The hull without its name, provenance and datum (static text): what compiled programs take, so that every
+    hull of one size class shares them."""
+    if hull.name == "" and hull.provenance == "" and hull.datum is None:
+        return hull
+    new = object.__new__(Hull)
+    for f in dataclasses.fields(Hull):
+        object.__setattr__(new, f.name, getattr(hull, f.name))
+    for key, value in (("name", ""), ("provenance", ""), ("datum", None)):
+        object.__setattr__(new, key, value)
+    return new
 
 
 # ------------------------------------------------------------------------------------------------------------

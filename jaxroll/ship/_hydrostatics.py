@@ -39,6 +39,7 @@ from __future__ import annotations
 
 import functools
 import inspect
+import warnings
 
 import equinox as eqx
 import jax
@@ -48,7 +49,8 @@ import optimistix as optx
 from jaxtyping import Array, ArrayLike, Bool, Float, Int
 
 from .._compiled import filter_jit
-from ._hull import Hull, _c11_hull_path, _concrete, _section_polygons
+from . import _surface
+from ._hull import Hull, _bare, _c11_hull_path, _concrete, _section_polygons
 
 GRAVITY = 9.80665
 """Standard gravity g [m/s²]."""
@@ -75,6 +77,8 @@ def _entry_point(fn):
     jitted = filter_jit(fn)
 
     def convert(v):
+        if isinstance(v, Hull):
+            return _bare(v)  # name and provenance are not part of the program: one compilation per hull size
         if isinstance(v, bool) or not isinstance(v, int | float | list | np.ndarray | np.generic):
             return v
         return jnp.asarray(v, dtype=float)
@@ -172,7 +176,14 @@ class _Integrals(eqx.Module):
     )
 
 
-def _integrals(hull: Hull, heel, sinkage, trim, zeta_mid, wavelength) -> _Integrals:
+def _integrals(hull: Hull, heel, sinkage, trim, zeta_mid, wavelength, calm: bool = False) -> _Integrals:
+    """The immersed integrals: of the hull's surface (exact) or offsets; `calm=True` where ζ_mid is 0."""
+    if hull.surface is not None:
+        lam = hull.lpp if wavelength is None else wavelength
+        vol, mx, mu, mz = _surface.surface_integrals(
+            hull.surface, heel, sinkage, trim, zeta_mid, lam, hull.amidships, hull.lpp, calm=calm
+        )
+        return _Integrals(volume=vol, moment_x=mx, moment_u=mu, moment_vertical=mz)
     ys, zs = _section_polygons(hull)
     x = hull.stations
     h = sinkage + trim * (x - hull.amidships) / hull.lpp + wave_elevation(hull, zeta_mid, wavelength)
@@ -271,7 +282,7 @@ Loading.__init__.__doc__ = """**Arguments:**
 def _even_keel_volume_residual(draught, args):
     hull, volume = args
     zero = jnp.zeros_like(draught)
-    v = _integrals(hull, zero, draught, zero, zero, None).volume
+    v = _integrals(hull, zero, draught, zero, zero, None, calm=True).volume
     return (v - volume) / (hull.lpp * hull.max_breadth)
 
 
@@ -294,13 +305,13 @@ def _even_keel_draught(hull: Hull, volume) -> tuple[Array, Array]:
 def _loading_arrays(hull, kg, draught, displacement, lcg, rho, from_draught: bool):
     zero = jnp.zeros(())
     if from_draught:
-        vol = _integrals(hull, zero, draught, zero, zero, None).volume
+        vol = _integrals(hull, zero, draught, zero, zero, None, calm=True).volume
         d = draught
         ok = jnp.array(True)
     else:
         vol = displacement / rho
         d, ok = _even_keel_draught(hull, vol)
-    ints = _integrals(hull, zero, d, zero, zero, None)
+    ints = _integrals(hull, zero, d, zero, zero, None, calm=True)
     lcb = ints.moment_x / ints.volume
     lcg_out = lcb if lcg is None else lcg
     return vol * rho, kg, lcg_out, rho, d, ok
@@ -309,7 +320,8 @@ def _loading_arrays(hull, kg, draught, displacement, lcg, rho, from_draught: boo
 @filter_jit
 def _max_displaced_volume(hull):
     zero = jnp.zeros(())
-    return _integrals(hull, zero, hull.depth, zero, zero, None).volume
+    top = hull.waterlines[-1]  # a mesh's highest point may be above its depth amidships
+    return _integrals(hull, zero, jnp.maximum(top, hull.depth), zero, zero, None, calm=True).volume
 
 
 def loading_condition(
@@ -379,11 +391,18 @@ def loading_condition(
                 f"{float(hv[0][0])} m: "
                 "the hull would not float. Give a draught above the keel."
             )
+    if (c_kg := _concrete(kg)) is not None and hv[1] is not None and c_kg.shape == () and c_kg > hv[1]:
+        warnings.warn(
+            f"KG = {float(c_kg):.4g} m is above the deck: the hull's depth is D = {float(hv[1]):.4g} m above the "
+            "baseline. Possible only with tall superstructure or deck cargo: check that KG is measured from the "
+            "baseline (the hull's datum; for a mesh, --baseline-z) and is in metres.",
+            stacklevel=2,
+        )
     f = lambda v: None if v is None else jnp.asarray(v, dtype=float)
     if displacement is not None:
         cd, cr = _concrete(displacement), _concrete(water_density)
         if cd is not None and cr is not None:
-            max_mass = _max_displaced_volume(hull)
+            max_mass = _max_displaced_volume(_bare(hull))
             cm = _concrete(max_mass)
             if cm is not None and cd >= cm * cr:
                 raise ValueError(
@@ -393,7 +412,7 @@ def loading_condition(
                     "tonnes) and the offsets, or give a smaller displacement."
                 )
     disp, kg_, lcg_, rho, d, ok = _loading_arrays(
-        hull, f(kg), f(draught), f(displacement), f(lcg), f(water_density), draught is not None
+        _bare(hull), f(kg), f(draught), f(displacement), f(lcg), f(water_density), draught is not None
     )
     c_ok = _concrete(ok)
     if c_ok is not None and not c_ok:
@@ -455,25 +474,29 @@ upright), `result` (`optimistix.RESULTS`), `num_steps` (Newton steps).
 
 
 def _balance_residual(y, args):
-    hull, loading, heel, zeta_mid, wavelength = args
-    ints = _integrals(hull, heel, y[0], y[1], zeta_mid, wavelength)
+    hull, loading, heel, zeta_mid, wavelength, calm = args
+    if hull.surface is not None:  # only ∇ and ∫x dV, with closed-form Jacobians
+        lam = hull.lpp if wavelength is None else wavelength
+        args = (hull.surface, heel, y[0], y[1], zeta_mid, lam, hull.amidships, hull.lpp)
+        volume, moment_x = _surface.balance_integrals(*args, calm=calm)
+    else:
+        ints = _integrals(hull, heel, y[0], y[1], zeta_mid, wavelength, calm)
+        volume, moment_x = ints.volume, ints.moment_x
     scale = hull.lpp * hull.max_breadth
-    return jnp.stack(
-        [(ints.volume - loading.volume) / scale, (ints.moment_x - loading.lcg * ints.volume) / loading.volume]
-    )
+    return jnp.stack([(volume - loading.volume) / scale, (moment_x - loading.lcg * volume) / loading.volume])
 
 
-def _equilibrium_single(hull, loading, heel, zeta_mid, wavelength, guess):
+def _equilibrium_single(hull, loading, heel, zeta_mid, wavelength, guess, calm: bool = False):
     sol = optx.root_find(
         _balance_residual,
         _NEWTON,
         guess,
-        (hull, loading, heel, zeta_mid, wavelength),
+        (hull, loading, heel, zeta_mid, wavelength, calm),
         max_steps=_MAX_STEPS,
         throw=False,
     )
     sinkage, trim = sol.value[0], sol.value[1]
-    ints = _integrals(hull, heel, sinkage, trim, zeta_mid, wavelength)
+    ints = _integrals(hull, heel, sinkage, trim, zeta_mid, wavelength, calm)
     gz = ints.moment_u / ints.volume - loading.kg * jnp.sin(heel)
     return Equilibrium(
         sinkage=sinkage,
@@ -506,10 +529,11 @@ def _check_result(result, throw: bool, what: str):
     )
 
 
-def _equilibrium_batch(hull, loading, heel, zeta_mid, wavelength) -> Equilibrium:
-    """Balances at 1-D arrays of heels and amplitudes, one vmapped Newton solve (no throwing)."""
+def _equilibrium_batch(hull, loading, heel, zeta_mid, wavelength, calm: bool = False) -> Equilibrium:
+    """Balances at 1-D arrays of heels and amplitudes, one vmapped Newton solve (no throwing); `calm=True` where
+    every amplitude is 0 (a hull surface then uses its unsplit triangles)."""
     guess = jnp.stack([loading.draught, jnp.zeros_like(loading.draught)])
-    fn = lambda p, z: _equilibrium_single(hull, loading, p, z, wavelength, guess)
+    fn = lambda p, z: _equilibrium_single(hull, loading, p, z, wavelength, guess, calm)
     return jax.vmap(fn)(heel, zeta_mid)
 
 
@@ -543,11 +567,11 @@ def equilibrium(
     return eqx.tree_at(lambda e: e.result, out, result)
 
 
-def _gm_at(hull, loading, sinkage, trim, zeta_mid, wavelength):
+def _gm_at(hull, loading, sinkage, trim, zeta_mid, wavelength, calm: bool = False):
     """GM [m] = ∂GZ/∂φ at φ = 0 with sinkage and trim held (they are stationary in φ at φ = 0 by symmetry)."""
 
     def lever(phi):
-        ints = _integrals(hull, phi, sinkage, trim, zeta_mid, wavelength)
+        ints = _integrals(hull, phi, sinkage, trim, zeta_mid, wavelength, calm)
         return ints.moment_u / ints.volume
 
     _, dlever = jax.jvp(lever, (jnp.zeros(()),), (jnp.ones(()),))
@@ -661,6 +685,14 @@ class Particulars(eqx.Module):
             out[f"{k}_{unit}" if unit else k] = float(getattr(self, k))
         return out
 
+    def to_xarray(self):
+        """The particulars as an `xarray.Dataset` of scalars named as in `as_dict` (hydrostatics.json's
+        `calm_water`), with units and long names."""
+        from .._labels import tree_to_dataset
+        from .._labels._layouts import PARTICULARS
+
+        return tree_to_dataset(self.as_dict(), PARTICULARS)
+
 
 Particulars.__init__.__doc__ = """Fields: `displacement` Δ [kg]; `volume` ∇ [m³]; `draught` amidships,
 `draught_ap`, `draught_fp` [m]; `trim` = d_FP − d_AP [m]; `lcb`, `lcg`, `lcf` [m] from the AP; `kb`, `bm`,
@@ -702,13 +734,13 @@ def _at_most_one(x, tol: float = 1e-9):
     return jnp.where((x > 1) & (x <= 1 + tol), 1.0, x)
 
 
-def _particulars(hull, loading, eq: Equilibrium, gm, zeta, wavelength) -> Particulars:
+def _particulars(hull, loading, eq: Equilibrium, gm, zeta, wavelength, calm: bool = False) -> Particulars:
     zero = jnp.zeros(())
     s, t = eq.sinkage, eq.trim
     km = gm + loading.kg
 
     def vol_mx(y):
-        ints = _integrals(hull, zero, y[0], y[1], zeta, wavelength)
+        ints = _integrals(hull, zero, y[0], y[1], zeta, wavelength, calm)
         return jnp.stack([ints.volume, ints.moment_x])
 
     jac = jax.jacfwd(vol_mx)(jnp.stack([s, t]))
@@ -720,13 +752,18 @@ def _particulars(hull, loading, eq: Equilibrium, gm, zeta, wavelength) -> Partic
     i_l = i_xm - awp * (lcf - xm) ** 2
     bm_l = i_l / eq.volume
 
-    ys, zs = _section_polygons(hull)
-    h = s + t * (hull.stations - xm) / lpp + wave_elevation(hull, zeta, wavelength)
-    area, breadth = jax.jvp(
-        lambda hh: _immersed_section_moments(ys, zs, zero, hh)[0], (h,), (jnp.ones_like(h),)
-    )
-    b_wl = jnp.max(breadth)
-    a_mid = jnp.interp(xm, hull.stations, area)
+    if hull.surface is not None:
+        lam = hull.lpp if wavelength is None else wavelength
+        b_wl = _surface.waterline_breadth(hull.surface, s, t, zeta, lam, xm, lpp)
+        a_mid = _surface.section_area(hull.surface, xm, s + zeta * (-1.0))  # η(L/2) = −ζ_mid
+    else:
+        ys, zs = _section_polygons(hull)
+        h = s + t * (hull.stations - xm) / lpp + wave_elevation(hull, zeta, wavelength)
+        area, breadth = jax.jvp(
+            lambda hh: _immersed_section_moments(ys, zs, zero, hh)[0], (h,), (jnp.ones_like(h),)
+        )
+        b_wl = jnp.max(breadth)
+        a_mid = jnp.interp(xm, hull.stations, area)
     # A box's coefficients are 1; round-off of the integrals must not push them past it (a ship file refuses > 1)
     cb = _at_most_one(eq.volume / (lpp * b_wl * s))
     cm = _at_most_one(a_mid / (b_wl * s))

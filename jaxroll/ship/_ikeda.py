@@ -51,6 +51,28 @@ IKEDA_SOURCE = (
 """The damping source recorded in ship files whose b1, b2 come from [`ikeda_damping`][]."""
 
 
+class IkedaRangeError(ValueError):
+    """The simplified Ikeda estimate is not usable (negative damping): the hull is outside the regression's range."""
+
+
+def _negative_damping_message(comps, b_eq, amplitudes, values: dict, out_of_range: list) -> str:
+    i = int(np.argmin(b_eq))
+    c = comps[i]
+    parts = [f"{k} = {values[k]:.3f} (range {VALIDITY[k][0]:g}–{VALIDITY[k][1]:g})" for k in out_of_range if k in values]
+    where = (
+        "outside its validity range: " + ", ".join(parts)
+        if parts
+        else "inside the ranges it checks, yet the regression gives a negative sum"
+    )
+    return (
+        f"the simplified Ikeda roll damping is {where}; it extrapolates to a NEGATIVE damping (equivalent linear "
+        f"b_eq = {b_eq[i]:.4g} 1/s at {math.degrees(amplitudes[i]):.0f}° roll: friction {c.friction:.3g}, wave "
+        f"{c.wave:.3g}, eddy {c.eddy:.3g}, bilge keel {c.bilge_keel:.3g}, non-dimensional), which would feed energy "
+        "into the roll. Give the roll damping of this hull yourself: CLI --damping B1 B2 B3 (b1 [1/s], b2 [1/rad], "
+        "b3 [s/rad²], e.g. from a roll-decay test: `jaxroll calibrate`), Python damping=(b1, b2, b3)."
+    )
+
+
 @dataclass
 class IkedaDamping:
     """Non-dimensional roll damping B̂ = B44/(ρ∇B²)·√(B/2g) [-] and its components."""
@@ -243,6 +265,10 @@ def ikeda_damping(
     b_eq(φa) = B44(φa) ω0²/(ρ g ∇ GM) is computed at `amplitudes` (default 2°–30°, the range parametric roll
     lives in) and fitted by b1 + (8/(3π)) ω0 φa b2 (least squares, b2 ≥ 0). Also returns the fit's RMS
     residual, the equivalent damping ratio ζ_eq = b_eq/(2ω0) at each amplitude, and the out-of-range inputs.
+
+    **Raises:** `ValueError` for non-positive or non-finite inputs; `IkedaRangeError` (a `ValueError`) when the
+    regression gives a damping <= 0 at any amplitude (a hull outside its range, e.g. a box barge, C_B = C_m = 1):
+    the message names the parameters outside their ranges and points to the damping option.
     """
     inputs = dict(lpp=lpp, breadth=breadth, draught=draught, block_coefficient=block_coefficient,
                   midship_coefficient=midship_coefficient, gm=gm, roll_period=roll_period)  # fmt: skip
@@ -268,6 +294,11 @@ def ikeda_damping(
     b_eq = np.array(
         [equivalent_linear_damping(c.total, volume=vol, breadth=breadth, gm=gm, omega0=omega0) for c in comps]
     )
+    out_of_range = sorted({k for c in comps for k in c.out_of_range})
+    if not np.all(b_eq > 0):
+        raise IkedaRangeError(_negative_damping_message(comps, b_eq, amplitudes, dict(
+            CB=block_coefficient, CM=midship_coefficient, **{"B/d": breadth / draught, "OG/d": (draught - kg) / draught,
+            "omega_hat": omega0 * math.sqrt(breadth / (2 * GRAVITY))}), out_of_range))  # fmt: skip
     x = 8 / (3 * math.pi) * omega0 * amplitudes
     design = np.stack([np.ones_like(x), x], axis=1)
     (b1, b2), *_ = np.linalg.lstsq(design, b_eq, rcond=None)
@@ -290,5 +321,5 @@ def ikeda_damping(
         zeta_eq=(b_eq / (2 * omega0)).tolist(),
         b_hat=[c.total for c in comps],
         components_at_max=vars(comps[-1]),
-        out_of_range=sorted({k for c in comps for k in c.out_of_range}),
+        out_of_range=out_of_range,
     )

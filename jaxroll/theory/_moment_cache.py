@@ -2,9 +2,11 @@
 
 Generating the moment equations is pure Python (~0.1–0.3 s per closure order). The tables are cached here, in
 memory and, when JAX's persistent compilation cache is on (`jax_compilation_cache_dir`, as the `jaxroll` command
-sets it), on disk beside the compiled kernels in `<cache dir>/jaxroll-moment/`: pickled `_Tables` (NumPy arrays),
-keyed by the structure of the SDE, the closure order and `generator_key()`, a hash of the generator's source, so
-that editing the generator invalidates them.
+sets it), on disk beside the compiled kernels in `<cache dir>/jaxroll-moment/`: `_Tables` (NumPy arrays and
+tuples of integers) as data, never pickled (`jaxroll._compiled.store_data`: an `.npz` entry of JSON and arrays, with
+a digest and the versions that wrote it; anything else there is a miss), keyed by the structure of the SDE, the
+closure order and `generator_key()`, a hash of the generator's source, so that editing the generator invalidates
+them.
 
 The compiled programs that use them (the stationary solve, the theories' laws and summaries) are stored by
 `jaxroll._compiled.cached_program`, keyed by a hash of the whole package source.
@@ -14,22 +16,17 @@ from __future__ import annotations
 
 import functools
 import hashlib
-import pickle
 from pathlib import Path
 
-import jax
+from .._compiled import cache_subfolder, load_data, store_data
 
-from .._compiled import _read, write_atomic
-
-_FORMAT = "1"  # bump to invalidate every cached file
+_FORMAT = "2"  # bump to invalidate every cached file
 
 
 def cache_dir() -> Path | None:
-    """`<jax_compilation_cache_dir>/jaxroll-moment`, or None when JAX's persistent cache is off."""
-    base = jax.config.jax_compilation_cache_dir
-    if not base:
-        return None
-    return Path(base) / "jaxroll-moment"
+    """`<jax_compilation_cache_dir>/jaxroll-moment`, or None when JAX's persistent cache is off (or in a folder
+    others can write to)."""
+    return cache_subfolder("jaxroll-moment")
 
 
 def _sha(*parts) -> str:
@@ -67,18 +64,16 @@ def tables_key(structure, order: int, extra) -> str:
 @functools.lru_cache(maxsize=64)
 def cached_tables(structure, order: int, extra):
     """`_build_tables(structure, order, extra)`, from memory, from disk, or freshly generated (then stored)."""
-    from ._moment_equations import _build_tables
+    from ._moment_equations import _build_tables, _Tables
 
     d = cache_dir()
-    path = None if d is None else d / f"tables-{tables_key(structure, order, extra)}.pkl"
+    key = tables_key(structure, order, extra)
+    path = None if d is None else d / f"tables-{key}.npz"
     if path is not None:
-        blob = _read(path)
-        if blob is not None:
-            try:
-                return pickle.loads(blob)
-            except Exception:  # a corrupt or foreign file: regenerate and overwrite it
-                pass
+        tables = load_data(path, key)
+        if isinstance(tables, _Tables) and tables.key == (structure, order, extra):
+            return tables
     tables = _build_tables(structure, order, extra)
     if path is not None:
-        write_atomic(path, pickle.dumps(tables, protocol=pickle.HIGHEST_PROTOCOL))
+        store_data(path, key, tables)
     return tables

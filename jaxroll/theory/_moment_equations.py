@@ -51,6 +51,7 @@ import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
 from .._compiled import filter_jit
+from .._config import require_float64
 from ..sea._filters import ShapingFilter, lyapunov
 from ..ship._ship import Ship
 
@@ -169,6 +170,7 @@ class PolynomialSDE(eqx.Module):
 
     @property
     def dim(self) -> int:
+        """State dimension [-]."""
         return len(self.names)
 
     def _structure(self):
@@ -654,16 +656,28 @@ class MomentEquations(eqx.Module):
         # cache (memory, disk) or generates them again; they are a pure function of the key
         return _equations_from_key, self.tables.key
 
+    def __jaxroll_cache_key__(self):
+        # the same in a stored program's output skeleton (`jaxroll._cache_files`): the tables' key, not the tables
+        return self.tables.key
+
+    @classmethod
+    def __jaxroll_from_cache_key__(cls, key) -> MomentEquations:
+        structure, order, extra = key
+        return _equations_from_key(structure, int(order), extra)
+
     @property
     def order(self) -> int:
+        """The closure order [-]."""
         return self.tables.order
 
     @property
     def symmetric(self) -> tuple[int, ...]:
+        """The variables that change sign under a symmetry of the system (moments odd in them vanish)."""
         return self.tables.symmetric
 
     @property
     def unknowns(self) -> list[Monomial]:
+        """The unknown moments (monomials) the equations solve for."""
         return [self.tables.monomials[i] for i in self.tables.unknowns]
 
     @property
@@ -721,6 +735,7 @@ def _extra_monomials(dim: int, symmetric: tuple[int, ...]) -> tuple[Monomial, ..
 
 def moment_equations(sde: PolynomialSDE, closure_order: int) -> MomentEquations:
     """Generate the moment equations of `sde` with cumulant-neglect closure of order `closure_order` (≥ 2)."""
+    require_float64("jaxroll.theory.moment_equations")
     if not (isinstance(closure_order, int) and closure_order >= 2):
         raise ValueError(f"`closure_order` must be an integer >= 2; got {closure_order!r}.")
     from ._moment_cache import cached_tables  # the tables, generated once (memory, then disk when cached)
