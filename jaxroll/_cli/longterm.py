@@ -23,6 +23,7 @@ from ._common import (
     memory_budget,
     save_figure,
     write_json,
+    write_netcdf,
 )
 
 _NAMED = {"head": 180.0, "beam": 90.0, "following": 0.0}
@@ -254,43 +255,40 @@ class _Phases:
 
 
 def write_outputs(ds, out: Path, run_time: float | None = None) -> dict:
-    """longterm.nc, longterm.json and the figures of a whole (not partial) dataset, as one set into `out`."""
+    """longterm.json, longterm.nc (the JSON's numbers and every cell of `ds`, one labelled dataset:
+    `write_netcdf`) and the figures of a whole (not partial) dataset, as one set into `out`."""
     import json
 
     from .. import longterm_summary
-    from ..io import write_dataset
     from ..plotting import longterm_ci_figure, longterm_polar_figure, longterm_scatter_figure
 
     summary = longterm_summary(ds)
-    payload = {"config": json.loads(ds.attrs["config_json"]),
-               "provenance": {k: v for k, v in ds.attrs.items() if k.endswith("_version") or k in
-                              ("backend", "device_kind", "x64")},
-               **summary}
+    payload = {"config": json.loads(ds.attrs["config_json"]), **summary}
     if run_time is not None:
         payload["run_time_s"] = run_time
     with OutputFolder(out) as tmp:
-        write_dataset(tmp / "longterm.nc", ds)
         save_figure(longterm_scatter_figure(ds), tmp / "longterm_scatter.png")
         save_figure(longterm_polar_figure(ds), tmp / "longterm_polar.png")
         save_figure(longterm_ci_figure(ds, summary), tmp / "longterm_ci.png")
         write_json(tmp / "longterm.json", payload)
+        write_netcdf(tmp / "longterm.nc", "longterm", payload, ds)
     return summary
 
 
 def print_summary(summary: dict, out: Path) -> None:
     hours = summary["exposure_hours"]
-    for row in summary["longterm"]:
+    for angle, row in summary["longterm"].items():
         lo, hi = row["probability_ci95"]
         y = row["per_year"]
-        print(f"P(roll > {row['angle_deg']:g}° within {hours:g} h) = {row['probability']:.4g} (95 % {lo:.4g}–{hi:.4g}); "
+        print(f"P(roll > {angle}° within {hours:g} h) = {row['probability']:.4g} (95 % {lo:.4g}–{hi:.4g}); "
               f"per year: P = {y['probability']:.4g}, {y['rate']:.4g} exposures with an exceedance")
         for cell in row["dominating_cells"][:3]:
             print(f"  {cell['share']:6.1%}  H_s {cell['hs_m']:g} m, T_z {cell['tz_s']:g} s, χ {cell['heading_deg']:g}°, "
                   f"U {cell['speed_m_s']:g} m/s, {cell['ship']}: P = {cell['probability']:.3g} ({cell['method']})")
-    c = summary["capsize"]
+    c = summary["longterm_capsize"]
     print(f"P(capsize within {hours:g} h) = {c['probability']:.3g} (95 % {c['probability_ci95'][0]:.3g}–"
           f"{c['probability_ci95'][1]:.3g}); cells: " + ", ".join(f"{k} {v}" for k, v in summary["cells"].items() if v))
-    print(f"wrote {out}/longterm.nc, longterm.json, longterm_scatter.png, longterm_polar.png, longterm_ci.png")
+    print(f"wrote {out}/longterm.json, longterm.nc, longterm_scatter.png, longterm_polar.png, longterm_ci.png")
 
 
 def run(args) -> int:

@@ -19,12 +19,13 @@ CELL_DIMS = ("hs", "tz", "heading", "speed", "ship")
 METHODS = ("not_computed", "zero_weight", "left_out", "no_excitation", "theory", "monte_carlo")
 #: `uncertainty` flag values: what a cell's interval is.
 UNCERTAINTY = ("none", "sampling", "model_factor", "unknown")
-_LONGTERM_VARS = ("longterm_probability", "longterm_probability_lower", "longterm_probability_upper",
-                  "longterm_sampling_sd", "longterm_model_below", "longterm_model_above",
-                  "longterm_capsize_probability", "longterm_capsize_probability_lower",
-                  "longterm_capsize_probability_upper", "annual_probability", "annual_probability_lower",
-                  "annual_probability_upper", "annual_rate", "annual_rate_lower", "annual_rate_upper",
-                  "annual_capsize_probability", "left_out_weight")
+_LONGTERM_VARS = ("longterm_probability", "longterm_probability_ci95", "longterm_sampling_sd",
+                  "longterm_model_below", "longterm_model_above", "longterm_per_year_probability",
+                  "longterm_per_year_probability_ci95", "longterm_per_year_rate", "longterm_per_year_rate_ci95",
+                  "longterm_capsize_probability", "longterm_capsize_probability_ci95", "longterm_capsize_per_year",
+                  "left_out_weight", "exposures_per_year")
+#: The interval's ends (the `bound` dimension, as every `*_ci95` of the labelled outputs).
+BOUNDS = ("lower", "upper")
 
 
 def _flags(names):
@@ -58,27 +59,31 @@ def build_dataset(grid, cells: dict, config: dict, attrs: dict):
                                  {"units": "1", "long_name": "sampling variance of the estimate (0: theory)"}),
         "capsize_probability": (CELL_DIMS, to_cells(cells["capsize_probability"]),
                                 {"units": "1", "long_name": "short-term P(capsize within the exposure)"}),
-        "capsize_probability_lower": (CELL_DIMS, to_cells(cells["capsize_lower"]), {"units": "1"}),
-        "capsize_probability_upper": (CELL_DIMS, to_cells(cells["capsize_upper"]), {"units": "1"}),
-        "capsize_probability_variance": (CELL_DIMS, to_cells(cells["capsize_variance"]), {"units": "1"}),
+        "capsize_probability_lower": (CELL_DIMS, to_cells(cells["capsize_lower"]),
+                                      {"units": "1", "long_name": "95 % interval of the capsize probability, lower"}),
+        "capsize_probability_upper": (CELL_DIMS, to_cells(cells["capsize_upper"]),
+                                      {"units": "1", "long_name": "95 % interval of the capsize probability, upper"}),
+        "capsize_probability_variance": (CELL_DIMS, to_cells(cells["capsize_variance"]),
+                                         {"units": "1", "long_name": "sampling variance of the capsize estimate"}),
         "method": (CELL_DIMS, to_cells(cells["method"]).astype(np.int8),
-                   {"long_name": "how the cell's probability was obtained", **_flags(METHODS)}),
+                   {"units": "1", "long_name": "how the cell's probability was obtained", **_flags(METHODS)}),
         "uncertainty": (CELL_DIMS, to_cells(cells["uncertainty"]).astype(np.int8),
-                        {"long_name": "what the cell's interval is", **_flags(UNCERTAINTY)}),
+                        {"units": "1", "long_name": "what the cell's interval is", **_flags(UNCERTAINTY)}),
         "realizations": (CELL_DIMS, to_cells(cells["realizations"]).astype(np.int64),
-                         {"long_name": "Monte Carlo trials (0: none)"}),
+                         {"units": "1", "long_name": "Monte Carlo trials (0: none)"}),
         "n_exceeded": (angle_dims, to_cells(cells["n_exceeded"]).astype(np.int64),
-                       {"long_name": "Monte Carlo trials beyond the angle or capsized"}),
+                       {"units": "1", "long_name": "Monte Carlo trials beyond the angle or capsized"}),
         "n_capsized": (CELL_DIMS, to_cells(cells["n_capsized"]).astype(np.int64),
-                       {"long_name": "Monte Carlo trials that capsized"}),
+                       {"units": "1", "long_name": "Monte Carlo trials that capsized"}),
         "n_exceeded_effort": ((*CELL_DIMS, "effort", "angle"), to_cells(cells["n_exceeded_effort"]).astype(np.int64),
-                              {"long_name": "trials beyond the angle among the first effort × realizations"}),
+                              {"units": "1", "long_name": "trials beyond the angle among the first effort × realizations"}),
         "seed": (CELL_DIMS, to_cells(cells["seed"]).astype(np.int64),
-                 {"long_name": "the cell's Monte Carlo seed s: jax.random.key(s); `jaxroll risk --seed s-1` "
+                 {"units": "1", "long_name": "the cell's Monte Carlo seed s: jax.random.key(s); `jaxroll risk --seed s-1` "
                   "reproduces it"}),
         "theory_probability": (angle_dims, to_cells(cells["theory_probability"]),
                                {"units": "1", "long_name": "the theory's probability (NaN: not evaluated)"}),
-        "theory_capsize_probability": (CELL_DIMS, to_cells(cells["theory_capsize_probability"]), {"units": "1"}),
+        "theory_capsize_probability": (CELL_DIMS, to_cells(cells["theory_capsize_probability"]),
+                                       {"units": "1", "long_name": "the theory's capsize probability"}),
         "lyapunov_exponent": (CELL_DIMS, to_cells(cells["lyapunov_exponent"]),
                               {"units": "1/s", "long_name": "envelope FPK Lyapunov exponent λ of the linearised "
                                "roll (λ <= 0: the roll dies out)"}),
@@ -86,11 +91,11 @@ def build_dataset(grid, cells: dict, config: dict, attrs: dict):
                            {"units": "1/s", "long_name": "fitted envelope decay rate γ (<= 0: the envelope model "
                             "does not fit)"}),
         "theory_doubtful": (CELL_DIMS, to_cells(cells["theory_doubtful"]).astype(bool),
-                            {"long_name": "the theory fails a validity check (docs/longterm.md)"}),
+                            {"units": "1", "long_name": "the theory fails a validity check (docs/longterm.md)"}),
     }
     if "computed" in cells:
         data["computed"] = (CELL_DIMS, to_cells(cells["computed"]).astype(bool),
-                            {"long_name": "computed by this part"})
+                            {"units": "1", "long_name": "computed by this part"})
     coords = {
         "hs": ("hs", grid.scatter.hs, {"units": "m", "long_name": "significant wave height H_s"}),
         "tz": ("tz", grid.scatter.tz, {"units": "s", "long_name": "zero-upcrossing period T_z"}),
@@ -103,7 +108,9 @@ def build_dataset(grid, cells: dict, config: dict, attrs: dict):
         "ship": ("ship", np.array(grid.ship_names, dtype=object), {"long_name": "loading condition (ship)"}),
         "angle": ("angle", np.asarray(config["angles_deg"], float), {"units": "degree",
                                                                       "long_name": "roll angle"}),
-        "effort": ("effort", np.array(EFFORT_FRACTIONS), {"long_name": "fraction of each Monte Carlo cell's trials"}),
+        "bound": ("bound", np.array(BOUNDS), {"long_name": "end of the interval"}),
+        "effort": ("effort", np.array(EFFORT_FRACTIONS), {"units": "1", "long_name": "fraction of each Monte Carlo "
+                                                                        "cell's trials"}),
     }
     ds = xr.Dataset({k_: xr.Variable(*v) for k_, v in data.items()},
                     coords={k_: xr.Variable(*v) for k_, v in coords.items()})
@@ -131,43 +138,51 @@ def add_longterm(ds):
     p0 = np.where(np.isnan(p), 0.0, p)
     var = np.where(np.isnan(p), 0.0, ds["probability_variance"].values)
     kind = np.where(unc == 2, 1, np.where(unc == 3, 2, 0))
-    lo, hi = model_bounds(p0, kind, cfg["model_factor"])
+    lo, hi = model_bounds(p0, kind, ds["probability_lower"].values, ds["probability_upper"].values)
     lt = longterm_probability(w, p0, var, lo, hi)
     c = ds["capsize_probability"].values
     c0 = np.where(np.isnan(c), 0.0, c)[..., None]
     cvar = np.where(np.isnan(c), 0.0, ds["capsize_probability_variance"].values)[..., None]
-    clo, chi = model_bounds(c0, kind, cfg["model_factor"])
+    clo, chi = model_bounds(c0, kind, ds["capsize_probability_lower"].values[..., None],
+                            ds["capsize_probability_upper"].values[..., None])
     cap = longterm_probability(w, c0, cvar, clo, chi)
     per_year = cfg["hours_per_year"] * 3600.0 / cfg["exposure_s"]
     yr = annual(w, p0, var, lo, hi, per_year)
     cyr = annual(w, c0, cvar, clo, chi, per_year)
     one = {"units": "1"}
+    ci = lambda r, lo, hi: np.stack([r[lo], r[hi]], axis=-1)  # noqa: E731
     new = {
         "longterm_probability": (("angle",), lt["probability"], {**one, "long_name": "P(max |roll| > angle within "
                                                                  "one exposure), the cells' weighted mean"}),
-        "longterm_probability_lower": (("angle",), lt["lower"], one),
-        "longterm_probability_upper": (("angle",), lt["upper"], one),
+        "longterm_probability_ci95": (("angle", "bound"), ci(lt, "lower", "upper"),
+                                      {**one, "long_name": "95 % interval of the long-term probability (sampling "
+                                       "and model allowance)"}),
         "longterm_sampling_sd": (("angle",), lt["sampling_sd"], {**one, "long_name": "(Σ w² Var P)^1/2"}),
         "longterm_model_below": (("angle",), lt["model_below"], {**one, "long_name": "model allowance below"}),
         "longterm_model_above": (("angle",), lt["model_above"], {**one, "long_name": "model allowance above"}),
-        "longterm_capsize_probability": ((), cap["probability"][0], one),
-        "longterm_capsize_probability_lower": ((), cap["lower"][0], one),
-        "longterm_capsize_probability_upper": ((), cap["upper"][0], one),
-        "annual_probability": (("angle",), yr["probability"], {**one, "long_name": "P(at least one exceedance in a "
-                                                               "year) = 1 − Π (1 − P)^(w N_y)"}),
-        "annual_probability_lower": (("angle",), yr["lower"], one),
-        "annual_probability_upper": (("angle",), yr["upper"], one),
-        "annual_rate": (("angle",), yr["rate"], {"units": "1/year", "long_name": "expected exposures with an "
-                                                  "exceedance per year, N_y P_LT"}),
-        "annual_rate_lower": (("angle",), yr["rate_lower"], {"units": "1/year"}),
-        "annual_rate_upper": (("angle",), yr["rate_upper"], {"units": "1/year"}),
-        "annual_capsize_probability": ((), cyr["probability"][0], one),
+        "longterm_per_year_probability": (("angle",), yr["probability"],
+                                          {**one, "long_name": "P(at least one exceedance in a year) = 1 − Π (1 − "
+                                           "P)^(w N_y)"}),
+        "longterm_per_year_probability_ci95": (("angle", "bound"), ci(yr, "lower", "upper"),
+                                               {**one, "long_name": "95 % interval of the per-year probability"}),
+        "longterm_per_year_rate": (("angle",), yr["rate"], {"units": "year-1", "long_name": "expected exposures "
+                                                            "with an exceedance per year, N_y P_LT"}),
+        "longterm_per_year_rate_ci95": (("angle", "bound"), ci(yr, "rate_lower", "rate_upper"),
+                                        {"units": "year-1", "long_name": "95 % interval of the per-year rate"}),
+        "longterm_capsize_probability": ((), cap["probability"][0], {**one, "long_name": "P(capsize within one "
+                                                                     "exposure), the cells' weighted mean"}),
+        "longterm_capsize_probability_ci95": (("bound",), np.array([cap["lower"][0], cap["upper"][0]]),
+                                              {**one, "long_name": "95 % interval of the long-term capsize "
+                                               "probability"}),
+        "longterm_capsize_per_year": ((), cyr["probability"][0], {**one, "long_name": "P(at least one capsize in "
+                                                                  "a year)"}),
         "left_out_weight": ((), float(np.where(ds["method"].values == METHODS.index("left_out"), w, 0.0).sum()),
                             {**one, "long_name": "weight of the cells left out (a bound on their contribution)"}),
+        "exposures_per_year": ((), per_year, {"units": "year-1", "long_name": "exposures per year N_y = hours at "
+                                              "sea per year / exposure"}),
     }
     ds = ds.drop_vars([v for v in _LONGTERM_VARS if v in ds])
     ds = ds.assign({k: xr.Variable(*v) for k, v in new.items()})
-    ds.attrs["exposures_per_year"] = per_year
     return ds
 
 
@@ -274,38 +289,38 @@ def _ci_effort(ds) -> dict:
 
 
 def longterm_summary(ds, top: int = 10) -> dict:
-    """What `longterm.json` holds (besides the configuration): per angle the long-term probability per exposure
-    with its interval and the interval's parts, the per-year values with their assumptions, the capsize
-    probabilities, the dominating cells, the count of cells per method, the interval against effort."""
+    """What `longterm.json` holds (besides the configuration), named as the dataset's variables (`longterm/{angle}/
+    probability` is `longterm_probability(angle)`; docs/outputs.md): per angle [deg] the long-term probability per
+    exposure with its interval and the interval's parts, the per-year values, the dominating cells; the capsize
+    probabilities, the count of cells per method, the interval against effort, the per-year assumptions."""
     cfg = config_of(ds)
-    angles = [float(a) for a in ds.angle.values]
     methods = {m: int((ds["method"].values == i).sum()) for i, m in enumerate(METHODS) if m != "not_computed"}
-    per_angle = []
-    for a, angle in enumerate(angles):
-        per_angle.append({
-            "angle_deg": angle,
+    per_angle = {}
+    for a, angle in enumerate(float(x) for x in ds.angle.values):
+        per_angle[f"{angle:g}"] = {
             "probability": float(ds.longterm_probability[a]),
-            "probability_ci95": [float(ds.longterm_probability_lower[a]), float(ds.longterm_probability_upper[a])],
+            "probability_ci95": [float(x) for x in ds.longterm_probability_ci95[a]],
             "sampling_sd": float(ds.longterm_sampling_sd[a]),
-            "model_allowance": [float(ds.longterm_model_below[a]), float(ds.longterm_model_above[a])],
+            "model_below": float(ds.longterm_model_below[a]),
+            "model_above": float(ds.longterm_model_above[a]),
             "per_year": {
-                "probability": float(ds.annual_probability[a]),
-                "probability_ci95": [float(ds.annual_probability_lower[a]), float(ds.annual_probability_upper[a])],
-                "rate": float(ds.annual_rate[a]),
-                "rate_ci95": [float(ds.annual_rate_lower[a]), float(ds.annual_rate_upper[a])],
+                "probability": float(ds.longterm_per_year_probability[a]),
+                "probability_ci95": [float(x) for x in ds.longterm_per_year_probability_ci95[a]],
+                "rate": float(ds.longterm_per_year_rate[a]),
+                "rate_ci95": [float(x) for x in ds.longterm_per_year_rate_ci95[a]],
             },
             "dominating_cells": dominating_cells(ds, a, top),
-        })
+        }
     hours = cfg["exposure_s"] / 3600.0
     return {
         "exposure_hours": hours,
+        "exposures_per_year": float(ds.exposures_per_year),
         "longterm": per_angle,
-        "capsize": {"probability": float(ds.longterm_capsize_probability),
-                    "probability_ci95": [float(ds.longterm_capsize_probability_lower),
-                                         float(ds.longterm_capsize_probability_upper)],
-                    "per_year": float(ds.annual_capsize_probability)},
+        "longterm_capsize": {"probability": float(ds.longterm_capsize_probability),
+                             "probability_ci95": [float(x) for x in ds.longterm_capsize_probability_ci95],
+                             "per_year": float(ds.longterm_capsize_per_year)},
         "per_year_assumptions": (
-            f"{cfg['hours_per_year']:g} h at sea per year = {float(ds.attrs['exposures_per_year']):g} exposures of "
+            f"{cfg['hours_per_year']:g} h at sea per year = {float(ds.exposures_per_year):g} exposures of "
             f"{hours:g} h, spread over the cells in proportion to their weights and independent of each other: "
             "P_year = 1 − Π_c (1 − P_c)^(w_c N_y); `rate` = N_y P_LT, the expected number of exposures with an "
             "exceedance per year (P_year's small-probability limit)."),

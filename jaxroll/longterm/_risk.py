@@ -75,14 +75,15 @@ def auto_cells(weight, p_theory, doubt, needed, share: float = AUTO_SHARE,
     return dominant & needed, material
 
 
-def model_bounds(p, kind, factor: float = MODEL_FACTOR) -> tuple[np.ndarray, np.ndarray]:
+def model_bounds(p, kind, lower, upper) -> tuple[np.ndarray, np.ndarray]:
     """Per cell and angle the interval the long-term allowance assumes: `kind` 0 exact (Monte Carlo cells, whose
-    uncertainty is sampling, and beam seas), 1 a valid theory cell [P/f, min(1, f·P)], 2 unknown [0, 1] (a
-    doubtful theory cell not simulated, or a cell left out)."""
+    uncertainty is sampling, and beam seas), 1 a valid theory cell: its own interval [`lower`, `upper`] (the model
+    factor around the value), 2 unknown [0, 1] (a doubtful theory cell not
+    simulated, or a cell left out)."""
     p = np.asarray(p, float)
     kind = np.asarray(kind)[..., None]
-    lo = np.where(kind == 1, p / factor, np.where(kind == 2, 0.0, p))
-    hi = np.where(kind == 1, np.minimum(1.0, factor * p), np.where(kind == 2, 1.0, p))
+    lo = np.where(kind == 1, np.nan_to_num(lower), np.where(kind == 2, 0.0, p))
+    hi = np.where(kind == 1, np.nan_to_num(upper), np.where(kind == 2, 1.0, p))
     return lo, hi
 
 

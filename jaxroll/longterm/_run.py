@@ -34,8 +34,8 @@ from ._theory import class_template, class_theory
 
 METHOD_NAMES = ("theory", "monte-carlo", "auto")
 #: What the theory cells are computed with (recorded in the configuration).
-THEORY = ("envelope FPK zero-crossing law, independent amplitudes P = 1 − F(a)^n (interim adapter of "
-          "jaxroll.theory.passage_risk)")
+THEORY = ("jaxroll.theory.passage_risk: the envelope FPK model followed through the exposure (large rolls in "
+          "groups); cells with λ <= 0 are 0 exactly")
 #: Hours in a year: the default `hours_per_year` (a ship at sea all year: the conservative end).
 HOURS_PER_YEAR = 8766.0
 
@@ -227,13 +227,16 @@ def longterm(
     cells = _empty(shape, n_angles)
     cells["seed"] = seeds
     units = [(s, k, u) for s in range(shape[0]) for k in range(shape[1]) for u in range(shape[2])
-             if needed[s, k, u].any()]
+             if needed[s, k, u].any() and _twin(grid, k, u) == k]
     if run_theory:
         # `auto` needs every cell's theory to choose its Monte Carlo cells: each part computes all of it (shared
         # among the part's processes); `theory` shares the units among all workers.
         mine_units = [j for j in range(len(units))
                       if (j % n_proc == proc if method == "auto" else worker_of(j, workers) == me)]
-        total = int(sum(needed[units[j]].sum() for j in mine_units))
+        twins = {j: [k2 for k2 in range(shape[1]) if k2 != units[j][1] and _twin(grid, k2, units[j][2]) == units[j][1]
+                     and needed[units[j][0], k2, units[j][2]].any()] for j in mine_units}
+        total = int(sum(np.any([needed[s, k2, u] for k2 in (k, *twins[j])], axis=0).sum()
+                        for j, (s, k, u) in ((j, units[j]) for j in mine_units)))
         done = [0]
 
         def tick(n):
@@ -244,12 +247,14 @@ def longterm(
         computed_here = np.zeros(shape, bool)
         for j in mine_units:
             s, k, u = units[j]
-            ij = np.argwhere(needed[s, k, u])
+            # the unit's cells: needed in its class or in a class that is the same problem (zero speed: χ, 180° − χ)
+            mask = np.any([needed[s, k2, u] for k2 in (k, *twins[j])], axis=0)
+            ij = np.argwhere(mask)
             hs, t01 = grid.scatter.hs[ij[:, 0]], grid.scatter.t01[ij[:, 1]]
             spec = {"kind": "theory", "theory": THEORY, "ship": ship_to_dict(ships[s]),
                     "heading_deg": float(grid.classes_deg[k]), "speed": float(grid.speeds[u]), "hs": hs.tolist(),
-                    "t01": t01.tolist(), "angles_deg": angles_deg.tolist(), "exposure": float(exposure),
-                    "version": _version()}
+                    "t01": t01.tolist(), "angles_deg": angles_deg.tolist(),
+                    "exposure": float(exposure), "version": _version()}
             name = f"theory_{_hash(spec)}"
             r = _load_unit(checkpoint, name)
             if r is None:
@@ -258,18 +263,19 @@ def longterm(
                 _save_unit(checkpoint, name, r)
             else:
                 tick(len(ij))
-            sel = (s, k, u, ij[:, 0], ij[:, 1])
-            cells["theory_probability"][sel] = r["probability"]
-            cells["theory_capsize_probability"][sel] = r["capsize_probability"]
-            cells["lyapunov_exponent"][sel] = r["lyapunov_exponent"]
-            cells["envelope_gamma"][sel] = r["envelope_gamma"]
-            computed_here[sel] = True
-        theory_keys = ("theory_probability", "theory_capsize_probability", "lyapunov_exponent", "envelope_gamma")
+            for k2 in (k, *twins[j]):
+                sel = (s, k2, u, ij[:, 0], ij[:, 1])
+                keep = needed[s, k2, u][ij[:, 0], ij[:, 1]]
+                sel = tuple(x[keep] if isinstance(x, np.ndarray) else x for x in sel)
+                for key, name_ in _THEORY_KEYS.items():
+                    cells[key][sel] = np.asarray(r[name_])[keep] if np.ndim(r[name_]) else r[name_]
+                computed_here[sel] = True
+        theory_keys = tuple(_THEORY_KEYS)
         gathered = _gather({k: np.nan_to_num(cells[k], nan=0.0) for k in theory_keys}, computed_here)
         have = _gather({"c": computed_here}, computed_here)["c"] if n_proc > 1 else computed_here
         for k in theory_keys:
             cells[k] = np.where(have.reshape(have.shape + (1,) * (gathered[k].ndim - have.ndim)), gathered[k],
-                                np.nan)
+                                np.nan if cells[k].dtype.kind == "f" else 0).astype(cells[k].dtype)
         cells["theory_doubtful"] = have & doubtful(cells["lyapunov_exponent"], cells["envelope_gamma"],
                                                    cells["theory_capsize_probability"], float(exposure))
 
@@ -355,9 +361,9 @@ def longterm(
             mine[is_mc] = np.isin(np.arange(len(mc_cells)) % workers,
                                   [(i_part - 1) * n_proc + q for q in range(n_proc)])
             if method == "theory":
-                mine |= _responsible_cells(units, needed, workers, i_part, n_proc)
+                mine |= _responsible_cells(grid, units, needed, workers, i_part, n_proc)
             elif method == "auto":
-                mine |= _responsible_cells(units, needed & ~is_mc, workers, i_part, n_proc)
+                mine |= _responsible_cells(grid, units, needed & ~is_mc, workers, i_part, n_proc)
             cells["computed"] = mine
             not_mine = (needed | is_mc) & ~mine
             for k in ("probability", "probability_lower", "probability_upper", "variance", "capsize_probability",
@@ -379,13 +385,33 @@ def longterm(
     return add_longterm(ds)
 
 
-def _responsible_cells(units, cells_mask, workers, i_part, n_proc) -> np.ndarray:
-    """Cells of `cells_mask` in theory units this part (any of its processes) is responsible for."""
+#: The theory's per-cell arrays: the cells' name → `class_theory`'s.
+_THEORY_KEYS = {"theory_probability": "probability", "theory_capsize_probability": "capsize_probability",
+                "lyapunov_exponent": "lyapunov_exponent", "envelope_gamma": "envelope_gamma"}
+
+
+def _twin(grid, k: int, u: int) -> int:
+    """The heading class whose theory unit computes class `k` at speed `u`: itself, or at zero speed the class
+    180° − χ' where the grid has it (with no forward speed the encounter frequency is the wave's, and Grim's
+    effective wave depends on the heading through cos²-even terms only, so χ' and 180° − χ' are one problem; the
+    class with the smaller heading computes it)."""
+    if grid.speeds[u] != 0.0:
+        return k
+    mirror = round(180.0 - float(grid.classes_deg[k]), 9)
+    hit = np.flatnonzero(grid.classes_deg == mirror)
+    return int(hit[0]) if hit.size and mirror < grid.classes_deg[k] else k
+
+
+def _responsible_cells(grid, units, cells_mask, workers, i_part, n_proc) -> np.ndarray:
+    """Cells of `cells_mask` in theory units this part (any of its processes) is responsible for (with the
+    classes a unit computes as well, `_twin`)."""
     out = np.zeros(cells_mask.shape, bool)
     ours = {(i_part - 1) * n_proc + q for q in range(n_proc)}
     for j, (s, k, u) in enumerate(units):
         if worker_of(j, workers) in ours:
-            out[s, k, u] = cells_mask[s, k, u]
+            for k2 in range(cells_mask.shape[1]):
+                if _twin(grid, k2, u) == k:
+                    out[s, k2, u] = cells_mask[s, k2, u]
     return out
 
 

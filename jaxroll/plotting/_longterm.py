@@ -66,8 +66,8 @@ def longterm_scatter_figure(ds, angle_index: int = 0):
     axes[0].set_ylabel("H_s [m]")
     ships = ", ".join(str(s) for s in ds.ship.values)
     fig.suptitle(f"{ships}: long-term P = {float(ds.longterm_probability[angle_index]):.3g} per exposure "
-                 f"(95 % {float(ds.longterm_probability_lower[angle_index]):.3g}–"
-                 f"{float(ds.longterm_probability_upper[angle_index]):.3g})", fontsize=10)
+                 f"(95 % {float(ds.longterm_probability_ci95[angle_index, 0]):.3g}–"
+                 f"{float(ds.longterm_probability_ci95[angle_index, 1]):.3g})", fontsize=10)
     return fig
 
 
