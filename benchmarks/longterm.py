@@ -6,18 +6,16 @@ cold on a 2-core machine.
 
 - cold: `jaxroll.longterm(...)` in a fresh process with an empty compilation cache (compilation included);
 - warm: the same call again in that process (after compilation);
-- baseline: today's per-cell route looped over the same computation cells — `theory.envelope_fpk_pdf(ship, wave,
-  estimator="zero_crossing")` and `exceedance_probability(law, angle, rate, duration)` per cell, in a warm
-  process, skipping nothing but the beam-sea class — timed on `--sample` cells drawn at random and extrapolated to
-  all of them (`--full-baseline` loops over every cell);
-- batching: the same cells through the theory's per-cell program spread over the CPU devices (the library's way)
-  and through a vmapped batch of 8 (`_theory_batch`), side by side.
+- baseline: today's per-cell risk looped over the same computation cells — `jaxroll.theory.passage_risk(ship,
+  wave, angles, [exposure])` per cell (what `jaxroll risk --theory first_passage` runs), in a warm process,
+  skipping nothing but the beam-sea class — timed on `--sample` cells drawn at random and extrapolated to all of
+  them (`--full-baseline` loops over every cell).
 
-The interim theory is the independent-amplitude adapter (`jaxroll.longterm._theory._theory_probability`); at
-merge `jaxroll.theory.passage_risk` replaces it and the lead re-measures.
+`jaxroll.longterm` saves on the baseline by (1) the Lyapunov screen: cells with λ <= 0 are 0 exactly, one small
+vmapped solve each, and (2) at zero speed computing χ and 180° − χ once (one problem). Both are exact.
 
 Usage: python benchmarks/longterm.py [--headings 12] [--speeds 0,4,8,12] [--sample 24] [--full-baseline]
-                                     [--skip-cold] [--compare-batching N]
+                                     [--skip-cold]
 """
 
 from __future__ import annotations
@@ -35,6 +33,7 @@ CHILD = r"""
 import json, math, sys, time
 t0 = time.time()
 import jaxroll
+jaxroll.configure()
 jaxroll.enable_compilation_cache()
 args = json.loads(sys.argv[1])
 kw = dict(headings=[math.radians(h) for h in args["headings"]], speeds=args["speeds"],
@@ -47,7 +46,7 @@ t3 = time.time()
 m = ds.method.values
 print(json.dumps({"import_s": t1 - t0, "cold_s": t2 - t1, "warm_s": t3 - t2,
                   "p_lt": ds.longterm_probability.values.tolist(),
-                  "theory_cells": int((m == 4).sum()), "live": int((ds.lyapunov_exponent.values > 0).sum())}))
+                  "theory_cells": int((m == 4).sum()),  # METHODS.index("theory") "live": int((ds.lyapunov_exponent.values > 0).sum())}))
 """
 
 
@@ -60,7 +59,6 @@ def main() -> None:
     ap.add_argument("--sample", type=int, default=24, help="baseline cells timed (extrapolated)")
     ap.add_argument("--full-baseline", action="store_true")
     ap.add_argument("--skip-cold", action="store_true")
-    ap.add_argument("--compare-batching", type=int, default=16, help="cells for the batching comparison (0: skip)")
     a = ap.parse_args()
     headings = [360.0 * i / a.headings for i in range(a.headings)]
     speeds = [float(x) for x in a.speeds.split(",")]
@@ -90,6 +88,7 @@ def main() -> None:
     import jaxroll
     from jaxroll.longterm._cells import make_grid
 
+    jaxroll.configure()
     jaxroll.enable_compilation_cache()
     ship = jaxroll.c11_representative()
     scatter = jaxroll.rec34_scatter()
@@ -104,13 +103,10 @@ def main() -> None:
 
     def per_cell(c):
         _, k, u, i, j = c
-        wave = jaxroll.EffectiveWave(jaxroll.ITTC(float(scatter.hs[i]), float(scatter.t01[j])), ship.lpp,
+        sea = jaxroll.ITTC(jax.numpy.asarray(scatter.hs[i]), jax.numpy.asarray(scatter.t01[j]))  # arrays: one program
+        wave = jaxroll.EffectiveWave(sea, ship.lpp,
                                      float(grid.speeds[u]), math.radians(float(grid.classes_deg[k])))
-        law = jaxroll.theory.envelope_fpk_pdf(ship, wave, estimator="zero_crossing", throw=False)
-        if not bool(law.exists):
-            return np.zeros(rad.size)
-        rate = float(law.excitation.omega) / math.pi
-        return np.asarray(jaxroll.exceedance_probability(law, rad, rate=rate, duration=a.hours * 3600.0))
+        return np.asarray(jaxroll.theory.passage_risk(ship, wave, rad, [a.hours * 3600.0]).probability)
 
     per_cell(take[0])  # compile
     t = time.time()
@@ -121,27 +117,6 @@ def main() -> None:
     print(f"baseline_s={base * scale:.1f} ({'all cells' if a.full_baseline else f'{len(take)} cells timed, x{scale:.1f}'}"
           f"; {base / len(take):.3f} s per cell)")
 
-    # ---- batching: per-cell programs over the devices vs a vmapped batch --------------------------------------
-    if a.compare_batching:
-        from jaxroll.longterm import _theory
-
-        template = _theory.class_template(ship, 0.0, 180.0)
-        n = a.compare_batching
-        hs = np.linspace(4.0, 9.0, n)
-        t01 = np.full(n, 10.0)
-        _theory.class_theory(ship, template, hs[:2], t01[:2], rad, a.hours * 3600.0)  # compile
-        t = time.time()
-        _theory.class_theory(ship, template, hs, t01, rad, a.hours * 3600.0)
-        per = time.time() - t
-        ang, dur = jax.numpy.asarray(rad), jax.numpy.asarray([a.hours * 3600.0])
-        jax.block_until_ready(_theory._theory_batch(ship, _theory._seas(hs[:8], t01[:8]), template, ang, dur))
-        t = time.time()
-        for s in range(0, n, 8):
-            jax.block_until_ready(_theory._theory_batch(ship, _theory._seas(hs[s:s + 8], t01[s:s + 8]), template,
-                                                        ang, dur))
-        vm = time.time() - t
-        print(f"batching_{n}_cells: per-cell programs over {jax.local_device_count()} devices {per:.2f} s "
-              f"(incl. the lambda screen), vmapped batches of 8 {vm:.2f} s")
     print(f"load_average_end={os.getloadavg()[0]:.2f}")
 
 

@@ -15,7 +15,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 import xarray as xr
-from helpers import SHIP
+from helpers import SHIP, assert_labelled_output
 
 import jaxroll as jxr
 from jaxroll._cli import main
@@ -30,7 +30,7 @@ from jaxroll.longterm import (
 )
 from jaxroll.longterm._cells import make_grid
 from jaxroll.longterm._risk import annual, auto_cells, longterm_probability
-from jaxroll.longterm._theory import PassageRisk, _theory_probability, class_template, class_theory
+from jaxroll.longterm._theory import class_template, class_theory
 
 PUBLISHED_ROWS = [3050, 22575, 23810, 19128, 13289, 8328, 4806, 2586, 1309, 626, 285, 124, 51, 21, 8, 3, 1]
 PUBLISHED_COLUMNS = [0, 0, 1, 165, 2091, 9280, 19922, 24879, 20870, 12898, 6245, 2479, 837, 247, 66, 16, 3, 1]
@@ -216,51 +216,45 @@ def test_auto_rule_and_neyman_allocation():
 # ----------------------------------------------------------------------------------------------------------
 
 
-def test_theory_adapter_is_the_independent_amplitude_route():
-    """The interim adapter: P = exceedance_probability of the envelope FPK's zero-crossing law at its own
-    half-cycle rate ω_l/π; 0 where the law does not exist (beam seas)."""
-    wave = jxr.EffectiveWave(jxr.ITTC(6.0, 10.0), SHIP.lpp, 0.0, "head")
-    angles, durations = jnp.asarray(ANGLES), jnp.asarray([1800.0, 3600.0])
-    r = _theory_probability(SHIP, wave, angles, durations)
-    assert isinstance(r, PassageRisk) and bool(r.exists) and r.probability.shape == (2, 2)
-    law = jxr.theory.envelope_fpk_pdf(SHIP, wave, estimator="zero_crossing")
-    rate = float(law.excitation.omega) / math.pi
-    for i, a in enumerate(ANGLES):
-        for j, t in enumerate((1800.0, 3600.0)):
-            expected = float(jxr.exceedance_probability(law, a, rate=rate, duration=t))
-            np.testing.assert_allclose(float(r.probability[i, j]), expected, rtol=1e-12, atol=0)
-    top = float(law.mass[-1])
-    n = rate * np.array([1800.0, 3600.0])
-    np.testing.assert_allclose(np.asarray(r.capsize_probability), -np.expm1(n * np.log1p(-top)), rtol=1e-9, atol=0)
-    beam = jxr.EffectiveWave(jxr.ITTC(6.0, 10.0), SHIP.lpp, 0.0, math.pi / 2)
-    rb = _theory_probability(SHIP, beam, angles, durations)
-    assert not bool(rb.exists) and float(jnp.abs(rb.probability).max()) == 0.0
-
-
-def test_class_theory_equals_the_adapter_cell_by_cell(monkeypatch):
-    """A class's cells (one program, its sea an input, spread over the CPU devices) give the adapter's numbers;
-    cells with λ <= 0 never reach the theory (they are 0 by the theory's own `exists`)."""
+def test_class_theory_is_passage_risk_cell_by_cell(monkeypatch):
+    """A class's cells give `jaxroll.theory.passage_risk`'s numbers, cell by cell; cells with λ <= 0 (by the screen,
+    on passage_risk's own (ρ, θ) grid) never reach it and are 0, as its own `exists` makes them."""
     from jaxroll.longterm import _theory
 
     hs = np.array([6.0, 1.5, 7.0])  # 1.5 m: the roll dies out (λ < 0)
     t01 = np.array([10.0, 10.0, 9.0])
     seen = []
-    cell = _theory._theory_cell
+    solve = _theory.passage_risk
 
-    def counting(ship, sea, template, angles, durations):
-        seen.append(float(sea.hs))
-        return cell(ship, sea, template, angles, durations)
+    def counting(ship, wave, angles, durations):
+        seen.append(float(wave.sea.hs))
+        return solve(ship, wave, angles, durations)
 
-    monkeypatch.setattr(_theory, "_theory_cell", counting)
-    template = class_template(SHIP, 0.0, 180.0)
-    r = class_theory(SHIP, template, hs, t01, np.asarray(ANGLES), 1800.0)
+    monkeypatch.setattr(_theory, "passage_risk", counting)
+    r = class_theory(SHIP, class_template(SHIP, 0.0, 180.0), hs, t01, np.asarray(ANGLES), 1800.0)
     assert r["lyapunov_exponent"][1] < 0 < min(r["lyapunov_exponent"][0], r["lyapunov_exponent"][2])
     assert seen == [6.0, 7.0]
     for i in range(3):
         wave = jxr.EffectiveWave(jxr.ITTC(float(hs[i]), float(t01[i])), SHIP.lpp, 0.0, "head")
-        one = _theory_probability(SHIP, wave, jnp.asarray(ANGLES), jnp.asarray([1800.0]))
+        one = solve(SHIP, wave, np.asarray(ANGLES), jnp.asarray([1800.0]))
         np.testing.assert_allclose(r["probability"][i], np.asarray(one.probability)[:, 0], rtol=1e-10, atol=1e-300)
-    assert np.all(r["probability"][1] == 0)
+        np.testing.assert_allclose(r["capsize_probability"][i], float(one.capsize_probability[0]), rtol=1e-10,
+                                   atol=1e-300)
+        if i == 1:
+            assert not bool(one.exists)
+    assert np.all(r["probability"][1] == 0) and r["probability"][0, 0] > 0
+
+
+def test_zero_speed_headings_mirror():
+    """At zero speed χ and 180° − χ are one problem (the reuse `_run._twin` makes): the same effective-wave
+    spectrum, so the same theory."""
+    w = jnp.linspace(0.05, 2.0, 400)
+    a = jxr.EffectiveWave(jxr.ITTC(6.0, 10.0), SHIP.lpp, 0.0, math.radians(30.0))
+    b = jxr.EffectiveWave(jxr.ITTC(6.0, 10.0), SHIP.lpp, 0.0, math.radians(150.0))
+    np.testing.assert_allclose(np.asarray(a.spectrum(w)), np.asarray(b.spectrum(w)), rtol=1e-12, atol=1e-300)
+    ra = jxr.theory.passage_risk(SHIP, a, np.asarray(ANGLES), jnp.asarray([1800.0]))
+    rb = jxr.theory.passage_risk(SHIP, b, np.asarray(ANGLES), jnp.asarray([1800.0]))
+    np.testing.assert_allclose(np.asarray(ra.probability), np.asarray(rb.probability), rtol=1e-9, atol=0)
 
 
 @pytest.fixture(scope="module")
@@ -289,18 +283,18 @@ def test_longterm_by_theory(theory_run):
     pt = ds.probability.sel(hs=5.5, heading=180.0).values
     np.testing.assert_allclose(ds.probability_lower.sel(hs=5.5, heading=180.0).values, pt / 1.25, rtol=1e-15, atol=0)
     lt = ds.longterm_probability.values
-    np.testing.assert_allclose(ds.longterm_probability_lower.values, lt - ds.longterm_model_below.values,
+    np.testing.assert_allclose(ds.longterm_probability_ci95.values[:, 0], lt - ds.longterm_model_below.values,
                                rtol=1e-14, atol=0)
     assert np.all(ds.longterm_sampling_sd.values == 0)
     ny = 5000.0 * 3600 / 1800.0
     q = np.nan_to_num(p)
-    np.testing.assert_allclose(ds.annual_probability.values,
+    np.testing.assert_allclose(ds.longterm_per_year_probability.values,
                                1 - np.prod((1 - q) ** (ny * w[..., None]), axis=(0, 1, 2, 3, 4)), rtol=1e-12, atol=0)
-    np.testing.assert_allclose(ds.annual_rate.values, ny * lt, rtol=1e-14, atol=0)
+    np.testing.assert_allclose(ds.longterm_per_year_rate.values, ny * lt, rtol=1e-14, atol=0)
     cfg = json.loads(ds.attrs["config_json"])
     assert cfg["heading_classes_deg"] == [180.0, 150.0, 90.0] and ds.attrs["jax_version"] == jax.__version__
     summary = jxr.longterm_summary(ds)
-    top = summary["longterm"][0]["dominating_cells"]
+    top = summary["longterm"]["25"]["dominating_cells"]
     assert top[0]["share"] >= top[1]["share"] and sum(c["share"] for c in top) == pytest.approx(1.0, rel=1e-12)
 
 
@@ -313,7 +307,7 @@ def test_skipped_weight_is_a_bound_in_the_interval(small_csv, theory_run):
     np.testing.assert_allclose(float(ds.left_out_weight), ds.weight.values[left].sum(), rtol=1e-14, atol=0)
     full = theory_run
     assert np.all(ds.longterm_probability.values <= full.longterm_probability.values)
-    assert np.all(ds.longterm_probability_upper.values >= full.longterm_probability.values)
+    assert np.all(ds.longterm_probability_ci95.values[:, 1] >= full.longterm_probability.values)
 
 
 # ----------------------------------------------------------------------------------------------------------
@@ -332,7 +326,7 @@ def test_monte_carlo_cell_is_jaxroll_risk_trial_for_trial(tmp_path):
     seed = int(cell.seed)
     assert seed == 4_000_001
     summary = jxr.longterm_summary(ds)
-    command = summary["longterm"][0]["dominating_cells"][0]["risk_command"]
+    command = next(iter(summary["longterm"].values()))["dominating_cells"][0]["risk_command"]
     assert f"--seed {seed - 1}" in command
     problem = jxr.RollProblem.from_sea(SHIP, jxr.ITTC(7.5, float(cell.t01)), heading="head")
     stats = jxr.monte_carlo_max_roll(problem, jax.random.key(seed), angle_deg=25.0, num_realizations=16,
@@ -367,8 +361,8 @@ def test_auto_lies_within_the_brute_force_interval(tmp_path):
         sd = math.hypot(float(auto.longterm_sampling_sd[a]), float(brute.longterm_sampling_sd[a]))
         allowance = max(float(auto.longterm_model_below[a]), float(auto.longterm_model_above[a]))
         assert abs(pa - pb) <= 3 * sd + allowance, (a, pa, pb, sd, allowance)
-        assert float(brute.longterm_probability_lower[a]) <= float(auto.longterm_probability_upper[a])
-        assert float(auto.longterm_probability_lower[a]) <= float(brute.longterm_probability_upper[a])
+        assert float(brute.longterm_probability_ci95[a, 0]) <= float(auto.longterm_probability_ci95[a, 1])
+        assert float(auto.longterm_probability_ci95[a, 0]) <= float(brute.longterm_probability_ci95[a, 1])
 
 
 # ----------------------------------------------------------------------------------------------------------
@@ -380,6 +374,11 @@ def _assert_same(a, b):
     xr.testing.assert_identical(a, b)
     for v in a.variables:
         np.testing.assert_array_equal(a[v].values, b[v].values, err_msg=v)
+
+
+def _results(folder):
+    """A written longterm.nc without its run time (the one number two runs of the same problem differ in)."""
+    return read_dataset(folder / "longterm.nc").drop_vars("run_time_s", errors="ignore")
 
 
 def _roundtrip(ds, path):
@@ -411,13 +410,14 @@ def test_cli_parts_merge_and_outputs(small_csv, tmp_path, capsys):
     files = sorted(str(p) for p in (tmp_path / "parts").glob("longterm.part-*-of-2.nc"))
     assert len(files) == 2
     assert main(["merge", *files, "--out", str(tmp_path / "merged")]) == 0
-    _assert_same(read_dataset(tmp_path / "merged" / "longterm.nc"), read_dataset(tmp_path / "whole" / "longterm.nc"))
+    _assert_same(_results(tmp_path / "merged"), _results(tmp_path / "whole"))
     for name in ("longterm.json", "longterm_scatter.png", "longterm_polar.png", "longterm_ci.png"):
         assert (tmp_path / "whole" / name).is_file()
     payload = json.loads((tmp_path / "whole" / "longterm.json").read_text())
-    assert payload["config"]["method"] == "theory" and len(payload["longterm"]) == 2
-    assert set(payload["longterm"][0]) >= {"probability", "probability_ci95", "per_year", "dominating_cells"}
-    assert "per_year_assumptions" in payload and payload["provenance"]["jax_version"] == jax.__version__
+    assert payload["config"]["method"] == "theory" and list(payload["longterm"]) == ["25", "35"]
+    assert set(payload["longterm"]["25"]) >= {"probability", "probability_ci95", "per_year", "dominating_cells"}
+    assert "per_year_assumptions" in payload and payload["versions"]["jax_version"] == jax.__version__
+    assert_labelled_output(tmp_path / "whole", "longterm")
     capsys.readouterr()
     assert main(["merge", files[0], "--out", str(tmp_path / "bad")]) == 2
     assert "each part 1/2 … 2/2 exactly once" in capsys.readouterr().err
@@ -444,7 +444,7 @@ def test_two_processes_equal_one(small_csv, tmp_path):
     for p in procs:
         _, err = p.communicate(timeout=600)
         assert p.returncode == 0, err[-3000:]
-    _assert_same(read_dataset(tmp_path / "two" / "longterm.nc"), read_dataset(tmp_path / "one" / "longterm.nc"))
+    _assert_same(_results(tmp_path / "two"), _results(tmp_path / "one"))
 
 
 class Interrupt(Exception):

@@ -114,8 +114,7 @@ def build_dataset(grid, cells: dict, config: dict, attrs: dict):
     }
     ds = xr.Dataset({k_: xr.Variable(*v) for k_, v in data.items()},
                     coords={k_: xr.Variable(*v) for k_, v in coords.items()})
-    ds.attrs.update(attrs)
-    ds.attrs["config_json"] = json.dumps(config, sort_keys=True)
+    ds.attrs.update(attrs)  # `dataset_attrs(config, …)`: versions, backend, the configuration as JSON text
     return ds
 
 

@@ -166,7 +166,7 @@ def longterm(
 
     **Returns:** an `xarray.Dataset` (dims hs, tz, heading [deg], speed [m/s], ship, angle [deg]): per cell
     `weight`, `probability` with `probability_lower`/`_upper`, `capsize_probability`, `method`, `seed`, …; the
-    long-term `longterm_probability`, `annual_probability`, … ; the configuration and provenance in its
+    long-term `longterm_probability`, `longterm_per_year_probability`, … ; the configuration and provenance in its
     attributes.
 
     **Raises:** `ValueError` for bad arguments (before any computation).
@@ -378,9 +378,7 @@ def longterm(
     config = _config(grid, files, angles_deg, exposure, method, realizations, discard, dt, excitation,
                      filter_order, phi0, seed, hours_per_year, auto_share, auto_tolerance, model_factor, skip_weight,
                      estimator)
-    attrs = dataset_attrs(None)
-    if part is not None:
-        attrs["part"] = f"{i_part}/{n_part}"
+    attrs = dataset_attrs(config, **({} if part is None else {"part": f"{i_part}/{n_part}"}))
     ds = build_dataset(grid, cells, config, attrs)
     return add_longterm(ds)
 
