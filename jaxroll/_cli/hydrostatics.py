@@ -99,7 +99,6 @@ def _check_options(args) -> None:
 
 
 def run(args) -> int:
-    import jax.numpy as jnp
     import numpy as np
 
     from ..io import hull_to_toml, loading_from_dict, ship_to_dict, ship_to_toml
@@ -109,7 +108,6 @@ def run(args) -> int:
         c11_representative,
         default_heel_grid,
         default_zeta_grid,
-        equilibrium,
         hull_hydrostatics,
         metacentric_height,
         restoring_fields_from_gz,
@@ -148,7 +146,9 @@ def run(args) -> int:
         roll_period = 24.4
 
     check_plausible(hull, loading)
-    sol = hull_hydrostatics(hull, loading, zeta_mid=zeta, heels=heels, wavelength=args.wavelength)
+    # with smooth GZ curves for the figure: calm, crest and trough of the largest amplitude, 0–90°
+    fine = np.radians(np.linspace(0.0, 90.0, 37))
+    sol = hull_hydrostatics(hull, loading, zeta_mid=zeta, heels=heels, wavelength=args.wavelength, curve_heels=fine)
     ship = ship_from_hydrostatics(
         sol,
         hull,
@@ -158,12 +158,7 @@ def run(args) -> int:
         damping=args.damping,
         name=args.name,
     )
-    # Smooth GZ curves for the figure: calm, crest and trough of the largest amplitude, 0–90°.
-    fine = jnp.radians(jnp.linspace(0.0, 90.0, 37))
-    zfig = jnp.array([0.0, -args.zeta_max, args.zeta_max])[:, None]
-    curves = equilibrium(
-        hull, loading, heel=fine[None, :], zeta_mid=zfig, wavelength=args.wavelength, throw=False
-    )
+    curves_gz = np.where(np.asarray(sol.curves_converged), np.asarray(sol.gz_curves), np.nan)
 
     final: Path = args.out
     with OutputFolder(final) as out:
@@ -174,11 +169,8 @@ def run(args) -> int:
             f"trough amidships, ζ_mid = +{args.zeta_max:g} m",
         ]
         ax = plot_gz_curves(
-            np.asarray(fine),
-            {
-                lab: np.where(np.asarray(curves.converged[i]), np.asarray(curves.gz[i]), np.nan)
-                for i, lab in enumerate(gz_labels)
-            },
+            fine,
+            {lab: curves_gz[i] for i, lab in enumerate(gz_labels)},
             fit=(float(p.gm), np.asarray(sol.gz_coefficients)),
             fit_heel_max=float(heels[-1]),
         )
@@ -252,9 +244,9 @@ def run(args) -> int:
                 "delta_gm_m": sol.delta_gm,
             },
             "gz_curves_figure": {
-                "heel_deg": np.degrees(np.asarray(fine)),
-                "zeta_mid_m": np.asarray(zfig[:, 0]),
-                "gz_m": np.where(np.asarray(curves.converged), np.asarray(curves.gz), np.nan),
+                "heel_deg": np.degrees(fine),
+                "zeta_mid_m": np.asarray(sol.curve_zeta_mid),
+                "gz_m": curves_gz,
             },
             "fits": {
                 "gm0_m": float(p.gm),

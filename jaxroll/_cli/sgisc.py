@@ -109,8 +109,10 @@ def check_plausible(hull, loading) -> None:
     """Refuse a loading whose proportions betray a unit slip (a hull in feet or millimetres read as metres, a
     displacement in tonnes given as kg), before the tables are computed (from the loading's even-keel draught and
     the hull's largest breadth: nothing to compile)."""
-    d, depth, b = float(loading.draught), float(hull.depth), float(hull.max_breadth)
-    lo = float(hull.waterlines[0])
+    import numpy as np
+
+    d, depth = float(loading.draught), float(hull.depth)
+    b, lo = 2 * float(np.max(np.asarray(hull.half_breadths))), float(np.asarray(hull.waterlines)[0])
     if d - lo < 0.04 * (depth - lo):
         raise CLIError(
             f"the draught d = {d:.4g} m is only {100 * (d - lo) / (depth - lo):.2g} % of the hull's height "

@@ -21,6 +21,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
+from .._compiled import as_float
 from ._surface import HullSurface, scale_surface, translate_surface
 
 C11_HULL_NOTE = (
@@ -171,11 +172,11 @@ class Hull(eqx.Module):
         values = [_concrete(v) for v in (stations, waterlines, half_breadths, lpp, depth)]
         if all(v is not None for v in values):
             _validate_offsets(*values, source="")
-        self.stations = jnp.asarray(stations, dtype=float)
-        self.waterlines = jnp.asarray(waterlines, dtype=float)
-        self.half_breadths = jnp.asarray(half_breadths, dtype=float)
-        self.lpp = jnp.asarray(lpp, dtype=float)
-        self.depth = jnp.asarray(depth, dtype=float)
+        self.stations = as_float(stations)
+        self.waterlines = as_float(waterlines)
+        self.half_breadths = as_float(half_breadths)
+        self.lpp = as_float(lpp)
+        self.depth = as_float(depth)
         self.surface = surface
         self.name = name
         self.provenance = provenance
@@ -254,14 +255,17 @@ def translate_hull(hull: Hull, dx: ArrayLike) -> Hull:
 
 
 def _bare(hull: Hull) -> Hull:
-    """The hull without its name, provenance and datum (static text): what compiled programs take, so that every
-    hull of one size class shares them."""
-    if hull.name == "" and hull.provenance == "" and hull.datum is None:
+    """The hull without its name, provenance, datum and its surface's triangle count (static data the integrals do
+    not use): what compiled programs take, so that every hull of one size class shares them."""
+    surface = hull.surface
+    if surface is not None and surface.n_triangles != 0:
+        surface = dataclasses.replace(surface, n_triangles=0)
+    if hull.name == "" and hull.provenance == "" and hull.datum is None and surface is hull.surface:
         return hull
     new = object.__new__(Hull)
     for f in dataclasses.fields(Hull):
         object.__setattr__(new, f.name, getattr(hull, f.name))
-    for key, value in (("name", ""), ("provenance", ""), ("datum", None)):
+    for key, value in (("name", ""), ("provenance", ""), ("datum", None), ("surface", surface)):
         object.__setattr__(new, key, value)
     return new
 
