@@ -106,11 +106,11 @@ def main() -> None:
     print(f"grad_run_s={grad_best:.4f}")
 
 
-def _cli_run(argv, env) -> tuple[float, float]:
+def _cli_run(argv, env, cwd=None) -> tuple[float, float]:
     """(wall, CPU) seconds of one `jaxroll` process (CPU: user + system of the child, all its threads)."""
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     t0 = time.perf_counter()
-    res = subprocess.run(argv, env=env, capture_output=True, text=True)
+    res = subprocess.run(argv, env=env, capture_output=True, text=True, cwd=cwd)
     wall = time.perf_counter() - t0
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     if res.returncode:
@@ -138,17 +138,18 @@ def mesh_benchmark(warm_rounds: int = 3, baseline_tree: str | None = None) -> No
         variants = {"exact": (argv, None), "sliced": ([*argv, "--sliced"], None), "c11": (c11, None)}
         if baseline_tree is not None:
             variants["baseline_exact"] = (argv, str(Path(baseline_tree).resolve()))
-        envs = {}
+        envs, cwds = {}, {}
+        here = str(Path(__file__).resolve().parents[1])
         for label, (cmd, tree) in variants.items():
             env = {**os.environ, "JAXROLL_CACHE_DIR": str(Path(tmp) / f"cache-{label}")}
-            if tree is not None:
-                env["PYTHONPATH"] = tree
-            envs[label] = env
-            wall, cpu = _cli_run([*cmd, "--out", str(Path(tmp) / f"out-{label}")], env)
+            # `python -m` imports from the working folder first: run each tree's jaxroll from its own root
+            env["PYTHONPATH"] = tree or here
+            envs[label], cwds[label] = env, tree or here
+            wall, cpu = _cli_run([*cmd, "--out", str(Path(tmp) / f"out-{label}")], env, cwds[label])
             print(f"cli_{label}_cold_s={wall:.2f} cpu={cpu:.2f} load={os.getloadavg()[0]:.1f}")
         for k in range(warm_rounds):
             for label, (cmd, _) in variants.items():
-                wall, cpu = _cli_run([*cmd, "--out", str(Path(tmp) / f"out-{label}")], envs[label])
+                wall, cpu = _cli_run([*cmd, "--out", str(Path(tmp) / f"out-{label}")], envs[label], cwds[label])
                 print(f"cli_{label}_warm{k}_s={wall:.2f} cpu={cpu:.2f} load={os.getloadavg()[0]:.1f}")
         # calm GZ of the sliced offsets and of the exact surface, KG = 7.555 m at d = 6.15 m
         phi = jnp.radians(jnp.arange(0.0, 75.0, 5.0))

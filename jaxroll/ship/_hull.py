@@ -12,6 +12,7 @@ z [m] up from the baseline.
 from __future__ import annotations
 
 import dataclasses
+import math
 from collections.abc import Mapping
 from pathlib import Path
 
@@ -135,6 +136,27 @@ class Datum:
             lowest_point_file_z_m=self.lowest_point_file_z,
             keel_line_file_z_m=self.keel_line_file_z,
         )
+
+    def file_z(self, reference: str | float) -> float:
+        """File z [m, full scale] of a reference for heights: `"baseline"`, `"keel"` (the keel line), `"lowest"` (the
+        hull's lowest point), or a file z [m] itself.
+
+        **Raises:** `ValueError` for another name, a z that is not finite, or `"keel"` where no keel line is known."""
+        if isinstance(reference, str):
+            named = dict(baseline=self.baseline_file_z, keel=self.keel_line_file_z, lowest=self.lowest_point_file_z)
+            if reference not in named:
+                raise ValueError(f"a height reference is baseline, keel, lowest or a file z [m]; got {reference!r}.")
+            if named[reference] is None:
+                raise ValueError("this hull has no keel line (its file gives none): give the reference's file z [m].")
+            return float(named[reference])
+        if not math.isfinite(reference):
+            raise ValueError(f"a height reference's file z must be a finite number [m]; got {reference}.")
+        return float(reference)
+
+    def above_baseline(self, height: float, reference: str | float) -> float:
+        """A height [m] measured from `reference` (see `file_z`: a draught from the keel line, a KG from the lowest
+        point, …) as jaxroll measures every height: above the baseline."""
+        return float(height) + self.file_z(reference) - self.baseline_file_z
 
 
 class Hull(eqx.Module):

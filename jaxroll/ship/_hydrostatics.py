@@ -412,7 +412,8 @@ def loading_condition(
         warnings.warn(
             f"KG = {float(c_kg):.4g} m is above the deck: the hull's depth is D = {float(hv[1]):.4g} m above the "
             "baseline. Possible only with tall superstructure or deck cargo: check that KG is measured from the "
-            "baseline (the hull's datum; for a mesh, --baseline-z) and is in metres.",
+            "baseline (the hull's datum; for a mesh, --baseline-z, or --kg-datum for a KG given from the keel line or "
+            "the lowest point) and is in metres.",
             stacklevel=2,
         )
     f = lambda v: None if v is None else as_float(v)
