@@ -48,6 +48,7 @@ def setup_times(cache: str) -> tuple[float, float]:
     `cache`) a previous process filled."""
     code = """
 import time, jax, jaxroll
+jaxroll.configure()
 jaxroll.enable_compilation_cache()
 ship, sea = jaxroll.c11_representative(), jaxroll.ITTC(7.0, 10.0)
 out = []
@@ -84,4 +85,7 @@ def main() -> None:
 
 
 if __name__ == "__main__":
+    import jaxroll
+
+    jaxroll.configure()  # float64, XLA:CPU's options, every core a JAX device (docs/architecture.md)
     main()

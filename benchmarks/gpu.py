@@ -107,4 +107,7 @@ def main() -> None:
 
 
 if __name__ == "__main__":
+    import jaxroll
+
+    jaxroll.configure()  # float64, XLA:CPU's options, every core a JAX device (docs/architecture.md)
     main()

@@ -164,4 +164,7 @@ def mesh_benchmark(warm_rounds: int = 3, baseline_tree: str | None = None) -> No
 
 
 if __name__ == "__main__":
+    import jaxroll
+
+    jaxroll.configure()  # float64, XLA:CPU's options, every core a JAX device (docs/architecture.md)
     main()

@@ -288,6 +288,8 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    jax.config.update("jax_enable_x64", True)
+    import jaxroll
+
+    jaxroll.configure()  # float64, XLA:CPU's options, every core a JAX device (docs/architecture.md)
     _ = jnp.zeros(())
     main()

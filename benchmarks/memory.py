@@ -49,6 +49,7 @@ def rss_bytes(name: str, chunk: int, steps: int, dt: float) -> float:
     """Peak RSS growth of one chunk run [bytes per realization-step], in a fresh process."""
     code = f"""
 import resource, jax, jaxroll, jax.numpy as jnp
+jaxroll.configure()
 from jaxroll.roll._monte_carlo import simulate_chunk
 import benchmarks.memory as m
 p = m._problem({dt}); obs = m.OBSERVERS[{name!r}](p)
@@ -82,4 +83,7 @@ def main() -> None:
 
 
 if __name__ == "__main__":
+    import jaxroll
+
+    jaxroll.configure()  # float64, XLA:CPU's options, every core a JAX device (docs/architecture.md)
     main()

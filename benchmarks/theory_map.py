@@ -380,4 +380,7 @@ def draw_figure(results: list[dict], path: str) -> None:
 
 
 if __name__ == "__main__":
+    import jaxroll
+
+    jaxroll.configure()  # float64, XLA:CPU's options, every core a JAX device (docs/architecture.md)
     main()

@@ -3,92 +3,20 @@
 Pipeline: sea spectrum → Grim's effective wave (superposition or a shaping filter) → ΔGM(ζ_mid) → roll equation
 → Monte Carlo → amplitudes → PDFs, theory, maxima, calibration.
 
-jaxroll enables float64 in JAX on import: its statistics, moment equations and tail probabilities need it. It
-also asks XLA:CPU for platform-independent math (`--xla_cpu_enable_platform_dependent_math=false` in XLA_FLAGS,
-unless set), without which a realization's float32 arithmetic depends on the batch it is compiled in
-(docs/architecture.md, "Process-wide settings"), and has XLA:CPU compile each loop that touches under 4 MB as one
-function (`xla_cpu_small_while_loop_byte_threshold` in `--xla_backend_extra_options`, unless set), so that the
-time loops of the Monte Carlo, the ODE solvers and the Kalman filter do not dispatch their kernels one by one at
-every step (faster, the same results). On a CPU it makes every core a JAX device (`jax_num_cpu_devices`, unless
-set), so that the Monte Carlo's realizations run on all cores: XLA runs one device's loop on one core.
+`import jaxroll` changes no global setting of JAX or XLA. Call `jaxroll.configure()` once, first thing after the
+imports: it turns on float64 (which jaxroll's statistics, moment equations and tail probabilities need: without it
+they raise an error that names this call), asks XLA:CPU for platform-independent math (without which a
+realization's float32 arithmetic depends on the batch it is compiled in) and to compile small loops whole (the
+time loops of the Monte Carlo, the ODE solvers and the Kalman filter run faster, with the same results), and on a
+CPU makes every core a JAX device, so that the Monte Carlo's realizations run on all cores (docs/architecture.md,
+"Process-wide settings"). The `jaxroll` command does the same for its own process.
 """
 
 import importlib.metadata
-import os
-
-_MATH_FLAG = "xla_cpu_enable_platform_dependent_math"
-_LOOP_OPTION = "xla_cpu_small_while_loop_byte_threshold"
-#: XLA:CPU compiles a while loop that touches fewer bytes than this as one function (XLA's default: 1024 bytes),
-#: instead of dispatching each of its kernels on every iteration (docs/architecture.md, "Process-wide settings").
-_SMALL_LOOP_BYTES = 4_000_000
-
-
-def _with_jaxroll_flags(flags: str) -> str:
-    """`XLA_FLAGS` with jaxroll's two XLA:CPU settings added where the user has not named them: platform-independent
-    math, and `_SMALL_LOOP_BYTES` as an `--xla_backend_extra_options` entry (XLA merges several such flags)."""
-    words = flags.split()
-    if _MATH_FLAG not in flags:
-        words.append(f"--{_MATH_FLAG}=false")
-    if _LOOP_OPTION not in flags:
-        words.append(f"--xla_backend_extra_options={_LOOP_OPTION}={_SMALL_LOOP_BYTES}")
-    return " ".join(words)
-
-
-_USER_SET_FLAG = _MATH_FLAG in os.environ.get("XLA_FLAGS", "")
-os.environ["XLA_FLAGS"] = _with_jaxroll_flags(os.environ.get("XLA_FLAGS", ""))
-
-import jax  # noqa: E402
-
-jax.config.update("jax_enable_x64", True)
-
-
-def _backends_started() -> bool | None:
-    """Whether JAX has started its backends (after which XLA_FLAGS and the CPU device count are fixed); None when
-    JAX's private API to ask has moved."""
-    try:
-        from jax._src import xla_bridge
-
-        return xla_bridge.backends_are_initialized()
-    except (ImportError, AttributeError):  # pragma: no cover - private API moved
-        return None
-
-
-_STARTED = _backends_started()
-
-
-def _use_every_cpu_core() -> None:
-    """One JAX CPU device per core this process may use (unless the user chose: JAX_NUM_CPU_DEVICES, the config
-    or XLA's device-count flag), before JAX starts its backends; later it cannot change."""
-    chosen = (
-        "JAX_NUM_CPU_DEVICES" in os.environ
-        or "xla_force_host_platform_device_count" in os.environ.get("XLA_FLAGS", "")
-        or jax.config.jax_num_cpu_devices != -1
-    )
-    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
-    if not chosen and _STARTED is False and cores > 1:
-        jax.config.update("jax_num_cpu_devices", cores)
-
-
-_use_every_cpu_core()
-
-
-def _warn_if_started_without_math_flag() -> None:
-    """XLA_FLAGS is read when JAX starts its backends: warn when that happened before jaxroll set the flag."""
-    if _STARTED and not _USER_SET_FLAG:
-        import warnings
-
-        warnings.warn(
-            "JAX was started before jaxroll was imported, so jaxroll could not ask XLA:CPU for platform-independent "
-            "math: Monte Carlo results may then differ (to float round-off) with the chunk size. Import jaxroll "
-            f"first, or set XLA_FLAGS=--{_MATH_FLAG}=false before starting Python.",
-            stacklevel=3,
-        )
-
-
-_warn_if_started_without_math_flag()
 
 from . import criteria as criteria, theory as theory
 from ._compiled import enable_compilation_cache as enable_compilation_cache
+from ._config import configure as configure
 from .calibration import (
     CaptiveFit as CaptiveFit,
     CaptiveGroup as CaptiveGroup,
@@ -170,6 +98,7 @@ from .roll import (
     RollProblem as RollProblem,
     SampledExcitation as SampledExcitation,
     SensitivityResult as SensitivityResult,
+    SplittingResult as SplittingResult,
     SuperpositionExcitation as SuperpositionExcitation,
     SweepResult as SweepResult,
     amplitude_samples as amplitude_samples,
@@ -184,6 +113,7 @@ from .roll import (
     monte_carlo_max_roll as monte_carlo_max_roll,
     monte_carlo_maxima as monte_carlo_maxima,
     monte_carlo_sensitivity as monte_carlo_sensitivity,
+    monte_carlo_splitting as monte_carlo_splitting,
     realization_mesh as realization_mesh,
     roll_acceleration as roll_acceleration,
     roll_time_series as roll_time_series,
@@ -201,10 +131,12 @@ from .sea import (
     EffectiveWave as EffectiveWave,
     FilterFit as FilterFit,
     ShapingFilter as ShapingFilter,
+    breaking_steepness as breaking_steepness,
     encounter_frequency as encounter_frequency,
     encounter_spectrum as encounter_spectrum,
     fit_filter as fit_filter,
     grim_transfer as grim_transfer,
+    sea_steepness as sea_steepness,
     spectral_moment as spectral_moment,
     superpose as superpose,
 )
@@ -224,6 +156,7 @@ from .ship import (
     metacentric_height as metacentric_height,
     parametric_excitation as parametric_excitation,
     restoring_moment as restoring_moment,
+    restoring_potential as restoring_potential,
     righting_lever as righting_lever,
     ship_from_hull as ship_from_hull,
     vanishing_angle as vanishing_angle,

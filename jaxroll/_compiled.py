@@ -51,6 +51,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from . import _cache_files as files
+from ._config import require_float64
 
 _FORMAT = "2"  # bump to invalidate every stored program
 _PACKAGE = pathlib.Path(__file__).resolve().parent
@@ -310,6 +311,8 @@ def cached_program(fn: Callable | None = None, *, compiler_options: dict | None 
 
     @functools.wraps(fn)
     def wrapper(*args):
+        if not jax.config.jax_enable_x64:  # a safety net: the public entry points check first, by their names
+            require_float64(name)
         found = entry_for(args)
         if found is None:
             return jitted(*args)
@@ -334,6 +337,8 @@ def cached_program(fn: Callable | None = None, *, compiler_options: dict | None 
                     tuple((x.shape, x.dtype, getattr(x, "weak_type", False), getattr(x, "sharding", None))
                           for x in leaves))
             if memo.get("kind") != kind:
+                if not jax.config.jax_enable_x64:
+                    require_float64(name)
                 found = entry_for((*fixed, *rest))
                 if found is None:
                     return jitted(*fixed, *rest)
@@ -379,14 +384,15 @@ def filter_jit(fn: Callable | None = None, *, compiler_options: dict | None = SO
     if fn is None:
         return functools.partial(filter_jit, compiler_options=compiler_options)
     plain = eqx.filter_jit(fn)
-    if not compiler_options:
-        return plain
-    tuned = eqx.filter_jit(fn, compiler_options=compiler_options)
-    items = tuple(sorted(compiler_options.items()))
+    tuned = eqx.filter_jit(fn, compiler_options=compiler_options) if compiler_options else plain
+    items = tuple(sorted((compiler_options or {}).items()))
+    name = f"{fn.__module__}.{fn.__qualname__}"
 
     @functools.wraps(fn)
     def wrapper(*args, **kwargs):
-        if _on_cpu(compiler_options) and is_concrete((args, kwargs)) and _accepted(items):
+        if not jax.config.jax_enable_x64:  # a safety net: the public entry points check first, by their names
+            require_float64(name)
+        if compiler_options and _on_cpu(compiler_options) and is_concrete((args, kwargs)) and _accepted(items):
             try:
                 return tuned(*args, **kwargs)
             except ValueError as e:  # inside another trace after all (a tracer in a closure)

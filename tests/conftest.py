@@ -19,7 +19,7 @@ os.environ["JAXROLL_CACHE_DIR"] = os.environ["JAXROLL_TEST_SESSION_CACHE"]
 os.environ["JAX_COMPILATION_CACHE_DIR"] = os.environ["JAXROLL_CACHE_DIR"]
 os.environ["JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS"] = "0.2"
 # Under pytest-xdist the workers already use every core: one JAX CPU device each (not one per core, which
-# `import jaxroll` would choose). Multi-device runs are tested in child processes (test_scaling, test_compiled).
+# `jaxroll.configure()` would choose). Multi-device runs are tested in child processes (test_scaling, test_compiled).
 if "PYTEST_XDIST_WORKER" in os.environ:
     os.environ.setdefault("JAX_NUM_CPU_DEVICES", "1")
 
@@ -29,10 +29,12 @@ import jax
 import jax.random as jr
 import pytest
 
-import jaxroll  # noqa: F401  (enables float64)
+import jaxroll
 from jaxroll import _compiled
 
-jax.config.update("jax_enable_x64", True)
+# As users are told to (README, docs/architecture.md): float64, XLA:CPU's platform-independent math and small loops
+# compiled whole, one CPU device per core (one per worker under xdist, above) — before JAX starts its backends.
+jaxroll.configure()
 # Strict dtype promotion (as diffrax/equinox test): an implicit float32 → float64 or int → float mix is an error,
 # so a silent precision loss in the library cannot hide behind the tests.
 jax.config.update("jax_numpy_dtype_promotion", "strict")

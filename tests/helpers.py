@@ -91,3 +91,101 @@ def run_notebook(name: str, tmp_path, monkeypatch) -> dict:
             jax.config.update(s, v)
         sys.displayhook, sys.excepthook = hooks
         plt.close("all")
+
+
+def assert_labelled_output(folder, stem: str) -> None:
+    """A command's netCDF (`<stem>.nc`) beside its JSON (`<stem>.json`): it opens with plain
+    `xarray.open_dataset`, every variable and coordinate has a long name and (numbers) units, the attributes hold
+    the versions and the configuration, and it round-trips the JSON's numbers: each variable's values equal the
+    JSON field its `json_path` names (label by label), and every number of the JSON (outside `config`) is in a
+    variable, in a text attribute, or in a field the file declares not stored (`json_fields_not_stored`)."""
+    import json
+
+    import xarray as xr
+
+    folder = Path(folder)
+    payload = json.loads((folder / f"{stem}.json").read_text())
+    with xr.open_dataset(folder / f"{stem}.nc") as ds:
+        ds = ds.load()
+    for key in ("jaxroll_version", "jax_version", "jaxlib_version", "backend", "device_kind"):
+        assert ds.attrs.get(key), f"{stem}.nc has no {key} attribute"
+    assert ds.attrs["jaxroll_version"] == payload["jaxroll_version"] == jxr.__version__
+    assert json.loads(ds.attrs["config_json"]) == payload["config"]
+    for name, var in ds.variables.items():
+        assert var.attrs.get("long_name"), f"{stem}.nc: {name} has no long_name"
+        if var.dtype.kind not in "USO":  # text labels have no unit
+            assert var.attrs.get("units"), f"{stem}.nc: {name} has no units"
+    labels = {str(v) for c in ds.coords.values() if c.dtype.kind in "US" for v in c.values}
+    seen = set()
+
+    def values_at(node, parts, dims, index, concrete):
+        """(value, concrete path) of the JSON at `parts`, `{dim}` taken from the coordinate at `index`."""
+        for part in parts:
+            if part.startswith("{"):
+                dim = part[1:-1]
+                want = ds[dim].values[index[dim]].item() if dim in ds.coords else index[dim]
+                if isinstance(node, list):
+                    if not isinstance(want, int) or want >= len(node):
+                        return None, None
+                    key = want
+                else:
+                    keys = [k for k in node if k == str(want) or _same_number(k, want)]
+                    if not keys:
+                        return None, None
+                    key = keys[0]
+                node, concrete = node[key], (*concrete, str(key))
+            else:
+                if not isinstance(node, dict) or part not in node:
+                    return None, None
+                node, concrete = node[part], (*concrete, part)
+        return node, concrete
+
+    for name, var in ds.variables.items():
+        path = var.attrs.get("json_path")
+        if path is None:
+            continue
+        parts = path.split("/")
+        label_dims = [p[1:-1] for p in parts if p.startswith("{")]
+        for idx in np.ndindex(*(ds.sizes[d] for d in label_dims)):
+            index = dict(zip(label_dims, idx, strict=True))
+            node, concrete = values_at(payload, parts, label_dims, index, ())
+            got = var.isel({d: i for d, i in index.items()}).values
+            if concrete is None:  # a label this field does not have (e.g. a theory without closure order)
+                assert got.dtype.kind in "US" or np.all(np.isnan(np.asarray(got, float))), (stem, name, index)
+                continue
+            if got.dtype.kind in "US":
+                assert list(np.atleast_1d(got)) == (node if isinstance(node, list) else [node]), (stem, name)
+            else:
+                expect = np.array(node, dtype=float) if node is not None else np.full(got.shape, np.nan)
+                np.testing.assert_array_equal(np.where(np.isfinite(got), got, np.nan).astype(float), expect,
+                                              err_msg=f"{stem}.nc {name} at {index} vs {'/'.join(concrete)}")
+            seen.add(concrete)
+    skipped = set(json.loads(ds.attrs.get("json_fields_not_stored", "{}")))
+
+    def numbers(node, path):
+        if isinstance(node, dict):
+            for k, v in node.items():
+                yield from numbers(v, (*path, str(k)))
+        elif isinstance(node, list) and node and all(isinstance(v, dict) for v in node):
+            for i, v in enumerate(node):
+                yield from numbers(v, (*path, str(i)))
+        elif isinstance(node, bool | int | float) or (isinstance(node, list) and any(
+                isinstance(v, bool | int | float | list) for v in node)):
+            yield path
+
+    missing = []
+    for path in numbers({k: v for k, v in payload.items() if k not in ("config", "jaxroll_version")}, ()):
+        if any(path[: len(p)] == p for p in seen) or "/".join(path[:1]) in skipped:
+            continue
+        kept = [p for p in path if p not in labels and not p.isdigit()]
+        if any("_".join(kept[:k]) in ds.attrs for k in range(1, len(kept) + 1)):  # stored as JSON text
+            continue
+        missing.append("/".join(path))
+    assert not missing, f"{stem}.json numbers not in {stem}.nc: {missing[:10]}"
+
+
+def _same_number(key: str, value) -> bool:
+    try:
+        return float(key) == float(value)
+    except (TypeError, ValueError):
+        return False

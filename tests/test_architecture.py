@@ -52,7 +52,7 @@ def test_imports_run_downward(stage):
                 pytest.fail(f"{path.relative_to(ROOT)} imports matplotlib")
             if target[0] != "jaxroll" or len(target) < 2:
                 continue
-            if target[1] in ("__version__", "_compiled", "_display"):  # infrastructure every stage may use (no numerics)
+            if target[1] in ("__version__", "_compiled", "_display", "_labels", "_config"):  # infrastructure every stage may use (no numerics)
                 continue
             assert target[1] in ALLOWED[stage], f"{path.relative_to(ROOT)} imports jaxroll.{target[1]}"
 
@@ -66,7 +66,10 @@ def test_cli_and_notebooks_use_public_names():
     offenders = []
     for path in (PKG / "_cli").glob("*.py"):
         for target in _imports(path):
-            if target[0] == "jaxroll" and len(target) > 2 and target[1] != "_cli" and target[2].startswith("_"):
+            if target[0] != "jaxroll" or len(target) < 2 or target[1] == "_cli":
+                continue
+            private = [part for part in target[1:3] if part.startswith("_") and not part.startswith("__")]
+            if private:  # a private module of jaxroll (`jaxroll._compiled`) or of a stage (`jaxroll.theory._named`)
                 offenders.append((path.name, ".".join(target)))
     for nb in (ROOT / "notebooks").glob("*.ipynb"):
         for cell in json.loads(nb.read_text())["cells"]:
@@ -74,3 +77,11 @@ def test_cli_and_notebooks_use_public_names():
             if "jaxroll." in src and any(f"jaxroll.{s}._" in src or "from jaxroll._" in src for s in CORE + ("plotting",)):
                 offenders.append((nb.name, "private import"))
     assert not offenders, offenders
+
+
+def test_notebooks_configure_jaxroll_first():
+    """`import jaxroll` changes no JAX setting: every notebook opts in (`configure()`) in its first code cell, before
+    any computation, as users are told to (README, docs/architecture.md)."""
+    for nb in sorted((ROOT / "notebooks").glob("*.ipynb")):
+        first = next(c for c in json.loads(nb.read_text())["cells"] if c["cell_type"] == "code")
+        assert ".configure()" in "".join(first["source"]), nb.name

@@ -16,7 +16,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
-from helpers import run_notebook
+from helpers import assert_labelled_output, run_notebook
 
 import jaxroll as jxr
 from jaxroll.calibration import (
@@ -393,6 +393,7 @@ def test_cli_tank_then_calibrate_decay(tmp_path, capsys):
         assert abs(e["value"] - truth_b) < K * e["std_error"]
         assert getattr(ship, "damping")[NAMES.index(name)] == pytest.approx(max(e["value"], 0.0), rel=1e-12)
     assert (out / "extinction.png").stat().st_size > 0 and (out / "decay_fit.png").stat().st_size > 0
+    assert_labelled_output(out, "calibration")
     assert main(["calibrate", "decay", str(tmp_path / "missing.csv"), "--out", str(out)]) == 2
     assert "does not exist" in capsys.readouterr().err
 
@@ -410,6 +411,7 @@ def test_cli_calibrate_captive_on_example_records(tmp_path):
     ls = cal["estimates"]["ls_scale"]
     assert abs(float(ship.gm_correction) - ls["value"]) < 1e-12
     assert abs(ls["value"] - 0.8) < K * ls["std_error"] + 1e-3  # the examples' truth is 0.8
+    assert_labelled_output(out, "calibration")
 
 
 def test_notebook_04_runs_in_smoke_mode(tmp_path, monkeypatch):

@@ -6,6 +6,7 @@ import subprocess
 
 import numpy as np
 import pytest
+from helpers import assert_labelled_output
 
 import jaxroll
 from jaxroll._cli import main
@@ -26,6 +27,7 @@ def test_pdf_writes_figures_and_json(tmp_path, capsys):
     assert code == 0
     for name in ("pdf_linear.png", "pdf_log.png", "pdf.json"):
         assert (out / name).stat().st_size > 0
+    assert_labelled_output(out, "pdf")  # pdf.nc: the JSON's numbers, the histograms, the per-trial arrays
     d = json.loads((out / "pdf.json").read_text())
     assert d["jaxroll_version"] == jaxroll.__version__
     assert d["config"]["ship"]["name"] == "C11 (representative)" and "representative" in d["config"]["ship_note"]
@@ -137,6 +139,7 @@ def test_maxima_command(tmp_path):
         assert p["mean_deg"] == pytest.approx(np.trapezoid(grid * exact, grid) / p["mass_on_grid"])
     for name in ("maxima_linear.png", "maxima_log.png", "maxima_N0_10.png", "maxima_N0_30.png"):
         assert (tmp_path / name).stat().st_size > 0
+    assert_labelled_output(tmp_path, "maxima")
 
 
 def _maxima_and_risk_with_the_moment_method(tmp_path, capsys):
@@ -157,7 +160,7 @@ def _maxima_and_risk_with_the_moment_method(tmp_path, capsys):
     code = main(["risk", "--hs", "5", "--angle", "20", "--hours", "3", "--realizations", "8", "--duration", "1200",
                  "--theory", "moment", "--out", str(tmp_path / "risk"), "--quiet"])
     assert code == 0
-    line = [x for x in capsys.readouterr().out.splitlines() if x.startswith("moment:")]
+    line = [x for x in capsys.readouterr().out.splitlines() if x.startswith("moment (independent amplitudes):")]
     assert line and line[0].endswith("closure order 4: order 6 has no stable fixed point here"), line
     d = json.loads((tmp_path / "risk" / "risk.json").read_text())
     assert d["moment"]["theory_details"]["closure_fallback"] and 0 <= d["moment"]["probability"] <= 1
@@ -243,8 +246,32 @@ def test_risk_command(tmp_path, capsys):
     assert curve["direct"][i] == pytest.approx(direct["probability"])
     assert np.all(np.diff(curve["direct"]) <= 0) and np.all(np.diff(curve["monte_carlo"]) <= 1e-12)
     assert (tmp_path / "risk.png").stat().st_size > 0
+    assert_labelled_output(tmp_path, "risk")  # with each trial's largest roll (direct_max_abs_phi_deg)
     assert main(["risk", "--angle", "95", "--out", str(tmp_path)]) == 2
     assert "--angle must be in (0, 90)" in capsys.readouterr().err
+
+
+def test_risk_first_passage(tmp_path, capsys):
+    """`risk --theory first_passage`: the envelope FPK model followed through the exposure, in risk.json (with
+    the group statistics), on the risk curve (equal to the headline probability at the threshold) and in risk.nc;
+    it is below the same model's independent-amplitude probability (large rolls come in groups)."""
+    code = main(["risk", "--hs", "6", "--angle", "30", "--hours", "1", "--realizations", "8", "--duration", "1200",
+                 "--theory", "first_passage", "--out", str(tmp_path), "--quiet"])
+    assert code == 0
+    d = json.loads((tmp_path / "risk.json").read_text())
+    f = d["first_passage"]
+    assert d["config"]["theory"] == ["first_passage"]
+    assert 0.3 < f["probability"] < 0.5  # 40 000 Monte Carlo trials: 0.407 (benchmarks/data)
+    assert f["probability"] < f["independent_probability"]
+    assert f["amplitudes_per_cluster"] > 1.5 and f["clusters_per_hour"] > 0 and f["exists"]
+    assert 0 < f["capsize_probability"] < 1e-3
+    curve = d["curve"]
+    i = curve["angle_deg"].index(30.0)
+    assert curve["first_passage"][i] == pytest.approx(f["probability"], rel=0.02)  # interpolated between levels
+    assert "first_passage (envelope FPK followed through the exposure)" in capsys.readouterr().out
+    assert_labelled_output(tmp_path, "risk")
+    assert main(["risk", "--theory", "first_passage,nonsense", "--out", str(tmp_path)]) == 2
+    assert "unknown method" in capsys.readouterr().err
 
 
 def test_theory_command(tmp_path, capsys):
@@ -258,6 +285,7 @@ def test_theory_command(tmp_path, capsys):
         np.testing.assert_allclose(np.sum(np.array(t["pdf"]) * np.diff(edges)), 1.0, atol=1e-3)
         assert 0 < t["quantiles_deg"]["50"] < t["quantiles_deg"]["99"]
     assert (tmp_path / "theory_log.png").stat().st_size > 0
+    assert_labelled_output(tmp_path, "theory")
 
 
 def test_theory_default_set_leaves_out_the_theories_without_a_law(tmp_path, capsys, monkeypatch):
@@ -349,6 +377,7 @@ def test_pdf_all_capsized_reports_null_not_invented_numbers(tmp_path, monkeypatc
     printed = capsys.readouterr().out
     assert "no statistics:" in printed and "nan" not in printed.lower()
     assert (out / "pdf_linear.png").stat().st_size > 0
+    assert_labelled_output(out, "pdf")  # the nulls are NaN in pdf.nc
 
 
 def test_pdf_warns_when_the_roll_is_not_stationary(tmp_path, monkeypatch, capsys):
@@ -778,6 +807,7 @@ def test_sensitivity_command(tmp_path, capsys):
     assert g["b1"]["theory"]["envelope_fpk"] < 0 and g["gm_correction"]["theory"]["envelope_fpk"] > 0
     assert d["estimator"]["n_realizations"] == 16
     assert (tmp_path / "sensitivity.png").stat().st_size > 0
+    assert_labelled_output(tmp_path, "sensitivity")
 
 
 def test_a_filter_that_cannot_follow_the_sea_says_to_use_superposition(tmp_path, capsys):

@@ -182,6 +182,7 @@ import jaxroll
 from jaxroll import _compiled
 from jaxroll.roll import _sharding
 
+jaxroll.configure()
 assert jax.device_count() == 2, jax.devices()
 # jaxroll's store in a folder of its own; XLA's cache is the test session's (inherited through the environment)
 folder = _compiled.pathlib.Path(sys.argv[1]) / "jaxroll-programs"
@@ -209,7 +210,7 @@ print("new programs", sum(1 for p in folder.glob("*.npz") if p.stat().st_size > 
 
 
 def test_stored_monte_carlo_program_over_two_devices_equals_a_traced_one(tmp_path):
-    """The Monte Carlo chunk sharded over two CPU devices (as `import jaxroll` makes of two cores), from a
+    """The Monte Carlo chunk sharded over two CPU devices (as `jaxroll.configure()` makes of two cores), from a
     stored program: the same numbers as traced, also when loaded from disk (in a child process: the devices are
     fixed when JAX starts)."""
     import os
@@ -227,6 +228,7 @@ _SET_UP_CHILD = """
 import jax, numpy as np
 import jaxroll
 
+jaxroll.configure()
 compiles = []
 jax.monitoring.register_event_duration_secs_listener(
     lambda event, secs, **kw: compiles.append(event) if event == "/jax/core/compile/backend_compile_duration" else None)

@@ -10,7 +10,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
-from helpers import run_notebook
+from helpers import assert_labelled_output, run_notebook
 
 import jaxroll  # noqa: F401  (enables float64)
 from jaxroll import (
@@ -562,6 +562,7 @@ def test_cli_end_to_end_c11(tmp_path, c11_solution, capsys):
     assert data["balance_check"]["all_converged"] is True
     assert set(data["fits"]["delta_gm_coefficients"]) == {f"c{k}" for k in range(7)}
     close(data["calm_water"]["gm_m"], c11_solution.gm0, rtol=1e-12, atol=0)
+    assert_labelled_output(out, "hydrostatics")
 
 
 def test_cli_errors(tmp_path, box, capsys):

@@ -23,13 +23,16 @@ from helpers import rel
 
 import jaxroll as jxr
 from jaxroll.theory import (
-    AmplitudeFamily,
     PolynomialSDE,
-    fit_amplitude_family,
     moment_equations,
     moment_pdf,
     roll_sde,
     stationary_moments,
+)
+from jaxroll.theory._moments import (  # the moment method's own
+    AmplitudeFamily,
+    _tabulated_law,
+    fit_amplitude_family,
 )
 
 SHIP = jxr.c11_representative()
@@ -239,8 +242,10 @@ def test_amplitude_family_fit_reproduces_its_moments():
     fam, res, _ = fit_amplitude_family(target)
     assert float(res) < 1e-10
     np.testing.assert_allclose(fam.moment(jnp.array([2.0, 4.0, 6.0])), target, rtol=1e-9, atol=0)
-    q = fam.quantile(jnp.array([0.5, 0.9, 0.99]))
-    np.testing.assert_allclose(fam.cdf(q), [0.5, 0.9, 0.99], rtol=0, atol=1e-10)
+    # the law the moment method tabulates from it (MomentSolution's) has the family's quantiles, to the
+    # tabulation's accuracy (here ν = 0.32: its first cells miss ~2e-3 of the probability near A = 0, measured)
+    q = _tabulated_law(fam, SHIP, "envelope").quantile(jnp.array([0.5, 0.9, 0.99]))
+    np.testing.assert_allclose(fam.cdf(q), [0.5, 0.9, 0.99], rtol=0, atol=2.5e-3)
 
 
 # ------------------------------------------------------------------------------------------------------------
@@ -301,7 +306,8 @@ def test_default_ship_order4_order6_vs_monte_carlo(ship_solutions, monte_carlo_7
     fam, _, _ = fit_amplitude_family(jnp.asarray([np.sum(w * mid**k) for k in (2, 4, 6)]))
     np.testing.assert_allclose(np.rad2deg(float(fam.mean())), mean_mc, rtol=0.02, atol=0)
     np.testing.assert_allclose(
-        np.rad2deg(fam.quantile(jnp.array([0.5, 0.99]))), q_mc[[0, 2]], rtol=0.02, atol=0
+        np.rad2deg(_tabulated_law(fam, SHIP, "envelope").quantile(jnp.array([0.5, 0.99]))), q_mc[[0, 2]],
+        rtol=0.02, atol=0,
     )
 
 

@@ -16,12 +16,12 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
-from helpers import default_problem
+from helpers import assert_labelled_output, default_problem
 
 import jaxroll
 from jaxroll import monte_carlo_max_roll, realization_mesh, wilson_interval
 from jaxroll._cli import main
-from jaxroll.roll._sharding import CHECKPOINT_FILE
+from jaxroll.roll._sharding import CHECKPOINT_FILE, _content_digest
 
 N = 7  # odd: divides neither 2 nor 4 devices, so every sharded run pads its last chunk
 DURATION = 300.0
@@ -39,6 +39,8 @@ CHILD = textwrap.dedent(
     import numpy as np
     import jaxroll
     from jaxroll import monte_carlo_max_roll
+
+    jaxroll.configure()  # float64, platform-independent math: results independent of the devices, bit for bit
 
     problem = pickle.load(open(problem_file, "rb"))
     key = jax.random.key(11)
@@ -298,18 +300,97 @@ def test_foreign_checkpoint_is_refused(problem, finished_checkpoint, tmp_path, c
             _amplitudes(problem, checkpoint=tmp_path, **kwargs)
 
 
-def test_checkpoint_without_a_statistic_this_run_records_is_refused(problem, finished_checkpoint, tmp_path):
+def _read_checkpoint(folder):
+    with np.load(folder / CHECKPOINT_FILE) as data:
+        return {k: data[k] for k in data.files}
+
+
+def _write_checkpoint(folder, contents, *, digest="recompute"):
+    """Write `contents` as a checkpoint with its content digest recomputed (as an editor who knows the format
+    would), kept as it was read ("keep"), or without one ("none")."""
+    contents = dict(contents)
+    if digest == "recompute":
+        contents.pop("digest")
+        contents["digest"] = np.array(_content_digest(contents))
+    elif digest == "none":
+        contents.pop("digest")
+    np.savez(folder / CHECKPOINT_FILE, **contents)
+
+
+def test_checkpoint_without_a_statistic_this_run_records_is_refused(problem, tmp_path):
     """A checkpoint written by a jaxroll whose observer recorded fewer per-realization statistics (here: no
     `sum_env_first_half`, as before the stationarity check) is refused on resume, not completed with zeros for
     the realizations it holds."""
-    with np.load(finished_checkpoint[0] / CHECKPOINT_FILE) as data:
-        contents = {k: data[k] for k in data.files if k != "per/sum_env_first_half"}
-    contents["next_start"] = np.array(4)  # interrupted after two chunks of two
-    contents = {k: (v[:4] if k.startswith("per/") else v) for k, v in contents.items()}
-    np.savez(tmp_path / CHECKPOINT_FILE, **contents)
+
+    def stop_after_two_chunks(done):
+        if done >= 4:
+            raise Interrupt
+
+    with pytest.raises(Interrupt):
+        _amplitudes(problem, checkpoint=tmp_path, checkpoint_every=1, progress=stop_after_two_chunks)
+    contents = {k: v for k, v in _read_checkpoint(tmp_path).items() if k != "per/sum_env_first_half"}
+    assert int(contents["next_start"]) == 4  # interrupted after two chunks of two
+    _write_checkpoint(tmp_path, contents)
     with pytest.raises(ValueError, match=r"records other statistics than this run \(only in the checkpoint: none; "
                                          r"only in this run: sum_env_first_half\).*Delete"):
         _amplitudes(problem, checkpoint=tmp_path)
+
+
+@pytest.mark.parametrize(
+    "edit, digest, message",
+    [
+        # issue 37: a hand-edited histogram moved the median from 7.75° to 23.4°, silently
+        ("histogram", "keep", r"has been changed since jaxroll wrote it \(its content digest does not match\)"),
+        ("histogram", "recompute", r"is inconsistent \(the zero-crossing histogram holds \d+ amplitudes \(merged included\), "
+                            r"the realizations \d+; next start 5\)"),
+        # a rewound next_start (per-realization arrays cut to match) double-counted: n_amplitudes 1.17 M → 1.76 M
+        ("next_start", "recompute", r"is inconsistent \(the zero-crossing histogram .*the envelope histogram .*next start 4\)"),
+        ("envelope", "recompute", r"is inconsistent \(the envelope histogram holds"),
+        ("capsized", "recompute", r"is inconsistent \(a capsized realization has amplitudes"),
+        ("none", "none", r"has no content digest: it was written by an older jaxroll"),
+    ],
+)
+def test_edited_checkpoint_is_refused(problem, finished_checkpoint, tmp_path, edit, digest, message):
+    """Issue 37 item 5: a checkpoint carries a content digest, and its totals must add up to its per-realization
+    records; an edited one is refused, not resumed."""
+    contents = _read_checkpoint(finished_checkpoint[0])
+    if edit == "histogram":
+        contents["summed/counts_zero_crossing"] = contents["summed/counts_zero_crossing"].copy()
+        contents["summed/counts_zero_crossing"][400:500] += 50.0
+    elif edit == "envelope":
+        contents["summed/counts_envelope"] = contents["summed/counts_envelope"] * 2
+    elif edit == "next_start":
+        contents["next_start"] = np.array(4)
+        contents = {k: (v[:4] if k.startswith("per/") else v) for k, v in contents.items()}
+    elif edit == "capsized":
+        contents["per/capsized"] = np.ones_like(contents["per/capsized"])
+    _write_checkpoint(tmp_path, contents, digest=digest)
+    with pytest.raises(ValueError, match=message + r".*Delete .* or pass another checkpoint directory"):
+        _amplitudes(problem, checkpoint=tmp_path)
+
+
+def test_edited_streaming_checkpoints_are_refused(problem, tmp_path):
+    """The maxima and largest-roll observers check their checkpoints too (counts against maxima, n_exceeded against
+    the trials)."""
+    kw = dict(num_realizations=4, duration=DURATION, chunk_size=2, checkpoint_every=1)
+    maxima = jaxroll.monte_carlo_maxima(problem, jax.random.key(1), n0=(2, 4), discard=0.0, checkpoint=tmp_path / "mx",
+                                        **kw)
+    roll = monte_carlo_max_roll(problem, jax.random.key(1), angle_deg=3.0, checkpoint=tmp_path / "mr", **kw)
+    again = jaxroll.monte_carlo_maxima(problem, jax.random.key(1), n0=(2, 4), discard=0.0, checkpoint=tmp_path / "mx",
+                                       **kw)  # an unedited checkpoint is accepted
+    np.testing.assert_array_equal(again.maxima_deg, maxima.maxima_deg)
+    contents = _read_checkpoint(tmp_path / "mx")
+    contents["per/maxima"] = contents["per/maxima"].copy()
+    contents["per/maxima"][0, 1] = contents["per/maxima"][0, 0] / 2  # N0 = 4's maximum below N0 = 2's
+    _write_checkpoint(tmp_path / "mx", contents)
+    with pytest.raises(ValueError, match=r"is inconsistent \(.*maximum of more amplitudes is below"):
+        jaxroll.monte_carlo_maxima(problem, jax.random.key(1), n0=(2, 4), discard=0.0, checkpoint=tmp_path / "mx", **kw)
+    contents = _read_checkpoint(tmp_path / "mr")
+    contents["summed/n_exceeded"] = contents["summed/n_exceeded"] + 1
+    _write_checkpoint(tmp_path / "mr", contents)
+    with pytest.raises(ValueError, match=rf"is inconsistent \(n_exceeded = {roll.n_exceeded + 1}, but "
+                                         rf"{roll.n_exceeded} trials exceeded the angle"):
+        monte_carlo_max_roll(problem, jax.random.key(1), angle_deg=3.0, checkpoint=tmp_path / "mr", **kw)
 
 
 def test_pdf_cli_checkpoint(tmp_path, capsys):
@@ -342,7 +423,7 @@ def test_pdf_cli_checkpoint(tmp_path, capsys):
 
 
 def test_every_cpu_core_is_a_device_unless_the_user_chose():
-    code = "import os, jaxroll, jax; print(jax.device_count(), len(os.sched_getaffinity(0)))"
+    code = "import os, jax, jaxroll; jaxroll.configure(); print(jax.device_count(), len(os.sched_getaffinity(0)))"
     env = {k: v for k, v in os.environ.items() if k not in ("JAX_NUM_CPU_DEVICES", "XLA_FLAGS")}
     env["JAX_PLATFORMS"] = "cpu"
     devices, cores = map(int, subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True,
@@ -353,9 +434,10 @@ def test_every_cpu_core_is_a_device_unless_the_user_chose():
     assert out.split()[0] == "1"
 
 
-def test_small_loops_compile_as_one_function_and_user_flags_are_kept():
-    # jaxroll's XLA_FLAGS (set on import, before JAX started here): a loop over a 32 kB carry — over XLA's default
-    # 1 kB, under jaxroll's 4 MB — is compiled as one function (a "small call"), not kernel by kernel
+def test_small_loops_compile_as_one_function():
+    # jaxroll.configure()'s XLA_FLAGS (tests/conftest.py, before JAX started here): a loop over a 32 kB carry —
+    # over XLA's default 1 kB, under jaxroll's 4 MB — is compiled as one function (a "small call"), not kernel by
+    # kernel (the user's own flags are kept: tests/test_configure.py)
     def loop(x):
         return jax.lax.fori_loop(0, 10, lambda i, x: jnp.sin(x) * 1.01, x)
 
@@ -365,17 +447,6 @@ def test_small_loops_compile_as_one_function_and_user_flags_are_kept():
     for _ in range(10):
         want = np.sin(want) * 1.01
     np.testing.assert_allclose(np.asarray(jax.jit(loop)(x)), want, rtol=1e-14)  # and computed right
-    added = jaxroll._with_jaxroll_flags("")
-    assert added == ("--xla_cpu_enable_platform_dependent_math=false "
-                     "--xla_backend_extra_options=xla_cpu_small_while_loop_byte_threshold=4000000")
-    # the user's choices stay; their own extra options are kept beside jaxroll's (XLA merges the flags)
-    mine = ("--xla_cpu_enable_platform_dependent_math=true "
-            "--xla_backend_extra_options=xla_cpu_small_while_loop_byte_threshold=8")
-    assert jaxroll._with_jaxroll_flags(mine) == mine
-    other = "--xla_backend_extra_options=xla_cpu_disable_loop_unrolling=true"
-    assert jaxroll._with_jaxroll_flags(other).split() == [
-        other, "--xla_cpu_enable_platform_dependent_math=false",
-        "--xla_backend_extra_options=xla_cpu_small_while_loop_byte_threshold=4000000"]
 
 
 def test_devices_argument():
@@ -460,6 +531,7 @@ def test_sweep_cli_writes_map_and_json(tmp_path, capsys):
     np.testing.assert_array_equal(np.array(d["exceedance_probability"]), counts / 5)
     assert np.all(counts >= np.array(d["n_capsized"]))
     assert len(d["points"]) == 4 and d["points"][0]["hs_m"] == 5.0
+    assert_labelled_output(out, "sweep")
     # The 7 m, T01 = 10 s point equals the stand-alone Monte Carlo with the same seed (common random numbers).
     problem = jaxroll.RollProblem.from_sea(jaxroll.c11_representative(), jaxroll.ITTC(7.0, 10.0))
     stats = monte_carlo_max_roll(

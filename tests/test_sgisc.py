@@ -14,7 +14,7 @@ import math
 import equinox as eqx
 import numpy as np
 import pytest
-from helpers import NOTEBOOKS, run_notebook
+from helpers import NOTEBOOKS, assert_labelled_output, run_notebook
 
 import jaxroll as jxr
 from jaxroll import criteria as cr
@@ -268,6 +268,7 @@ def test_cli_sgisc_c11_level1_and_c1(tmp_path, capsys, monkeypatch):
     data = json.loads((out / "sgisc.json").read_text())
     assert data["level1"]["vulnerable"] is True and len(data["level2_c1"]["cases"]) == 16
     assert data["level2_c2"] is None and (out / "c1_cases.png").is_file()
+    assert_labelled_output(out, "sgisc")
     # No confident verdict from unverified standards: the caution is printed and recorded (issue 13/16).
     assert "Caution: the Level-2 standards" in printed and data["level2_standards_verified"] is False
 
@@ -306,3 +307,4 @@ def test_cli_sgisc_stl_end_to_end_with_c2_and_kgmax(tmp_path, capsys, monkeypatc
     for name in ("c1_cases.png", "c2_cases.png", "roll_vs_speed.png", "kgmax.png", "ship.toml", "hull.toml"):
         assert (out / name).stat().st_size > 0
     assert "source" in (out / "ship.toml").read_text()
+    assert_labelled_output(out, "sgisc")  # with C2 (per case, per sea state) and the KGmax curves

@@ -15,6 +15,7 @@ import jax.numpy as jnp
 import jax.random as jr
 import numpy as np
 import pytest
+from helpers import assert_labelled_output
 
 import jaxroll as jxr
 from jaxroll.calibration import (
@@ -300,6 +301,7 @@ def test_cli_time_domain_end_to_end(records, tmp_path, capsys):
     assert float(ship.gm_correction) == pytest.approx(cal["estimates"]["gm_correction"]["value"], rel=1e-12)
     for name in ("roll_fit.png", "residual_spectrum.png"):
         assert (out / name).stat().st_size > 0
+    assert_labelled_output(out, "calibration")
 
 
 def test_cli_checks_before_computing(records, tmp_path, capsys, monkeypatch):

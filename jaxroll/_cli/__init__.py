@@ -57,22 +57,28 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.command is None:
         parser.print_help()
         return 2
+    from .. import configure
     from ._common import WARNINGS
 
     WARNINGS.clear()
     with warnings.catch_warnings():
         warnings.showwarning = functools.partial(_warning_line, args.command)
+        # The command's own process, set up fully: float64, XLA:CPU's platform-independent math and small loops
+        # compiled whole, one JAX device per CPU core (docs/architecture.md, "Process-wide settings").
+        configure()
         return _run(args)
 
 
 def _warning_line(command: str, message, category, filename, lineno, file=None, line=None) -> None:
     """A warning of the library (or of the libraries under it) as the command shows it: one line on stderr,
-    `jaxroll COMMAND: warning: …` (no source path or code line), and kept for the JSON it writes (`warnings`)."""
+    `jaxroll COMMAND: warning: …` (no source path or code line; a message already shown is not shown again), and
+    kept for the JSON it writes (`warnings`)."""
     from ._common import WARNINGS
 
     text = str(message)
+    if text not in WARNINGS:  # once: a check made before the computation and again inside it says it once
+        print(f"jaxroll {command}: warning: {text}", file=sys.stderr)
     WARNINGS.append(text)
-    print(f"jaxroll {command}: warning: {text}", file=sys.stderr)
 
 
 def _run(args) -> int:

@@ -48,13 +48,36 @@ WARNINGS: list[str] = []
 
 
 def write_json(path: str | Path, payload: dict[str, Any]) -> None:
-    """Write `payload` as JSON atomically, with `jaxroll_version` first and the command's `warnings` (if any)."""
+    """Write `payload` as JSON atomically, with `jaxroll_version` first, then the payload's fields, `versions`
+    (`jaxroll.io.provenance()`: the versions of jaxroll, JAX, jaxlib and the libraries under it, the backend, the
+    device kind and whether float64 was on — what the bit-for-bit claims depend on; the fields of the netCDF
+    files' attributes) and the command's `warnings` (if any)."""
     from .. import __version__
+    from ..io import provenance
 
-    data = {"jaxroll_version": __version__, **payload}
+    data = {"jaxroll_version": __version__, **payload, "versions": provenance()}
     if WARNINGS:
         data["warnings"] = list(dict.fromkeys(WARNINGS))
     atomic_write_text(path, json.dumps(to_jsonable(data), indent=2) + "\n")
+
+
+def write_netcdf(path: str | Path, command: str, payload: dict[str, Any], parts=None) -> None:
+    """Write the labelled twin of a command's JSON (`payload`) as netCDF, atomically: its numbers with dimensions,
+    units and long names, plus `parts` (the results' `.to_xarray()`: per-trial arrays, histogram counts), the
+    configuration, versions and this command's warnings in the attributes (`jaxroll.io.output_dataset`;
+    docs/outputs.md). A JSON field the output's layout does not describe leaves the netCDF out with a warning
+    (the set is still written: a run's results are never lost to their labels; the tests refuse it)."""
+    from ..io import output_dataset, write_dataset
+
+    try:
+        dataset = output_dataset(command, payload, parts, warnings=list(dict.fromkeys(WARNINGS)))
+    except ValueError as e:  # a field its layout does not describe: the JSON and figures are still written
+        if not str(e).startswith("labelled results:"):
+            raise
+        print(f"jaxroll {command}: warning: {Path(path).name} not written ({e}); the JSON holds every number. "
+              "Please report it.", file=sys.stderr)
+        return
+    write_dataset(path, dataset)
 
 
 def save_figure(fig, path: str | Path) -> None:

@@ -106,6 +106,25 @@ def check_positive(args, *names: str) -> None:
             raise CLIError(f"--{name.replace('_', '-')} must be a finite number > 0; got {value}.")
 
 
+#: The Monte Carlo keeps the capsize step as an int32 (`jaxroll.simulate`): at most this many time steps per trial.
+MAX_STEPS = 2**31 - 1
+
+
+def check_steps(dt: float, durations: dict[str, float]) -> None:
+    """Refuse a run whose trials would have more time steps than the Monte Carlo can count (`MAX_STEPS`), from the
+    options alone — before any fit or compilation. `durations`: what the options say, in words (e.g.
+    `"--duration"`, `"--discard + --hours"`) → simulated time [s]; `dt` [s] and the durations already checked
+    finite and > 0."""
+    for what, seconds in durations.items():
+        steps = seconds / dt
+        if steps > MAX_STEPS:
+            raise CLIError(
+                f"{what} / --dt = {seconds:g} s / {dt:g} s = {steps:.3g} time steps per realization; the Monte Carlo "
+                f"counts at most 2³¹ − 1 = {MAX_STEPS:.3g} (and 10⁴ realizations of 10⁹ steps take days): lengthen "
+                f"--dt (the paper: 0.5 s) or shorten {what}."
+            )
+
+
 def sea_config(args, ship) -> dict:
     """The sea/numerics part of a run's configuration, for JSON provenance."""
     from .. import ship_to_dict

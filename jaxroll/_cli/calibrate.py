@@ -8,7 +8,15 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
-from ._common import CLIError, OutputFolder, atomic_write_text, load_ship_arg, save_figure, write_json
+from ._common import (
+    CLIError,
+    OutputFolder,
+    atomic_write_text,
+    load_ship_arg,
+    save_figure,
+    write_json,
+    write_netcdf,
+)
 from ._lab import add_lab_options, import_lab_files, lab_mode, lab_settings
 
 
@@ -45,7 +53,7 @@ def register(sub) -> None:
         help="fit damping (decay), the GM correction (captive) or the model to free-running roll records (roll: "
         "amplitude PDFs, or the time series) from tank records",
         description="Calibrates a ship from tank records (docs/records.md, docs/calibration.md) and writes "
-        "ship.toml, calibration.json and figures into --out.",
+        "ship.toml, calibration.json, calibration.nc (docs/outputs.md) and figures into --out.",
     )
     kinds = p.add_subparsers(dest="kind", metavar="KIND", required=True)
     d = kinds.add_parser(
@@ -164,19 +172,22 @@ def _load(args, kind):
     return load_records(args.records, kind=kind, resample=args.resample)
 
 
-def _finish(args, kind, ship, fitted, payload, figures) -> int:
+def _finish(args, kind, ship, fitted, payload, figures, fit=None) -> int:
     from .. import ship_to_toml
     from ..io import load_ship
 
     out = Path(args.out)
+    layout = kind if kind != "roll" else f"roll-{'pdf' if args.estimator == 'pdf' else 'time-domain'}"
     with OutputFolder(out) as tmp:  # one set: never a new ship.toml beside an old calibration.json
         atomic_write_text(tmp / "ship.toml", ship_to_toml(fitted))
         load_ship(tmp / "ship.toml")  # the file must feed straight back into `jaxroll pdf --ship`
         for name, fig in figures.items():
             save_figure(fig, tmp / name)
         write_json(tmp / "calibration.json", payload)
+        write_netcdf(tmp / "calibration.nc", f"calibrate-{layout}", payload, None if fit is None else {"fit": fit})
     print(
-        f"wrote {out / 'ship.toml'}, {out / 'calibration.json'}, " + ", ".join(str(out / n) for n in figures)
+        f"wrote {out / 'ship.toml'}, {out / 'calibration.json'}, {out / 'calibration.nc'}, "
+        + ", ".join(str(out / n) for n in figures)
     )
     return 0
 
@@ -203,7 +214,13 @@ def _fmt(e) -> str:
 def run_decay(args) -> int:
     import matplotlib.pyplot as plt
 
-    from ..calibration import calibrated_ship, decay_agreement, fit_decay_ode, fit_extinction
+    from ..calibration import (
+        calibrated_ship,
+        decay_agreement,
+        fit_decay_ode,
+        fit_extinction,
+        nonnegative_damping,
+    )
     from ..plotting import plot_decay_fit, plot_extinction
 
     ship = load_ship_arg(args.ship)
@@ -225,6 +242,12 @@ def run_decay(args) -> int:
     plot_extinction([ext, ode], ax=ax1)
     fig2, ax2 = plt.subplots(figsize=(8, 4))
     plot_decay_fit(ode, ax=ax2)
+    constrained = nonnegative_damping(("b1", "b2", "b3"), chosen.b, chosen.damping_covariance)[1]
+    written_damping = {  # the fit's estimates; where constrained, the value ship.toml holds (no interval: not fitted)
+        k: ({**e, "value": constrained[k]["written"], "fitted_value": e["value"], "ci95": None} if k in constrained
+            else e)
+        for k, e in chosen.to_dict()["damping"].items()
+    }
     payload = {
         "config": {
             **_base_config(args, ship, records),
@@ -233,11 +256,18 @@ def run_decay(args) -> int:
             "bias_correction": not args.no_bias_correction,
         },
         "estimates": {"extinction": ext.to_dict(), "ode": ode.to_dict()},
-        "written": {"damping": chosen.to_dict()["damping"], "roll_period_s": float(fitted.roll_period)},
+        # what ship.toml holds: the fit's estimates, but a negative coefficient held at 0 and the others moved to the
+        # constrained fit (`constrained`: fitted and written values; a warning says so)
+        "written": {
+            "damping": written_damping,
+            "roll_period_s": float(fitted.roll_period),
+            "constrained": constrained,
+        },
         "agreement_z": agree,
         "run_time_s": time.time() - t0,
     }
-    return _finish(args, "decay", ship, fitted, payload, {"extinction.png": fig1, "decay_fit.png": fig2})
+    return _finish(args, "decay", ship, fitted, payload, {"extinction.png": fig1, "decay_fit.png": fig2},
+                   chosen.to_xarray())
 
 
 def run_captive(args) -> int:
@@ -279,7 +309,8 @@ def run_captive(args) -> int:
         "run_time_s": time.time() - t0,
     }
     return _finish(
-        args, "captive", ship, fitted, payload, {"captive_ratio.png": fig1, "captive_series.png": fig2}
+        args, "captive", ship, fitted, payload, {"captive_ratio.png": fig1, "captive_series.png": fig2},
+        fit.to_xarray(),
     )
 
 
@@ -334,7 +365,8 @@ def run_roll(args) -> int:
         "estimates": fit.to_dict(),
         "run_time_s": time.time() - t0,
     }
-    return _finish(args, "roll", ship, fitted, payload, {"roll_pdfs.png": plot_roll_calibration(fit)})
+    return _finish(args, "roll", ship, fitted, payload, {"roll_pdfs.png": plot_roll_calibration(fit)},
+                   fit.to_xarray())
 
 
 def _run_roll_time_domain(args) -> int:
@@ -419,4 +451,4 @@ def _run_roll_time_domain(args) -> int:
         "run_time_s": time.time() - t0,
     }
     figures = {"roll_fit.png": plot_time_domain_fit(fit), "residual_spectrum.png": plot_residual_spectrum(fit).figure}
-    return _finish(args, "roll", ship, fitted, payload, figures)
+    return _finish(args, "roll", ship, fitted, payload, figures, fit.to_xarray())

@@ -17,8 +17,17 @@ from ._common import (
     memory_budget,
     save_figure,
     write_json,
+    write_netcdf,
 )
-from ._sea import add_sea_options, build_problem, heading_phrase, parse_heading, sea_config
+from ._sea import (
+    add_sea_options,
+    build_problem,
+    check_sea_options,
+    check_steps,
+    heading_phrase,
+    parse_heading,
+    sea_config,
+)
 
 
 def register(sub) -> None:
@@ -63,6 +72,10 @@ def p_star_numbers(grid_deg, density_per_deg, sf_at_angles) -> dict:
             "p_exceed": {f"{x:g}": float(p) for x, p in zip(P_EXCEED_DEG, sf_at_angles, strict=True)}}
 
 
+#: The Monte Carlo amplitude law behind P*: 1° bins, and in the tail bins merged to hold this many amplitudes.
+MIN_TAIL_COUNT = 10
+
+
 def parse_n0(text: str) -> list[int]:
     try:
         values = sorted({int(v) for v in text.split(",") if v.strip()})
@@ -71,6 +84,21 @@ def parse_n0(text: str) -> list[int]:
     if not values or values[0] < 1:
         raise CLIError(f"--n0 values must be integers >= 1; got {text!r}.")
     return values
+
+
+def maxima_line(v: dict) -> str:
+    """The terminal's line for one N0 (`per_n0` entry): the mean and 99 % point of the maxima, or, where trials
+    capsized before N0 (maxima beyond the vanishing angle: no finite mean), the mean of the survivors' maxima."""
+    q99 = v["quantiles_deg"]["99"]
+    q99 = f"{q99:.2f}°" if q99 is not None else "beyond the vanishing angle (capsizes)"
+    trials = f"{v['n_known']} trials"
+    if not v["n_capsized"]:
+        return f"mean max {v['mean_deg']:.2f}°, 99 % {q99} ({trials}, none capsized)"
+    survivors = v.get("mean_deg_given_no_capsize")
+    mean = f"{survivors:.2f}° for the trials that did not capsize" if survivors is not None else "none (all capsized)"
+    return (f"mean max {mean}, 99 % {q99} ({trials}, {v['n_capsized']} capsized before N0: P = "
+            f"{v['capsize_probability']:.3g}, counted as maxima beyond the vanishing angle, so the mean of all "
+            "maxima is not finite)")
 
 
 def run(args) -> int:
@@ -95,6 +123,11 @@ def run(args) -> int:
     out = Path(args.out)
     check_out(out)
     ship = load_ship_arg(args.ship)
+    check_sea_options(args)
+    longest = args.duration if args.duration is not None else (  # as jaxroll.roll.default_duration
+        args.discard + (1.6 * max(n0_all) + 4) * float(ship.roll_period) / 2)
+    check_steps(args.dt, {"--duration" if args.duration is not None else "the duration max(--n0) needs (--duration)":
+                          max(longest, 3600.0)})  # the trials of the maxima, and of the amplitude law (3600 s)
     problem, fit, sea = build_problem(args, ship)
     groups = [(g, n) for g, n in (([v for v in n0_all if v < 10_000], args.realizations),
                                   ([v for v in n0_all if v >= 10_000], args.realizations_large)) if g]
@@ -102,13 +135,15 @@ def run(args) -> int:
     centres = (bins[1:] + bins[:-1]) / 2
     grid_deg = np.linspace(0.0, 89.0, 891)
     per_n0: dict[str, dict] = {}
-    amplitude_summaries = []
+    amplitude_summaries, per_trial = [], []
     t0 = time.time()
     resumed = False
     # The per-cycle amplitude PDF of the same sea (zero-crossing, after the discard), for P*(A_M).
     amp = monte_carlo_amplitudes(problem, jax.random.key(args.seed), num_realizations=min(args.realizations, 2000),
                                  duration=3600.0, discard=min(args.discard, 3000.0), chunk_size=args.chunk_size, memory_budget=budget)
-    mc_dist = amp.law("zero_crossing", pool=20)  # 1° bins: P* amplifies histogram noise
+    # 1° bins, merged in the sparse tail to 10 amplitudes or more: P* amplifies histogram noise, and an empty bin
+    # in the tail made it drop to zero there (jagged, with zeros near 65-70°, at N0 = 10⁴)
+    mc_dist = amp.law("zero_crossing", pool=20, min_count=MIN_TAIL_COUNT)
     stationarity = amp.stationarity()
     if stationarity["note"]:
         print(f"warning: the amplitude run behind P* from the MC amplitudes: {stationarity['note']}")
@@ -131,6 +166,7 @@ def run(args) -> int:
                                    progress=progress,
                                    checkpoint=group_checkpoint)
         amplitude_summaries.append({"n0": n0s, "n_trials": n_trials})
+        per_trial.append(stats.to_xarray(bins))
         for j, n0 in enumerate(stats.n0):
             a = np.deg2rad(grid_deg)
             curves, p_star = {}, {}
@@ -185,16 +221,14 @@ def run(args) -> int:
                                            n_trials=v["n_known"])
             save_figure(fig, tmp / f"maxima_N0_{k}.png")
         write_json(tmp / "maxima.json", payload)
+        write_netcdf(tmp / "maxima.nc", "maxima", payload, {"": per_trial, "amplitude_pdf": amp.to_xarray(bins)})
     for k, v in per_n0.items():
-        mean = f"{v['mean_deg']:.2f}°" if v["mean_deg"] is not None else "∞ (capsizes)"
-        q99 = f"{v['quantiles_deg']['99']:.2f}°" if v["quantiles_deg"]["99"] is not None else "capsize"
-        print(f"N0 = {k:>6}: mean max {mean}, 99 % {q99} ({v['n_known']} trials, {v['n_capsized']} capsized "
-              f"before N0: P = {v['capsize_probability']:.3g}, counted as maxima beyond the vanishing angle)")
+        print(f"N0 = {k:>6}: {maxima_line(v)}")
         for name, p in v["p_star"].items():
             label = "P* from the MC amplitudes" if name == "mcs_amplitudes" else f"P* {name}"
             note = closure_note(payload["theory_details"][name]) if name in laws else ""
             mean = "beyond the grid" if p["mean_deg"] is None else f"{p['mean_deg']:.2f}°"
             print(f"  {label}: mode {p['mode_deg']:.2f}°, mean {mean}, P(max > 30°) = "
                   f"{p['p_exceed']['30']:.3g} (Monte Carlo maxima: {v['p_exceed']['30']:.3g}){note}")
-    print(f"done in {elapsed:.1f} s{' (resumed from the checkpoint; this run only)' if resumed else ''}; wrote {out}/maxima_linear.png, maxima_log.png, maxima_N0_*.png, maxima.json")
+    print(f"done in {elapsed:.1f} s{' (resumed from the checkpoint; this run only)' if resumed else ''}; wrote {out}/maxima_linear.png, maxima_log.png, maxima_N0_*.png, maxima.json, maxima.nc")
     return 0

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import os
 import time
 from pathlib import Path
 
@@ -17,18 +18,23 @@ from ._common import (
     memory_budget,
     save_figure,
     write_json,
+    write_netcdf,
 )
 from ._sea import (
     add_sea_options,
     build_problem,
     check_positive,
     check_sea_options,
+    check_steps,
     heading_phrase,
     parse_heading,
     sea_config,
 )
 
 THEORIES = ("roberts", "esam", "moment", "envelope_fpk")
+#: Above this capsize probability the Monte Carlo's PDF (of the survivors) and the theories' stationary laws are not
+#: comparable: `jaxroll pdf` warns.
+CAPSIZE_LIMIT_FOR_THEORIES = 0.1
 # the theories `jaxroll pdf` overlays unless --theory says otherwise (docs/theory.md, "Speed": what they cost)
 DEFAULT_OVERLAY = ("roberts", "esam", "moment")
 
@@ -38,7 +44,7 @@ def register(sub) -> None:
         "pdf",
         help="Monte Carlo roll-amplitude PDFs, paper style (default: C11 representative, H1/3 7 m, T01 10 s)",
         description="Runs the paper's MCS protocol (φ(0)=5°, 3600 s, 10⁴ realizations) and writes pdf_linear.png, "
-        "pdf_log.png and pdf.json into --out.",
+        "pdf_log.png, pdf.json and pdf.nc (docs/outputs.md) into --out.",
     )
     add_sea_options(p)
     m = p.add_argument_group("Monte Carlo")
@@ -117,8 +123,24 @@ def check_phi0(phi0_deg: float, ship) -> None:
 
 
 def check_out(out: Path) -> None:
+    """--out, from the options alone, before any computation: not a file, and writable — the set is written into a
+    temporary folder beside it (in its parent) and renamed into place, so the parent (or the nearest folder above
+    it that exists) must be writable, and so must `out` itself when it exists (its entries are carried over)."""
+    import tempfile
+
     if out.exists() and not out.is_dir():
         raise CLIError(f"--out {str(out)!r} exists and is not a folder.")
+    parent = out.resolve().parent
+    while not parent.exists() and parent != parent.parent:
+        parent = parent.parent
+    for folder in ([out] if out.exists() else []) + [parent]:
+        try:  # a folder made and removed: what permissions, a read-only file system or quotas allow, for any user
+            os.rmdir(tempfile.mkdtemp(dir=folder, prefix=".jaxroll-write-check-"))
+        except OSError as e:
+            raise CLIError(
+                f"--out {str(out)!r}: cannot write into {str(folder)!r} ({e.strerror or e}; the results are written "
+                "into a temporary folder beside --out and renamed into place). Choose a folder you can write."
+            ) from None
 
 
 def capsize_caption(n_realizations: int, n_capsized: int) -> str:
@@ -145,6 +167,7 @@ def run(args) -> int:
     theories = parse_theories(",".join(DEFAULT_OVERLAY) if args.theory is None else args.theory)
     check_sea_options(args)
     check_positive(args, "duration", "bin_width_deg")
+    check_steps(args.dt, {"--duration": args.duration})
     if args.realizations < 1:
         raise CLIError(f"--realizations must be >= 1; got {args.realizations}.")
     check_chunk_size(args)
@@ -235,12 +258,25 @@ def run(args) -> int:
             payload["total_run_time_s"] = earlier + elapsed
         if fit is not None:
             payload["filter_fit"] = fit.summary()
+        if summary.get("theory") and stats.capsize_probability > CAPSIZE_LIMIT_FOR_THEORIES:
+            import warnings
+
+            warnings.warn(
+                f"{stats.n_capsized} of {stats.n_realizations} realizations capsized (P = "
+                f"{stats.capsize_probability:.3g}): the theories overlaid ({', '.join(summary['theory'])}) are "
+                "stationary laws of a roll that never capsizes, so they do not describe this sea state, and the "
+                f"Monte Carlo's PDF is that of the {stats.n_realizations - stats.n_capsized} survivors only. This "
+                f"warning appears because more than {CAPSIZE_LIMIT_FOR_THEORIES:.0%} of the realizations capsized.",
+                stacklevel=2,
+            )
         caption = capsize_caption(stats.n_realizations, stats.n_capsized)
-        title = f"{ship.name}: H1/3 = {args.hs:g} m, T01 = {args.t01:g} s, U = {args.speed:g} m/s, {caption}"
+        title = (f"{ship.name}: H1/3 = {args.hs:g} m, T01 = {args.t01:g} s, U = {args.speed:g} m/s, "
+                 f"{heading_phrase(parse_heading(args.heading))}, {caption}")
         fig_lin, fig_log = amplitude_pdf_figures(payload, title=title)
         save_figure(fig_lin, tmp / "pdf_linear.png")
         save_figure(fig_log, tmp / "pdf_log.png")
         write_json(tmp / "pdf.json", payload)
+        write_netcdf(tmp / "pdf.nc", "pdf", payload, stats.to_xarray(bins))
     took = f"done in {elapsed:.1f} s" + (f" (resumed; {earlier + elapsed:.1f} s in total)" if resumed else "")
     capsized = f"capsized {stats.n_capsized}/{stats.n_realizations} (P = {stats.capsize_probability:.4f})"
     print(f"{took}; {capsized}")
@@ -265,5 +301,5 @@ def run(args) -> int:
             + ("" if args.theory is not None else "; --theory none leaves them out"))  # fmt: skip
     for name, reason in theories_failed.items():
         print(f"theory overlay: {name} left out: {reason}")
-    print(f"wrote {out / 'pdf_linear.png'}, {out / 'pdf_log.png'}, {out / 'pdf.json'}")
+    print(f"wrote {out / 'pdf_linear.png'}, {out / 'pdf_log.png'}, {out / 'pdf.json'}, {out / 'pdf.nc'}")
     return 0

@@ -7,17 +7,19 @@ import math
 import time
 from pathlib import Path
 
-from ._common import CLIError, OutputFolder, Progress, load_ship_arg, save_figure, write_json
+from ..theory import SENSITIVITY_THEORIES
+from ._common import CLIError, OutputFolder, Progress, load_ship_arg, save_figure, write_json, write_netcdf
 from ._sea import (
     add_sea_options,
     check_positive,
     check_sea_options,
+    check_steps,
     heading_for_api,
     parse_heading,
     sea_config,
 )
 
-THEORIES = ("roberts", "esam", "moment", "envelope_fpk")
+THEORIES = SENSITIVITY_THEORIES  # roberts, esam, moment, envelope_fpk
 DEFAULT_WRT = "gm_correction,b1,b2,gm0,hs"
 # per statistic kind: JSON key suffix and the factor from radians
 _DEG = 180 / math.pi
@@ -28,8 +30,8 @@ def register(sub) -> None:
         "sensitivity",
         help="d(roll statistic)/d(ship or sea parameter) by Monte Carlo (windowed pathwise AD) and by theory",
         description="Derivatives of E[φ²], the mean envelope and zero-crossing amplitudes and smoothed exceedance "
-        "probabilities with respect to ship and sea parameters (docs/sensitivity.md); writes sensitivity.json and "
-        "sensitivity.png into --out.",
+        "probabilities with respect to ship and sea parameters (docs/sensitivity.md); writes sensitivity.json, "
+        "sensitivity.nc and sensitivity.png into --out.",
     )
     add_sea_options(p)
     m = p.add_argument_group("sensitivities")
@@ -84,103 +86,12 @@ def json_key(stat: str) -> tuple[str, float]:
     return stat, 1.0
 
 
-def _theory_statistics(law_env, law_zc, stats, e_phi2):
-    """The theory's value of each statistic (radians), from its envelope and zero-crossing laws."""
-    import jax.numpy as jnp
-
-    out = []
-    for s in stats:
-        if s == "E_phi2":
-            out.append(e_phi2)
-        elif s == "mean_envelope":
-            out.append(law_env.mean())
-        elif s == "mean_zero_crossing":
-            out.append(law_zc.mean())
-        else:
-            zc = s.startswith("P_exceed_zc_")
-            a = float(s[len("P_exceed_zc_" if zc else "P_exceed_") : -len("deg")])
-            out.append((law_zc if zc else law_env).sf(jnp.deg2rad(a)))
-    return jnp.stack(out)
-
-
-def theory_gradients(problem_fn, params, wrt, stats, names, filter_order):
-    """Per theory: (values, gradients [stat][param], details) by jax.jacfwd of the theory laws at problem_fn(q),
-    or an error message. The moment method's closure order is chosen once at the nominal parameters (the
-    first stable of 6, 4) and kept fixed while differentiating."""
-    import jax
-    import jax.numpy as jnp
-
-    from .. import theory
-    from .._compiled import SOLVER_PROGRAM, compiled_with
-
-    need_zc = any(s == "mean_zero_crossing" or s.startswith("P_exceed_zc_") for s in stats)
-    out = {}
-    for name in names:
-        t0 = time.time()
-        details = {}
-        try:
-            if name == "moment":
-                nominal = problem_fn(params)
-                sol = theory.moment_pdf_first_stable(
-                    nominal.ship, nominal.wave, shaping_filter=nominal.filter_fit, filter_order=filter_order
-                )
-                details["closure_order"] = sol.closure_order
-
-            def law(ship, wave, estimator, name=name, throw=False):
-                if name == "envelope_fpk":
-                    return theory.envelope_fpk_pdf(ship, wave, estimator=estimator, throw=throw)
-                if name == "roberts":
-                    return theory.roberts_pdf(ship, wave, estimator=estimator, restoring="nonlinear", throw=throw)
-                return theory.esam_pdf(ship, wave, estimator=estimator, throw=throw)
-
-            def values(x, name=name):
-                """(statistics, whether the laws exist) at parameters x. Roberts, ESAM and the envelope FPK are
-                differentiated with throw=False (their existence returned and checked below: a traced check is a
-                host callback, which keeps the program out of JAX's disk cache)."""
-                q = {**params, **{p: x[i] for i, p in enumerate(wrt)}}
-                prob = problem_fn(q)
-                ship, wave = prob.ship, prob.wave
-                if name == "moment":
-                    kw = dict(shaping_filter=prob.filter_fit, filter_order=filter_order,
-                              closure_order=details["closure_order"])  # fmt: skip
-                    env = theory.moment_pdf(ship, wave, estimator="envelope", **kw)
-                    zc = theory.moment_pdf(ship, wave, estimator="zero_crossing", **kw) if need_zc else env
-                    return _theory_statistics(env, zc, stats, env.e_phi2), jnp.array(True)
-                env = law(ship, wave, "envelope")
-                zc = law(ship, wave, "zero_crossing") if need_zc else env
-                if name == "envelope_fpk":
-                    lo, hi = env.support()
-                    a = jnp.linspace(lo, hi, 4001)[:-1]  # F̄ = 0 at and beyond the top edge
-                    e_phi2 = jnp.trapezoid(a * env.sf(a), a)  # E[A²]/2 = ∫ a F̄(a) da (φ = A cos ψ)
-                else:
-                    e_phi2 = env.moment(2.0) / 2  # φ = A cos ψ, ψ uniform
-                return _theory_statistics(env, zc, stats, e_phi2), env.exists & zc.exists
-
-            x0 = jnp.asarray([params[p] for p in wrt])
-            gradient = jax.jacfwd(lambda x: (lambda r: (r[0], r))(values(x)), has_aux=True)
-            jac, (vals, exists) = compiled_with(gradient, (x0,), SOLVER_PROGRAM)(x0)  # run once: the solvers' options
-            if not bool(exists):  # the law's own error, from a concrete call at the nominal parameters
-                nominal = problem_fn(params)
-                law(nominal.ship, nominal.wave, "envelope", throw=True)
-                law(nominal.ship, nominal.wave, "zero_crossing", throw=True)
-                raise ValueError(f"{name}: no amplitude law at the nominal parameters.")
-            out[name] = {
-                "values": [float(v) for v in vals],
-                "gradients": [[float(jac[i, j]) for j in range(len(wrt))] for i in range(len(stats))],
-                "details": {**details, "time_s": time.time() - t0},
-            }
-        except (ValueError, RuntimeError) as e:
-            from ._theory import first_line
-
-            out[name] = {"error": first_line(e)}
-    return out
-
-
 def run(args) -> int:
     import jax
 
     from .. import SENSITIVITY_PARAMETERS, monte_carlo_sensitivity, sensitivity_problem
     from ..plotting import sensitivity_bar_chart
+    from ..theory import theory_sensitivities
     from .pdf import check_out
 
     wrt = _names(args.wrt, tuple(SENSITIVITY_PARAMETERS), "--wrt")
@@ -196,6 +107,9 @@ def run(args) -> int:
         raise CLIError(f"--chunk-size must be >= 1; got {args.chunk_size}.")
     if not (math.isfinite(args.discard) and 0 <= args.discard < args.duration):
         raise CLIError(f"--discard must be in [0, --duration) = [0, {args.duration:g}) s; got {args.discard:g}.")
+    check_steps(args.dt, {"--duration": args.duration})
+    if args.method != "filter" and any(p in ("hs", "t01", "speed") for p in wrt):
+        raise CLIError("sea-parameter derivatives need the filter excitation (--method filter).")
     out = Path(args.out)
     check_out(out)
     ship = load_ship_arg(args.ship)
@@ -203,8 +117,6 @@ def run(args) -> int:
         ship, hs=args.hs, t01=args.t01, speed=args.speed, heading=heading_for_api(parse_heading(args.heading)), excitation=args.method,
         dt=args.dt, filter_order=args.filter_order, phi0=math.radians(args.phi0_deg),
     )  # fmt: skip
-    if args.method != "filter" and any(p in ("hs", "t01", "speed") for p in wrt):
-        raise CLIError("sea-parameter derivatives need the filter excitation (--method filter).")
     print(
         f"Sensitivities: {args.realizations} realizations × {args.duration:g} s (window {args.window:g} s, "
         f"burn-in {args.burn_in:g} s), H1/3 {args.hs} m, T01 {args.t01} s, U {args.speed} m/s; "
@@ -220,7 +132,8 @@ def run(args) -> int:
     )  # fmt: skip
     elapsed = time.time() - t0
     t1 = time.time()
-    theory = theory_gradients(problem_fn, params, wrt, res.statistics, theories, args.filter_order)
+    theory = theory_sensitivities(problem_fn, params, wrt=wrt, statistics=res.statistics, theories=theories,
+                                  filter_order=args.filter_order)
     theory_time = time.time() - t1
 
     parameters = {
@@ -269,6 +182,7 @@ def run(args) -> int:
     with OutputFolder(out) as tmp:
         save_figure(sensitivity_bar_chart(payload, title=title), tmp / "sensitivity.png")
         write_json(tmp / "sensitivity.json", payload)
+        write_netcdf(tmp / "sensitivity.nc", "sensitivity", payload, {"monte_carlo": res.to_xarray()})
 
     print(f"Monte Carlo done in {elapsed:.1f} s (capsized {res.n_capsized}); theories in {theory_time:.1f} s")
     for n, t in theory.items():
@@ -281,5 +195,5 @@ def run(args) -> int:
             mc = e["monte_carlo"]
             th = "  ".join(f"{n} {v:+.4g}" for n, v in e["theory"].items() if v is not None)
             print(f"  d/d{p:<14s} {mc['value']:+.4g} ± {mc['std_error']:.2g} per {parameters[p]['unit']}   {th}")
-    print(f"wrote {out / 'sensitivity.json'}, {out / 'sensitivity.png'}")
+    print(f"wrote {out / 'sensitivity.json'}, {out / 'sensitivity.nc'}, {out / 'sensitivity.png'}")
     return 0

@@ -6,7 +6,7 @@ import argparse
 import math
 from pathlib import Path
 
-from ._common import CLIError, OutputFolder, atomic_write_text, save_figure, write_json
+from ._common import CLIError, OutputFolder, atomic_write_text, save_figure, write_json, write_netcdf
 from ._sea import check_positive
 
 DEFAULT_OUT = Path("jaxroll-out") / "sgisc"
@@ -232,7 +232,7 @@ def register(subparsers) -> None:
             "parametric rolling (MSC.1/Circ.1627 section 2.5): Level 1 (ΔGM1/GM against R_PR), Level 2 first "
             "check C1 (16 wave cases) and second check C2 (roll in the scatter table's regular waves, jaxroll's "
             "roll equation with the simplified Ikeda damping). Prints the values with their standards and a "
-            "verdict, writes sgisc.json (every intermediate) and figures. HULL is a hull file (TOML), an STL "
+            "verdict, writes sgisc.json (every intermediate), sgisc.nc and figures. HULL is a hull file (TOML), an STL "
             "(ascii or binary), a WAMIT low-order GDF (the whole hull, not only the wetted surface), an offsets CSV, or `c11` (the REPRESENTATIVE C11-like hull). The Level-2 "
             "standards are transcribed, not verified against the guideline's text: see docs/sgisc.md."
         ),
@@ -530,8 +530,9 @@ def run(args) -> int:
             "summary": lines,
         }
         write_json(out / "sgisc.json", payload)
+        write_netcdf(out / "sgisc.nc", "sgisc", payload)
     print("\n".join(lines))
     if is_c11:
         print("Note: the c11 hull is REPRESENTATIVE (parametric), not the real C11 lines.")
-    print(f"wrote {final / 'sgisc.json'}, {', '.join(files[1:])}")
+    print(f"wrote {final / 'sgisc.json'}, sgisc.nc, {', '.join(files[1:])}")
     return 0

@@ -19,8 +19,9 @@ from ._common import (
     load_ship_arg,
     save_figure,
     write_json,
+    write_netcdf,
 )
-from ._sea import check_filter_order, heading_for_api, heading_number, heading_phrase
+from ._sea import check_filter_order, check_steps, heading_for_api, heading_number, heading_phrase
 
 
 def register(sub) -> None:
@@ -30,7 +31,7 @@ def register(sub) -> None:
         description="For every sea state of the grid, runs a Monte Carlo of --realizations trials of "
         "--duration s "
         "and estimates P(capsize) and P(max |φ| > --angle within the duration), with Wilson confidence "
-        "intervals. Writes sweep.png and sweep.json into --out, and sweep_polar.png (the polar risk chart: "
+        "intervals. Writes sweep.png, sweep.json and sweep.nc into --out, and sweep_polar.png (the polar risk chart: "
         "probability over speed × heading for each sea state) when two or more headings and speeds are given.",
     )
     g = p.add_argument_group("grid (comma-separated lists; full scale)")
@@ -290,6 +291,7 @@ def run(args) -> int:
     if not 0 < args.confidence < 1:
         raise CLIError(f"--confidence must be in (0, 1); got {args.confidence}.")
     check_filter_order(args)
+    check_steps(args.dt, {"--duration": args.duration})
     if args.devices is not None and not 1 <= args.devices <= jax.device_count():
         raise CLIError(
             f"--devices must be between 1 and {jax.device_count()} (the devices JAX sees); "
@@ -418,6 +420,7 @@ def run(args) -> int:
         if polar:
             save_figure(sweep_polar_figure(payload), tmp / "sweep_polar.png")
         write_json(tmp / "sweep.json", payload)
+        write_netcdf(tmp / "sweep.nc", "sweep", payload, result.to_xarray())
     def where(p):
         return f"{heading_phrase(p['heading_deg'])}, U {p['speed_m_s']:g} m/s, H1/3 {p['hs_m']:g} m, T01 {p['t01_s']:g} s"
 
@@ -432,5 +435,5 @@ def run(args) -> int:
               if e["n_exceeded"] else f"no trial beyond {args.angle:g}° at any point")
     print(f"done in {elapsed:.1f} s: {capsize}; {exceed}")
     polar_note = f", {out / 'sweep_polar.png'}" if polar else ""
-    print(f"wrote {out / 'sweep.png'}{polar_note}, {out / 'sweep.json'}")
+    print(f"wrote {out / 'sweep.png'}{polar_note}, {out / 'sweep.json'}, {out / 'sweep.nc'}")
     return 0

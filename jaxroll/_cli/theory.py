@@ -7,7 +7,7 @@ import functools
 import time
 from pathlib import Path
 
-from ._common import load_ship_arg, save_figure, write_json
+from ._common import load_ship_arg, save_figure, write_json, write_netcdf
 from ._sea import add_sea_options, check_positive, check_sea_options, sea_config
 
 
@@ -72,10 +72,11 @@ def run(args) -> int:
         save_figure(fig_lin, tmp / "theory_linear.png")
         save_figure(fig_log, tmp / "theory_log.png")
         write_json(tmp / "theory.json", payload)
+        write_netcdf(tmp / "theory.nc", "theory", payload)
     for name, t in theories.items():
         print(f"{name:>12}: mean {t['mean_amplitude_deg']:.2f}°, 99 % {t['quantiles_deg']['99']:.2f}° "
               f"({t['time_s']:.2f} s{closure_note(t)})")
     for name, reason in left_out.items():
         print(f"{name:>12}: left out, no law here: {reason}")
-    print(f"wrote {out}/theory_linear.png, theory_log.png, theory.json")
+    print(f"wrote {out}/theory_linear.png, theory_log.png, theory.json, theory.nc")
     return 0

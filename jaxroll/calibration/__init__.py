@@ -21,7 +21,10 @@ Uncertainties are Gauss–Newton: covariance = s² (JᵀJ)⁻¹ with s² = RSS/(
 are correlated (captive: blocks of the records as clusters; roll: a bootstrap over realizations).
 """
 
-from ._calibrated_ship import calibrated_ship as calibrated_ship
+from ._calibrated_ship import (
+    calibrated_ship as calibrated_ship,
+    nonnegative_damping as nonnegative_damping,
+)
 from ._captive import (
     CaptiveFit as CaptiveFit,
     CaptiveGroup as CaptiveGroup,
@@ -39,7 +42,10 @@ from ._decay import (
     fit_decay_ode as fit_decay_ode,
     fit_extinction as fit_extinction,
 )
-from ._inputs import PAPER_WINDOW_MODEL_S as PAPER_WINDOW_MODEL_S
+from ._inputs import (
+    PAPER_WINDOW_MODEL_S as PAPER_WINDOW_MODEL_S,
+    check_wave_heights as check_wave_heights,
+)
 from ._kalman import fit_roll_kalman as fit_roll_kalman
 from ._least_squares import (
     Estimate as Estimate,

@@ -15,12 +15,13 @@ from typing import Any
 import jax.numpy as jnp
 import numpy as np
 
+from .._config import require_float64
 from ..io._records import Record
 from ..sea._grim import grim_transfer
 from ..sea._spectra import GRAVITY, wave_frequencies_from_encounter
 from ..ship._restoring import delta_gm
 from ..ship._ship import Ship
-from ._inputs import PAPER_WINDOW_MODEL_S, _as_list, _check_kind
+from ._inputs import PAPER_WINDOW_MODEL_S, _as_list, _check_kind, check_wave_heights
 from ._least_squares import Estimate, LeastSquaresInfo, _estimates, _least_squares, _sandwich
 
 
@@ -128,6 +129,37 @@ class CaptiveFit:
             out["polynomial_covariance"] = self.polynomial_covariance.tolist()
         return out
 
+    def to_xarray(self):
+        """The fit as an `xarray.Dataset` on `parameter` (std_ratio, ls_scale; `estimates_dataset`) with the
+        solver's diagnostics, and per (H1/3, T01, heel) group on `group`: `wave_height_m`, `wave_period_s`,
+        `heel_deg`, `n_records`, `std_observed_m`, `std_theory_m`, `group_std_ratio`, `group_ls_scale` (and their
+        standard errors), `per_record_ratio` on (`group`, `group_record`; NaN beyond a group's records)."""
+        from .._labels import config_attrs
+        from ._least_squares import estimates_dataset
+
+        g, gr = ("group",), ("group", "group_record")
+        width = max((len(x.per_record_ratio) for x in self.groups), default=0)
+        ratios = np.full((len(self.groups), width), np.nan)
+        for i, x in enumerate(self.groups):
+            ratios[i, : len(x.per_record_ratio)] = x.per_record_ratio
+        col = lambda f: [f(x) for x in self.groups]  # noqa: E731
+        extra = {
+            "wave_height_m": (g, col(lambda x: x.wave_height), "m", "significant wave height H1/3 (full scale)"),
+            "wave_period_s": (g, col(lambda x: x.wave_period), "s", "mean wave period T01 (full scale)"),
+            "heel_deg": (g, col(lambda x: x.heel_deg), "degree", "fixed heel of the captive test"),
+            "n_records": (g, col(lambda x: x.n_records), "1", "records in the group"),
+            "std_observed_m": (g, col(lambda x: x.std_observed), "m", "pooled standard deviation of the measured ΔGM"),
+            "std_theory_m": (g, col(lambda x: x.std_theory), "m", "pooled standard deviation of the theory's ΔGM"),
+            "group_std_ratio": (g, col(lambda x: x.std_ratio.value), "1", "σ_obs/σ_thr of the group"),
+            "group_std_ratio_std_error": (g, col(lambda x: x.std_ratio.std_error), "1", "its standard error"),
+            "group_ls_scale": (g, col(lambda x: x.ls_scale.value), "1", "least-squares scale of the group"),
+            "group_ls_scale_std_error": (g, col(lambda x: x.ls_scale.std_error), "1", "its standard error"),
+            "per_record_ratio": (gr, ratios, "1", "σ_obs/σ_thr per record"),
+        }
+        estimates = {"std_ratio": self.std_ratio, "ls_scale": self.ls_scale}
+        return estimates_dataset(estimates, None, info=self.info, residual_unit="m", extra=extra,
+                                 attrs=config_attrs(self.config))
+
 
 def _scale_residual(theta, args):
     x, y = args
@@ -178,8 +210,10 @@ def fit_captive(
     [s, model scale] of each record as clusters (the sandwich for the LS fits, the delta method for the
     ratio).
     """
+    require_float64("jaxroll.fit_captive")
     records = _as_list(records)
     _check_kind(records, "captive")
+    wave_heights = check_wave_heights(records, window_model_s)
     series, clusters = [], []
     cid = 0
     for r in records:
@@ -262,5 +296,6 @@ def fit_captive(
             "records": [r.source for r in records],
             "fit_polynomial": fit_polynomial,
             "theory": "Grim effective wave from the probe (FFT, dispersion) + ship ΔGM polynomial",
+            "wave_height_check": wave_heights,
         },
     )

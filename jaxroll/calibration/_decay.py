@@ -18,6 +18,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from .._compiled import filter_jit
+from .._config import require_float64
 from ..io._records import Record, RecordError
 from ..ship._restoring import restoring_moment
 from ..ship._ship import Ship
@@ -171,6 +172,24 @@ class DecayFit:
             "config": self.config,
         }
 
+    def to_xarray(self):
+        """The fit as an `xarray.Dataset` on `parameter` (b1, b2, b3; `estimates_dataset`): estimates, standard
+        errors, 95 % intervals and covariance, the solver's diagnostics, the extinction coefficients a, b, c
+        (`extinction_*`), the roll period Tφ and ω0; `method` and the configuration as attributes."""
+        from .._labels import config_attrs
+        from ._least_squares import estimates_dataset
+
+        extra = {"roll_period_s": ((), self.roll_period.value, "s", "roll period Tφ"),
+                 "roll_period_std_error_s": ((), self.roll_period.std_error, "s", "standard error of Tφ"),
+                 "omega0_rad_s": ((), self.omega0, "rad s-1", "natural roll frequency ω0")}
+        for k, e in self.extinction.items():
+            unit = {"-": "1", "1/rad": "rad-1", "1/rad^2": "rad-2"}.get(e.unit, e.unit)
+            extra[f"extinction_{k}"] = ((), e.value, unit, f"extinction coefficient {k} (decrement per half cycle)")
+            extra[f"extinction_{k}_std_error"] = ((), e.std_error, unit, f"standard error of {k}")
+        return estimates_dataset(self.damping, self.damping_covariance, info=self.info, residual_unit="rad",
+                                 extra=extra, attrs={"method": self.method,
+                                                     **config_attrs(self.config)})
+
 
 def _extinction_residual(theta, args):
     x, y = args
@@ -213,6 +232,7 @@ def fit_extinction(
     ship with damping b, sampled and analysed like the record, gives the measured a, b, c (two fixed-point
     iterations b ← b + (b̂ − b̂_sim)). The raw conversion is kept in `curves["uncorrected"]`.
     """
+    require_float64("jaxroll.fit_extinction")
     records = _as_list(records)
     _check_kind(records, "decay")
     thresholds = [_extinction_thresholds(r, hysteresis_deg, min_amplitude_deg) for r in records]
@@ -345,6 +365,7 @@ def fit_decay_ode(
     `samples_per_period`: records sampled more densely than this many samples per roll period are decimated (every
     k-th sample) before the fit: a 10⁶-row record then fits in seconds, and the standard errors are not made
     over-confident by residuals correlated over neighbouring samples. The factor k is in `config["decimation"]`."""
+    require_float64("jaxroll.fit_decay_ode")
     if not (isinstance(samples_per_period, int) and samples_per_period >= 8):
         raise ValueError(f"`samples_per_period` must be an integer >= 8; got {samples_per_period!r}.")
     records = _as_list(records)

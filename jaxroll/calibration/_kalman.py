@@ -29,6 +29,7 @@ import numpy as np
 import optimistix as optx
 
 from .._compiled import filter_jit
+from .._config import require_float64
 from ..io._records import Record
 from ..roll._equation import rk4_step
 from ..ship._restoring import parametric_excitation
@@ -236,6 +237,7 @@ def fit_roll_kalman(
     `process_noise` and `measurement_noise`; `curves["fitted"]` is the one-step prediction of the roll.
     **Raises:** `ValueError` as `fit_roll_time_domain` (checked before anything is computed).
     """
+    require_float64("jaxroll.fit_roll_kalman")
     if covariance not in ("fisher", "sandwich"):
         raise ValueError(f"`covariance` must be 'fisher' or 'sandwich'; got {covariance!r}.")
     for name, value in (

@@ -72,6 +72,41 @@ class LeastSquaresInfo:
         return {**dataclasses.asdict(self), "converged": self.converged}
 
 
+def estimates_dataset(estimates: dict, covariance=None, *, info: LeastSquaresInfo | None = None,
+                      residual_unit: str = "1", extra: dict | None = None, attrs: dict | None = None):
+    """Fitted parameters as an `xarray.Dataset` on the dimension `parameter` (SI units, each in the coordinate
+    `unit`): `estimate`, `std_error`, `ci95` (on `bound`), `covariance` on (`parameter`, `parameter_2`), the
+    solver's diagnostics (`info`; `rss` and `sigma` in `residual_unit`²/`residual_unit`), and `extra` variables
+    (`{name: (dims, values, units, long_name)}`)."""
+    from .._labels import labelled_values
+
+    names = list(estimates)
+    e = [estimates[n] for n in names]
+    p, pp = ("parameter",), ("parameter", "parameter_2")
+    mixed = "mixed: the parameter's unit (unit)"
+    out = {
+        "estimate": (p, [x.value for x in e], mixed, "fitted value"),
+        "std_error": (p, [x.std_error for x in e], mixed, "standard error"),
+        "ci95": ((*p, "bound"), [list(x.ci95) for x in e], mixed, "95 % interval"),
+    }
+    if covariance is not None:
+        out["covariance"] = (pp, np.asarray(covariance, dtype=float).reshape(len(names), len(names)),
+                             "mixed: the product of the two parameters' units (unit)", "covariance of the estimates")
+    if info is not None:
+        for k, unit, long in (("n_obs", "1", "residuals"), ("n_params", "1", "fitted parameters"),
+                              ("rss", f"({residual_unit})2", "sum of squared residuals"),
+                              ("sigma", residual_unit, "residual standard deviation √(RSS/(n − p))"),
+                              ("num_steps", "1", "solver steps"), ("condition_number", "1", "condition number"),
+                              ("converged", "1", "whether the solver converged")):
+            out[f"diagnostics_{k}"] = ((), getattr(info, k), unit, long)
+    out.update(extra or {})
+    coords = {"parameter": (p, names, None, "fitted parameter"),
+              "parameter_2": (("parameter_2",), names, None, "fitted parameter (covariance column)"),
+              "bound": (("bound",), ["lower", "upper"], None, "interval bound"),
+              "unit": (p, [x.unit for x in e], None, "SI unit of the parameter")}
+    return labelled_values(out, coords=coords, attrs=attrs)
+
+
 # ------------------------------------------------------------------------------------------------------------
 # Levenberg–Marquardt and covariances
 # ------------------------------------------------------------------------------------------------------------

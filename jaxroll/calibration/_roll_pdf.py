@@ -19,13 +19,14 @@ import jax.random as jr
 import numpy as np
 
 from .._compiled import filter_jit
+from .._config import require_float64
 from ..io._records import Record, RecordError, group_by_sea_state
 from ..roll._amplitudes import amplitude_samples
 from ..roll._monte_carlo import simulate_chunk
 from ..roll._observers import AbstractObserver
 from ..sea._spectra import ITTC
 from ..ship._ship import Ship
-from ._inputs import PAPER_WINDOW_MODEL_S, _as_list, _check_kind, _noise_std
+from ._inputs import PAPER_WINDOW_MODEL_S, _as_list, _check_kind, _noise_std, check_wave_heights
 from ._least_squares import (
     _PARAMS,
     Estimate,
@@ -270,6 +271,38 @@ class RollFit:
             "config": self.config,
         }
 
+    def to_xarray(self):
+        """The fit as an `xarray.Dataset` on `parameter` (`estimates_dataset`; residuals in their standard errors)
+        with `initial` values, and per sea state on `sea_state`: `wave_height_m`, `wave_period_s`, `n_records`,
+        the experiment's and the model's band means [deg] on (`sea_state`, `estimator_band`: the estimators' bands
+        one after the other, as in calibration.json) and the model's capsizes before and after the fit."""
+        from .._labels import config_attrs
+        from ._least_squares import estimates_dataset
+
+        c, cb = ("sea_state",), ("sea_state", "estimator_band")
+        col = lambda f: np.asarray([f(x) for x in self.comparisons])  # noqa: E731
+        deg = lambda f: np.degrees(col(f))  # noqa: E731
+        extra = {
+            "initial": (("parameter",), [self.initial[k] for k in self.estimates], "mixed: the parameter's unit (unit)",
+                        "value the fit started from"),
+            "wave_height_m": (c, col(lambda x: x.wave_height), "m", "significant wave height H1/3 (full scale)"),
+            "wave_period_s": (c, col(lambda x: x.wave_period), "s", "mean wave period T01 (full scale)"),
+            "n_records": (c, col(lambda x: x.n_records), "1", "records of the sea state"),
+            "experiment_band_means_deg": (cb, deg(lambda x: x.experiment_band_means), "degree",
+                                          "the records' mean amplitude per probability band"),
+            "experiment_std_error_deg": (cb, deg(lambda x: np.sqrt(np.diag(x.experiment_covariance))), "degree",
+                                         "its standard error (bootstrap over records)"),
+            "model_band_means_before_deg": (cb, deg(lambda x: x.model_band_means_before), "degree",
+                                            "the model's band means before the fit"),
+            "model_band_means_after_deg": (cb, deg(lambda x: x.model_band_means_after), "degree",
+                                           "the model's band means after the fit"),
+            "model_capsized_before": (c, col(lambda x: x.capsized_before), "1", "model trials capsized before"),
+            "model_capsized_after": (c, col(lambda x: x.capsized_after), "1", "model trials capsized after"),
+        }
+        return estimates_dataset(self.estimates, self.covariance, info=self.info,
+                                 residual_unit="1 (each residual in its standard errors)", extra=extra,
+                                 attrs=config_attrs(self.config))
+
 
 def _experiment_samples(records: Sequence[Record], window, hysteresis):
     zcs, envs = [], []
@@ -361,6 +394,7 @@ def fit_roll_pdf(
 
     **Returns:** `RollFit`.
     """
+    require_float64("jaxroll.fit_roll_pdf")
     from ..roll._equation import RollProblem
 
     records = _as_list(records)
@@ -381,6 +415,7 @@ def fit_roll_pdf(
             "('zero_crossing',)."
         )
     bands = tuple(float(q) for q in bands)
+    check_wave_heights(records, window_model_s)
     groups = group_by_sea_state(records)
     for (hs, t01), recs in groups.items():
         if len(recs) < 3:

@@ -33,13 +33,14 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from .._config import require_float64
 from ..io._records import Record
 from ..roll._equation import rk4_step
 from ..sea._grim import _fft_length, grim_transfer
 from ..sea._spectra import GRAVITY, wave_frequencies_from_encounter
 from ..ship._restoring import parametric_excitation
 from ..ship._ship import Ship
-from ._inputs import PAPER_WINDOW_MODEL_S, _as_list, _noise_std
+from ._inputs import PAPER_WINDOW_MODEL_S, _as_list, _noise_std, check_wave_heights
 from ._least_squares import _least_squares
 from ._time_domain_results import (
     ParameterEstimate,
@@ -325,6 +326,7 @@ def check_time_domain_inputs(
                 "resample the records to one rate."
             )
     spans = [analysis_span(r, span_model_s) for r in records]
+    check_wave_heights(records, span_model_s)
     if not check_window:
         return CheckedInputs(params, records, spans, float(dt), math.nan, 0)
     if window is None:
@@ -593,6 +595,7 @@ def fit_roll_time_domain(
     column or without its probe position, a window longer than a record's analysis span, an unknown
     parameter, records of different sampling rates, an analysis span the record does not cover.
     """
+    require_float64("jaxroll.fit_roll_time_domain")
     if initial_state not in ("free", "record"):
         raise ValueError(f"`initial_state` must be 'free' or 'record'; got {initial_state!r}.")
     if not (isinstance(max_dt, int | float) and max_dt > 0):

@@ -7,6 +7,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .._config import require_float64
 from ..ship._fits import ship_from_hull
 from ..ship._hull import Hull
 from ..ship._hydrostatics import GRAVITY, Loading, loading_condition
@@ -49,6 +50,26 @@ class ParametricRollAssessment:
     verdict: str
     vulnerable: bool
     notes: list = field(default_factory=list)
+
+    def to_xarray(self):
+        """The assessment as an `xarray.Dataset` named as in sgisc.json: `level1_*` (with `level1_gm_waves` on
+        `crest_position`), `level2_c1_*` (its wave cases on `c1_case`), `damping_*` (on `damping_amplitude`),
+        `level2_c2_*` (per case on `c2_case`, `level2_c2_max_roll_deg` on (`c2_case`, `c2_hs`, `c2_tz`)) when C2
+        was computed, `vulnerable`; the verdict and notes as attributes."""
+        from .._labels import tree_to_dataset
+        from .._labels._layouts import SGISC
+
+        tree = {"level1": vars(self.level1), "level2_c1": vars(self.c1), "damping": self.damping,
+                "roll_period_s": self.roll_period, "roll_period_source": self.roll_period_source,
+                "bilge_keel_area_m2": self.bilge_keel_area, "service_speed_m_s": self.service_speed,
+                "verdict": self.verdict, "vulnerable": self.vulnerable, "notes": list(self.notes)}
+        if self.c2 is not None:
+            c2 = self.c2
+            tree["level2_c2"] = {"c2": c2.c2, "standard": c2.standard, "vulnerable": c2.vulnerable,
+                                 "per_case": c2.per_case, "hs_m": REC34_HS, "tz_s": REC34_TZ,
+                                 "effective_wave_height_m": c2.effective_wave_height,
+                                 "max_roll_deg": np.degrees(c2.max_roll)}
+        return tree_to_dataset(tree, SGISC)
 
 
 def _roll_period(calm, hull, roll_period, roll_gyradius):
@@ -102,6 +123,7 @@ def assess_parametric_roll(
 
     **Returns:** a [`ParametricRollAssessment`][].
     """
+    require_float64("jaxroll.criteria.assess_parametric_roll")
     calm = _calm(hull, loading)
     notes = []
     if bilge_keel_area is None:
@@ -209,6 +231,15 @@ class KGMaxCurve:
     delta_gm1: np.ndarray
     r_pr: np.ndarray
 
+    def to_xarray(self):
+        """The curves as an `xarray.Dataset` on `kg_max_draught` (sgisc.json's `kg_max_*` names)."""
+        from .._labels import tree_to_dataset
+        from .._labels._layouts import SGISC
+
+        return tree_to_dataset({"kg_max": {"draught_m": self.draught, "km_m": self.km,
+                                           "kg_max_level1_m": self.kg_max_level1, "kg_max_c1_m": self.kg_max_c1,
+                                           "delta_gm1_m": self.delta_gm1, "r_pr": self.r_pr}}, SGISC)
+
 
 def kg_max_curve(
     hull: Hull,
@@ -234,6 +265,7 @@ def kg_max_curve(
 
     **Returns:** a [`KGMaxCurve`][].
     """
+    require_float64("jaxroll.criteria.kg_max_curve")
     ds = np.atleast_1d(np.asarray(draughts, float))
     out = {k: [] for k in ("km", "l1", "c1", "dgm1", "rpr")}
     lam, h = C1_WAVE_CASES[:, 1], C1_WAVE_CASES[:, 2]

@@ -26,6 +26,7 @@ import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float
 
 from .._compiled import filter_jit
+from .._config import require_float64
 from ..laws._abstract import (
     AbstractAmplitudeLaw,
     _bracket_targets,
@@ -62,6 +63,7 @@ def max_logpdf(dist: AbstractAmplitudeLaw, a: ArrayLike, n0: ArrayLike) -> Float
     - `a`: candidate maxima [rad], any shape.
     - `n0`: number of amplitudes $N_0$ (>= 1; need not be an integer).
     """
+    require_float64("jaxroll.max_logpdf")
     require_zero_crossing(dist, "`max_logpdf`")
     n0 = _count_n0(n0)
     return _max_logpdf_jit(dist, jnp.asarray(a, dtype=float), n0)
@@ -73,6 +75,7 @@ _max_logpdf_jit = filter_jit(_max_logpdf)
 def max_pdf(dist: AbstractAmplitudeLaw, a: ArrayLike, n0: ArrayLike) -> Float[Array, "..."]:
     r"""$P^*(a) = N_0 [1 - \bar F(a)]^{N_0 - 1} P(a)$ [1/rad], the PDF of the maximum of `n0` amplitudes
     (computed as `exp(max_logpdf)`; arguments as there)."""
+    require_float64("jaxroll.max_pdf")
     require_zero_crossing(dist, "`max_pdf`")
     return jnp.exp(max_logpdf(dist, a, n0))
 
@@ -94,6 +97,7 @@ def max_pdf_asymptotic(
 
     **Arguments:** `dist`; `a` [rad], any shape; `n0` >= 1.
     """
+    require_float64("jaxroll.max_pdf_asymptotic")
     require_zero_crossing(dist, "`max_pdf_asymptotic`")
     n0 = _count_n0(n0)
     return _max_pdf_asymptotic(dist, jnp.asarray(a, dtype=float), n0)
@@ -108,6 +112,7 @@ def _max_pdf_asymptotic(dist, a, n0):
 
 def max_logcdf(dist: AbstractAmplitudeLaw, a: ArrayLike, n0: ArrayLike) -> Float[Array, "..."]:
     r"""$\log \Pr(A_{\max} \le a) = N_0 \log(1 - \bar F(a))$ [-]."""
+    require_float64("jaxroll.max_logcdf")
     require_zero_crossing(dist, "`max_logcdf`")
     n0 = _count_n0(n0)
     return _max_logcdf(dist, jnp.asarray(a, dtype=float), n0)
@@ -120,12 +125,14 @@ def _max_logcdf(dist, a, n0):
 
 def max_cdf(dist: AbstractAmplitudeLaw, a: ArrayLike, n0: ArrayLike) -> Float[Array, "..."]:
     r"""$\Pr(A_{\max} \le a) = (1 - \bar F(a))^{N_0} = \exp(N_0\,\mathrm{log1p}(-\bar F))$ [-]."""
+    require_float64("jaxroll.max_cdf")
     require_zero_crossing(dist, "`max_cdf`")
     return jnp.exp(max_logcdf(dist, a, n0))
 
 
 def max_sf(dist: AbstractAmplitudeLaw, a: ArrayLike, n0: ArrayLike) -> Float[Array, "..."]:
     r"""$\Pr(A_{\max} > a) = 1 - (1 - \bar F)^{N_0}$ [-], as `-expm1(N0·log1p(−F̄))`: accurate when tiny."""
+    require_float64("jaxroll.max_sf")
     require_zero_crossing(dist, "`max_sf`")
     return -jnp.expm1(max_logcdf(dist, a, n0))
 
@@ -137,6 +144,7 @@ def max_quantile(dist: AbstractAmplitudeLaw, q: ArrayLike, n0: ArrayLike) -> Flo
 
     **Arguments:** `dist`; `q` in (0, 1), any shape; `n0` >= 1.
     """
+    require_float64("jaxroll.max_quantile")
     require_zero_crossing(dist, "`max_quantile`")
     n0 = _count_n0(n0)
     q = _probability_levels(q)
@@ -166,6 +174,7 @@ def expected_maximum(
     - `n0`: number of amplitudes $N_0$ >= 1.
     - `num_panels`: Gauss–Legendre panels (8 nodes each).
     """
+    require_float64("jaxroll.expected_maximum")
     require_zero_crossing(dist, "`expected_maximum`")
     n0 = _count_n0(n0)
     if num_panels < 1:
@@ -227,6 +236,7 @@ def most_probable_maximum(dist: AbstractAmplitudeLaw, n0: ArrayLike) -> Float[Ar
 
     **Arguments:** `dist`; `n0` >= 1.
     """
+    require_float64("jaxroll.most_probable_maximum")
     require_zero_crossing(dist, "`most_probable_maximum`")
     n0 = _count_n0(n0)
     return _most_probable_maximum(dist, n0)

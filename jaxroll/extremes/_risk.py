@@ -9,6 +9,7 @@ import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
 from .._compiled import filter_jit, require
+from .._config import require_float64
 from ..laws._abstract import (
     AbstractAmplitudeLaw,
     _bracket_targets,
@@ -69,6 +70,7 @@ def exceedance_probability(
 
     **Returns:** the probability [-], shape of `angle`. Differentiable in the distribution's parameters.
     """
+    require_float64("jaxroll.exceedance_probability")
     require_zero_crossing(dist, "`exceedance_probability`")
     n = _exposure_cycles(rate, duration)
     angle = _check_angle(angle)
@@ -230,6 +232,43 @@ class ExposureRisk(eqx.Module):
         """`expected_largest` [deg]."""
         return jnp.rad2deg(self.expected_largest)
 
+    def to_xarray(self):
+        """The risk measures as an `xarray.Dataset`, named as in risk.json (`probability`, `probability_ci95`,
+        `characteristic_largest_deg`, …; intervals on `bound`, angles in degrees), with `angle_deg`, `duration_s`,
+        `rate_per_s`, `n_amplitudes` and `confidence`. A batch of exposures (arrays of one dimension, e.g. from
+        `jax.vmap` over angles) is laid out on the dimension `case`."""
+        from .._labels import tree_to_dataset
+        from .._labels._layouts import EXPOSURE
+
+        def host(x, deg=False):
+            x = np.asarray(x, dtype=float)
+            if x.ndim > 1:
+                raise ValueError(f"`to_xarray` takes one exposure or a batch of one dimension; got shape {x.shape}.")
+            return np.rad2deg(x) if deg else x
+
+        def pair(lo, hi, deg=False):
+            return np.stack([host(lo, deg), host(hi, deg)], -1)
+
+        tree = {
+            "angle_deg": host(self.angle, True), "duration_s": host(self.duration), "rate_per_s": host(self.rate),
+            "n_amplitudes": host(self.n_amplitudes), "confidence": self.confidence, "n_cycles": host(self.n_cycles),
+            "exceedance_per_cycle": host(self.exceedance_per_cycle),
+            "exceedance_per_cycle_ci95": pair(self.exceedance_per_cycle_lower, self.exceedance_per_cycle_upper),
+            "probability": host(self.probability), "probability_poisson": host(self.probability_poisson),
+            "probability_ci95": pair(self.probability_lower, self.probability_upper),
+            "most_probable_largest_deg": host(self.most_probable_largest, True),
+            "characteristic_largest_deg": host(self.characteristic_largest, True),
+            "characteristic_largest_ci95_deg": pair(self.characteristic_largest_lower,
+                                                    self.characteristic_largest_upper, True),
+            "expected_largest_deg": host(self.expected_largest, True),
+        }
+        from .._labels import Layout
+
+        batch = ("case",) if np.ndim(tree["angle_deg"]) == 1 else ()
+        arrays = {k: (*batch, "bound") if k.endswith(("ci95", "ci95_deg")) else batch
+                  for k, v in tree.items() if np.ndim(v) > 0}
+        return tree_to_dataset(tree, EXPOSURE + Layout(arrays=arrays, index={"bound": ("lower", "upper")}))
+
 
 def exposure_risk(
     dist: AbstractAmplitudeLaw,
@@ -263,6 +302,7 @@ def exposure_risk(
     **Raises:** `ValueError` for a negative or non-scalar angle, non-positive rate/duration/n_amplitudes, a
     confidence outside (0, 1), `n_exceed` without `n_amplitudes`, or `n_exceed` outside [0, n_amplitudes].
     """
+    require_float64("jaxroll.exposure_risk")
     require_zero_crossing(dist, "`exposure_risk`")
     n = _exposure_cycles(rate, duration)
     angle = _check_angle(angle)

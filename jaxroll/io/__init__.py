@@ -1,7 +1,9 @@
-"""Every file format: tank records (and lab files of tank data), ship files, hull files, labelled datasets."""
+"""Every file format: tank records (and lab files of tank data), ship files, hull files, and the labelled results
+(netCDF)."""
 
 from ._dataset import (
     dataset_attrs as dataset_attrs,
+    output_dataset as output_dataset,
     provenance as provenance,
     read_dataset as read_dataset,
     to_jsonable as to_jsonable,

@@ -9,6 +9,7 @@ import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
 from .._compiled import filter_jit
+from .._config import require_float64
 from ._checks import (
     _BISECTION_STEPS,
     _DOUBLING_STEPS,
@@ -107,42 +108,51 @@ class AbstractAmplitudeLaw(eqx.Module):
 
     def logpdf(self, a: ArrayLike) -> Float[Array, "..."]:
         """log P(a), P in [1/rad]; −inf outside the support. `a` [rad], any shape."""
+        _require_float64(self, "logpdf")
         return _evaluate("_logpdf", self, jnp.asarray(a, dtype=float))
 
     def logsf(self, a: ArrayLike) -> Float[Array, "..."]:
         r"""$\log \bar F(a) = \log \int_a^\infty P\,dA$ [-], accurate far into the upper tail."""
+        _require_float64(self, "logsf")
         return _evaluate("_logsf", self, jnp.asarray(a, dtype=float))
 
     def logcdf(self, a: ArrayLike) -> Float[Array, "..."]:
         r"""$\log(1 - \bar F(a))$ [-], accurate where $\bar F \to 0$ (as `log1p(−F̄)`) and where
         $\bar F \to 1$."""
+        _require_float64(self, "logcdf")
         return _evaluate("_logcdf", self, jnp.asarray(a, dtype=float))
 
     def pdf(self, a: ArrayLike) -> Float[Array, "..."]:
         """P(a) [1/rad] at amplitudes `a` [rad]."""
+        _require_float64(self, "pdf")
         return _evaluate("_logpdf", self, jnp.asarray(a, dtype=float), True)
 
     def sf(self, a: ArrayLike) -> Float[Array, "..."]:
         r"""Survival $\bar F(a) = \Pr(A > a)$ [-] at amplitudes `a` [rad]."""
+        _require_float64(self, "sf")
         return _evaluate("_logsf", self, jnp.asarray(a, dtype=float), True)
 
     def cdf(self, a: ArrayLike) -> Float[Array, "..."]:
         r"""$1 - \bar F(a) = \Pr(A \le a)$ [-] at amplitudes `a` [rad]."""
+        _require_float64(self, "cdf")
         return _evaluate("_logcdf", self, jnp.asarray(a, dtype=float), True)
 
     def quantile(self, q: ArrayLike) -> Float[Array, "..."]:
         """The amplitude [rad] with `cdf(a) = q`, 0 < q < 1, any shape. Differentiable (implicit function)."""
+        _require_float64(self, "quantile")
         q = _probability_levels(q)
         return _solve_levels_jit(self, jnp.log(q), jnp.log1p(-q))
 
     def isf(self, s: ArrayLike) -> Float[Array, "..."]:
         r"""Inverse survival: the amplitude [rad] with $\bar F(a) = s$, accurate for tiny `s` (e.g. 1e-12)."""
+        _require_float64(self, "isf")
         s = _probability_levels(s, "s")
         return _solve_levels_jit(self, jnp.log1p(-s), jnp.log(s))
 
     def mean(self) -> Float[Array, ""]:
         r"""Mean amplitude [rad], $\int_0^\infty \bar F\,da$ (Gauss–Legendre; the $N_0 = 1$ case of
         `expected_maximum`)."""
+        _require_float64(self, "mean")
         return _expected_maximum(self, jnp.asarray(1.0), 256)
 
     def pdf_per_degree(self, bins_deg: ArrayLike) -> np.ndarray:
@@ -171,6 +181,41 @@ class AbstractAmplitudeLaw(eqx.Module):
             out["pdf_per_degree"] = self.pdf_per_degree(bins)
             out["mass_beyond_grid"] = float(self.sf(np.deg2rad(bins[-1])))
         return out
+
+
+    def to_xarray(self, amplitude_deg: ArrayLike | None = None):
+        """The law as an `xarray.Dataset` on the amplitude grid `amplitude_deg` [deg] (default: 0.1° steps from 0 to
+        the end of the support, or to the amplitude exceeded with probability 1e-12 where the support is
+        unbounded): `pdf_per_degree` [1/deg], `sf` and `cdf` [-], the `summary()` numbers (`mean_amplitude_deg`,
+        `quantiles_deg` on `percentile`), and as attributes the law's type, `estimator` and `amplitude_sampling`.
+        `amplitude_rad` is a second coordinate (the law's own unit)."""
+        from .._labels import Layout, labelled_values, merge, tree_to_dataset
+
+        if amplitude_deg is None:
+            lo, hi = (float(v) for v in self.support())
+            top = hi if np.isfinite(hi) else float(self.isf(1e-12))
+            amplitude_deg = np.arange(0.0, np.rad2deg(top) + 0.1, 0.1)
+        grid = np.asarray(amplitude_deg, dtype=float)
+        rad = np.deg2rad(grid)
+        summary = self.summary()
+        text = {k: summary.pop(k) for k in ("estimator", "amplitude_sampling")}
+        ds = tree_to_dataset(summary, Layout(labels={"quantiles_deg": "percentile"},
+                                             coords={"percentile": ("percent", "quantile level")}))
+        a = ("amplitude_deg",)
+        return merge(ds, labelled_values(
+            {"pdf_per_degree": (a, np.asarray(self.pdf(rad)) * np.pi / 180, "degree-1", "PDF of the amplitude per "
+                                "degree"),
+             "sf": (a, np.asarray(self.sf(rad)), "1", "P(A > amplitude)"),
+             "cdf": (a, np.asarray(self.cdf(rad)), "1", "P(A <= amplitude)")},
+            coords={"amplitude_deg": (a, grid, "degree", "roll amplitude A"),
+                    "amplitude_rad": (a, rad, "rad", "roll amplitude A")},
+            attrs={"law": type(self).__name__, **text}))
+
+
+def _require_float64(law: AbstractAmplitudeLaw, method: str) -> None:
+    """`require_float64`, naming the law's method (e.g. "RobertsLaw.sf"); the laws' public methods call it."""
+    if not jax.config.jax_enable_x64:
+        require_float64(f"{type(law).__name__}.{method}")
 
 
 def require_zero_crossing(law: AbstractAmplitudeLaw, what: str) -> None:

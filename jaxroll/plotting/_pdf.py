@@ -13,9 +13,11 @@ from dataclasses import dataclass
 import matplotlib.pyplot as plt
 import numpy as np
 
-THEORY_COLOURS = {"roberts": "tab:blue", "esam": "gold", "moment": "purple", "envelope_fpk": "teal"}
+THEORY_COLOURS = {"roberts": "tab:blue", "esam": "gold", "moment": "purple", "envelope_fpk": "teal",
+                  "first_passage": "tab:orange"}
 THEORY_LABELS = {"roberts": "Roberts (SAM)", "esam": "ESAM", "moment": "moment method",
-                 "envelope_fpk": "envelope FPK (coloured averaging)"}
+                 "envelope_fpk": "envelope FPK (coloured averaging)",
+                 "first_passage": "envelope FPK, first passage (large rolls in groups)"}
 
 
 @dataclass
@@ -124,18 +126,22 @@ def maxima_figures(centres_deg, histograms: dict, *, title: str | None = None, c
     capsize_probability = capsize_probability or {}
     figs = []
     for log in (False, True):
-        fig, ax = plt.subplots(figsize=(6.0, 4.2))
+        fig, ax = plt.subplots(figsize=(7.6, 4.2))
         for n0, h in sorted(histograms.items()):
             h = np.asarray(h, float)
             p = capsize_probability.get(n0, 0.0)
-            label = f"N0 = {n0}" + (f" (P(capsize) = {p:.3g}: mass beyond the vanishing angle)" if p else "")
+            label = f"N0 = {n0}" + (f"\nP(capsize) = {p:.3g}" if p else "")
             ax.plot(centres_deg, np.where(h > 0, h, np.nan) if log else h, "o-", ms=3, lw=0.8, label=label)
         ax.set_xlabel("maximum roll amplitude [deg]")
         ax.set_ylabel("probability density [1/deg]")
         if log:
             ax.set_yscale("log")
         ax.grid(True, alpha=0.3)
-        ax.legend(fontsize=8)
+        # beside the axes, not over them: the large-N0 peaks sit at the top right, where a legend inside went
+        ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0)
+        if capsize_probability and any(capsize_probability.values()):
+            ax.text(1.01, 0.0, "P(capsize): trials that\ncapsized before N0, maxima\nbeyond the vanishing angle\n"
+                    "(not in the curves)", transform=ax.transAxes, fontsize=7, va="bottom", ha="left", color="0.3")
         if title:
             ax.set_title(title, fontsize=9)
         figs.append(fig)
@@ -159,8 +165,14 @@ def maxima_comparison_figure(centres_deg, histogram, grid_deg, curves: dict, n0:
         ax.plot(centres_deg, np.where(h > 0, h, np.nan) if log else h, "ko", ms=3.5, label="MCS maxima")
         for name, c in curves.items():
             col = colours.get(name, "c")
-            ax.plot(grid_deg, np.asarray(c["exact"]), "-", color=col, lw=1.6, label=f"{labels.get(name, name)}: exact")
-            ax.plot(grid_deg, np.asarray(c["asymptotic"]), "--", color=col, lw=1.0, label="asymptotic")
+            exact, asymptotic = np.asarray(c["exact"], float), np.asarray(c["asymptotic"], float)
+            label = labels.get(name, name)
+            ax.plot(grid_deg, exact, "-", color=col, lw=2.4, alpha=0.55, label=f"{label}: exact")
+            # dashes over the wide, light exact curve: at large N0 the two coincide, and a dashed line drawn under a
+            # solid one of the same colour was invisible
+            close = np.nanmax(np.abs(asymptotic - exact)) <= 0.01 * np.nanmax(exact) if np.any(exact > 0) else False
+            ax.plot(grid_deg, asymptotic, "--", color=col, lw=1.0, zorder=3,
+                    label=f"{label}: asymptotic" + (" (= exact within 1 %)" if close else ""))
         ax.set_xlabel("maximum roll amplitude [deg]")
         ax.set_ylabel("probability density [1/deg]")
         if log:

@@ -21,7 +21,7 @@ def _edges(x: np.ndarray, lo: float, hi: float) -> np.ndarray:
     return np.clip(np.concatenate([[2 * x[0] - mid[0]], mid, [2 * x[-1] - mid[-1]]]), lo, hi)
 
 
-def _setup_polar(ax, r_max: float) -> None:
+def _setup_polar(ax, r_max: float, speeds=()) -> None:
     """Head seas (χ = 180°) at the top, beam seas to the right, following seas at the bottom; radius = speed."""
     ax.set_theta_zero_location("N")
     ax.set_theta_direction(-1)
@@ -34,6 +34,12 @@ def _setup_polar(ax, r_max: float) -> None:
     ax.set_ylim(0, r_max)
     ax.set_rorigin(-0.3 * r_max)  # a hole in the middle: zero speed is a ring of cells, not a crowded point
     ax.set_rlabel_position(180)
+    # the grid's speeds as labels, short of the rim (a label at r_max sat on the "180° head" heading label), the
+    # unit on the last
+    ticks = [float(t) for t in speeds if 0 <= t <= 0.85 * r_max]
+    ticks = ticks[:: -(-len(ticks) // 5)] if ticks else [0.0]
+    ax.set_yticks(ticks)
+    ax.set_yticklabels([f"{t:g}" + (" m/s" if k == len(ticks) - 1 else "") for k, t in enumerate(ticks)])
     ax.tick_params(labelsize=7)
 
 
@@ -63,7 +69,7 @@ def polar_risk_chart(
     r_edges = _edges(speed, 0.0, np.inf)
     r_max = float(r_edges[-1]) if r_edges[-1] > 0 else 1.0
     theta_edges = np.radians(180.0 - _edges(chi, 0.0, 180.0))
-    _setup_polar(ax, r_max)
+    _setup_polar(ax, r_max, speed)
     mesh = ax.pcolormesh(theta_edges, r_edges, p.T, cmap=cmap, vmin=0.0, vmax=1.0, shading="flat")
     ax.plot(*np.meshgrid(np.radians(180.0 - chi), speed, indexing="ij"), "k.", ms=2, alpha=0.4)
     if annotate:  # at the cells' centres (a speed-0 cell is a wedge from the centre)

@@ -14,8 +14,9 @@ def risk_figure(angles_deg, direct, curves: dict, *, angle_deg: float, hours: fl
 
     - `direct`: the Monte Carlo trials of the exposure's length, P(x) = fraction of trials whose largest roll
       exceeds x or that capsized (black steps; it levels off at `capsize_probability`, drawn dotted).
-    - `curves`: name → P(x) on `angles_deg` from independent per-cycle amplitudes ("monte_carlo": the Monte Carlo
-      amplitude law; theory names: their laws).
+    - `curves`: name → P(x) on `angles_deg`: from independent per-cycle amplitudes ("monte_carlo": the Monte Carlo
+      amplitude law; theory names: their laws), or "first_passage": the envelope FPK model's first passage
+      (no independence assumed; NaN where not computed).
     - `angle_deg`: the threshold asked for (vertical line); `hours`: the exposure [h].
 
     **Returns:** the figure.

@@ -48,6 +48,11 @@ from ._sharding import (
     default_memory_budget as default_memory_budget,
     realization_mesh as realization_mesh,
 )
+from ._splitting import (
+    DEFAULT_WAVE_WEIGHT as DEFAULT_WAVE_WEIGHT,
+    SplittingResult as SplittingResult,
+    monte_carlo_splitting as monte_carlo_splitting,
+)
 from ._statistics import (
     AmplitudeStatistics as AmplitudeStatistics,
     CapsizeCounts as CapsizeCounts,

@@ -23,12 +23,14 @@ import jax.random as jr
 import numpy as np
 from jaxtyping import Array, Float, PRNGKeyArray
 
-from .._compiled import cached_program, filter_jit
+from .._compiled import filter_jit
+from .._config import require_float64
 from ..sea._filters import FilterFit, check_filter_fit, fit_filter
-from ..sea._grim import EffectiveWave
+from ..sea._grim import SPECTRUM_GRID, EffectiveWave, spectrum_on_grid
 from ..sea._spectra import AbstractWaveSpectrum
 from ..ship._restoring import parametric_excitation, restoring_moment, vanishing_angle
 from ..ship._ship import Ship
+from ..ship._validity import warn_outside_validity
 from ._excitation import BLOCK, AbstractExcitation, FilterExcitation, SuperpositionExcitation
 
 
@@ -82,16 +84,10 @@ def rk4_step(ship: Ship, y, p, m, h, one=None):
 # ----------------------------------------------------------------------------------------------------------------
 
 
-@cached_program
-def _bandwidth_spectrum(wave: EffectiveWave):
-    """S_G on the bandwidth grid, one stored program."""
-    return wave.spectrum(jnp.linspace(0.0, 6.0, 12001))
-
-
 def excitation_bandwidth(wave: EffectiveWave, fraction: float = 0.999) -> float:
     """Encounter frequency [rad/s] below which `fraction` of the effective-wave variance lies."""
-    w = np.linspace(0.0, 6.0, 12001)
-    s = np.asarray(_bandwidth_spectrum(wave))
+    w = SPECTRUM_GRID
+    s = np.asarray(spectrum_on_grid(wave))
     cum = np.concatenate([[0.0], np.cumsum((s[1:] + s[:-1]) / 2 * np.diff(w))])
     if not cum[-1] > 0:
         return 0.0  # beam seas: ζ_G ≡ 0, no excitation bandwidth
@@ -162,6 +158,7 @@ class RollProblem(eqx.Module):
         - `wave`, `filter_fit`: the effective wave and the shaping-filter fit behind `excitation`, when known
           (`from_sea` sets them), so the theories use exactly what the Monte Carlo simulates.
         """
+        require_float64("jaxroll.RollProblem")
         self.ship = ship
         self.excitation = excitation
         self.phi0 = jnp.asarray(phi0, dtype=float)
@@ -219,6 +216,7 @@ class RollProblem(eqx.Module):
         **Raises:** `ValueError` for a bad method, time step, filter fit or initial roll (beyond the vanishing
         angle).
         """
+        require_float64("jaxroll.RollProblem.from_sea")
         if excitation not in ("filter", "superposition"):
             raise ValueError(f"`excitation` must be 'filter' or 'superposition'; got {excitation!r}.")
         wave = EffectiveWave(sea, ship.lpp, speed, heading, validate=validate)
@@ -227,6 +225,7 @@ class RollProblem(eqx.Module):
                 if not math.isfinite(value):
                     raise ValueError(f"`{name}` must be finite; got {value!r}.")
             check_time_step(dt, ship, wave)
+            warn_outside_validity(ship, wave, stacklevel=2)
             capsize = float(vanishing_angle(ship))
             if abs(phi0) >= capsize:
                 raise ValueError(
@@ -362,6 +361,7 @@ def simulate(
     **Raises:** `ValueError` when `record_every` does not divide m, or for 2³¹ or more time steps (the capsize step
     is kept as an int32).
     """
+    require_float64("jaxroll.simulate")
     problem = as_dtype(problem, dtype)
     ship, h, m = problem.ship, problem.dt, problem.excitation.substeps
     if not (isinstance(record_every, int) and record_every >= 1 and m % record_every == 0):
@@ -434,6 +434,7 @@ def roll_time_series(problem: RollProblem, key: PRNGKeyArray, duration: float, *
     The realization keyed `fold_in(key, i)` is trial i of `monte_carlo(problem, key, ...)` (which integrates in
     float32: the two agree to ~1e-5 deg). One compiled program per problem structure, duration and dtype (a
     second call with another key or another sea of the same form runs at once)."""
+    require_float64("jaxroll.roll_time_series")
     return _roll_time_series(problem, key, int(round(duration / problem.dt)), dtype)
 
 

@@ -101,19 +101,25 @@ def block_normals(key: PRNGKeyArray, index, shape) -> Float[Array, "..."]:
     return _bits_to_normal(bits).reshape(shape)
 
 
-def block_normals_by_column(key: PRNGKeyArray, index, n: int) -> tuple:
+def block_normals_by_column(key: PRNGKeyArray, index, n: int, first_row=0, rows: int = BLOCK) -> tuple:
     """`block_normals(key, index, (BLOCK, n))` column by column, the same numbers: n arrays of `BLOCK` normals
     (float32), column i holding the normals of filter state i over the block's source steps.
 
     Each column is hashed from its own counters (normal f of the block, f = s·n + i, is word f mod 2 of counter
     ⌊f/2⌋), so no array of the block is interleaved or transposed per realization and XLA generates each column
     as one vectorized pass (the paper protocol's Monte Carlo 0.51 → 0.45 s, a `MaxRoll` chunk 0.40 → 0.28 s on
-    the 2-core CPU). For even n a pair of columns shares its hashes, as in `block_normals`."""
+    the 2-core CPU). For even n a pair of columns shares its hashes, as in `block_normals`.
+
+    `first_row`, `rows`: only the block's source steps first_row … first_row + rows − 1 (the same numbers as
+    those rows of the whole block; `first_row` may be traced), for runs that start mid-block
+    (`jaxroll.monte_carlo_splitting`'s clones)."""
     if jr.key_impl(key) != jr.key_impl(jr.key(0)):  # another PRNG than threefry: its own normals
-        z = block_normals(key, index, (BLOCK, n))
+        z = jax.lax.dynamic_slice_in_dim(block_normals(key, index, (BLOCK, n)), first_row, rows)
         return tuple(z[:, i] for i in range(n))
     kd = jr.key_data(jr.fold_in(key, index))
-    s = jnp.arange(BLOCK, dtype=jnp.uint32)
+    s = jnp.arange(rows, dtype=jnp.uint32)
+    if not (isinstance(first_row, int) and first_row == 0):
+        s = s + jnp.asarray(first_row).astype(jnp.uint32)
     zero = jnp.zeros_like(s)
     words = []
     if n % 2 == 0:

@@ -14,6 +14,7 @@ import jax
 import jax.numpy as jnp
 import jax.random as jr
 
+from .._config import require_float64
 from .._display import progress_bar
 from ._equation import RollProblem, simulate
 from ._observers import AbstractObserver, AmplitudeHistogram, FirstMaxima, MaxRoll, envelope_record_every
@@ -38,6 +39,7 @@ def simulate_chunk(
     objective. `dtype`: the integration's floating type (float64 here; `monte_carlo` runs float32). `remat=True`
     recomputes each realization in the backward pass instead of storing it (reverse-mode autodiff through long
     runs). Observers get the per-step (state, k, y, alive) of one realization, y in `dtype`."""
+    require_float64("jaxroll.simulate_chunk")
 
     def one(i):
         k = jr.fold_in(key, i)
@@ -104,6 +106,7 @@ def monte_carlo(
 
     **Returns:** `observer.result(...)` (e.g. `AmplitudeStatistics`), with `config` recording the run.
     """
+    require_float64("jaxroll.monte_carlo")
     _check_count("num_realizations", num_realizations)
     if chunk_size is None:
         chunk_size = default_chunk_size(observer.keeps_history, devices)
@@ -129,6 +132,7 @@ def monte_carlo(
             devices=devices,
             checkpoint=checkpoint,
             checkpoint_every=checkpoint_every,
+            consistency=observer.consistency,
         )
     config = {"num_realizations": num_realizations, "duration_s": float(duration), "dt_s": problem.dt,
               "chunk_size": chunk_size}
@@ -172,6 +176,7 @@ def monte_carlo_amplitudes(
 
     **Returns:** `AmplitudeStatistics` (zero-crossing amplitudes per half cycle, envelope amplitudes per sample).
     """
+    require_float64("jaxroll.monte_carlo_amplitudes")
     _check_discard(discard, duration, problem.dt)
     observer = AmplitudeHistogram(float(discard), float(bin_width_deg), float(max_deg), envelope_record_every(problem))
     return monte_carlo(
@@ -211,6 +216,7 @@ def monte_carlo_maxima(
 
     **Returns:** `MaximaStatistics`.
     """
+    require_float64("jaxroll.monte_carlo_maxima")
     n0 = tuple(int(n) for n in n0)
     if not n0 or min(n0) < 1:
         raise ValueError(f"`n0` must be a non-empty list of integers >= 1; got {n0}.")
@@ -247,6 +253,7 @@ def monte_carlo_max_roll(
 
     **Returns:** `MaxRollStatistics`.
     """
+    require_float64("jaxroll.monte_carlo_max_roll")
     _check_discard(discard, duration, problem.dt, min_steps=1)
     capsize_deg = math.degrees(float(problem.capsize_angle))
     if not (0 < angle_deg < capsize_deg):

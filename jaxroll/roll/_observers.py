@@ -69,6 +69,10 @@ class AbstractObserver(eqx.Module):
     # without per-step outputs only; `simulate`). None: every realization runs its whole duration.
     finished = None
 
+    # `consistency(summed, per) -> list[str]`: what does not add up between the totals over realizations and the
+    # per-realization arrays of a checkpoint (host numpy; `run_chunks` refuses a checkpoint with any). None: no check.
+    consistency = None
+
     def record_every(self, problem) -> int:
         """r: the per-step outputs after the steps r, 2r, … are kept, the others are not computed (r divides the
         problem's `excitation.substeps`). Default 1: every step."""
@@ -199,8 +203,27 @@ class AmplitudeHistogram(AbstractObserver):
             "n_samples": kf * n,
             "sum_phi2": kf * sum_phi2,
             "sum_phi4": kf * sum_phi4,
+            # the largest envelope amplitude after the discard [rad] (NaN: capsized): the trial's largest roll
+            "max_env": jnp.where(keep, jnp.max(env, 1, initial=0.0).astype(jnp.float64), jnp.nan),
         }
         return summed, per
+
+    def consistency(self, summed, per) -> list[str]:
+        """The histograms' totals against the per-realization counts: every zero-crossing amplitude of a realization
+        that did not capsize is in the histogram or merged, every envelope record is in the histogram."""
+        out = []
+        if any(np.any(np.asarray(summed[k]) < 0) for k in ("counts_zero_crossing", "counts_envelope")):
+            out.append("a histogram holds negative counts")
+        zc = float(np.sum(summed["counts_zero_crossing"])) + float(summed["zero_crossing_merged"])
+        if zc != float(np.sum(per["n_zc"])):
+            out.append(f"the zero-crossing histogram holds {zc:.0f} amplitudes (merged included), the realizations "
+                       f"{float(np.sum(per['n_zc'])):.0f}")
+        env = float(np.sum(summed["counts_envelope"]))
+        if env != float(np.sum(per["n_env"])):
+            out.append(f"the envelope histogram holds {env:.0f} samples, the realizations {float(np.sum(per['n_env'])):.0f}")
+        if np.any(np.asarray(per["capsized"]) & (np.asarray(per["n_zc"]) != 0)):
+            out.append("a capsized realization has amplitudes")
+        return out
 
     def result(self, summed, per, config):
         capsized = per.pop("capsized")
@@ -273,6 +296,21 @@ class FirstMaxima(AbstractObserver):
         }
         return {}, per
 
+    def consistency(self, summed, per) -> list[str]:
+        """Counts within [0, max N0], a maximum exactly where its N0 amplitudes were counted, and the maxima of a
+        trial non-decreasing in N0."""
+        maxima, count = np.asarray(per["maxima"]), np.asarray(per["count"])
+        out = []
+        if np.any((count < 0) | (count > max(self.n0))):
+            out.append(f"an amplitude count is outside [0, {max(self.n0)}]")
+        if np.any((maxima >= 0) != (count[:, None] >= np.asarray(self.n0)[None, :])):
+            out.append("a maximum is recorded where fewer amplitudes were counted, or missing where enough were")
+        order = np.argsort(self.n0)
+        m = np.where(maxima >= 0, maxima, np.inf)[:, order]
+        if np.any(np.diff(m, axis=1) < 0):
+            out.append("a trial's maximum of more amplitudes is below its maximum of fewer")
+        return out
+
     def result(self, summed, per, config):
         return MaximaStatistics(
             n0=self.n0,
@@ -313,6 +351,18 @@ class MaxRoll(AbstractObserver):
         }
         per = {"max_abs_phi": jnp.where(valid, states, 0.0), "capsized": capsized, "capsize_time": end.capsize_time}
         return summed, per
+
+    def consistency(self, summed, per) -> list[str]:
+        """The totals against the trials: capsizes counted once each, exceedances those capsized or beyond the
+        angle (compared in the trials' own float type, as on the device)."""
+        capsized, peak = np.asarray(per["capsized"]), np.asarray(per["max_abs_phi"])
+        exceeded = capsized | (peak > peak.dtype.type(math.radians(self.angle_deg)))
+        out = []
+        if int(summed["n_capsized"]) != int(capsized.sum()):
+            out.append(f"n_capsized = {int(summed['n_capsized'])}, but {int(capsized.sum())} trials capsized")
+        if int(summed["n_exceeded"]) != int(exceeded.sum()):
+            out.append(f"n_exceeded = {int(summed['n_exceeded'])}, but {int(exceeded.sum())} trials exceeded the angle")
+        return out
 
     def result(self, summed, per, config):
         return MaxRollStatistics(

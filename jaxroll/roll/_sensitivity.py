@@ -44,6 +44,7 @@ import numpy as np
 from jax.scipy.stats import norm
 
 from .._compiled import MONTE_CARLO_PROGRAM, SMALL_PROGRAM, cached_program, compiled_with
+from .._config import require_float64
 from .._display import progress_bar
 from ..sea._spectra import ITTC
 from ..ship._ship import Ship
@@ -416,6 +417,53 @@ class SensitivityResult(eqx.Module):
             "config": dict(self.config),
         }
 
+    def to_xarray(self):
+        """The result as an `xarray.Dataset` on (`statistic`, `parameter`) in the API's units (radians; each
+        statistic's unit in the coordinate `statistic_unit`, each parameter's in `parameter_unit`): `value`,
+        `value_std_error`, `unsmoothed`, `gradient`, `std_error`, `parameter_value`, per realization `influence`
+        (the contributions whose mean is the gradient; NaN for the realizations left out) and `kept`, and with the
+        windowed estimator `by_burn_in` (the estimates per burn-in before extrapolation)."""
+        from .._labels import config_attrs, labelled_values
+
+        st, pa = list(self.statistics), list(self.parameters)
+        kept = np.asarray(self.kept, dtype=bool)
+        influence = np.full((len(st), len(pa), kept.size), np.nan)
+        for i, stat in enumerate(st):
+            for j, p in enumerate(pa):
+                influence[i, j, kept] = np.asarray(self.influence[stat][p])
+        grid = lambda d: np.array([[d[s][p] for p in pa] for s in st], dtype=float)  # noqa: E731
+        sp, r = ("statistic", "parameter"), ("realization",)
+        mixed = "mixed: the statistic's unit (statistic_unit) per unit of the parameter (parameter_unit)"
+        per_stat = "mixed: the statistic's unit (statistic_unit)"
+        out = {
+            "value": (("statistic",), [self.value[s] for s in st], per_stat, "Monte Carlo value of the statistic "
+                      "over the surviving realizations (exceedances: smoothed)"),
+            "value_std_error": (("statistic",), [self.value_std_error[s] for s in st], per_stat, "its standard error"),
+            "unsmoothed": (("statistic",), [self.unsmoothed[s] for s in st], per_stat, "the plain estimate "
+                           "(exceedances: the indicator count)"),
+            "gradient": (sp, grid(self.gradient), mixed, "d(statistic)/d(parameter)"),
+            "std_error": (sp, grid(self.std_error), mixed, "standard error of the gradient"),
+            "influence": ((*sp, *r), influence, mixed, "per-realization contributions whose mean is the gradient"),
+            "kept": (r, kept, "1", "whether the realization counts (survived)"),
+            "parameter_value": (("parameter",), [float(self.params[p]) for p in pa],
+                                "mixed: the parameter's unit (parameter_unit)", "nominal value of the parameter"),
+            "n_realizations": ((), self.n_realizations, "1", "number of realizations run"),
+            "n_capsized": ((), self.n_capsized, "1", "number of realizations that capsized"),
+        }
+        coords = {
+            "statistic": (("statistic",), st, None, "statistic"), "parameter": (("parameter",), pa, None, "parameter"),
+            "realization": (r, np.arange(kept.size), "1", "realization (trial) index, in the Monte Carlo's order"),
+            "statistic_unit": (("statistic",), ["rad2" if x == "E_phi2" else "rad" if x.startswith("mean_") else "1"
+                                                for x in st], None, "unit of the statistic"),
+            "parameter_unit": (("parameter",), [SENSITIVITY_PARAMETERS.get(p, "?") for p in pa], None,
+                               "unit of the parameter")}  # fmt: skip
+        if self.by_burn_in:
+            burns = sorted(self.by_burn_in)
+            out["by_burn_in"] = (("burn_in_s", *sp), np.stack([grid(self.by_burn_in[b]) for b in burns]), mixed,
+                                 "windowed gradient estimate per burn-in, before extrapolation")
+            coords["burn_in_s"] = (("burn_in_s",), np.asarray(burns, dtype=float), "s", "burn-in of the tangent")
+        return labelled_values(out, coords=coords, attrs=config_attrs(self.config))
+
 
 def _ratio(num, den):
     """Σnum/Σden and its per-realization influence (mean = the ratio) and standard error (delta method)."""
@@ -564,6 +612,7 @@ def monte_carlo_sensitivity(
     **Raises:** `ValueError` for an unknown parameter or statistic, a window or burn-in that does not fit the
     run, or bad counts.
     """
+    require_float64("jaxroll.monte_carlo_sensitivity")
     params = {str(k): float(v) for k, v in dict(params).items()}
     for k, v in params.items():
         if not math.isfinite(v):

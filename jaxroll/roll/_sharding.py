@@ -123,14 +123,27 @@ _FINGERPRINT_MEANING = {
 }
 
 
-def _load_checkpoint(path: Path, fingerprint: dict[str, str]):
-    """`(next_start, summed, per)` from a checkpoint of this very run; ValueError if unreadable or foreign."""
+def _content_digest(arrays: dict[str, np.ndarray]) -> str:
+    """SHA-256 of a checkpoint's entries (names, dtypes, shapes and bytes, in name order)."""
+    h = hashlib.sha256()
+    for name in sorted(arrays):
+        arr = np.asarray(arrays[name])
+        h.update(f"{name}\0{arr.dtype.str}\0{arr.shape}\0".encode())
+        h.update(np.ascontiguousarray(arr).tobytes())
+    return h.hexdigest()
+
+
+def _load_checkpoint(path: Path, fingerprint: dict[str, str], consistency=None):
+    """`(next_start, summed, per)` from a checkpoint of this very run; ValueError if unreadable, edited, inconsistent
+    or foreign. `consistency(summed, per) -> list[str]`: the observer's checks of its totals against its
+    per-realization arrays (`AbstractObserver.consistency`)."""
     advice = f"Delete {path.parent} (or the file) to start afresh, or pass another checkpoint directory."
     try:
         with open(path, "rb") as f, np.load(f, allow_pickle=False) as data:
             contents = {name: data[name] for name in data.files}
-        stored = json.loads(str(contents.pop("fingerprint")))
-        next_start = int(contents.pop("next_start"))
+        digest = str(contents.pop("digest")) if "digest" in contents else None
+        stored = json.loads(str(contents["fingerprint"]))
+        next_start = int(contents["next_start"])
         lengths = {v.shape[0] for k, v in contents.items() if k.startswith("per/")}
         if not (0 < next_start <= int(stored["num_realizations"])) or lengths - {next_start}:
             raise ValueError(f"inconsistent contents (next start {next_start}, arrays of lengths {lengths})")
@@ -138,6 +151,14 @@ def _load_checkpoint(path: Path, fingerprint: dict[str, str]):
         raise ValueError(
             f"checkpoint {path} is unreadable (truncated or corrupted: {type(e).__name__}: {e}). {advice}"
         ) from e
+    if digest is None:
+        raise ValueError(f"checkpoint {path} has no content digest: it was written by an older jaxroll, or not by "
+                         f"jaxroll. {advice}")
+    if digest != _content_digest(contents):
+        raise ValueError(
+            f"checkpoint {path} has been changed since jaxroll wrote it (its content digest does not match): a "
+            f"checkpoint is never edited, and an edited one would put its numbers into the results. {advice}"
+        )
     differ = [k for k in fingerprint if stored.get(k) != fingerprint[k]]
     if differ:
         detail = "; ".join(
@@ -147,14 +168,27 @@ def _load_checkpoint(path: Path, fingerprint: dict[str, str]):
         raise ValueError(f"checkpoint {path} belongs to a different run: {detail}. {advice}")
     summed = {k[len("summed/") :]: v for k, v in contents.items() if k.startswith("summed/")}
     per = {k[len("per/") :]: v for k, v in contents.items() if k.startswith("per/")}
+    problems = [f"{k} holds {v.size - np.isfinite(v).sum()} non-finite value(s)"
+                for k, v in summed.items() if v.dtype.kind == "f" and not np.isfinite(v).all()]  # counts
+    if not problems and consistency is not None:
+        problems = consistency(summed, per)
+    if problems:
+        raise ValueError(
+            f"checkpoint {path} is inconsistent ({'; '.join(problems)}; next start {next_start}): its totals do not "
+            f"add up to its per-realization records, so it was edited or damaged. {advice}"
+        )
     return next_start, summed, per
 
 
 def _save_checkpoint(path: Path, fingerprint: dict, next_start: int, summed: dict, per: dict) -> None:
-    """Write the accumulated state atomically (temporary file in the same folder, fsync, then os.replace)."""
+    """Write the accumulated state atomically (temporary file in the same folder, fsync, then os.replace), with a
+    content digest of its entries (`_content_digest`): an edited or damaged checkpoint is refused on loading. The
+    digest detects edits and corruption, not a forger who recomputes it; the observer's consistency checks
+    (`AbstractObserver.consistency`) are the second line."""
     arrays = {"fingerprint": np.array(json.dumps(fingerprint)), "next_start": np.array(next_start)}
-    arrays.update({f"summed/{k}": v for k, v in summed.items()})
+    arrays.update({f"summed/{k}": np.asarray(v) for k, v in summed.items()})
     arrays.update({f"per/{k}": v[:next_start] for k, v in per.items()})
+    arrays["digest"] = np.array(_content_digest(arrays))
     buf = io.BytesIO()
     np.savez(buf, **arrays)
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -271,6 +305,7 @@ def run_chunks(
     devices=None,
     checkpoint: str | os.PathLike | None = None,
     checkpoint_every: int | None = None,
+    consistency=None,
 ):
     """Run `chunk_fn(problem, key, indices, valid, *static) -> (summed, per_realization)` over all
     realizations.
@@ -303,11 +338,14 @@ def run_chunks(
       the result of an uninterrupted run. A finished run leaves its final state, so a rerun returns at once.
     - `checkpoint_every`: save every this many chunks; None (default) saves when `CHECKPOINT_SECONDS` (60 s)
       of wall time have passed since the last save, and always after the last chunk.
+    - `consistency`: `consistency(summed, per) -> list[str]`, the problems of a checkpoint's totals against its
+      per-realization arrays (`AbstractObserver.consistency`); a checkpoint with any is refused.
 
     **Returns:** `(summed, per_realization)` as host numpy arrays (the same on every process).
 
-    **Raises:** `ValueError` when the checkpoint is unreadable or belongs to a different run (the message says
-    what differs and how to proceed).
+    **Raises:** `ValueError` when the checkpoint is unreadable, has been changed since it was written (its content
+    digest), is inconsistent (`consistency`) or belongs to a different run (the message says what differs and how
+    to proceed).
     """
     if checkpoint_every is not None and not (isinstance(checkpoint_every, int) and checkpoint_every >= 1):
         raise ValueError(f"`checkpoint_every` must be None or an integer >= 1; got {checkpoint_every!r}.")
@@ -331,7 +369,7 @@ def run_chunks(
         path = Path(checkpoint) / CHECKPOINT_FILE
         fingerprint = _run_fingerprint(chunk_fn, problem, key, num_realizations, chunk_size, static)
         if path.exists():
-            start, summed, saved_per = _load_checkpoint(path, fingerprint)
+            start, summed, saved_per = _load_checkpoint(path, fingerprint, consistency)
             for k, v in saved_per.items():
                 per[k] = np.zeros((num_realizations, *v.shape[1:]), v.dtype)
                 per[k][:start] = v

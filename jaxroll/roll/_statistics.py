@@ -33,6 +33,24 @@ def quantiles_with_capsizes_deg(values_deg: np.ndarray, capsized: np.ndarray, le
     return out
 
 
+def _realizations(result) -> dict:
+    """The `realization` coordinate (index in the Monte Carlo's order) of a result's per-trial arrays."""
+    n = np.asarray(result.capsized).shape[-1]
+    return {"realization": (("realization",), np.arange(n), "1", "realization (trial) index, in the Monte Carlo's "
+                            "order")}
+
+
+def _per_trial(result, dims=("realization",)) -> dict:
+    """`capsized` and `capsize_time_s` per realization (`dims`), for `labelled_values`."""
+    shape = tuple(len(result.n0) for _ in dims[:-1]) + (result.n_realizations,)
+    return {
+        "capsized": (dims, np.broadcast_to(result.capsized, shape), "1",
+                     "whether the realization capsized (|φ| beyond the angle of vanishing stability, or diverged)"),
+        "capsize_time_s": (dims, np.broadcast_to(result.capsize_time, shape), "s",
+                           "time of the capsize (inf: did not capsize)"),
+    }
+
+
 class CapsizeCounts:
     """Capsize counts of a Monte Carlo result with a per-realization boolean array `capsized`."""
 
@@ -68,6 +86,29 @@ _KEYS = {"zero_crossing": "zc", "envelope": "env"}
 #: −0.6 % at 7 m; with no discard (10⁴ trials) −8 % at 5 m, 0.0 % at 6 m, +2.7 % at 7 m.
 STATIONARITY_TOLERANCE = 0.10
 STATIONARITY_SE = 3.0
+
+
+def _spread_sparse_bins(counts: np.ndarray, min_count: int) -> np.ndarray:
+    """Histogram counts with the sparse tail evened out: from the last occupied bin towards 0, neighbouring bins are
+    grouped until each group holds at least `min_count` counts (the lowest group, if short, joins the one above it),
+    and each group's count is spread evenly over its bins; empty bins beyond the last occupied one stay empty
+    (nothing was seen there). The bins keep their edges, so the law's density and its masses stay consistent."""
+    counts = np.asarray(counts, dtype=float)
+    if min_count <= 1 or not counts.any():
+        return counts
+    last = int(np.nonzero(counts)[0][-1])
+    groups, total, top = [], 0.0, last + 1  # (first, stop) index ranges, from the top down
+    for i in range(last, -1, -1):
+        total += counts[i]
+        if total >= min_count:
+            groups.append((i, top))
+            total, top = 0.0, i
+    if top > 0:  # the lowest bins hold fewer than min_count: they join the group above them (or form the only one)
+        groups[-1:] = [(0, groups[-1][1])] if groups else [(0, top)]
+    out = counts.copy()
+    for a, b in groups:
+        out[a:b] = counts[a:b].sum() / (b - a)
+    return out
 
 
 @dataclass
@@ -125,21 +166,26 @@ class AmplitudeStatistics(CapsizeCounts):
         name = {1: "sum", 2: "sumsq"}[order]
         return float(self.per_realization[f"{name}_{key}"].sum() / n) if n else float("nan")
 
-    def law(self, estimator: str = "zero_crossing", *, pool: int = 1) -> TabulatedAmplitudeLaw:
+    def law(self, estimator: str = "zero_crossing", *, pool: int = 1, min_count: int = 1) -> TabulatedAmplitudeLaw:
         """The amplitude law of the histogram (radians), labelled with what it is a law of.
 
         `pool` merges that many fine bins (0.05° each; e.g. 20 → 1° bins): the maximum-value formulas amplify
-        histogram noise. Zero-crossing amplitudes give the per-half-cycle law the maxima and risk formulas need.
+        histogram noise. `min_count` then groups neighbouring bins, from the last occupied one down, until each
+        group holds at least that many amplitudes, and spreads each group's count evenly over its bins: a law whose
+        tail has no empty bin, so that P*(A_M), which follows the density at its 1 − 1/N0 quantile, has no zeros inside the data
+        (`jaxroll maxima` uses 1° bins and 10 amplitudes). Zero-crossing amplitudes give the per-half-cycle law the
+        maxima and risk formulas need.
 
         **Raises:** `ValueError` when no amplitude survived (all capsized, or too short a run).
         """
         counts = self._counts(estimator)
         if counts.size % pool:
             raise ValueError(f"`pool` must divide the {counts.size} fine bins; got {pool}.")
-        counts = counts.reshape(-1, pool).sum(1)
-        return law_from_histogram(
-            counts, np.deg2rad(self.edges_deg[::pool]), estimator=estimator, n_samples=int(counts.sum())
-        )
+        if not (isinstance(min_count, int) and min_count >= 1):
+            raise ValueError(f"`min_count` must be an integer >= 1; got {min_count!r}.")
+        counts = _spread_sparse_bins(counts.reshape(-1, pool).sum(1), min_count)
+        return law_from_histogram(counts, np.deg2rad(self.edges_deg[::pool]), estimator=estimator,
+                                  n_samples=int(round(counts.sum())))
 
     def quantiles(self, estimator: str, levels=QUANTILE_LEVELS) -> np.ndarray:
         """Quantiles [rad] of the amplitude (linear within the fine bins, ±half a fine bin); NaN when none."""
@@ -276,6 +322,45 @@ class AmplitudeStatistics(CapsizeCounts):
             return {"E_phi2": float("nan"), "E_phi4": float("nan")}
         return {"E_phi2": float(pr["sum_phi2"].sum() / n), "E_phi4": float(pr["sum_phi4"].sum() / n)}
 
+    def to_xarray(self, bins_deg=None):
+        """The statistics as an `xarray.Dataset` (docs/outputs.md): the `summary(bins_deg)` fields (pdf.json's
+        names; PDFs on `amplitude_deg`, the centres of `bins_deg`, by default 1° bins over the fine grid), the
+        histogram `counts_zero_crossing`, `counts_envelope` on the fine grid (`fine_amplitude_deg`), and per
+        realization `capsized`, `capsize_time_s` (inf: did not capsize) and the exact sums behind the means."""
+        from .._labels import config_attrs, labelled_values, merge, tree_to_dataset
+        from .._labels._layouts import AMPLITUDES
+
+        edges = np.asarray(self.edges_deg, dtype=float)
+        if bins_deg is None:
+            bins_deg = edges[:: max(1, int(round(1.0 / (edges[1] - edges[0]))))]
+        ds = tree_to_dataset(self.summary(bins_deg), AMPLITUDES)
+        pr = self.per_realization
+        r, fine = ("realization",), ("fine_amplitude_deg",)
+        sums = {  # observer key → (name, unit, long name)
+            "n_zc": ("n_zero_crossing", "1", "zero-crossing amplitudes after the discard"),
+            "sum_zc": ("sum_zero_crossing_rad", "rad", "sum of the zero-crossing amplitudes"),
+            "sumsq_zc": ("sumsq_zero_crossing_rad2", "rad2", "sum of the squared zero-crossing amplitudes"),
+            "n_env": ("n_envelope", "1", "envelope samples after the discard"),
+            "sum_env": ("sum_envelope_rad", "rad", "sum of the envelope samples"),
+            "sum_env_first_half": ("sum_envelope_first_half_rad", "rad", "sum of the envelope samples of the first "
+                                   "half of the kept window"),
+            "sumsq_env": ("sumsq_envelope_rad2", "rad2", "sum of the squared envelope samples"),
+            "n_samples": ("n_samples", "1", "φ samples after the discard"),
+            "sum_phi2": ("sum_phi2_rad2", "rad2", "sum of φ² over the samples"),
+            "sum_phi4": ("sum_phi4_rad4", "rad4", "sum of φ⁴ over the samples"),
+            "max_env": ("max_envelope_deg", "degree", "largest envelope amplitude (largest roll) after the discard"),
+        }
+        per = {name: (r, np.rad2deg(pr[k]) if unit == "degree" else pr[k], unit, f"per realization: {long}")
+               for k, (name, unit, long) in sums.items() if k in pr}
+        hist = "amplitudes per fine bin (the last bin also holds those beyond the grid)"
+        return merge(ds, labelled_values(
+            {"counts_zero_crossing": (fine, self.counts_zero_crossing, "1", f"zero-crossing {hist}"),
+             "counts_envelope": (fine, self.counts_envelope, "1", f"envelope {hist}"),
+             **_per_trial(self), **per},
+            coords={"fine_amplitude_deg": (fine, (edges[1:] + edges[:-1]) / 2, "degree", "centres of the fine bins"),
+                    **_realizations(self)},
+            attrs=config_attrs(self.config)))
+
 
 @dataclass
 class MaximaStatistics(CapsizeCounts):
@@ -385,6 +470,29 @@ class MaximaStatistics(CapsizeCounts):
         return out
 
 
+    def to_xarray(self, bins_deg=None):
+        """The maxima as an `xarray.Dataset` (docs/outputs.md): `summary(j, bins_deg)` for every N0 (maxima.json's
+        `per_n0` fields, on the dimension `n0`; default 1° bins to 90°) and per trial `maxima_deg` (NaN: the trial
+        capsized or ended before N0 amplitudes), `capsized`, `capsize_time_s` and `amplitude_count` (amplitudes the trial
+        contributed), all on (`n0`, `realization`) so that runs with other N0 concatenate along `n0`."""
+        from .._labels import config_attrs, labelled_values, merge, tree_to_dataset
+        from .._labels._layouts import MAXIMA_SUMMARY
+
+        bins = np.arange(0.0, 90.0 + 1e-9, 1.0) if bins_deg is None else np.asarray(bins_deg, dtype=float)
+        tree = {"bins_deg": bins, "per_n0": {str(n): self.summary(j, bins) for j, n in enumerate(self.n0)}}
+        ds = tree_to_dataset(tree, MAXIMA_SUMMARY)
+        dims = ("n0", "realization")
+        n = (len(self.n0), self.n_realizations)
+        return merge(ds, labelled_values(
+            {"maxima_deg": (dims, np.asarray(self.maxima_deg).T, "degree",
+                            "largest of the trial's first N0 zero-crossing amplitudes (NaN: capsized or ended "
+                            "before N0 amplitudes)"),
+             **_per_trial(self, dims),
+             "amplitude_count": (dims, np.broadcast_to(self.count, n), "1",
+                                 "zero-crossing amplitudes the trial recorded (at most max(N0) of its run)")},
+            coords=_realizations(self), attrs=config_attrs(self.config)))
+
+
 @dataclass
 class MaxRollStatistics(CapsizeCounts):
     """Per-trial largest roll and capsizes (host numpy arrays; realization order).
@@ -435,6 +543,23 @@ class MaxRollStatistics(CapsizeCounts):
         stability (`None` where a level falls among the capsizes)."""
         return quantiles_with_capsizes_deg(self.max_abs_phi_deg, self.capsized, levels)
 
+    def to_xarray(self):
+        """The result as an `xarray.Dataset` (docs/outputs.md): per trial `max_abs_phi_deg` (the largest roll),
+        `capsized`, `capsize_time_s`; the exceedance and capsize probabilities with 95 % Wilson intervals
+        (`bound`), and `largest_roll_quantiles_deg` (NaN: among the capsizes)."""
+        from .._labels import config_attrs, labelled_values, merge, tree_to_dataset
+        from .._labels._layouts import MAX_ROLL
+
+        tree = {"angle_deg": self.angle_deg, "n_realizations": self.n_realizations, "n_capsized": self.n_capsized,
+                "n_exceeded": self.n_exceeded, "probability": self.exceedance_probability(),
+                "probability_ci95": list(self.exceedance_interval()), "capsize_probability": self.capsize_probability,
+                "capsize_probability_ci95": list(self.capsize_interval()),
+                "largest_roll_quantiles_deg": self.largest_roll_quantiles_deg()}
+        return merge(tree_to_dataset(tree, MAX_ROLL), labelled_values(
+            {"max_abs_phi_deg": (("realization",), self.max_abs_phi_deg, "degree",
+                                 "largest |φ| of the trial after the discard (up to its capsize)"), **_per_trial(self)},
+            coords=_realizations(self), attrs=config_attrs(self.config)))
+
 
 @dataclass
 class SweepResult:
@@ -480,3 +605,22 @@ class SweepResult:
     def exceedance_interval(self) -> np.ndarray:
         """Wilson interval, shape (..., 2)."""
         return np.stack(wilson_interval(self.n_exceeded, self.n_realizations, self.confidence), -1)
+
+    def to_xarray(self):
+        """The sweep as an `xarray.Dataset` on (`heading`, `speed_m_s`, `hs_m`, `t01_s`) (sweep.json's names;
+        `heading_deg` beside the heading labels): counts, probabilities and their Wilson intervals (`bound`).
+        Sweeps of other grids combine with `xarray.merge` or `xarray.concat`."""
+        from .._labels import tree_to_dataset
+        from .._labels._layouts import SWEEP
+        from ..sea._spectra import heading_angle
+
+        def degrees(label: str) -> float:
+            return float(label[:-3]) if label.endswith("deg") else float(np.rad2deg(heading_angle(label)))
+
+        tree = {"grid": {"axes": list(self.grid), **self.grid},
+                "heading_deg": [degrees(h) for h in self.grid["heading"]], "n_realizations": self.n_realizations,
+                "angle_deg": self.angle_deg, "confidence": self.confidence, "n_capsized": self.n_capsized,
+                "n_exceeded": self.n_exceeded, "capsize_probability": self.capsize_probability,
+                "capsize_ci": self.capsize_interval(), "exceedance_probability": self.exceedance_probability,
+                "exceedance_ci": self.exceedance_interval()}
+        return tree_to_dataset(tree, SWEEP)

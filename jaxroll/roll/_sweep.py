@@ -16,6 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .._config import require_float64
 from .._display import progress_bar
 from ..sea._spectra import ITTC, heading_angle
 from ..ship._ship import Ship
@@ -79,6 +80,7 @@ def sweep_sea_states(
 
     **Returns:** `SweepResult`.
     """
+    require_float64("jaxroll.sweep_sea_states")
     headings = {heading_label(h): h for h in heading}  # validates; the API value behind each label
     axes = {
         "heading": [heading_label(h) for h in heading],

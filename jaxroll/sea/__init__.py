@@ -16,7 +16,9 @@ from ._spectra import (
     ITTC as ITTC,
     JONSWAP as JONSWAP,
     AbstractWaveSpectrum as AbstractWaveSpectrum,
+    breaking_steepness as breaking_steepness,
     encounter_frequency as encounter_frequency,
     encounter_spectrum as encounter_spectrum,
+    sea_steepness as sea_steepness,
     spectral_moment as spectral_moment,
 )

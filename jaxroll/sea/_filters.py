@@ -24,6 +24,7 @@ import optimistix as optx
 from jaxtyping import Array, Float
 
 from .._compiled import SMALL_PROGRAM, cached_program
+from .._config import require_float64
 from ._grim import EffectiveWave
 
 
@@ -247,6 +248,7 @@ def fit_filter(
     **Returns:** a `FilterFit`; the output variance equals ∫S_G exactly, `relative_l2_error` = ‖S−S_G‖/‖S_G‖ on
     the fit grid.
     """
+    require_float64("jaxroll.fit_filter")
     _check_order(order)
     return _fit_filter(wave, order, match_frequency, match_weight, num)
 

@@ -18,9 +18,10 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 import jax.random as jr
+import numpy as np
 from jaxtyping import Array, Float, PRNGKeyArray
 
-from .._compiled import array_module, as_float, require
+from .._compiled import array_module, as_float, cached_program, is_concrete, require
 from ._spectra import (
     GRAVITY,
     AbstractWaveSpectrum,
@@ -28,6 +29,7 @@ from ._spectra import (
     heading_angle,
     heading_cosine,
     spectral_moment,
+    warn_if_breaking,
 )
 
 
@@ -67,6 +69,8 @@ class EffectiveWave(eqx.Module):
             length = require(length, ~(array_module(length).asarray(length) > 0), "ship length must be > 0 [m].")
             speed = require(speed, ~(array_module(speed).asarray(speed) >= 0),
                             "`speed` must be >= 0 [m/s]; use `heading` for direction.")  # fmt: skip
+        if validate and is_concrete(sea):
+            warn_if_breaking(sea, stacklevel=2)
         self.length, self.speed = length, speed
         self.heading = as_float(chi)
         self.cos_heading = as_float(cos_chi)
@@ -93,6 +97,24 @@ class EffectiveWave(eqx.Module):
     def variance(self) -> Float[Array, ""]:
         """σ_G² = ∫ S_G dω_e [m²]."""
         return spectral_moment(self.spectrum, 0)
+
+
+#: The encounter frequencies [rad/s] on which `spectrum_on_grid` tabulates S_G (0-6 rad/s, step 5e-4 rad/s).
+SPECTRUM_GRID = np.linspace(0.0, 6.0, 12001)
+
+
+@cached_program
+def spectrum_on_grid(wave: EffectiveWave):
+    """S_G [m² s/rad] on `SPECTRUM_GRID`, one stored program: what the set-up checks (the time step's bandwidth,
+    the model's validity) read on the host."""
+    return wave.spectrum(jnp.linspace(0.0, 6.0, 12001))
+
+
+def effective_wave_std(wave: EffectiveWave) -> float:
+    """σ_G [m], the standard deviation of Grim's effective wave (trapezoid rule on `SPECTRUM_GRID`, host
+    arithmetic on `spectrum_on_grid`)."""
+    s = np.asarray(spectrum_on_grid(wave))
+    return float(np.sqrt(np.sum((s[1:] + s[:-1]) / 2 * np.diff(SPECTRUM_GRID))))
 
 
 def _fft_length(n: int) -> int:

@@ -33,6 +33,11 @@ class AbstractWaveSpectrum(eqx.Module):
     def significant_height(self) -> Float[Array, ""]:
         """Nominal significant wave height H1/3 [m]."""
 
+    @property
+    @abc.abstractmethod
+    def peak_frequency(self) -> Float[Array, ""]:
+        """Frequency ω_p [rad/s] of the spectrum's peak."""
+
 
 def _check_positive(name: str, value, unit: str):
     value = as_float(value)
@@ -72,7 +77,7 @@ class ITTC(AbstractWaveSpectrum):
     @property
     def peak_frequency(self) -> Float[Array, ""]:
         """ω_p = (4B/5)^(1/4) [rad/s]."""
-        return (0.8 * _ITTC_B_T01_4) ** 0.25 / self.t01
+        return (0.8 * _ITTC_B_T01_4) ** 0.25 / array_module(self.t01).asarray(self.t01)
 
 
 class JONSWAP(AbstractWaveSpectrum):
@@ -113,6 +118,57 @@ class JONSWAP(AbstractWaveSpectrum):
     @property
     def significant_height(self):
         return self.hs
+
+    @property
+    def peak_frequency(self) -> Float[Array, ""]:
+        """ω_p = 2π/T_p [rad/s]."""
+        return 2 * math.pi / array_module(self.tp).asarray(self.tp)
+
+
+# Breaking: a sea state cannot be steeper than its waves can be. DNV-RP-C205 (2010), §3.5.5.4: the significant
+# steepness S_p = 2π H_s/(g T_p²) (= H_s/λ_p, λ_p the deep-water length of a wave of the peak period) is limited to
+# 1/15 for T_p <= 8 s and 1/25 for T_p >= 15 s, linearly interpolated between; a regular wave breaks at H/λ ≈ 0.142
+# ≈ 1/7 (Michell 1893), and an irregular sea's significant steepness stays well below it because its highest
+# waves break first.
+BREAKING_STEEPNESS = ((8.0, 1 / 15), (15.0, 1 / 25))
+
+
+def breaking_steepness(peak_period: float) -> float:
+    """The limiting significant steepness S_p [-] of a sea state of peak period T_p [s] (DNV-RP-C205 §3.5.5.4:
+    1/15 for T_p <= 8 s, 1/25 for T_p >= 15 s, linear in between)."""
+    (t0, s0), (t1, s1) = BREAKING_STEEPNESS
+    return float(s0 + (s1 - s0) * min(max((peak_period - t0) / (t1 - t0), 0.0), 1.0))
+
+
+def sea_steepness(sea: AbstractWaveSpectrum) -> dict[str, float]:
+    """The sea state's significant steepness against the breaking limit (concrete values, host arithmetic):
+    `hs_m`, `peak_period_s`, `steepness` S_p = 2π H_s/(g T_p²), `limit` (`breaking_steepness`), `max_hs_m` (the
+    highest H_s at this T_p)."""
+    import numpy as np
+
+    hs = float(np.asarray(sea.significant_height))
+    tp = 2 * math.pi / float(np.asarray(sea.peak_frequency))
+    steepness = 2 * math.pi * hs / (GRAVITY * tp**2)
+    limit = breaking_steepness(tp)
+    return {"hs_m": hs, "peak_period_s": tp, "steepness": steepness, "limit": limit,
+            "max_hs_m": limit * GRAVITY * tp**2 / (2 * math.pi)}
+
+
+def warn_if_breaking(sea: AbstractWaveSpectrum, stacklevel: int = 2) -> None:
+    """A `UserWarning` when the sea state is steeper than waves can be (`sea_steepness`)."""
+    import warnings
+
+    s = sea_steepness(sea)
+    if s["steepness"] > s["limit"]:
+        warnings.warn(
+            f"H1/3 = {s['hs_m']:g} m with peak period T_p = {s['peak_period_s']:.3g} s has significant steepness "
+            f"S_p = 2π H1/3/(g T_p²) = {s['steepness']:.3g} (1/{1 / s['steepness']:.3g}), beyond the breaking limit "
+            f"1/{1 / s['limit']:.3g} at this period (DNV-RP-C205 §3.5.5.4: 1/15 for T_p <= 8 s, 1/25 for T_p >= 15 s; "
+            f"a regular wave breaks at H/λ ≈ 1/7): no sea is this steep, its waves break first. This warning appears "
+            f"because the linear (Gaussian) sea, Grim's effective wave and the ΔGM polynomial all assume waves that "
+            f"do not break; at this period H1/3 <= {s['max_hs_m']:.3g} m.",
+            stacklevel=stacklevel + 1,
+        )
 
 
 def log_quadrature(num: int = 6001, lo: float = 1e-3, hi: float = 1e4):

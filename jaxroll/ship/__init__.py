@@ -46,13 +46,21 @@ from ._restoring import (
     delta_gm as delta_gm,
     parametric_excitation as parametric_excitation,
     restoring_moment as restoring_moment,
+    restoring_potential as restoring_potential,
     righting_lever as righting_lever,
     vanishing_angle as vanishing_angle,
 )
 from ._ship import (
     DEFAULT_SHIP_NOTE as DEFAULT_SHIP_NOTE,
+    PLAUSIBLE as PLAUSIBLE,
     Ship as Ship,
     c11_representative as c11_representative,
+    max_possible_gm as max_possible_gm,
     restoring_fields_from_gz as restoring_fields_from_gz,
     validate_ship as validate_ship,
+)
+from ._validity import (
+    AVERAGING_LIMIT as AVERAGING_LIMIT,
+    excitation_validity as excitation_validity,
+    validity_warnings as validity_warnings,
 )

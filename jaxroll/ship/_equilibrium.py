@@ -382,6 +382,14 @@ class Particulars(eqx.Module):
             out[f"{k}_{unit}" if unit else k] = float(getattr(self, k))
         return out
 
+    def to_xarray(self):
+        """The particulars as an `xarray.Dataset` of scalars named as in `as_dict` (hydrostatics.json's
+        `calm_water`), with units and long names."""
+        from .._labels import tree_to_dataset
+        from .._labels._layouts import PARTICULARS
+
+        return tree_to_dataset(self.as_dict(), PARTICULARS)
+
 
 Particulars.__init__.__doc__ = """Fields: `displacement` Δ [kg]; `volume` ∇ [m³]; `draught` amidships,
 `draught_ap`, `draught_fp` [m]; `trim` = d_FP − d_AP [m]; `lcb`, `lcg`, `lcf` [m] from the AP; `kb`, `bm`,

@@ -22,6 +22,7 @@ import optimistix as optx
 from jaxtyping import Array, ArrayLike, Bool, Float
 
 from .._compiled import as_float, cached_program
+from .._config import require_float64
 from ._equilibrium import Particulars, _check_result, _equilibrium_batch, _gm_at, _particulars
 from ._hull import Hull, _bare, _concrete, c11_hull
 from ._hydrostatics import GRAVITY, HYDROSTATICS_PROGRAM, Loading, c11_hull_loading
@@ -129,6 +130,34 @@ class HydrostaticsSolution(eqx.Module):
     def delta_gz(self) -> Float[Array, "zeta heels"]:
         """GZ(ζ, φ) − GZ(calm, φ) [m]."""
         return self.gz - self.gz_calm[None, :]
+
+    def to_xarray(self):
+        """The tables and fits as an `xarray.Dataset` named as in hydrostatics.json: `tables_gz_m`,
+        `tables_sinkage_m`, `tables_trim_m`, `tables_converged` on (`zeta_mid_m`, `heel_deg`), `tables_gz_calm_m`,
+        `tables_gm_m`, `tables_delta_gm_m`, the calm-water particulars (`calm_water_*`), the polynomial fits
+        (`fits_*`), the balance check and `wavelength_m`."""
+        from .._labels import Layout, tree_to_dataset
+        from .._labels._layouts import HYDROSTATICS
+
+        h = lambda x: np.asarray(x)  # noqa: E731
+        tree = {
+            "wavelength_m": float(self.wavelength),
+            "calm_water": self.particulars.as_dict(),
+            "tables": {"zeta_mid_m": h(self.zeta_mid), "heel_deg": np.degrees(h(self.heels)), "gz_m": h(self.gz),
+                       "sinkage_m": h(self.sinkage), "trim_m": h(self.trim), "gz_calm_m": h(self.gz_calm),
+                       "gm_m": h(self.gm), "delta_gm_m": h(self.delta_gm), "converged": h(self.converged)},
+            "fits": {"gm0_m": float(self.particulars.gm),
+                     "gz_coefficients_m": dict(zip(("g3", "g5", "g7", "g9"), h(self.gz_coefficients).tolist())),
+                     "gz_fit_rms_m": float(self.gz_fit_rms),
+                     "delta_gm_coefficients": {f"c{k}": float(c) for k, c in enumerate(h(self.delta_gm_coefficients))},
+                     "delta_gm_fit_rms_m": float(self.delta_gm_fit_rms)},
+            "balance_check": {"max_relative_volume_error": float(self.max_volume_error),
+                              "max_lcb_minus_lcg_m": float(self.max_lcb_error),
+                              "all_converged": bool(np.all(h(self.converged)))},
+        }
+        extra = Layout(arrays={"tables/converged": ("zeta_mid_m", "heel_deg")},
+                       long_names={"tables_converged": "whether the sinkage-and-trim balance converged"})
+        return tree_to_dataset(tree, HYDROSTATICS + extra)
 
 
 HydrostaticsSolution.__init__.__doc__ = """Fields: `particulars` (calm water, [`Particulars`][]); the grids
@@ -253,6 +282,7 @@ def hull_hydrostatics(
 
     **Returns:** a [`HydrostaticsSolution`][].
     """
+    require_float64("jaxroll.hull_hydrostatics")
     zeta = as_float(default_zeta_grid() if zeta_mid is None else zeta_mid)
     phi = as_float(default_heel_grid() if heels is None else heels)
     if zeta.ndim != 1 or phi.ndim != 1:

@@ -25,6 +25,15 @@ def restoring_moment(ship: Ship, phi) -> Float[Array, "..."]:
     return poly * phi
 
 
+def restoring_potential(ship: Ship, phi) -> Float[Array, "..."]:
+    """Calm-water restoring energy per unit roll inertia V(φ) = ∫₀^φ (a1x + a3x³ + … + a9x⁹) dx
+    = a1φ²/2 + a3φ⁴/4 + … + a9φ¹⁰/10 [rad²/s²] at roll angle φ [rad]; increasing on [0, vanishing angle)."""
+    phi = _floating(phi)
+    a = ship.restoring_coefficients
+    phi2 = phi * phi
+    return phi2 * (a[0] / 2 + phi2 * (a[1] / 4 + phi2 * (a[2] / 6 + phi2 * (a[3] / 8 + phi2 * (a[4] / 10)))))
+
+
 def righting_lever(ship: Ship, phi) -> Float[Array, "..."]:
     """Calm-water righting lever GZ(φ) [m] = GM0 · (restoring moment)/a1 at roll angle φ [rad]."""
     return ship.gm0 * restoring_moment(ship, phi) / ship.omega0**2

@@ -224,19 +224,167 @@ def validate_ship(ship: Ship) -> None:
 
             warnings.warn(f"ship {ship.name!r}: roll period {period:g} s is unusual (ships: ~5-60 s).", stacklevel=2)
     if not problems:
+        problems = _impossible(d)
+    if not problems:
+        import warnings
+
         from ._restoring import vanishing_angle
 
-        if float(vanishing_angle(ship)) >= math.pi - 1e-9:
-            import warnings
-
+        vanishing = float(vanishing_angle(ship))
+        if vanishing >= math.pi - 1e-9:
             warnings.warn(
                 f"ship {ship.name!r}: GZ never returns to zero for 0 < φ < 180°, so there is no angle of vanishing "
                 "stability and capsize is never detected; check the GZ coefficients (the highest-order one is "
                 "usually negative) unless a linear-restoring model is intended.",
                 stacklevel=2,
             )
+        for message in implausible(d, vanishing):
+            warnings.warn(f"ship {ship.name!r}: {message}", stacklevel=2)
     if problems:
         raise ValueError(f"Invalid ship {ship.name!r}: " + "; ".join(problems) + ".")
+
+
+# ----------------------------------------------------------------------------------------------------------------
+# Plausibility: values no ship can have (refused) and values no ship is likely to have (warned), each message
+# naming the value and the unit slip that would explain it (docs/ship_file.md, "Plausibility checks").
+# ----------------------------------------------------------------------------------------------------------------
+
+#: The longest ship ever built (Seawise Giant / Knock Nevis) was 458 m between perpendiculars; nothing afloat is
+#: a kilometre long, so a longer Lpp is a unit slip.
+MAX_LPP_M = 1000.0
+
+
+def _slip(value: float, plausible: tuple[float, float]) -> str:
+    """The unit slip that would explain a length `value` [m] outside any ship: the first of mm, cm, km that brings
+    it into `plausible` [m], e.g. 'typed in mm it is 1.93 m'."""
+    for factor, unit in ((1e-3, "mm"), (1e-2, "cm"), (1e3, "km")):
+        if plausible[0] <= value * factor <= plausible[1]:
+            return f"a unit slip? typed in {unit}, it would be {value * factor:.4g} m"
+    return "check its unit (metres)"
+
+
+def max_possible_gm(breadth: float, draught: float, block_coefficient: float) -> float:
+    """The largest GM0 [m] a hull of breadth B, draught d and block coefficient C_b can have: KB ≤ d, BM = I_T/∇ ≤
+    (L B³/12)/(C_b L B d) = B²/(12 C_b d) (no waterplane is wider than a rectangle) and KG ≥ 0, so GM0 ≤ d +
+    B²/(12 C_b d)."""
+    return draught + breadth**2 / (12 * block_coefficient * draught)
+
+
+def _impossible(d: dict[str, dict[str, float]]) -> list[str]:
+    """Values no ship can have: refused (a unit slip, never a design)."""
+    p = d["particulars"]
+    out = []
+    if p["lpp_m"] > MAX_LPP_M:
+        out.append(
+            f"lpp_m = {p['lpp_m']:g} m is beyond any ship (the longest ever built was 458 m; nothing afloat is "
+            f"{MAX_LPP_M:g} m long): {_slip(p['lpp_m'], (24.0, 500.0))}"
+        )
+    bound = max_possible_gm(p["breadth_m"], p["draught_m"], p["block_coefficient"])
+    if p["gm0_m"] > bound:
+        out.append(
+            f"gm0_m = {p['gm0_m']:g} m is more than any hull of these particulars can have: GM0 <= KB + BM <= d + "
+            f"B²/(12 C_b d) = {bound:.3g} m (B {p['breadth_m']:g} m, d {p['draught_m']:g} m, C_b "
+            f"{p['block_coefficient']:g}, KG >= 0): {_slip(p['gm0_m'], (0.05, 0.3 * p['breadth_m']))}"
+        )
+    return out
+
+
+#: Bands outside which a ship file's value is warned about (docs/ship_file.md): wide enough for every ship type
+#: (barges, pontoons, destroyers, yachts), so that only a slip or a wrong coefficient falls outside.
+PLAUSIBLE = {
+    "lpp_m": (10.0, MAX_LPP_M),  # below 10 m: a model-scale file
+    "length_breadth": (2.0, 15.0),  # ships 3-10 (barges 3-5, destroyers 9-11)
+    "displacement_ratio": (0.8, 1.25),  # Δ / (ρ C_b L B d), ρ = 1025 kg/m³ (fresh water 0.976)
+    "gyradius_breadth": (0.2, 0.8),  # k_φ/B = Tφ √(g GM0) / (2π B); IMO weather criterion C ≈ 0.3-0.45
+    "vanishing_angle_deg": 20.0,  # the IS Code asks for GZ >= 0.2 m at 30° and its maximum beyond 25°
+    "damping_ratio": 0.5,  # equivalent linear damping ratio at 20° roll; ships 0.02-0.2
+    "gm_ratio": (0.2, 5.0),  # σ_obs/σ_thr corrects ΔGM by tens of per cent (the paper: 0.6-1.1)
+}
+
+
+def implausible(d: dict[str, dict[str, float]], vanishing_angle: float) -> list[str]:
+    """Warnings for values no ship is likely to have (`PLAUSIBLE`), each naming the value, the band and the unit
+    slip or mistake that would explain it. `d`: the ship's parameter tables (`_parameter_tables`);
+    `vanishing_angle` [rad]."""
+    from ._hydrostatics import GRAVITY, SEAWATER_DENSITY
+
+    p, a, b, c = d["particulars"], d["restoring"], d["damping"], d["delta_gm"]
+    lpp, beam, draught, gm0, period = p["lpp_m"], p["breadth_m"], p["draught_m"], p["gm0_m"], p["roll_period_s"]
+    out = []
+    if lpp < PLAUSIBLE["lpp_m"][0]:
+        out.append(
+            f"lpp_m = {lpp:g} m is a model, not a ship: ship files are full scale (tank records are scaled by "
+            "Froude's law on loading, docs/records.md); check the scale and the unit (in cm or mm the value would "
+            "be 100 or 1000 times larger)"
+        )
+    lo, hi = PLAUSIBLE["length_breadth"]
+    if not lo <= lpp / beam <= hi:
+        out.append(
+            f"L/B = {lpp:g} m / {beam:g} m = {lpp / beam:.3g} is outside {lo:g}-{hi:g} (ships 3-10): check the units "
+            "of lpp_m and breadth_m (both in metres)"
+        )
+    expected = SEAWATER_DENSITY * p["block_coefficient"] * lpp * beam * draught
+    ratio = p["displacement_kg"] / expected
+    lo, hi = PLAUSIBLE["displacement_ratio"]
+    if not lo <= ratio <= hi:
+        out.append(
+            f"displacement_kg = {p['displacement_kg']:.4g} kg is {ratio:.3g} × ρ C_b L B d = {expected:.4g} kg "
+            f"(ρ = {SEAWATER_DENSITY:g} kg/m³; expected {lo:g}-{hi:g}): one of lpp_m, breadth_m, draught_m, "
+            "block_coefficient, displacement_kg is in another unit (displacement in tonnes is 1000 × too small, a "
+            "length in mm 1000 × too large) or belongs to another loading condition"
+        )
+    gyradius = period * math.sqrt(GRAVITY * gm0) / (2 * math.pi)
+    lo, hi = PLAUSIBLE["gyradius_breadth"]
+    if not lo <= gyradius / beam <= hi:
+        expected_t = 2 * math.pi * 0.4 * beam / math.sqrt(GRAVITY * gm0)
+        out.append(
+            f"roll_period_s = {period:g} s and gm0_m = {gm0:g} m imply a roll radius of gyration k = Tφ √(g GM0)/(2π) "
+            f"= {gyradius:.3g} m = {gyradius / beam:.3g} B (ships {lo:g}-{hi:g} B; with k = 0.4 B this GM gives Tφ ≈ "
+            f"{expected_t:.3g} s): one of them is wrong (GM0 in mm or cm? a roll period in other units?)"
+        )
+    if vanishing_angle < math.radians(PLAUSIBLE["vanishing_angle_deg"]):
+        a1 = (2 * math.pi / period) ** 2
+        out.append(
+            f"the angle of vanishing stability is {math.degrees(vanishing_angle):.3g}° (a3 = {a['a3']:g}, a5 = "
+            f"{a['a5']:g}, a7 = {a['a7']:g}, a9 = {a['a9']:g}; a1 = ω0² = {a1:.4g}), below "
+            f"{PLAUSIBLE['vanishing_angle_deg']:g}°: every trial beyond it counts as a capsize. The restoring "
+            "coefficients are per unit roll inertia, a_n = ω0² g_n / GM0 [1/(s² rad^(n-1))] with φ in radians: a "
+            f"GZ coefficient g_n in metres typed as a_n is {gm0 / a1:.3g} × too large"
+        )
+    omega0 = 2 * math.pi / period
+    amp = math.radians(20.0)
+    zeta = b["b1"] / (2 * omega0) + 4 * b["b2"] * amp / (3 * math.pi) + 3 * b["b3"] * amp**2 * omega0 / 8
+    if zeta > PLAUSIBLE["damping_ratio"]:
+        inertia = p["displacement_kg"] * GRAVITY * gm0 / omega0**2
+        out.append(
+            f"the roll damping ratio at 20° is {zeta:.4g} (b1 = {b['b1']:g} 1/s, b2 = {b['b2']:g} 1/rad, b3 = "
+            f"{b['b3']:g} s/rad²; ships 0.02-0.2, above {PLAUSIBLE['damping_ratio']:g} the roll hardly oscillates and "
+            "no parametric roll can build up). b1..b3 are per unit roll inertia: b1 = 2ζω0 = "
+            f"{2 * 0.05 * omega0:.3g} 1/s for ζ = 0.05; a damping moment coefficient [N·m·s] must be divided by the "
+            f"roll inertia ≈ Δ g GM0/ω0² = {inertia:.3g} kg·m²"
+        )
+    zmax = min(draught, p["depth_m"] - draught) / 2  # ζ_mid of a steep sea; hull fits hold ±6 m for C11
+    z = np.linspace(-zmax, zmax, 201)
+    coeffs = [c[f"c{k}"] for k in range(7)]
+    dgm = np.polynomial.polynomial.polyval(z, coeffs)
+    bound = max_possible_gm(beam, draught, p["block_coefficient"])
+    worst = int(np.argmax(np.abs(dgm)))
+    if abs(dgm[worst]) > bound:
+        k = int(np.argmax([abs(ck) * zmax**i for i, ck in enumerate(coeffs)]))
+        out.append(
+            f"ΔGM(ζ_mid) reaches {dgm[worst]:.4g} m at ζ_mid = {z[worst]:.3g} m (within ±min(draught, freeboard)/2 = "
+            f"±{zmax:.3g} m), beyond the largest GM this hull can have ({bound:.3g} m): check c{k} = {coeffs[k]:g} — "
+            "c_k are in m^(1-k) with ζ_mid in metres (ΔGM in mm would make every c_k 1000 × too large)"
+        )
+    r = d["correction"]["gm_ratio"]
+    lo, hi = PLAUSIBLE["gm_ratio"]
+    if r > 0 and not lo <= r <= hi:
+        out.append(
+            f"gm_ratio = {r:.4g} is outside {lo:g}-{hi:g}: σ_obs/σ_thr corrects ΔGM by tens of per cent (the paper: "
+            "0.6-1.1); a ratio this far from 1 comes from records with a unit slip (a wave or ΔGM column in mm "
+            "labelled m) or from a ΔGM polynomial in other units"
+        )
+    return out
 
 
 def restoring_fields_from_gz(gz_coefficients, gm0: float, roll_period: float) -> np.ndarray:

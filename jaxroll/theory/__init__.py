@@ -3,7 +3,8 @@
 Every theory returns an amplitude law (`jaxroll.AbstractAmplitudeLaw`, radians) of the estimator asked for:
 stochastic averaging (Roberts' SAM, energy-based ESAM) in `_averaging.py` with the parametric-excitation spectrum
 in `_excitation.py`; the moment method in `_moments.py`.
-Coloured-noise averaging (the envelope Fokker–Planck method) in `_envelope_fpk.py`. `theory_law` and
+Coloured-noise averaging (the envelope Fokker–Planck method) in `_envelope_fpk.py`, and the exposure risk from the
+first passage of its amplitude (large rolls come in groups) in `_envelope_fpk_passage.py`. `theory_law` and
 `theory_summary` (`_named.py`) call any of them by name, each as one compiled program kept between runs.
 """
 
@@ -31,6 +32,10 @@ from ._envelope_fpk_law import (
     EnvelopeExcitation as EnvelopeExcitation,
     EnvelopeFPKLaw as EnvelopeFPKLaw,
 )
+from ._envelope_fpk_passage import (  # exposure risk: first passage of the envelope FPK model's amplitude
+    PassageRisk as PassageRisk,
+    passage_risk as passage_risk,
+)
 from ._excitation import (
     ParametricSpectrum as ParametricSpectrum,
     hermite_coefficients as hermite_coefficients,
@@ -53,10 +58,8 @@ from ._moment_solver import (
     stationary_moments as stationary_moments,
 )
 from ._moments import (
-    AmplitudeFamily as AmplitudeFamily,
     MomentSolution as MomentSolution,
     envelope_moments as envelope_moments,
-    fit_amplitude_family as fit_amplitude_family,
     moment_pdf as moment_pdf,
     moment_pdf_first_stable as moment_pdf_first_stable,
     roll_moments as roll_moments,
@@ -67,4 +70,8 @@ from ._named import (  # the theories by name, each in one compiled program (the
     iter_theory_summaries as iter_theory_summaries,
     theory_law as theory_law,
     theory_summary as theory_summary,
+)
+from ._sensitivity import (  # the theories' design sensitivities (jax.jacfwd), beside the Monte Carlo's
+    SENSITIVITY_THEORIES as SENSITIVITY_THEORIES,
+    theory_sensitivities as theory_sensitivities,
 )

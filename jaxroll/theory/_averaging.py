@@ -28,6 +28,7 @@ import numpy as np
 from jaxtyping import Array, ArrayLike, Bool, Float
 
 from .._compiled import filter_jit
+from .._config import require_float64
 from ..laws._abstract import check_estimator
 from ..sea._grim import EffectiveWave
 from ..ship._ship import Ship
@@ -189,6 +190,7 @@ def roberts_coefficients(
 
     K = (π/8) S_P⁺(2ω)/ω² with ω = ω_l = √(ω0² + E[P]) (`mean_shift=True`, the default) or ω0.
     """
+    require_float64("jaxroll.theory.roberts_coefficients")
     spectrum = _as_spectrum(ship, wave)
     w = jnp.sqrt(_linear_stiffness(ship, spectrum, mean_shift))
     k = jnp.pi / 8 * spectrum(2 * w) / w**2
@@ -391,6 +393,7 @@ def roberts_pdf(
 
     jit-able and differentiable (e.g. `jax.grad` of `.sf(a)` with respect to ship fields or H1/3).
     """
+    require_float64("jaxroll.theory.roberts_pdf")
     check_estimator(estimator)
     spectrum = _as_spectrum(ship, wave)
     if restoring == "linear":
@@ -598,6 +601,7 @@ def esam_pdf(
 
     **Returns:** `AveragedAmplitudeLaw` (`method="esam"`).
     """
+    require_float64("jaxroll.theory.esam_pdf")
     check_estimator(estimator)
     spectrum = _as_spectrum(ship, wave)
     out = _esam(ship, spectrum, estimator, mean_shift, num, max_amplitude, num_theta, num_harmonics)
@@ -641,6 +645,7 @@ def esam_additive_pdf(
     p(φ, φ̇) ∝ exp(−2b1 H/D) (conditioned on the potential well when the restoring softens). `intensity`: D
     [1/s³]. The ship's ΔGM is ignored.
     """
+    require_float64("jaxroll.theory.esam_additive_pdf")
     check_estimator(estimator)
     return _esam_additive(ship, intensity, estimator, num, max_amplitude, num_theta)
 

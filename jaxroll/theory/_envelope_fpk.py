@@ -49,6 +49,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from .._compiled import filter_jit
+from .._config import require_float64
 from ..laws._abstract import check_estimator
 from ..ship._restoring import vanishing_angle
 from ..ship._ship import Ship
@@ -201,18 +202,32 @@ def _linear_frequency(ship: Ship, wave):
     return scale, h, omega
 
 
-def _amplitude_edges(a_top, grid: _Grid):
-    """s = ln a edges: coarse cells on [a_min, a_fine], fine ones on [a_fine, a_top]."""
+def _amplitude_edges(a_top, grid: _Grid, snap: tuple = ()):
+    """s = ln a edges: coarse cells on [a_min, a_fine], fine ones on [a_fine, a_top]; `snap`: static pairs
+    (index into the fine edges, s) that move those edges onto given levels (`_envelope_fpk_passage`)."""
     fine = jnp.linspace(jnp.log(grid.a_fine), jnp.log(a_top), grid.num_s + 1)
+    for index, level in snap:
+        fine = fine.at[index].set(level)
     coarse = jnp.linspace(math.log(grid.a_min), math.log(grid.a_fine), grid.num_s_coarse + 1)[:-1]
     return jnp.concatenate([coarse, fine])
 
 
 def _build_model(
-    ship: Ship, scale, h, omega, exc: EnvelopeExcitation, grid: _Grid, amplitude: bool = True
+    ship: Ship,
+    scale,
+    h,
+    omega,
+    exc: EnvelopeExcitation,
+    grid: _Grid,
+    amplitude: bool = True,
+    absorbing_top: bool = False,
+    snap: tuple = (),
 ) -> _Model:
     """The reduced system on `grid`; `amplitude=False`: the (ρ, θ) pieces only, which λ needs (`_lyapunov`), with
-    the amplitude grid's fields None (no vanishing angle, no s operators: a smaller program to trace)."""
+    the amplitude grid's fields None (no vanishing angle, no s operators: a smaller program to trace).
+    `absorbing_top`: the top face (the vanishing angle) lets mass out (capsize) instead of reflecting it: the
+    first-passage problems (`_envelope_fpk_passage.py`) use it; the stationary law needs the reflecting end.
+    `snap`: fine-grid edges moved onto given levels (`_amplitude_edges`)."""
     nr, nt = grid.num_rho, grid.num_theta
     # excitation harmonics of the unit-variance envelope; the linear coupling scaled by √v (resonant level exact)
     hn = h.at[1].multiply(jnp.sqrt(exc.variance))
@@ -252,11 +267,12 @@ def _build_model(
     if not amplitude:
         return _Model(**phase, **dict.fromkeys(("se", "sc", "ds", "lower", "upper", "diag_s", "vp", "vm", "i_norm")))
     # s: F_{i+1/2} = v⁺ q_i + v⁻ q_{i+1}, v = −δ(e^s) + ξ at the interior faces; zero at both ends (reflecting)
-    se = _amplitude_edges(vanishing_angle(ship), grid)
+    se = _amplitude_edges(vanishing_angle(ship), grid, snap)
     sc = (se[1:] + se[:-1]) / 2
     ds = jnp.diff(se)
     vf = -_delta(ship, omega, jnp.exp(se))[:, None] + xi[None, :]
-    vf = vf.at[0].set(0.0).at[-1].set(0.0)
+    vf = vf.at[0].set(0.0)
+    vf = vf.at[-1].set(jnp.maximum(vf[-1], 0.0) if absorbing_top else 0.0)  # outflow only: nothing comes back
     vp, vm = jnp.maximum(vf, 0.0), jnp.minimum(vf, 0.0)
     return _Model(
         **phase,
@@ -302,14 +318,25 @@ def _slice_operator(md: _Model, a):
     return op.at[i1, i0].add(c_from).at[i1, i1].add(-c_to)
 
 
-def _factorise(md: _Model, inv_dt, normalise: bool):
-    """Block-Thomas factors of (L₁ − I/Δt) over the s slices (L₁: the first-order operator); with `normalise`
-    one row of the stationary (singular) system is replaced by the normalisation q[i_norm, k_norm] = 1."""
+def _factorise(md: _Model, inv_dt, normalise: bool, killing=None):
+    """Block-Thomas factors of (L₁ − I/Δt − diag(killing)) over the s slices (L₁: the first-order operator;
+    `killing` [ns, m] a rate [1/s] at which mass is removed, or None); with `normalise` one row of the stationary
+    (singular) system is replaced by the normalisation q[i_norm, k_norm] = 1."""
+    _, factors = _factorise_slices(md, inv_dt, normalise, killing, 0, md.sc.shape[0], jnp.zeros((md.m, md.m)))
+    return factors
+
+
+def _factorise_slices(md: _Model, inv_dt, normalise: bool, killing, first: int, stop: int, g_first):
+    """`_factorise` of the slices first … stop − 1 only (static), the elimination carried in from slice
+    first − 1 as `g_first` (G_{first−1}; zeros at the bottom). Returns (G_{stop−1}, factors). Elimination runs
+    from the bottom, so slice i's factors depend on the rows up to i only: systems that differ above a slice
+    share the factors below it (`_envelope_fpk_passage`)."""
     m, k_norm = md.m, md.k_norm
     e_norm = jnp.zeros(m).at[k_norm].set(1.0)
+    kill = jnp.zeros((md.sc.shape[0], m)) if killing is None else killing
 
     def factor(g_prev, i):
-        b = _slice_operator(md, jnp.exp(md.sc[i])) + jnp.diag(md.diag_s[i] - inv_dt)
+        b = _slice_operator(md, jnp.exp(md.sc[i])) + jnp.diag(md.diag_s[i] - inv_dt - kill[i])
         lo, up = md.lower[i], md.upper[i]
         if normalise:
             is_norm = i == md.i_norm
@@ -322,8 +349,7 @@ def _factorise(md: _Model, inv_dt, normalise: bool):
         g = jax.scipy.linalg.lu_solve(lu, jnp.diag(up))
         return g, (lu, lo, up)
 
-    _, factors = jax.lax.scan(factor, jnp.zeros((m, m)), jnp.arange(md.sc.shape[0]))
-    return factors
+    return jax.lax.scan(factor, g_first, jnp.arange(first, stop))
 
 
 def _solve(md: _Model, factors, rhs):
@@ -537,6 +563,7 @@ def envelope_fpk_pdf(
     **Raises:** `ValueError` for bad arguments or (with `throw`) λ ≤ 0; `EquinoxRuntimeError` for the latter
     under `jit`/`grad`.
     """
+    require_float64("jaxroll.theory.envelope_fpk_pdf")
     check_estimator(estimator)
     grid = _grid(num_s, num_s_coarse, num_rho, num_theta, rho_max, a_fine, a_min, num_corrections)
     protocol = None
@@ -616,5 +643,6 @@ def envelope_lyapunov_exponent(
 
     **Returns:** `(λ [1/s], EnvelopeExcitation)`.
     """
+    require_float64("jaxroll.theory.envelope_lyapunov_exponent")
     grid = _grid(2, 2, num_rho, num_theta, rho_max, _Grid.a_fine, _Grid.a_min, 0)
     return _lyapunov_only(ship, wave, excitation, grid)

@@ -18,6 +18,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from .._config import require_float64
 from ._moment_equations import roll_sde
 from ._moment_solver import RESULTS, continue_moments
 from ._moments import _amplitude_law, _shaping_filter, roll_moments
@@ -140,6 +141,7 @@ def moment_branch(
     amplitude, E[φ²], P(A > 20°), the largest real eigenvalue, and the folds found. The amplitude statistics
     are continuous along the branch; no other closure is ever substituted.
     """
+    require_float64("jaxroll.theory.moment_branch")
     grid = np.asarray(values, dtype=float)
     if grid.ndim != 1 or grid.size < 1 or not np.all(np.isfinite(grid)):
         raise ValueError(f"`values` must be a non-empty 1-D grid of finite numbers; got {values!r}.")

@@ -51,6 +51,7 @@ import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
 from .._compiled import filter_jit
+from .._config import require_float64
 from ..sea._filters import ShapingFilter, lyapunov
 from ..ship._ship import Ship
 
@@ -734,6 +735,7 @@ def _extra_monomials(dim: int, symmetric: tuple[int, ...]) -> tuple[Monomial, ..
 
 def moment_equations(sde: PolynomialSDE, closure_order: int) -> MomentEquations:
     """Generate the moment equations of `sde` with cumulant-neglect closure of order `closure_order` (≥ 2)."""
+    require_float64("jaxroll.theory.moment_equations")
     if not (isinstance(closure_order, int) and closure_order >= 2):
         raise ValueError(f"`closure_order` must be an integer >= 2; got {closure_order!r}.")
     from ._moment_cache import cached_tables  # the tables, generated once (memory, then disk when cached)

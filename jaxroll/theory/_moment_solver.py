@@ -16,6 +16,7 @@ import optimistix as optx
 from jaxtyping import Array, ArrayLike, Float
 
 from .._compiled import SOLVER_PROGRAM, cached_program, is_concrete
+from .._config import require_float64
 from ._moment_equations import (
     MomentEquations,
     PolynomialSDE,
@@ -401,6 +402,7 @@ def stationary_moments(
     **Returns:** `StationaryMoments`. Differentiable with respect to the SDE's coefficients (implicit function
     theorem through the Newton root, `optimistix.ImplicitAdjoint`); the relaxation only supplies the start.
     """
+    require_float64("jaxroll.theory.stationary_moments")
     eqs = moment_equations(sde, closure_order)
     tables = eqs.tables
     if isinstance(initial, tuple) and initial[0] == "guess":  # continuation: Newton from these unknowns only

@@ -14,6 +14,7 @@ import optimistix as optx
 from jaxtyping import Array, ArrayLike, Float
 
 from .._compiled import filter_jit
+from .._config import require_float64
 from ..laws._abstract import AbstractAmplitudeLaw, check_estimator
 from ..laws._checks import error_line
 from ..laws._tabulated import TabulatedAmplitudeLaw
@@ -49,7 +50,10 @@ def _ts_log_terms(x, log_g_of_a, power):
 
 
 class AmplitudeFamily(eqx.Module):
-    r"""The 3-parameter amplitude law $p(A) = C A^\nu e^{-c_2 A - c_3 A^2}$, A [rad] ≥ 0 (Roberts' family).
+    r"""The moment method's fitted family $p(A) = C A^\nu e^{-c_2 A - c_3 A^2}$, A [rad] ≥ 0 (Roberts' family):
+    its parameters and the integrals the fit needs. Internal (not exported): the law users evaluate is
+    `MomentSolution`, an `AbstractAmplitudeLaw` tabulated from it (with the per-cycle weighting for zero-crossing
+    amplitudes and tails accurate in log space, which `sf = 1 − cdf` here is not).
 
     `nu` [-] > −1, `c2` [1/rad], `c3` [1/rad²] > 0; `log_norm` = log C. Integrals by tanh-sinh quadrature in
     JAX (relative accuracy ~1e-12, also for ν close to −1).
@@ -100,44 +104,6 @@ class AmplitudeFamily(eqx.Module):
     def mean(self) -> Float[Array, ""]:
         """E[A] [rad]."""
         return self.moment(1.0)
-
-    def quantile(self, level) -> Float[Array, "..."]:
-        """A [rad] with P(A ≤ A_q) = `level` (optimistix bisection; implicit derivative)."""
-        level = jnp.asarray(level, dtype=float)
-        return _family_quantiles(self, level.reshape(-1)).reshape(level.shape)
-
-
-@filter_jit
-def _family_quantiles(family: AmplitudeFamily, levels):
-    ok = (
-        jnp.isfinite(family.nu)
-        & jnp.isfinite(family.c2)
-        & jnp.isfinite(family.c3)
-        & jnp.isfinite(family.scale)
-    )
-    ok = ok & (family.c3 > 0) & (family.scale > 0) & (family.nu > -1)
-    safe = AmplitudeFamily(
-        *(
-            jnp.where(ok, x, d)
-            for x, d in zip((family.nu, family.c2, family.c3, family.scale), (1.0, 0.0, 1.0, 1.0))
-        )
-    )
-    return jnp.where(ok, _bisect_quantiles(safe, levels), jnp.nan)
-
-
-def _bisect_quantiles(family: AmplitudeFamily, levels):
-    def one(q):
-        sol = optx.root_find(
-            lambda a, args: family.cdf(a * family.scale) - q,
-            optx.Bisection(rtol=1e-13, atol=1e-13),
-            jnp.asarray(1.0),
-            options={"lower": 1e-12, "upper": _A_MAX_NORMALISED},
-            max_steps=300,
-            throw=False,
-        )
-        return sol.value * family.scale
-
-    return jax.vmap(one)(levels)
 
 
 @filter_jit
@@ -388,6 +354,7 @@ def roll_moments(
     σ_φ̇ = ω0 σ_φ), then each higher even order from the one below (docs/theory.md: order 6 from a deterministic
     small-roll start blew up).
     """
+    require_float64("jaxroll.theory.roll_moments")
     return _roll_moments(
         ship, wave, shaping_filter, filter_order, closure_order, damping, initial_roll_deg, throw, lift_relax=True
     )
@@ -471,6 +438,7 @@ def moment_pdf(
         Differentiable with respect to ship and sea parameters (`jax.grad` of e.g. `sf(jnp.deg2rad(20.0))`):
         the filter fit, the Newton root and the PDF fit are differentiated implicitly by optimistix.
     """
+    require_float64("jaxroll.theory.moment_pdf")
     check_estimator(estimator)
     if envelope not in ENVELOPES:
         raise ValueError(f"`envelope` must be one of {ENVELOPES}; got {envelope!r}.")
@@ -538,6 +506,7 @@ def moment_pdf_first_stable(
     **Raises:** the last order's error when none of them has a stable solution (the first order's when traced);
     `ValueError` "the roll dies out" where the roll is not sustained (concrete calls).
     """
+    require_float64("jaxroll.theory.moment_pdf_first_stable")
     from .._compiled import is_concrete
 
     error = None

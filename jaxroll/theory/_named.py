@@ -32,6 +32,7 @@ import numpy as np
 from jaxtyping import ArrayLike
 
 from .._compiled import SMALL_PROGRAM, SOLVER_PROGRAM, cached_program, is_concrete
+from .._config import require_float64
 from ..laws._abstract import (
     QUANTILE_LEVELS,
     SAMPLING,
@@ -43,6 +44,7 @@ from ..laws._abstract import (
 )
 from ..sea._filters import FilterFit, ShapingFilter, fitted_form
 from ..ship._ship import Ship
+from ..ship._validity import warn_outside_validity
 from ._averaging import _finish, esam_pdf, roberts_pdf
 from ._envelope_fpk import dies_out_error, envelope_fpk_pdf
 from ._moment_equations import _roll_sde, moment_equations, zero_pattern
@@ -271,11 +273,13 @@ def theory_law(
     method); a `UserWarning` when the moment method falls back to closure order 4 (unless `warn=False`). Under
     `jax.jit`, `grad` or `vmap` the public function itself is called (it is the same computation).
     """
+    require_float64("jaxroll.theory.theory_law")
     _check_name(name)
     check_estimator(estimator)
     shaping_filter = _filter(shaping_filter)
     if not is_concrete((ship, wave, shaping_filter)):
         return _traced(name, ship, wave, shaping_filter, filter_order, estimator)
+    warn_outside_validity(ship, wave, (name,))
     return _start(name, ship, wave, shaping_filter, filter_order, estimator, None, (), warn=warn)()[0]
 
 
@@ -306,6 +310,7 @@ def theory_summary(
     compiled program: the summary's numbers are those `law.summary` computes (mean, quantiles at `levels`, the PDF
     per degree on the bin edges `bins_deg` [deg], the mass beyond the last edge; angles in degrees). Concrete
     inputs only."""
+    require_float64("jaxroll.theory.theory_summary")
     ((_, result),) = iter_theory_summaries(
         (name,), ship, wave, bins_deg, shaping_filter=shaping_filter, filter_order=filter_order,
         estimator=estimator, levels=levels,
@@ -341,6 +346,7 @@ def iter_theory_summaries(
     the `UserWarning` of the moment method's closure fallback (its law records it: `details()["closure_fallback"]`).
     Concrete inputs only.
     """
+    require_float64("jaxroll.theory.iter_theory_summaries")
     names = tuple(names)
     for name in names:
         _check_name(name)
@@ -353,6 +359,7 @@ def iter_theory_summaries(
     if not all(0 < q < 1 for q in levels):
         raise ValueError(f"`levels` must lie strictly between 0 and 1; got {levels!r}.")
     edges = np.deg2rad(bins)
+    warn_outside_validity(ship, wave, names)
     # Each theory's program is traced (or loaded) and compiled in a thread of its own: XLA compiles without the
     # GIL, so one theory's compilation overlaps another's tracing and the caller's own work (`jaxroll pdf`: the
     # Monte Carlo's).

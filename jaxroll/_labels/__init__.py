@@ -1,0 +1,11 @@
+"""Labelled results: results as `xarray.Dataset`s with named dimensions, units and long names (infrastructure every
+stage may use: no numerics; xarray is imported only when a dataset is built)."""
+
+from ._layouts import OUTPUTS as OUTPUTS
+from ._tree import (
+    Layout as Layout,
+    config_attrs as config_attrs,
+    labelled_values as labelled_values,
+    merge as merge,
+    tree_to_dataset as tree_to_dataset,
+)

@@ -1,0 +1,166 @@
+"""Exposure risk from the first passage of the envelope FPK model (`jaxroll.theory.passage_risk`).
+
+Checked against: the same discrete system marched in time (a second method for S(T)), the direct Monte Carlo
+(benchmarks/data/exposure_mc_reference.json: trials of 1000 s + the exposure, their largest |φ| over the exposure;
+`python benchmarks/exposure_mc_reference.py`), central differences, and the loop it vmaps.
+"""
+
+import json
+import math
+from pathlib import Path
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+import jaxroll
+from jaxroll import theory
+from jaxroll.theory import _envelope_fpk as fpk, _envelope_fpk_passage as passage
+
+DEG = np.pi / 180
+SHIP = jaxroll.c11_representative()
+SMALL = dict(num_rho=6, num_theta=10, num_s=30, num_s_coarse=6)  # a cheap grid for the numerical identities
+REFERENCE = Path(__file__).parents[1] / "benchmarks" / "data" / "exposure_mc_reference.json"
+
+
+def _wave(hs, t01=10.0):
+    return jaxroll.EffectiveWave(jaxroll.ITTC(hs, t01), SHIP.lpp)
+
+
+def test_survival_equals_the_system_marched_in_time():
+    """S(T) from the inverse-iteration moments (slowest mode + one lumped fast mode) against the same operator
+    with the same killing and start marched by backward Euler (dt 2 s and 1 s, Richardson-extrapolated)."""
+    angle, durations = 30 * DEG, np.array([600.0, 1200.0, 1800.0])
+    risk = theory.passage_risk(SHIP, _wave(6.0), [angle], durations, extrapolate=False, **SMALL)
+    grid = fpk._grid(SMALL["num_s"], SMALL["num_s_coarse"], SMALL["num_rho"], SMALL["num_theta"], 5.5,
+                     math.radians(0.5), math.radians(1e-4), 0)
+    levels = passage._levels(SHIP, grid, [angle])
+    face = grid.num_s_coarse + levels[0][0]
+
+    @eqx.filter_jit
+    def marched(dt):
+        md, _ = passage._model(SHIP, _wave(6.0), None, grid, levels)
+        ns = md.sc.shape[0]
+        capsize = fpk._factorise(md, 0.0, False)
+        guess = jnp.ones((ns, md.m)) * md.ds[:, None]
+        _, p = passage._survival_moments(md, capsize, guess / jnp.sum(guess), 8)  # the start law
+        kill = jnp.where((jnp.arange(ns) >= face)[:, None], passage._peak_rate(md), 0.0)
+        factors = fpk._factorise(md, 1.0 / dt, False, kill)
+
+        def step(q, _):
+            qn = fpk._solve(md, factors, -q / dt)
+            return qn, jnp.sum(qn * md.ds[:, None])
+
+        _, mass = jax.lax.scan(step, p / md.ds[:, None], None, length=int(round(1800 / dt)))
+        return mass
+
+    m2, m1 = np.asarray(marched(2.0)), np.asarray(marched(1.0))
+    exact = np.array([2 * m1[int(t) - 1] - m2[int(t) // 2 - 1] for t in durations])  # first-order error removed
+    theory_s = 1.0 - np.asarray(risk.probability[0])
+    np.testing.assert_allclose(theory_s, exact, rtol=3e-3)
+    assert np.all(np.diff(exact) < 0) and 0.5 < exact[-1] < 0.9  # a case where the survival really moves
+
+
+def _reference_cases():
+    data = json.loads(REFERENCE.read_text())
+    return data["cases"]
+
+
+@pytest.fixture(scope="module")
+def default_grid_risks():
+    """The default grid at H1/3 5–8 m, 25°/30°/40°, 1 h and 3 h (one compiled program per grid for the four
+    seas)."""
+    return {hs: theory.passage_risk(SHIP, _wave(hs), np.deg2rad([25.0, 30.0, 40.0]), [3600.0, 10800.0])
+            for hs in (5.0, 6.0, 7.0, 8.0)}
+
+
+def test_within_a_factor_1_25_of_the_direct_monte_carlo(default_grid_risks):
+    """Issue 34's target: wherever the Monte Carlo's P lies in [1e-3, 0.95], theory / MC within [1/1.25, 1.25];
+    the independent-amplitude route of the same model misses it (measured ×1.16–2.29; ×1.15 worst here)."""
+    checked, worst, independent_worst = 0, 1.0, 1.0
+    for case in _reference_cases():
+        risk = default_grid_risks[case["hs"]]
+        j = [3600.0, 10800.0].index(3600.0 * case["hours"])
+        for i, (p_mc, (lo, hi)) in enumerate(zip(case["probability"], case["probability_ci95"], strict=True)):
+            if not 1e-3 <= p_mc <= 0.95:
+                continue
+            p = float(risk.probability[i, j])
+            ratio = p / p_mc
+            assert 1 / 1.25 <= ratio <= 1.25, (case["hs"], case["hours"], case["angles_deg"][i], p, p_mc, (lo, hi))
+            worst = max(worst, ratio, 1 / ratio)
+            independent_worst = max(independent_worst, float(risk.independent_probability[i, j]) / p_mc)
+            checked += 1
+    assert checked >= 12
+    assert independent_worst > 1.8  # what treating the amplitudes as independent gives (same model)
+    assert worst < 1.2  # measured 1.174
+
+
+def test_clusters_and_rates_are_consistent(default_grid_risks):
+    """Rare levels: P(T) ≈ start + λ₁T; 1/θ (amplitudes above the angle per cluster) > 1 and growing with lower
+    levels; the capsize probability grows with the sea; continuous observation of the envelope is never lower."""
+    risk = default_grid_risks[5.0]
+    p = np.asarray(risk.probability)
+    lam = np.asarray(risk.cluster_rate)
+    np.testing.assert_allclose(p[2], 1 - (1 - np.asarray(risk.start_exceedance)[2]) * np.exp(-lam[2] * np.array(
+        [3600.0, 10800.0])), rtol=3e-2)
+    theta = np.asarray(risk.extremal_index)
+    assert np.all(theta < 1) and np.all(np.diff(theta) > 0)
+    caps = [float(default_grid_risks[h].capsize_probability[1]) for h in (6.0, 7.0, 8.0)]
+    assert np.all(np.diff(caps) > 0)
+    cont = theory.passage_risk(SHIP, _wave(6.0), [30 * DEG], [3600.0], observe="continuous", **SMALL)
+    peaks = theory.passage_risk(SHIP, _wave(6.0), [30 * DEG], [3600.0], **SMALL)
+    assert float(cont.probability[0, 0]) > 1.2 * float(peaks.probability[0, 0])
+
+
+def test_vmapped_over_sea_states_equals_the_loop():
+    hs = jnp.array([5.5, 6.5])
+    angles, durations = [30 * DEG], jnp.array([3600.0])
+
+    def one(h):
+        return theory.passage_risk(SHIP, _wave(h), angles, durations, **SMALL).probability
+
+    batched = eqx.filter_vmap(one)(hs)
+    looped = jnp.stack([one(h) for h in hs])
+    np.testing.assert_allclose(np.asarray(batched), np.asarray(looped), rtol=1e-10)
+
+
+def test_gradient_in_the_sea_matches_central_differences():
+    def p(hs):
+        return theory.passage_risk(SHIP, _wave(hs), [30 * DEG], jnp.array([3600.0]), **SMALL).probability[0, 0]
+
+    g = float(jax.grad(p)(6.0))
+    h = 1e-3
+    fd = (float(p(6.0 + h)) - float(p(6.0 - h))) / (2 * h)
+    assert g > 0
+    assert abs(g / fd - 1) < 1e-4
+
+
+def test_order_of_the_angles_is_kept():
+    a = theory.passage_risk(SHIP, _wave(6.0), np.deg2rad([40.0, 25.0, 30.0]), [3600.0], **SMALL)
+    b = theory.passage_risk(SHIP, _wave(6.0), np.deg2rad([25.0, 30.0, 40.0]), [3600.0], **SMALL)
+    np.testing.assert_allclose(np.asarray(a.probability), np.asarray(b.probability)[[2, 0, 1]], rtol=1e-12)
+    np.testing.assert_allclose(np.asarray(a.angles_deg), [40.0, 25.0, 30.0])
+
+
+def test_no_sustained_roll_gives_zero():
+    risk = theory.passage_risk(SHIP, _wave(2.0), [20 * DEG], [3600.0], **SMALL)
+    assert not bool(risk.exists) and float(risk.lyapunov_exponent) < 0
+    assert float(risk.probability[0, 0]) == 0.0 and float(risk.capsize_probability[0]) == 0.0
+
+
+@pytest.mark.parametrize(
+    "angles, durations, kw, match",
+    [
+        ([80 * DEG], [3600.0], {}, "below the vanishing angle"),
+        ([0.1 * DEG], [3600.0], {}, "above the fine"),
+        ([30 * DEG, 30.5 * DEG], [3600.0], {}, "same amplitude cell"),
+        ([30 * DEG], [0.0], {}, "durations` must be > 0"),
+        ([30 * DEG], [3600.0], {"observe": "envelope"}, "`observe`"),
+        ([[30 * DEG]], [3600.0], {}, "1-D"),
+    ],
+)
+def test_bad_input_is_refused(angles, durations, kw, match):
+    with pytest.raises(ValueError, match=match):
+        theory.passage_risk(SHIP, _wave(6.0), angles, durations, **kw, **SMALL)
