@@ -297,7 +297,7 @@ def pdf_lpp_in_mm_names_the_cause(tmp):
 
 def decay_negative_b2(tmp: Path) -> Verdict:
     make = python(
-        "import equinox as eqx, jax.numpy as jnp, jaxroll as jxr\n"
+        "import equinox as eqx, jax.numpy as jnp, jaxroll as jxr\njxr.configure()\n"
         "from jaxroll.calibration import virtual_decay_record\nfrom jaxroll.io import save_record\n"
         "s = eqx.tree_at(lambda s: s.damping, jxr.c11_representative(), jnp.asarray([0.012, -0.081, 0.0]))\n"
         "save_record(virtual_decay_record(s, roll_noise_deg=0.02), 'decay/decay.csv')\n", cwd=tmp)
