@@ -139,8 +139,9 @@ def held_if_warning(run: Run, pattern: str) -> Verdict:
 
 
 def c11_toml() -> str:
-    from jaxroll import c11_representative, ship_to_toml
+    from jaxroll import c11_representative, configure, ship_to_toml
 
+    configure()  # float64: the file's numbers as the CLI writes them
     return ship_to_toml(c11_representative())
 
 
@@ -159,7 +160,7 @@ def prism_stl(path: Path, section, length: float) -> Path:
     for i in range(n):
         (y0, z0), (y1, z1) = section[i], section[(i + 1) % n]
         a, b, c, d = (0, y0, z0), (0, y1, z1), (length, y1, z1), (length, y0, z0)
-        tris += [(a, d, c), (a, c, b)]
+        tris += [(a, b, c), (a, c, d)]  # outward for a counter-clockwise section, like the caps
     for i in range(1, n - 1):
         (ya, za), (yb, zb), (yc, zc) = section[0], section[i], section[i + 1]
         tris += [((0, ya, za), (0, yc, zc), (0, yb, zb)), ((length, ya, za), (length, yb, zb), (length, yc, zc))]
@@ -297,7 +298,7 @@ def pdf_lpp_in_mm_names_the_cause(tmp):
 
 def decay_negative_b2(tmp: Path) -> Verdict:
     make = python(
-        "import equinox as eqx, jax.numpy as jnp, jaxroll as jxr\n"
+        "import equinox as eqx, jax.numpy as jnp, jaxroll as jxr\njxr.configure()\n"
         "from jaxroll.calibration import virtual_decay_record\nfrom jaxroll.io import save_record\n"
         "s = eqx.tree_at(lambda s: s.damping, jxr.c11_representative(), jnp.asarray([0.012, -0.081, 0.0]))\n"
         "save_record(virtual_decay_record(s, roll_noise_deg=0.02), 'decay/decay.csv')\n", cwd=tmp)
@@ -463,7 +464,7 @@ def out_read_only(tmp: Path) -> Verdict:
     if not sys.platform.startswith("linux"):
         return Verdict(None, "uses /proc, which no user can write into")
     run = jaxroll("pdf", "--out", "/proc/jaxroll-audit", cwd=tmp)
-    verdict = held_if_error(run, r"--out .*cannot write")
+    verdict = held_if_error(run, r"--out .*cannot be written")
     if verdict.held and "Monte Carlo:" in run.out:
         return Verdict(False, "refused only after the filter fit (the run had started)")
     return verdict
@@ -545,7 +546,9 @@ def calibrate_killed_is_one_set(tmp: Path) -> Verdict:
 
 
 def ctrl_c_during_imports(tmp: Path) -> Verdict:
-    proc = start("pdf", "--out", tmp / "o", cwd=tmp)
+    # the `jaxroll` console script (`_jaxroll_console.main`: guarded before `import jaxroll`), not `python -m jaxroll`
+    proc = subprocess.Popen([sys.executable, str(ROOT / "_jaxroll_console.py"), "pdf", "--out", str(tmp / "o")],
+                            cwd=tmp, env=_env(), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     time.sleep(0.3)
     proc.send_signal(signal.SIGINT)
     try:

@@ -9,11 +9,14 @@ printed: on a shared machine the wall time of the compilation mostly measures th
 
 Mesh hulls (issue 36): `--mesh` also times `jaxroll hydrostatics` end to end on a generated frigate-like STL
 of about 3 500 triangles (tests/hull_meshes.py), each run a fresh process, cold (empty compilation cache) then warm
-(the cache the cold run filled), for the exact surface (the default) beside the sliced 61 × 41 offsets of jaxroll
-0.1 (`--sliced`, today's code path before issue 36), in the same run; and the calm GZ of both against the exact
-answer at 0–70°.
+(the cache the cold run filled; `--warm-rounds` runs of each variant, taken in turn), for the exact surface (the
+default) beside the sliced 61 × 41 offsets of jaxroll 0.1 (`--sliced`) and `jaxroll hydrostatics c11`, with wall
+and CPU time and the load average (the machine is shared: compare CPU times and ratios within one run);
+`--baseline-tree DIR` adds the exact surface run by another source tree (the code before a change:
+`git archive COMMIT | tar -x -C DIR`); and the calm GZ of both against the exact answer at 0–70°.
 
-Run: `python benchmarks/hydrostatics.py [--n-zeta 13] [--n-heel 15] [--repeat 10] [--mesh] [--mesh-only]`.
+Run: `python benchmarks/hydrostatics.py [--n-zeta 13] [--n-heel 15] [--repeat 10] [--mesh] [--mesh-only]
+[--warm-rounds 3] [--baseline-tree DIR]`.
 Output: `name=value` lines.
 """
 
@@ -21,6 +24,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import resource
 import subprocess
 import sys
 import tempfile
@@ -46,9 +50,12 @@ def main() -> None:
     parser.add_argument("--repeat", type=int, default=10)
     parser.add_argument("--mesh", action="store_true", help="also the STL end-to-end comparison")
     parser.add_argument("--mesh-only", action="store_true", help="only the STL end-to-end comparison")
+    parser.add_argument("--warm-rounds", type=int, default=3, help="warm runs of each CLI variant, in turn")
+    parser.add_argument("--baseline-tree", metavar="DIR",
+                        help="also time the exact surface with the jaxroll source tree in DIR (e.g. the code before a change)")
     args = parser.parse_args()
     if args.mesh or args.mesh_only:
-        mesh_benchmark()
+        mesh_benchmark(args.warm_rounds, args.baseline_tree)
     if args.mesh_only:
         return
 
@@ -99,7 +106,24 @@ def main() -> None:
     print(f"grad_run_s={grad_best:.4f}")
 
 
-def mesh_benchmark() -> None:
+def _cli_run(argv, env, cwd=None) -> tuple[float, float]:
+    """(wall, CPU) seconds of one `jaxroll` process (CPU: user + system of the child, all its threads)."""
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    t0 = time.perf_counter()
+    res = subprocess.run(argv, env=env, capture_output=True, text=True, cwd=cwd)
+    wall = time.perf_counter() - t0
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    if res.returncode:
+        raise SystemExit(res.stderr[-2000:])
+    return wall, (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+
+
+def mesh_benchmark(warm_rounds: int = 3, baseline_tree: str | None = None) -> None:
+    """`jaxroll hydrostatics` on the frigate STL, each run a fresh process: the exact surface, the sliced offsets
+    (`--sliced`) and `jaxroll hydrostatics c11`, and optionally the exact surface of another source tree (e.g. the
+    code before a change, `git archive COMMIT | tar -x -C DIR`), each with its own compilation cache: cold once, then
+    `warm_rounds` warm runs taken in turn (so that every variant sees the same machine load). Prints wall and CPU
+    time (user + system of the process) and the load average."""
     sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
     import hull_meshes
 
@@ -110,17 +134,23 @@ def mesh_benchmark() -> None:
         print(f"mesh_triangles={io.read_stl(stl).shape[0]}")
         argv = [sys.executable, "-m", "jaxroll", "hydrostatics", str(stl), "--lpp", "142", "--x-ap", "0",
                 "--draught", "6.15", "--kg", "7.555", "--roll-period", "12"]  # fmt: skip
-        for label, extra in (("sliced", ["--sliced"]), ("exact", [])):
-            cache = Path(tmp) / f"cache-{label}"
-            for phase in ("cold", "warm"):
-                env = {**os.environ, "JAXROLL_CACHE_DIR": str(cache)}
-                t0 = time.perf_counter()
-                res = subprocess.run([*argv, *extra, "--out", str(Path(tmp) / f"out-{label}")], env=env,
-                                     capture_output=True, text=True)  # fmt: skip
-                wall = time.perf_counter() - t0
-                if res.returncode:
-                    raise SystemExit(res.stderr[-2000:])
-                print(f"cli_{label}_{phase}_s={wall:.2f}")
+        c11 = [sys.executable, "-m", "jaxroll", "hydrostatics", "c11"]
+        variants = {"exact": (argv, None), "sliced": ([*argv, "--sliced"], None), "c11": (c11, None)}
+        if baseline_tree is not None:
+            variants["baseline_exact"] = (argv, str(Path(baseline_tree).resolve()))
+        envs, cwds = {}, {}
+        here = str(Path(__file__).resolve().parents[1])
+        for label, (cmd, tree) in variants.items():
+            env = {**os.environ, "JAXROLL_CACHE_DIR": str(Path(tmp) / f"cache-{label}")}
+            # `python -m` imports from the working folder first: run each tree's jaxroll from its own root
+            env["PYTHONPATH"] = tree or here
+            envs[label], cwds[label] = env, tree or here
+            wall, cpu = _cli_run([*cmd, "--out", str(Path(tmp) / f"out-{label}")], env, cwds[label])
+            print(f"cli_{label}_cold_s={wall:.2f} cpu={cpu:.2f} load={os.getloadavg()[0]:.1f}")
+        for k in range(warm_rounds):
+            for label, (cmd, _) in variants.items():
+                wall, cpu = _cli_run([*cmd, "--out", str(Path(tmp) / f"out-{label}")], envs[label], cwds[label])
+                print(f"cli_{label}_warm{k}_s={wall:.2f} cpu={cpu:.2f} load={os.getloadavg()[0]:.1f}")
         # calm GZ of the sliced offsets and of the exact surface, KG = 7.555 m at d = 6.15 m
         phi = jnp.radians(jnp.arange(0.0, 75.0, 5.0))
         curves = {}

@@ -40,7 +40,6 @@ import os
 import pathlib
 import pickle
 import re
-import tempfile
 import threading
 import warnings
 from collections.abc import Callable
@@ -51,6 +50,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from . import _cache_files as files
+from ._atomic import atomic_write_bytes
 from ._config import require_float64
 
 _FORMAT = "2"  # bump to invalidate every stored program
@@ -166,10 +166,7 @@ def write_atomic(path: pathlib.Path, data: bytes) -> None:
     written is not an error (the program is simply traced again next time)."""
     try:
         path.parent.mkdir(mode=0o700, parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=".tmp-")
-        with os.fdopen(fd, "wb") as f:
-            f.write(data)
-        os.replace(tmp, path)
+        atomic_write_bytes(path, data, mode=0o600)
     except OSError:
         pass
 

@@ -119,3 +119,20 @@ def volume(tri) -> float:
     """Signed enclosed volume [m³] (> 0 for outward normals)."""
     tri = np.asarray(tri, float)
     return float(np.einsum("ij,ij->i", tri[:, 0], np.cross(tri[:, 1], tri[:, 2])).sum() / 6)
+
+
+def modified_wigley(length=150.0, breadth=15.0, draught=9.375, depth=15.0, *, ns=121, nr=49) -> np.ndarray:
+    """The modified Wigley hull of Journée (1992, Delft report 909; `tests/test_published_hulls.py`): with
+    ξ = 2x'/L (x' from amidships) and ζ = z'/T (z' down from the waterline),
+    y = (B/2) [(1 − ζ²)(1 − ξ²)(1 + 0.2 ξ²) + ζ²(1 − ζ⁸)(1 − ξ²)⁴], wall-sided from the waterline to the deck.
+    Stations and waterlines are cosine-spaced (fine at the ends and at the keel, where the form turns fastest);
+    the ends are closed by a 5 mm wide stem (the ring mesh's minimum breadth)."""
+    x = length / 2 * (1 - np.cos(np.linspace(0.0, np.pi, ns)))
+    zeta = np.cos(np.linspace(0.0, np.pi / 2, nr))  # 1 at the keel → 0 at the waterline
+    z = np.concatenate([draught * (1 - zeta), [depth]])
+    xi = (2 * (x - length / 2) / length)[:, None]
+    zz = np.concatenate([zeta, [0.0]])[None, :]
+    y = breadth / 2 * ((1 - zz**2) * (1 - xi**2) * (1 + 0.2 * xi**2) + zz**2 * (1 - zz**8) * (1 - xi**2) ** 4)
+    y = np.maximum(y, 0.005)
+    y[:, 0] = 0.0
+    return ring_mesh(x, y, np.tile(z, (ns, 1)))

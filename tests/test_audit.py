@@ -317,7 +317,7 @@ def test_step_counts_are_refused_before_any_fit(no_computation, tmp_path, capsys
 def test_unwritable_out_is_refused_before_any_fit(no_computation, capsys, command):
     """A folder no one can write into (here /proc, refused even for root, unlike a chmod) is reported at once."""
     assert main([command, "--out", "/proc/jaxroll-audit"]) == 2
-    assert "--out '/proc/jaxroll-audit': cannot write into '/proc'" in capsys.readouterr().err
+    assert "--out '/proc/jaxroll-audit' cannot be written: no file can be created in '/proc'" in capsys.readouterr().err
 
 
 # ----------------------------------------------------------------------------------------------------------------

@@ -415,7 +415,7 @@ def test_datum_sonar_dome_skeg_and_z0_at_the_waterline(tmp_path):
     # naming both datums and the option
     path = _dome_file(tmp_path, "dome.stl", dome=3.0)
     with pytest.warns(UserWarning, match=r"lowest point \(file z = -2\.9\d* m.* local protrusion .* keel line at "
-                      r"file z = 0 m .*--baseline-z -2\.9"):  # fmt: skip
+                      r"file z = 0 m .*--baseline-z -2\.9.*--draught-datum lowest or --kg-datum lowest"):  # fmt: skip
         h = read(path, x_ap=0.0)
     assert h.datum.baseline_file_z == 0.0 and h.datum.lowest_point_file_z == pytest.approx(-2.99, abs=0.01)
     assert "keel line" in h.datum.source
@@ -438,7 +438,7 @@ def test_datum_sonar_dome_skeg_and_z0_at_the_waterline(tmp_path):
         read(_dome_file(tmp_path, "skeg.stl", skeg=1.5), x_ap=0.0)
     # file z = 0 at the waterline: the lowest point is the baseline, the warning gives the draught it implies
     with pytest.warns(UserWarning, match=r"the file's z = 0 lies inside the hull, 5 m above its lowest point .* "
-                      r"--baseline-z 0 .* the draught is 5 m"):  # fmt: skip
+                      r"--baseline-z 0 .*--draught-datum 0 or --kg-datum 0.* the draught is 5 m"):  # fmt: skip
         wl = read(_dome_file(tmp_path, "wl.stl", z0=-d), x_ap=0.0)
     assert wl.datum.baseline_file_z == pytest.approx(-d)
     # file z = 0 at the deck: nothing to warn about
@@ -526,3 +526,77 @@ def test_cli_sgisc_box_barge_names_ikedas_range_and_damping(tmp_path, capsys, mo
 def test_kg_above_the_deck_warns():
     with pytest.warns(UserWarning, match=r"KG = 12 m is above the deck: the hull's depth is D = 10 m .*--baseline-z"):
         jxr.loading_condition(jxr.box_hull(L, B, D), kg=12.0, draught=d)
+
+
+def test_cli_draught_and_kg_from_another_datum(tmp_path, capsys, monkeypatch):
+    # issue 36 item 1: the baseline stays the keel line (the dome is a protrusion), the draught and KG are given
+    # from the dome's lowest point: the same loading as given from the baseline, recorded in config.datum
+    import json
+
+    import hull_meshes as hm
+    from helpers import assert_labelled_output
+
+    monkeypatch.setenv("JAXROLL_CACHE_DIR", "")
+    path = io.write_stl(tmp_path / "dome.stl", hm.frigate(length=L, breadth=B, draught=d, depth=D, ns=21, nr=7,
+                                                           dome=2.0))  # fmt: skip
+    with pytest.warns(UserWarning, match="local protrusion"):
+        low = read(path, x_ap=0.0).datum.lowest_point_file_z
+    base = ["hydrostatics", str(path), "--lpp", str(L), "--x-ap", "0", "--roll-period", "10", "--n-zeta", "7",
+            "--n-heel", "5", "--stations", str(N_ST), "--waterlines", str(N_WL)]  # fmt: skip
+    argv = [*base, "--draught", str(d - low), "--draught-datum", "lowest", "--kg", str(KG - low), "--kg-datum",
+            f"{low!r}"]  # fmt: skip
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", ".*local protrusion")
+        code, out = _cli(argv, tmp_path, capsys)
+    assert code == 0, out.err
+    assert "KG given from the given reference (file z = " in out.out and "draughts given from the lowest" in out.out
+    doc = json.loads((tmp_path / "out" / "hydrostatics.json").read_text())
+    cfg = doc["config"]
+    assert cfg["kg_m"] == pytest.approx(KG, abs=1e-9) and doc["calm_water"]["draught_m"] == pytest.approx(d, abs=1e-6)
+    assert cfg["kg_given_m"] == pytest.approx(KG - low) and cfg["draught_given_m"] == pytest.approx(d - low)
+    datum = cfg["datum"]
+    assert datum["baseline_file_z_m"] == 0.0 and datum["lowest_point_file_z_m"] == pytest.approx(low)
+    assert datum["draught_datum"] == {"option": "lowest", "file_z_m": low, "above_baseline_m": low}
+    assert datum["kg_datum"]["option"] == pytest.approx(low) and datum["kg_datum"]["above_baseline_m"] == pytest.approx(low)
+    assert_labelled_output(tmp_path / "out", "hydrostatics")
+    # the same condition given from the baseline: the same displacement and GM
+    with pytest.warns(UserWarning, match="local protrusion"):
+        h = read(path, x_ap=0.0)
+    ref = jxr.hydrostatic_particulars(h, jxr.loading_condition(h, kg=KG, draught=d))
+    assert doc["calm_water"]["displacement_kg"] == pytest.approx(float(ref.displacement), rel=1e-9)
+    assert doc["calm_water"]["gm_m"] == pytest.approx(float(ref.gm), abs=1e-9)
+
+
+def test_cli_datum_options_contradicting_the_hull_exit_2_before_computing(tmp_path, capsys, monkeypatch):
+    import hull_meshes as hm
+
+    monkeypatch.setenv("JAXROLL_CACHE_DIR", "")
+    path = io.write_stl(tmp_path / "dome.stl", hm.frigate(length=L, breadth=B, draught=d, depth=D, ns=21, nr=7,
+                                                           dome=2.0))  # fmt: skip
+    base = [str(path), "--lpp", str(L), "--x-ap", "0", "--roll-period", "10"]
+    cases = [
+        (["hydrostatics", *base, "--kg", "6", "--draught", "12", "--draught-datum", "lowest"],
+         r"--draught 12 m from the lowest point \(file z = -1\.8\d* m\) is d = 10\.1\d* m above the baseline: at or "
+         r"above the depth D = 10 m \(the deck\)\. Check --draught-datum"),
+        (["hydrostatics", *base, "--kg", "1", "--kg-datum", "lowest", "--draught", "5"],
+         r"--kg 1 m from the lowest point \(file z = -1\.8\d* m\) is -0\.8\d* m above the baseline: the centre of "
+         r"gravity would be at or below the bottom of the hull\. Check --kg-datum"),
+        (["sgisc", *base, "--kg", "6", "--draught", "5", "--full-load-draught", "12", "--draught-datum", "keel",
+          "--speed-kn", "10", "--skip-c2"], r"--full-load-draught 12 m from the keel line \(file z = 0 m\) is d = 12 m"),
+        (["hydrostatics", "c11", "--kg-datum", "keel"], r"--kg-datum apply to STL, GDF and CSV hull files only"),
+        # a hull file in millimetres read as metres (--units m, the default): L = 100 000 m, refused with the unit
+        (["hydrostatics", str(io.write_stl(tmp_path / "mm.stl", box_triangles() * 1000)), "--kg", "6", "--draught",
+          "5", "--roll-period", "10"], r"mm\.stl \(length overall\): .*in mm it would be 100 m.*--units mm"),
+    ]  # fmt: skip
+    for argv, match in cases:
+        with warnings.catch_warnings():
+            warnings.filterwarnings("ignore", ".*local protrusion")
+            code, out = _cli(argv, tmp_path, capsys)
+        assert code == 2, (argv, out.err)
+        assert re.search(match, out.err), (match, out.err)
+        assert not (tmp_path / "out").exists()
+    # a reference that is neither a name nor a number: argparse's usage error (exit 2)
+    with pytest.raises(SystemExit) as e:
+        _cli(["sgisc", *base, "--kg", "6", "--draught", "5", "--kg-datum", "deck", "--speed-kn", "10"], tmp_path, capsys)
+    assert e.value.code == 2
+    assert "--kg-datum: give baseline, keel, lowest or a file z [m, full scale]; got 'deck'" in capsys.readouterr().err

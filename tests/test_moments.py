@@ -605,6 +605,7 @@ def test_a_fit_still_being_made_runs_the_program_compiled_for_the_fits_form(ship
     from jaxroll import _compiled
     from jaxroll.sea import fit_filter
     from jaxroll.sea._filters import filter_from_parameters, fitted_form
+    from jaxroll.sea._grim import effective_wave_std
     from jaxroll.theory._moment_equations import zero_pattern
 
     monkeypatch.setattr(_compiled, "cache_dir", lambda: tmp_path)
@@ -615,6 +616,7 @@ def test_a_fit_still_being_made_runs_the_program_compiled_for_the_fits_form(ship
     wave, bins = _wave(7.0), np.arange(0.0, 73.0, 1.0)
     fit = fit_filter(wave, order=4, match_frequency=2 * SHIP.omega0)
     assert zero_pattern(SHIP, fitted_form(4)) == zero_pattern(SHIP, fit.filter)
+    effective_wave_std(wave)  # the set-up checks' own stored program (S_G on a grid), exported before counting
     before = len(exported)
     future = concurrent.futures.Future()
     results = jxr.theory.iter_theory_summaries(("moment",), SHIP, wave, bins, shaping_filter=future)

@@ -318,6 +318,7 @@ def test_folders_left_by_an_earlier_jaxroll_are_named(tmp_path, capsys):
     assert sorted(p.name for p in tmp_path.iterdir()) == [".out.old-ef56gh78", ".out.partial-ab12cd34", "out"]
 
 
+@pytest.mark.filterwarnings("default:decay fit")
 def test_calibrate_writes_one_set(tmp_path, monkeypatch, capsys):
     """`jaxroll calibrate` wrote ship.toml, the figures and calibration.json one by one: killed between them it left
     a new ship.toml beside the old calibration.json. It writes them as one set now (killed: the old set, whole)."""
@@ -326,7 +327,10 @@ def test_calibrate_writes_one_set(tmp_path, monkeypatch, capsys):
     records = tmp_path / "tank"
     assert main(["tank", "--tests", "decay", "--quiet", "--out", str(records)]) == 0
     out = tmp_path / "cal"
+    capsys.readouterr()
     assert main(["calibrate", "decay", str(records / "decay"), "--out", str(out), "--method", "extinction"]) == 0
+    # these records' extinction fit puts b3 0.3 standard errors below 0: held at 0, said on one line
+    assert "jaxroll calibrate: warning: decay fit (extinction): b3 = -0.16" in capsys.readouterr().err
     before = _contents(out)
     assert {"ship.toml", "calibration.json", "extinction.png"} <= set(before)
 

@@ -12,33 +12,15 @@ import time
 from pathlib import Path
 from typing import Any
 
-from ..io import to_jsonable as to_jsonable
+from ..io import atomic_write_bytes as atomic_write_bytes, to_jsonable as to_jsonable
 
 
 class CLIError(Exception):
     """A user error on the command line; printed as `jaxroll CMD: error: ...` with exit code 2."""
 
 
-def atomic_write_bytes(path: str | Path, data: bytes) -> None:
-    """Write `data` to `path` completely or not at all (temporary file in the same folder, then rename)."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "wb") as f:
-            f.write(data)
-            f.flush()
-            os.fsync(f.fileno())
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(tmp, 0o666 & ~umask)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-
-
 def atomic_write_text(path: str | Path, text: str) -> None:
+    """Write `text` (UTF-8) to `path` completely or not at all."""
     atomic_write_bytes(path, text.encode())
 
 

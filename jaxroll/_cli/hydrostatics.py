@@ -12,7 +12,9 @@ from .sgisc import (
     add_hull_options,
     check_hull_options,
     check_plausible,
+    datum_lines,
     datum_record,
+    heights_above_baseline,
     read_hull_arg,
 )
 
@@ -99,7 +101,6 @@ def _check_options(args) -> None:
 
 
 def run(args) -> int:
-    import jax.numpy as jnp
     import numpy as np
 
     from ..io import hull_to_toml, loading_from_dict, ship_to_dict, ship_to_toml
@@ -109,7 +110,6 @@ def run(args) -> int:
         c11_representative,
         default_heel_grid,
         default_zeta_grid,
-        equilibrium,
         hull_hydrostatics,
         metacentric_height,
         restoring_fields_from_gz,
@@ -128,14 +128,14 @@ def run(args) -> int:
     zeta = default_zeta_grid(args.zeta_max, args.n_zeta)
     heels = default_heel_grid(math.radians(args.heel_max_deg), args.n_heel)
 
-    overrides = dict(
-        draught=args.draught, displacement=args.displacement, lcg=args.lcg, water_density=args.water_density
-    )
+    # the draught and KG given from --draught-datum / --kg-datum, measured from the baseline
+    (draught,), kg_above = heights_above_baseline(hull, args, draughts=[("--draught", args.draught)], kg=args.kg)
+    overrides = dict(draught=draught, displacement=args.displacement, lcg=args.lcg, water_density=args.water_density)
     if args.gm is not None:
         probe = loading_from_dict(hull, file_loading, kg=0.0, **overrides)
         kg = float(metacentric_height(hull, probe)) - args.gm
     else:
-        kg = args.kg
+        kg = kg_above
     loading = loading_from_dict(hull, file_loading, kg=kg, **overrides)
 
     roll_period, gyradius = args.roll_period, args.roll_gyradius
@@ -148,7 +148,11 @@ def run(args) -> int:
         roll_period = 24.4
 
     check_plausible(hull, loading)
-    sol = hull_hydrostatics(hull, loading, zeta_mid=zeta, heels=heels, wavelength=args.wavelength)
+    # The figure's GZ curves (calm, crest and trough of the largest amplitude) to 90°: the table's heels, and beyond
+    # them every 5°, computed with the table (one program, one batch)
+    beyond = np.radians(np.arange(args.heel_max_deg + 5.0, 90.0 + 1e-9, 5.0))
+    sol = hull_hydrostatics(hull, loading, zeta_mid=zeta, heels=heels, wavelength=args.wavelength,
+                            curve_heels=beyond if beyond.size else None)  # fmt: skip
     ship = ship_from_hydrostatics(
         sol,
         hull,
@@ -158,12 +162,14 @@ def run(args) -> int:
         damping=args.damping,
         name=args.name,
     )
-    # Smooth GZ curves for the figure: calm, crest and trough of the largest amplitude, 0–90°.
-    fine = jnp.radians(jnp.linspace(0.0, 90.0, 37))
-    zfig = jnp.array([0.0, -args.zeta_max, args.zeta_max])[:, None]
-    curves = equilibrium(
-        hull, loading, heel=fine[None, :], zeta_mid=zfig, wavelength=args.wavelength, throw=False
-    )
+    table_ok = np.asarray(sol.converged)
+    rows = [np.asarray(sol.gz_calm), *(np.asarray(sol.gz)[i] for i in (np.argmin(zeta), np.argmax(zeta)))]
+    rows = [np.where(ok, r, np.nan) for r, ok in zip(rows, (table_ok.all(axis=0), *table_ok[[np.argmin(zeta), np.argmax(zeta)]]))]
+    fine, curves_gz = heels, np.stack(rows)
+    if beyond.size:
+        fine = np.concatenate([heels, beyond])
+        more = np.where(np.asarray(sol.curves_converged), np.asarray(sol.gz_curves), np.nan)
+        curves_gz = np.concatenate([curves_gz, more], axis=1)
 
     final: Path = args.out
     with OutputFolder(final) as out:
@@ -174,11 +180,8 @@ def run(args) -> int:
             f"trough amidships, ζ_mid = +{args.zeta_max:g} m",
         ]
         ax = plot_gz_curves(
-            np.asarray(fine),
-            {
-                lab: np.where(np.asarray(curves.converged[i]), np.asarray(curves.gz[i]), np.nan)
-                for i, lab in enumerate(gz_labels)
-            },
+            fine,
+            {lab: curves_gz[i] for i, lab in enumerate(gz_labels)},
             fit=(float(p.gm), np.asarray(sol.gz_coefficients)),
             fit_heel_max=float(heels[-1]),
         )
@@ -208,6 +211,8 @@ def run(args) -> int:
             "config": {
                 "hull": "c11" if is_c11 else str(args.hull),
                 "kg_m": float(loading.kg),
+                "kg_given_m": args.kg,
+                "draught_given_m": args.draught,
                 "gm_requested_m": args.gm,
                 "displacement_kg": float(loading.displacement),
                 "lcg_m": float(loading.lcg),
@@ -252,9 +257,9 @@ def run(args) -> int:
                 "delta_gm_m": sol.delta_gm,
             },
             "gz_curves_figure": {
-                "heel_deg": np.degrees(np.asarray(fine)),
-                "zeta_mid_m": np.asarray(zfig[:, 0]),
-                "gz_m": np.where(np.asarray(curves.converged), np.asarray(curves.gz), np.nan),
+                "heel_deg": np.degrees(fine),
+                "zeta_mid_m": np.array([0.0, np.min(zeta), np.max(zeta)]),
+                "gz_m": curves_gz,
             },
             "fits": {
                 "gm0_m": float(p.gm),
@@ -304,6 +309,8 @@ def run(args) -> int:
         f"{', '.join(f'{v:.4g}' for v in np.asarray(sol.gz_coefficients))} (rms {float(sol.gz_fit_rms):.2g} "
         "m)"
     )
+    for line in datum_lines(hull, args):
+        print(line)
     if is_c11:
         print("Note: the c11 hull is REPRESENTATIVE (parametric), not the real C11 lines.")
     print(

@@ -107,7 +107,7 @@ def run(args) -> int:
 
     from .. import max_pdf, max_pdf_asymptotic, max_sf, monte_carlo_amplitudes, monte_carlo_maxima
     from ..plotting import maxima_comparison_figure, maxima_figures
-    from .pdf import check_out, parse_theories
+    from .pdf import parse_theories
 
     n0_all = parse_n0(args.n0)
     theories = parse_theories(args.theory)
@@ -121,7 +121,6 @@ def run(args) -> int:
         raise CLIError(f"--duration must exceed --discard ({args.discard:g} s); got {args.duration:g}.")
     budget = memory_budget(args)
     out = Path(args.out)
-    check_out(out)
     ship = load_ship_arg(args.ship)
     check_sea_options(args)
     longest = args.duration if args.duration is not None else (  # as jaxroll.roll.default_duration

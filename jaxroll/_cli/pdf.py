@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import math
-import os
 import time
 from pathlib import Path
 
@@ -122,27 +121,6 @@ def check_phi0(phi0_deg: float, ship) -> None:
         raise CLIError(f"--phi0-deg {phi0_deg:g} is at or beyond the angle of vanishing stability ({vanish:.1f}°).")
 
 
-def check_out(out: Path) -> None:
-    """--out, from the options alone, before any computation: not a file, and writable — the set is written into a
-    temporary folder beside it (in its parent) and renamed into place, so the parent (or the nearest folder above
-    it that exists) must be writable, and so must `out` itself when it exists (its entries are carried over)."""
-    import tempfile
-
-    if out.exists() and not out.is_dir():
-        raise CLIError(f"--out {str(out)!r} exists and is not a folder.")
-    parent = out.resolve().parent
-    while not parent.exists() and parent != parent.parent:
-        parent = parent.parent
-    for folder in ([out] if out.exists() else []) + [parent]:
-        try:  # a folder made and removed: what permissions, a read-only file system or quotas allow, for any user
-            os.rmdir(tempfile.mkdtemp(dir=folder, prefix=".jaxroll-write-check-"))
-        except OSError as e:
-            raise CLIError(
-                f"--out {str(out)!r}: cannot write into {str(folder)!r} ({e.strerror or e}; the results are written "
-                "into a temporary folder beside --out and renamed into place). Choose a folder you can write."
-            ) from None
-
-
 def capsize_caption(n_realizations: int, n_capsized: int) -> str:
     """'N = 10000' or 'N = 10000, 9143 capsized; PDF of the 857 survivors'."""
     if not n_capsized:
@@ -176,7 +154,6 @@ def run(args) -> int:
     chunk = args.chunk_size if args.chunk_size is not None else default_chunk_size(True)
     budget = memory_budget(args)
     out = Path(args.out)
-    check_out(out)
     checkpoint_file = None
     if args.checkpoint is not None:
         if Path(args.checkpoint).exists() and not Path(args.checkpoint).is_dir():

@@ -174,7 +174,6 @@ def run(args) -> int:
         vanishing_angle,
     )
     from ..plotting import risk_figure
-    from .pdf import check_out
 
     theories, first_passage = parse_risk_theories(args.theory)
     check_positive(args, "hours", "duration")
@@ -191,7 +190,6 @@ def run(args) -> int:
     check_steps(args.dt, {"--duration": args.duration, "--discard + --hours": args.discard + args.hours * 3600.0})
     budget = memory_budget(args)
     out = Path(args.out)
-    check_out(out)
     ship = load_ship_arg(args.ship)
     vanishing_deg = math.degrees(float(vanishing_angle(ship)))
     if args.angle >= vanishing_deg:

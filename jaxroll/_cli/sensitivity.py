@@ -92,7 +92,6 @@ def run(args) -> int:
     from .. import SENSITIVITY_PARAMETERS, monte_carlo_sensitivity, sensitivity_problem
     from ..plotting import sensitivity_bar_chart
     from ..theory import theory_sensitivities
-    from .pdf import check_out
 
     wrt = _names(args.wrt, tuple(SENSITIVITY_PARAMETERS), "--wrt")
     if not wrt:
@@ -111,7 +110,6 @@ def run(args) -> int:
     if args.method != "filter" and any(p in ("hs", "t01", "speed") for p in wrt):
         raise CLIError("sea-parameter derivatives need the filter excitation (--method filter).")
     out = Path(args.out)
-    check_out(out)
     ship = load_ship_arg(args.ship)
     problem_fn, params = sensitivity_problem(
         ship, hs=args.hs, t01=args.t01, speed=args.speed, heading=heading_for_api(parse_heading(args.heading)), excitation=args.method,

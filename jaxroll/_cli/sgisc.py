@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import argparse
 import math
 from pathlib import Path
 
@@ -40,6 +41,16 @@ def add_hull_options(p) -> None:
         help="z of the baseline in the file [m, full scale]: draughts and KG are measured from it (default: the "
         "keel line where the lowest point is a sonar dome, skeg or bulb, else the lowest point; a warning names both)",
     )  # fmt: skip
+    g.add_argument(
+        "--draught-datum", metavar="REF", type=_height_reference,
+        help="what the draughts given (--draught, and sgisc's --full-load-draught, --kgmax) are measured from: baseline "
+        "(default), keel (the keel line), lowest (the lowest point, e.g. a sonar dome), or a file z [m, full scale]",
+    )  # fmt: skip
+    g.add_argument(
+        "--kg-datum", metavar="REF", type=_height_reference,
+        help="what --kg is measured from (and KG, KGmax are also reported from): baseline (default), keel, lowest, or "
+        "a file z [m, full scale]",
+    )  # fmt: skip
     g.add_argument("--half-hull", action="store_true", help="the file holds one side, open on the centre plane: mirror it")
     g.add_argument("--fix-normals", action="store_true", help="orient inconsistent triangles consistently")
     g.add_argument(
@@ -51,6 +62,74 @@ def add_hull_options(p) -> None:
     g.add_argument(
         "--waterlines", type=int, default=41, metavar="N", help="waterlines sliced from an STL/GDF (41)"
     )
+
+
+def _height_reference(text: str):
+    """`--draught-datum`/`--kg-datum`: baseline, keel, lowest, or a file z [m] (a finite number)."""
+    if text in ("baseline", "keel", "lowest"):
+        return text
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not math.isfinite(value):
+        raise argparse.ArgumentTypeError(f"give baseline, keel, lowest or a file z [m, full scale]; got {text!r}")
+    return value
+
+
+def heights_above_baseline(hull, args, *, draughts=(), kg=None) -> tuple[list, float | None]:
+    """The draughts (from `--draught-datum`) and KG (from `--kg-datum`) given on the command line, measured from the
+    baseline as jaxroll measures every height (None stays None). A draught at or above the deck, or a KG at or below
+    the baseline, is refused with both values."""
+    d_ref, k_ref = getattr(args, "draught_datum", None) or "baseline", getattr(args, "kg_datum", None) or "baseline"
+    datum = hull.datum
+    if datum is None:
+        if (d_ref, k_ref) != ("baseline", "baseline"):
+            raise CLIError(
+                "--draught-datum and --kg-datum apply to hulls read from a mesh (STL, GDF, OBJ, …); the heights of an "
+                "offsets table are measured from its own baseline already."
+            )
+        return [value for _, value in draughts], kg
+    depth = float(hull.depth)
+    out = []
+    for flag, value in draughts:
+        if value is None:
+            out.append(None)
+            continue
+        above = datum.above_baseline(value, d_ref)
+        if above >= depth and d_ref != "baseline":  # from the baseline: the loading's own check names it
+            raise CLIError(
+                f"{flag} {value:g} m from the {_ref_name(d_ref, datum)} is d = {above:.4g} m above the baseline: at or "
+                f"above the depth D = {depth:.4g} m (the deck). Check --draught-datum and the draught."
+            )
+        out.append(above)
+    kg_above = None
+    if kg is not None:
+        kg_above = datum.above_baseline(kg, k_ref)
+        if kg_above <= 0:
+            raise CLIError(
+                f"--kg {kg:g} m from the {_ref_name(k_ref, datum)} is {kg_above:.4g} m above the baseline: the centre of "
+                "gravity would be at or below the bottom of the hull. Check --kg-datum and KG."
+            )
+    return out, kg_above
+
+
+def datum_lines(hull, args) -> list[str]:
+    """What the command line's draughts and KG were measured from, for the printed summary (none where both are the
+    baseline)."""
+    refs = [(what, ref) for what, ref in (("draughts", args.draught_datum), ("KG", args.kg_datum)) if ref not in (None, "baseline")]
+    if hull.datum is None or not refs:
+        return []
+    z0 = hull.datum.baseline_file_z
+    parts = [f"{what} given from the {_ref_name(ref, hull.datum)}, {hull.datum.file_z(ref) - z0:+.4g} m from the baseline"
+             for what, ref in refs]  # fmt: skip
+    return [f"Heights above the baseline (file z = {z0:.4g} m) in this output; " + "; ".join(parts) + "."]
+
+
+def _ref_name(ref, datum) -> str:
+    """'keel line (file z = 0 m)' etc. for messages."""
+    name = {"baseline": "baseline", "keel": "keel line", "lowest": "lowest point"}.get(ref, "given reference")
+    return f"{name} (file z = {datum.file_z(ref):.4g} m)"
 
 
 def check_hull_options(args) -> None:
@@ -77,6 +156,7 @@ def check_hull_options(args) -> None:
             ("--lpp", args.lpp, None), ("--x-ap", args.x_ap, None), ("--units", args.units, "m"),
             ("--scale", args.scale, 1.0), ("--forward", args.forward, "+x"), ("--up", args.up, "+z"),
             ("--baseline-z", args.baseline_z, None), ("--half-hull", args.half_hull, False),
+            ("--draught-datum", args.draught_datum, None), ("--kg-datum", args.kg_datum, None),
             ("--fix-normals", args.fix_normals, False), ("--sliced", args.sliced, False),
         )
         if value != default
@@ -109,8 +189,10 @@ def check_plausible(hull, loading) -> None:
     """Refuse a loading whose proportions betray a unit slip (a hull in feet or millimetres read as metres, a
     displacement in tonnes given as kg), before the tables are computed (from the loading's even-keel draught and
     the hull's largest breadth: nothing to compile)."""
-    d, depth, b = float(loading.draught), float(hull.depth), float(hull.max_breadth)
-    lo = float(hull.waterlines[0])
+    import numpy as np
+
+    d, depth = float(loading.draught), float(hull.depth)
+    b, lo = 2 * float(np.max(np.asarray(hull.half_breadths))), float(np.asarray(hull.waterlines)[0])
     if d - lo < 0.04 * (depth - lo):
         raise CLIError(
             f"the draught d = {d:.4g} m is only {100 * (d - lo) / (depth - lo):.2g} % of the hull's height "
@@ -126,11 +208,19 @@ def check_plausible(hull, loading) -> None:
 
 
 def datum_record(hull, args) -> dict | None:
-    """The vertical datum of a hull read from a mesh, for the JSON outputs (None for TOML/CSV hulls)."""
+    """The vertical datum of a hull read from a mesh, for the JSON outputs (None for TOML/CSV hulls): the baseline,
+    and the references the command line's draughts and KG were given from, with their heights above it."""
     if hull.datum is None:
         return None
-    return {**hull.datum.as_dict(), "baseline_z_option": args.baseline_z,
-            "note": "draughts, KG and every height are measured from the baseline (z = 0 of jaxroll's frame)"}
+    refs = {}
+    for key, ref in (("draught_datum", args.draught_datum), ("kg_datum", args.kg_datum)):
+        ref = ref or "baseline"
+        z = hull.datum.file_z(ref)
+        refs[key] = {"option": ref, "file_z_m": z, "above_baseline_m": z - hull.datum.baseline_file_z}
+    return {**hull.datum.as_dict(), "baseline_z_option": args.baseline_z, **refs,
+            "note": "draughts, KG and every height in the outputs are measured from the baseline (z = 0 of jaxroll's "
+            "frame); the command line's draughts and KG were given from draught_datum and kg_datum (add "
+            "above_baseline_m to measure them from the baseline)"}
 
 
 def register(subparsers) -> None:
@@ -275,8 +365,14 @@ def run(args) -> int:
     kn = args.speed_kn
     vs = kn * 1852.0 / 3600.0
     hull, file_loading, is_c11 = read_hull_arg(args)
+    # every draught given from --draught-datum and KG from --kg-datum, measured from the baseline
+    kgmax = args.kgmax if args.kgmax is not None else (None, None, None)
+    (draught, full_load, kgmax_lo, kgmax_hi), kg = heights_above_baseline(
+        hull, args, kg=args.kg, draughts=[("--draught", args.draught), ("--full-load-draught", args.full_load_draught),
+                                          ("--kgmax D_MIN", kgmax[0]), ("--kgmax D_MAX", kgmax[1])],
+    )  # fmt: skip
     loading = loading_from_dict(
-        hull, file_loading, kg=args.kg, draught=args.draught, displacement=args.displacement,
+        hull, file_loading, kg=kg, draught=draught, displacement=args.displacement,
         water_density=args.water_density,
     )  # fmt: skip
     check_plausible(hull, loading)
@@ -286,9 +382,9 @@ def run(args) -> int:
             f"KG = {float(loading.kg):.4g} m gives GM = {float(calm.gm):.4g} m <= 0 (KM = "
             f"{float(calm.km):.4g} m): the ship is not initially stable. Lower --kg."
         )
-    if args.kgmax is not None and args.kgmax[1] >= float(hull.depth):
+    if args.kgmax is not None and kgmax_hi >= float(hull.depth):
         raise CLIError(
-            f"--kgmax: D_MAX = {args.kgmax[1]:g} m must be below the depth {float(hull.depth):g} m."
+            f"--kgmax: D_MAX = {kgmax_hi:g} m above the baseline must be below the depth {float(hull.depth):g} m."
         )
     lbk, bbk = args.bilge_keel if args.bilge_keel is not None else (0.0, 0.0)
     a = assess_parametric_roll(
@@ -301,12 +397,12 @@ def run(args) -> int:
         bilge_keel_breadth=bbk,
         bilge_keel_area=args.bilge_keel_area,
         sharp_bilge=args.sharp_bilge,
-        full_load_draught=args.full_load_draught,
+        full_load_draught=full_load,
         damping=args.damping,
         damping_source="given on the command line (--damping)" if args.damping is not None else None,
         skip_c2=args.skip_c2,
     )
-    lines = _summary(hull, calm, a, kn)
+    lines = _summary(hull, calm, a, kn) + [f"  Note: {line}" for line in datum_lines(hull, args)]
     speed = None
     if a.c2 is not None:
         worst = np.unravel_index(np.argmax(np.max(a.c2.max_roll, axis=0)), a.c2.max_roll.shape[1:])
@@ -314,10 +410,9 @@ def run(args) -> int:
         speed = roll_versus_speed(a.ship, wave_height=h_worst, speeds=np.linspace(0.0, vs, 25))
     curve = None
     if args.kgmax is not None:
-        lo, hi, n = args.kgmax
         curve = kg_max_curve(
             hull,
-            np.linspace(lo, hi, int(n)),
+            np.linspace(kgmax_lo, kgmax_hi, int(args.kgmax[2])),
             service_speed=vs,
             roll_gyradius=args.roll_gyradius,
             bilge_keel_area=a.bilge_keel_area,
@@ -366,6 +461,8 @@ def run(args) -> int:
                 "bilge_keel_area_m2": a.bilge_keel_area,
                 "sharp_bilge": args.sharp_bilge,
                 "full_load_draught_m": args.full_load_draught,
+                "draught_given_m": args.draught,
+                "kg_given_m": args.kg,
                 "mesh_options": {
                     "lpp_m": args.lpp,
                     "x_ap_m": args.x_ap,
@@ -418,6 +515,8 @@ def run(args) -> int:
                 "km_m": curve.km,
                 "kg_max_level1_m": curve.kg_max_level1,
                 "kg_max_c1_m": curve.kg_max_c1,
+                "heights": "above the baseline; from --draught-datum / --kg-datum: subtract config.datum's "
+                "above_baseline_m",
                 "delta_gm1_m": curve.delta_gm1,
                 "r_pr": curve.r_pr,
                 "roll_period_model": "2π k/√(g GM) with --roll-gyradius"

@@ -300,10 +300,6 @@ def run(args) -> int:
     from ..roll import default_chunk_size
 
     chunk = args.chunk_size if args.chunk_size is not None else default_chunk_size(False, args.devices)
-    if jax.process_index() == 0:
-        from .pdf import check_out
-
-        check_out(Path(args.out))
     ship = load_ship_arg(args.ship)
     capsize_deg = float(jnp.rad2deg(vanishing_angle(ship)))
     if args.angle >= capsize_deg:

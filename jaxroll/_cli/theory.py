@@ -35,7 +35,7 @@ def run(args) -> int:
     from ._common import CLIError, OutputFolder
     from ._sea import build_theory_inputs
     from ._theory import closure_note, start_theory_summaries
-    from .pdf import check_out, parse_theories, pdf_bins
+    from .pdf import parse_theories, pdf_bins
 
     # Check every option before the filter fit and the theories' compilation.
     named = args.theory is not None  # named theories must all have a law; of the default set, those that have
@@ -46,7 +46,6 @@ def run(args) -> int:
     check_positive(args, "bin_width_deg")
     pdf_bins(args.bin_width_deg, 89.0)
     out = Path(args.out)
-    check_out(out)
     ship = load_ship_arg(args.ship)
     t0 = time.time()
     inputs = build_theory_inputs(args, ship)  # no time stepping here: the Monte Carlo's dt check does not apply

@@ -32,15 +32,9 @@ import numpy as np
 
 from .._compiled import filter_jit
 from ..sea._spectra import GRAVITY
+from ..ship._equilibrium import _equilibrium_single, _gm_at, hydrostatic_particulars
 from ..ship._hull import Hull, _bare, translate_hull
-from ..ship._hydrostatics import (
-    Loading,
-    _equilibrium_single,
-    _gm_at,
-    _integrals,
-    buoyancy,
-    hydrostatic_particulars,
-)
+from ..ship._hydrostatics import Loading, _integrals, buoyancy
 
 # ==============================================================================================================
 # Constants and tables (sources and status in docs/sgisc.md)

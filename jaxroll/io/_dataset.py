@@ -13,9 +13,7 @@ import importlib.metadata
 import json
 import math
 import os
-import tempfile
 from collections.abc import Mapping
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -150,24 +148,14 @@ def write_dataset(path: str | os.PathLike, dataset) -> None:
     """Write an `xarray.Dataset` to `path` (netCDF4/HDF5 via h5netcdf) completely or not at all: into a temporary
     file in the same folder, renamed into place once it is whole. Boolean variables are stored as int8 with a
     `dtype: bool` attribute (netCDF has no boolean type)."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    os.close(fd)
-    try:
-        ds = dataset.copy()
-        for name, var in ds.variables.items():
-            if var.dtype == bool:
-                ds[name] = var.astype("int8")
-                ds[name].attrs.update({**var.attrs, "dtype": "bool"})
-        ds.to_netcdf(tmp, engine="h5netcdf")
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(tmp, 0o666 & ~umask)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    from .._atomic import atomic_write
+
+    ds = dataset.copy()
+    for name, var in ds.variables.items():
+        if var.dtype == bool:
+            ds[name] = var.astype("int8")
+            ds[name].attrs.update({**var.attrs, "dtype": "bool"})
+    atomic_write(path, lambda tmp: ds.to_netcdf(tmp, engine="h5netcdf"))
 
 
 def read_dataset(path: str | os.PathLike):

@@ -13,8 +13,9 @@ from typing import Any
 
 import numpy as np
 
+from ..ship._equilibrium import kg_for_gm
 from ..ship._hull import C11_GM0, C11_PARTICULARS, Hull, _c11_hull_path, _validate_offsets, c11_like_hull
-from ..ship._hydrostatics import SEAWATER_DENSITY, Loading, kg_for_gm, loading_condition
+from ..ship._hydrostatics import SEAWATER_DENSITY, Loading, loading_condition
 
 _HULL_KEYS = {"lpp_m", "depth_m", "stations_m", "waterlines_m", "half_breadths_m", "station_origin"}
 _LOADING_KEYS = {"kg_m", "draught_m", "displacement_kg", "lcg_m", "water_density_kg_m3"}

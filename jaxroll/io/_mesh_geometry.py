@@ -240,7 +240,8 @@ def _datum(tri_body: np.ndarray, baseline_z: float | None, *, source: str, zero_
             f"protrusion below the keel line (a sonar dome, skeg or bulb: {100 * fraction:.0f} % of the length "
             f"lies below it). Draughts and KG are measured from the keel line at file z = {zb:.4g} m ({how}); if "
             f"they are measured from the lowest point, give --baseline-z {z_min:.6g} (Python: baseline_z="
-            f"{z_min:.6g}). The lowest point is {zb - z_min:.4g} m below the baseline."
+            f"{z_min:.6g}), or where only the draught or KG is, --draught-datum lowest or --kg-datum lowest (Python: "
+            f"hull.datum.above_baseline(value, 'lowest')). The lowest point is {zb - z_min:.4g} m below the baseline."
         )
         return zb, Datum(zb, f"{how} (the lowest point is a local protrusion)", z_min, keel), note
     datum = Datum(z_min, "the lowest point", z_min, keel)
@@ -249,8 +250,9 @@ def _datum(tri_body: np.ndarray, baseline_z: float | None, *, source: str, zero_
             f"{source}: the file's z = 0 lies inside the hull, {-z_min:.4g} m above its lowest point (file z = "
             f"{z_min:.4g} m) and {float(hi[2]):.4g} m below its top. Draughts and KG are measured from the lowest "
             f"point (the baseline at file z = {z_min:.4g} m). If the file's z = 0 is the baseline (with parts of "
-            "the hull below it), give --baseline-z 0 (Python: baseline_z=0); if it is the design waterline, the "
-            f"draught is {-z_min:.4g} m above the lowest point."
+            "the hull below it), give --baseline-z 0 (Python: baseline_z=0), or where only the draught or KG is "
+            "measured from it, --draught-datum 0 or --kg-datum 0; if it is the design waterline, the draught is "
+            f"{-z_min:.4g} m above the lowest point."
         )
         return z_min, datum, note
     return z_min, datum, None

@@ -32,8 +32,9 @@ def plot_body_plan(hull, *, draught: float | None = None, ax=None, **kwargs):
     z = np.append(np.asarray(hull.waterlines), float(hull.depth))
     xm = float(hull.lpp) / 2
     style = dict(color="k", lw=0.7) | kwargs
+    hb = np.asarray(hull.half_breadths)  # indexed on the host: no program compiled per index
     for i, xi in enumerate(x):
-        y = np.append(np.asarray(hull.half_breadths[i]), float(hull.half_breadths[i, -1]))
+        y = np.append(hb[i], hb[i, -1])
         sign = -1.0 if xi < xm else 1.0
         ax.plot(sign * y, z, **style)
     if draught is not None:

@@ -37,11 +37,13 @@ from ._observers import (
     envelope_record_every as envelope_record_every,
 )
 from ._sensitivity import (
+    monte_carlo_sensitivity as monte_carlo_sensitivity,
+    sensitivity_problem as sensitivity_problem,
+)
+from ._sensitivity_result import (
     DEFAULT_SENSITIVITY_STATISTICS as DEFAULT_SENSITIVITY_STATISTICS,
     SENSITIVITY_PARAMETERS as SENSITIVITY_PARAMETERS,
     SensitivityResult as SensitivityResult,
-    monte_carlo_sensitivity as monte_carlo_sensitivity,
-    sensitivity_problem as sensitivity_problem,
 )
 from ._sharding import (
     default_chunk_size as default_chunk_size,

@@ -12,7 +12,6 @@ import io
 import json
 import os
 import re
-import tempfile
 import time
 from pathlib import Path
 
@@ -22,6 +21,7 @@ import jax.numpy as jnp
 import jax.random as jr
 import numpy as np
 
+from .._atomic import atomic_write_bytes
 from .._compiled import MONTE_CARLO_PROGRAM, cached_program
 
 REALIZATION_AXIS = "realizations"
@@ -199,17 +199,7 @@ def _save_checkpoint(path: Path, fingerprint: dict, next_start: int, summed: dic
     arrays["digest"] = np.array(_content_digest(arrays))
     buf = io.BytesIO()
     np.savez(buf, **arrays)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "wb") as f:
-            f.write(buf.getvalue())
-            f.flush()
-            os.fsync(f.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    atomic_write_bytes(path, buf.getvalue())
 
 
 #: Peak bytes per realization-step of the histogram observer's chunk, measured (peak RSS, dt = 0.05 s, 3600 s,

@@ -3,6 +3,14 @@
 Ship and hull files (TOML) are read and written by `jaxroll.io`.
 """
 
+from ._equilibrium import (
+    Equilibrium as Equilibrium,
+    Particulars as Particulars,
+    equilibrium as equilibrium,
+    gz_curve as gz_curve,
+    hydrostatic_particulars as hydrostatic_particulars,
+    metacentric_height as metacentric_height,
+)
 from ._fits import (
     HydrostaticsSolution as HydrostaticsSolution,
     c11_hull_ship as c11_hull_ship,
@@ -23,15 +31,9 @@ from ._hull import (
     wigley_hull as wigley_hull,
 )
 from ._hydrostatics import (
-    Equilibrium as Equilibrium,
     Loading as Loading,
-    Particulars as Particulars,
     c11_hull_loading as c11_hull_loading,
-    equilibrium as equilibrium,
-    gz_curve as gz_curve,
-    hydrostatic_particulars as hydrostatic_particulars,
     loading_condition as loading_condition,
-    metacentric_height as metacentric_height,
 )
 from ._ikeda import (
     IKEDA_SOURCE as IKEDA_SOURCE,

@@ -11,6 +11,7 @@ calm-water GZ curve) with the balances of `jaxroll.ship._hydrostatics`, fits GZ 
 
 from __future__ import annotations
 
+import functools
 import math
 
 import equinox as eqx
@@ -20,19 +21,11 @@ import numpy as np
 import optimistix as optx
 from jaxtyping import Array, ArrayLike, Bool, Float
 
-from .._compiled import filter_jit
+from .._compiled import as_float, cached_program
 from .._config import require_float64
+from ._equilibrium import Particulars, _check_result, _equilibrium_batch, _gm_at, _particulars
 from ._hull import Hull, _bare, _concrete, c11_hull
-from ._hydrostatics import (
-    GRAVITY,
-    Loading,
-    Particulars,
-    _check_result,
-    _equilibrium_batch,
-    _gm_at,
-    _particulars,
-    c11_hull_loading,
-)
+from ._hydrostatics import GRAVITY, HYDROSTATICS_PROGRAM, Loading, c11_hull_loading
 from ._ship import Ship, c11_representative, restoring_fields_from_gz, validate_ship
 
 _DEFAULT_ZETA_MAX = 6.0
@@ -123,6 +116,10 @@ class HydrostaticsSolution(eqx.Module):
     max_lcb_error: Float[Array, ""]
     converged: Bool[Array, "zeta heels"]
     result: optx.RESULTS
+    curve_heels: Float[Array, " curve"] | None = None
+    curve_zeta_mid: Float[Array, " 3"] | None = None
+    gz_curves: Float[Array, "3 curve"] | None = None
+    curves_converged: Bool[Array, "3 curve"] | None = None
 
     @property
     def gm0(self) -> Float[Array, ""]:
@@ -168,7 +165,9 @@ HydrostaticsSolution.__init__.__doc__ = """Fields: `particulars` (calm water, [`
 [m] of shape (zeta, heels) at free trim; `gz_calm` [m]; `gm`, `delta_gm` = GM(ζ) − GM(calm) [m] (upright); the
 fits `gz_coefficients` (g3, g5, g7, g9) [m] of the calm GZ with GM0 held and `delta_gm_coefficients` C0..C6
 [m^(1−k)], with their RMS residuals [m]; `max_volume_error` (largest |∇/∇0 − 1| over all balances) and
-`max_lcb_error` [m]; `converged` and `result`.
+`max_lcb_error` [m]; `converged` and `result`. With `curve_heels` [rad] (else None): `gz_curves` [m] at those heels
+in calm water and in the waves of the smallest and the largest amplitude (`curve_zeta_mid` = (0, min ζ, max ζ)),
+free trim, and `curves_converged` (not part of `result`).
 """
 
 
@@ -190,31 +189,35 @@ def default_heel_grid(heel_max: float = _DEFAULT_HEEL_MAX, n: int = _DEFAULT_N_H
     return np.linspace(0.0, heel_max, n)
 
 
-@filter_jit
-def _hydrostatics_core(hull, loading, zeta, heels, wavelength, throw):
+@functools.partial(cached_program, compiler_options=HYDROSTATICS_PROGRAM)
+def _hydrostatics_core(hull, loading, zeta, heels, wavelength, curve_heels):
+    """The table as one stored program (no host callback: `hull_hydrostatics` checks `result` after it).
+
+    Every balance — the table, the upright ones, calm water, the curves — is one vmapped Newton solve: it costs
+    its slowest case's steps whatever the batch, and a second batch would be a second compiled clip (a cold run's
+    compilation is most of its time). Calm water is integrated on a surface's strip-cut triangles too (exact: the
+    wave is zero)."""
     lam = hull.lpp if wavelength is None else jnp.asarray(wavelength, dtype=float)
     nz, nh = zeta.shape[0], heels.shape[0]
+    nc = 0 if curve_heels is None else curve_heels.shape[0]
     zz, pp = jnp.meshgrid(zeta, heels, indexing="ij")
-    # Two batches of balances: in waves (the table and the upright wave conditions) and in calm water (the GZ
-    # curve and upright): a hull surface integrates calm water on its unsplit triangles.
-    wave_heel = jnp.concatenate([pp.ravel(), jnp.zeros(nz)])
-    wave_zeta = jnp.concatenate([zz.ravel(), zeta])
-    waves = _equilibrium_batch(hull, loading, wave_heel, wave_zeta, lam)
-    calm_heel = jnp.concatenate([heels, jnp.zeros(1)])
-    calms = _equilibrium_batch(hull, loading, calm_heel, jnp.zeros(nh + 1), lam, calm=True)
-    eqs = jax.tree_util.tree_map(lambda a, b: jnp.concatenate([a, b]), waves, calms)
-    pick = lambda tree, lo, hi: jax.tree_util.tree_map(lambda a: a[lo:hi], tree)
-    table = jax.tree_util.tree_map(lambda a: a.reshape(nz, nh), pick(waves, 0, nz * nh))
-    calm = pick(calms, 0, nh)
-    upright_waves = pick(waves, nz * nh, nz * nh + nz)
-    calm_upright = jax.tree_util.tree_map(lambda a: a[nh], calms)
-    gm = jax.vmap(lambda s, t, z: _gm_at(hull, loading, s, t, z, lam))(
-        upright_waves.sinkage, upright_waves.trim, upright_waves.zeta_mid
-    )
-    zero = jnp.zeros(())
-    gm0 = _gm_at(hull, loading, calm_upright.sinkage, calm_upright.trim, zero, lam, True)
+    curve_zeta = jnp.stack([jnp.zeros(()), jnp.min(zeta), jnp.max(zeta)])
+    parts = [(pp.ravel(), zz.ravel()), (jnp.zeros(nz), zeta), (heels, jnp.zeros(nh)), (jnp.zeros(1), jnp.zeros(1))]
+    if nc:
+        parts.append((jnp.tile(curve_heels, 3), jnp.repeat(curve_zeta, nc)))
+    eqs = _equilibrium_batch(hull, loading, *(jnp.concatenate(a) for a in zip(*parts)), lam)
+    ends = np.cumsum([0] + [p[0].shape[0] for p in parts])
+    pick = lambda k: jax.tree_util.tree_map(lambda a: a[ends[k] : ends[k + 1]], eqs)
+    table = jax.tree_util.tree_map(lambda a: a.reshape(nz, nh), pick(0))
+    upright_waves, calm = pick(1), pick(2)
+    calm_upright = jax.tree_util.tree_map(lambda a: a[0], pick(3))
+    table_eqs = jax.tree_util.tree_map(lambda a: a[: ends[4]], eqs)
     upright = jax.tree_util.tree_map(lambda a, b: jnp.concatenate([a, b[None]]), upright_waves, calm_upright)
-    particulars = _particulars(hull, loading, calm_upright, gm0, zero, lam, True)
+    gms = jax.vmap(lambda s, t, z: _gm_at(hull, loading, s, t, z, lam))(upright.sinkage, upright.trim,
+                                                                        upright.zeta_mid)  # fmt: skip
+    gm, gm0 = gms[:nz], gms[nz]
+    zero = jnp.zeros(())
+    particulars = _particulars(hull, loading, calm_upright, gm0, zero, lam)
     delta_gm = gm - gm0
     g, g_rms = fit_gz_polynomial(heels, calm.gz, gm0)
     c, c_rms = fit_delta_gm_polynomial(zeta, delta_gm)
@@ -222,9 +225,7 @@ def _hydrostatics_core(hull, loading, zeta, heels, wavelength, throw):
     result = optx.RESULTS.where(
         jnp.all(converged), optx.RESULTS.successful, optx.RESULTS.nonlinear_divergence
     )
-    result = _check_result(result, throw, "at least one (ζ_mid, φ) of the table")
-    vol_err = jnp.max(jnp.abs(eqs.volume / loading.volume - 1))
-    lcb_err = jnp.max(jnp.abs(eqs.lcb - loading.lcg))
+    curves = jax.tree_util.tree_map(lambda a: a.reshape(3, nc), pick(4)) if nc else None
     return HydrostaticsSolution(
         particulars=particulars,
         zeta_mid=zeta,
@@ -240,10 +241,14 @@ def _hydrostatics_core(hull, loading, zeta, heels, wavelength, throw):
         gz_fit_rms=g_rms,
         delta_gm_coefficients=c,
         delta_gm_fit_rms=c_rms,
-        max_volume_error=vol_err,
-        max_lcb_error=lcb_err,
+        max_volume_error=jnp.max(jnp.abs(table_eqs.volume / loading.volume - 1)),
+        max_lcb_error=jnp.max(jnp.abs(table_eqs.lcb - loading.lcg)),
         converged=converged,
         result=result,
+        curve_heels=curve_heels,
+        curve_zeta_mid=curve_zeta if nc else None,
+        gz_curves=None if curves is None else curves.gz,
+        curves_converged=None if curves is None else curves.converged,
     )
 
 
@@ -254,6 +259,7 @@ def hull_hydrostatics(
     zeta_mid: ArrayLike | None = None,
     heels: ArrayLike | None = None,
     wavelength: ArrayLike | None = None,
+    curve_heels: ArrayLike | None = None,
     throw: bool = True,
 ) -> HydrostaticsSolution:
     r"""GZ(ζ_mid, φ), GM(ζ_mid) and ΔGM(ζ_mid) of a hull, with the polynomial fits of the roll model.
@@ -269,13 +275,16 @@ def hull_hydrostatics(
     - `zeta_mid`: amplitudes [m]; default 13 values in [−6, 6] m.
     - `heels`: heels [rad] for the GZ table and fit; default 15 values in [0, 70°].
     - `wavelength`: λ [m]; default Lpp (the paper's condition).
-    - `throw`: raise `EquinoxRuntimeError` if any balance fails; otherwise see `converged`/`result`.
+    - `curve_heels`: heels [rad] of GZ curves for figures, in calm water and in the waves of the smallest and the
+        largest amplitude (computed in the same batch as the table: no second program); default none.
+    - `throw`: raise `EquinoxRuntimeError` if any balance of the table fails (otherwise, and for the curves,
+        see `converged`/`result`, `curves_converged`).
 
     **Returns:** a [`HydrostaticsSolution`][].
     """
     require_float64("jaxroll.hull_hydrostatics")
-    zeta = jnp.asarray(default_zeta_grid() if zeta_mid is None else zeta_mid, dtype=float)
-    phi = jnp.asarray(default_heel_grid() if heels is None else heels, dtype=float)
+    zeta = as_float(default_zeta_grid() if zeta_mid is None else zeta_mid)
+    phi = as_float(default_heel_grid() if heels is None else heels)
     if zeta.ndim != 1 or phi.ndim != 1:
         raise ValueError(
             f"`zeta_mid` and `heels` must be 1-D grids; got shapes {zeta.shape} and {phi.shape}."
@@ -295,8 +304,11 @@ def hull_hydrostatics(
         raise ValueError(
             f"`heels` must be in radians within [−π/2, π/2]; got max |φ| = {np.max(np.abs(cp))}."
         )
-    lam = None if wavelength is None else jnp.asarray(wavelength, dtype=float)
-    return _hydrostatics_core(_bare(hull), loading, zeta, phi, lam, throw)
+    lam = None if wavelength is None else as_float(wavelength)
+    curves = None if curve_heels is None else as_float(curve_heels).ravel()
+    sol = _hydrostatics_core(_bare(hull), loading, zeta, phi, lam, curves)
+    _check_result(sol.result, throw, "at least one (ζ_mid, φ) of the table")
+    return sol
 
 
 # ------------------------------------------------------------------------------------------------------------
@@ -387,8 +399,8 @@ def ship_from_hydrostatics(
         else (
             f"jaxroll hydrostatics of hull {hull.name!r} (KG {float(p.kg):.4f} m, Δ "
             f"{float(p.displacement):.6g} kg, "
-            f"λ = {float(solution.wavelength):.4g} m, ζ_mid in [{float(solution.zeta_mid.min()):.3g}, "
-            f"{float(solution.zeta_mid.max()):.3g}] m); roll period and damping are inputs, not hydrostatics."
+            f"λ = {float(solution.wavelength):.4g} m, ζ_mid in [{np.min(np.asarray(solution.zeta_mid)):.3g}, "
+            f"{np.max(np.asarray(solution.zeta_mid)):.3g}] m); roll period and damping are inputs, not hydrostatics."
             + (f" {hull.provenance}" if hull.provenance else "")
         ),
     )

@@ -12,6 +12,7 @@ z [m] up from the baseline.
 from __future__ import annotations
 
 import dataclasses
+import math
 from collections.abc import Mapping
 from pathlib import Path
 
@@ -21,6 +22,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
+from .._compiled import as_float
 from ._surface import HullSurface, scale_surface, translate_surface
 
 C11_HULL_NOTE = (
@@ -135,6 +137,27 @@ class Datum:
             keel_line_file_z_m=self.keel_line_file_z,
         )
 
+    def file_z(self, reference: str | float) -> float:
+        """File z [m, full scale] of a reference for heights: `"baseline"`, `"keel"` (the keel line), `"lowest"` (the
+        hull's lowest point), or a file z [m] itself.
+
+        **Raises:** `ValueError` for another name, a z that is not finite, or `"keel"` where no keel line is known."""
+        if isinstance(reference, str):
+            named = dict(baseline=self.baseline_file_z, keel=self.keel_line_file_z, lowest=self.lowest_point_file_z)
+            if reference not in named:
+                raise ValueError(f"a height reference is baseline, keel, lowest or a file z [m]; got {reference!r}.")
+            if named[reference] is None:
+                raise ValueError("this hull has no keel line (its file gives none): give the reference's file z [m].")
+            return float(named[reference])
+        if not math.isfinite(reference):
+            raise ValueError(f"a height reference's file z must be a finite number [m]; got {reference}.")
+        return float(reference)
+
+    def above_baseline(self, height: float, reference: str | float) -> float:
+        """A height [m] measured from `reference` (see `file_z`: a draught from the keel line, a KG from the lowest
+        point, …) as jaxroll measures every height: above the baseline."""
+        return float(height) + self.file_z(reference) - self.baseline_file_z
+
 
 class Hull(eqx.Module):
     """A ship hull described by station offsets (full scale, SI units).
@@ -171,11 +194,11 @@ class Hull(eqx.Module):
         values = [_concrete(v) for v in (stations, waterlines, half_breadths, lpp, depth)]
         if all(v is not None for v in values):
             _validate_offsets(*values, source="")
-        self.stations = jnp.asarray(stations, dtype=float)
-        self.waterlines = jnp.asarray(waterlines, dtype=float)
-        self.half_breadths = jnp.asarray(half_breadths, dtype=float)
-        self.lpp = jnp.asarray(lpp, dtype=float)
-        self.depth = jnp.asarray(depth, dtype=float)
+        self.stations = as_float(stations)
+        self.waterlines = as_float(waterlines)
+        self.half_breadths = as_float(half_breadths)
+        self.lpp = as_float(lpp)
+        self.depth = as_float(depth)
         self.surface = surface
         self.name = name
         self.provenance = provenance
@@ -254,14 +277,17 @@ def translate_hull(hull: Hull, dx: ArrayLike) -> Hull:
 
 
 def _bare(hull: Hull) -> Hull:
-    """The hull without its name, provenance and datum (static text): what compiled programs take, so that every
-    hull of one size class shares them."""
-    if hull.name == "" and hull.provenance == "" and hull.datum is None:
+    """The hull without its name, provenance, datum and its surface's triangle count (static data the integrals do
+    not use): what compiled programs take, so that every hull of one size class shares them."""
+    surface = hull.surface
+    if surface is not None and surface.n_triangles != 0:
+        surface = dataclasses.replace(surface, n_triangles=0)
+    if hull.name == "" and hull.provenance == "" and hull.datum is None and surface is hull.surface:
         return hull
     new = object.__new__(Hull)
     for f in dataclasses.fields(Hull):
         object.__setattr__(new, f.name, getattr(hull, f.name))
-    for key, value in (("name", ""), ("provenance", ""), ("datum", None)):
+    for key, value in (("name", ""), ("provenance", ""), ("datum", None), ("surface", surface)):
         object.__setattr__(new, key, value)
     return new
 

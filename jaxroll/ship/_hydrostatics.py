@@ -46,9 +46,9 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import optimistix as optx
-from jaxtyping import Array, ArrayLike, Bool, Float, Int
+from jaxtyping import Array, ArrayLike, Float
 
-from .._compiled import filter_jit
+from .._compiled import as_float, cached_program
 from . import _surface
 from ._hull import Hull, _bare, _c11_hull_path, _concrete, _section_polygons
 
@@ -58,9 +58,10 @@ GRAVITY = 9.80665
 SEAWATER_DENSITY = 1025.0
 """Default sea-water density ρ [kg/m³]."""
 
-# Equilibrium tolerances: the balance residuals are in metres (volume error / (L B), LCB − LCG).
-_NEWTON = optx.Newton(rtol=1e-10, atol=1e-9)
-_MAX_STEPS = 64
+HYDROSTATICS_PROGRAM = {"xla_backend_optimization_level": 1}
+"""XLA options (CPU) of the hydrostatics' programs: LLVM's level 1 compiles ≈ 10 % faster than the default and runs
+the surface clip as fast; XLA's older loop emitters (`SOLVER_PROGRAM`) would run it 1.5× slower (a vmapped Newton
+step of 208 wave balances on a 6 848-triangle surface: 110 ms at level 1 or the default, 166 ms with them)."""
 
 
 # ------------------------------------------------------------------------------------------------------------
@@ -69,29 +70,45 @@ _MAX_STEPS = 64
 
 
 def _entry_point(fn):
-    """`filter_jit` (`jaxroll._compiled`) with Python numbers and lists turned into float arrays first.
+    """`fn` as a stored program (`jaxroll._compiled.cached_program`, `HYDROSTATICS_PROGRAM` options), its arguments
+    passed in signature order, Python numbers and lists turned into float arrays and hulls stripped of their names
+    first (`_bare`).
 
-    `filter_jit` treats Python scalars as static, so `gz_curve(..., zeta_mid=3.0)` would compile again for
-    every new amplitude; as arrays they are traced and one compilation serves all values.
+    A concrete call runs the program stored by an earlier process (no tracing; JAX's persistent cache supplies the
+    compiled code); under `jit`, `grad` or `vmap` it is traced as usual. `filter_jit` would treat Python scalars as
+    static, so `buoyancy(..., zeta_mid=3.0)` would compile again for every new amplitude; as arrays they are traced
+    and one program serves all values — and every hull of a size class (`_surface.bucket_size`). `fn` must hold
+    no host callback (no `eqx.error_if`): such a program is not kept by JAX's persistent cache.
     """
-    jitted = filter_jit(fn)
-
-    def convert(v):
-        if isinstance(v, Hull):
-            return _bare(v)  # name and provenance are not part of the program: one compilation per hull size
-        if isinstance(v, bool) or not isinstance(v, int | float | list | np.ndarray | np.generic):
-            return v
-        return jnp.asarray(v, dtype=float)
-
     signature = inspect.signature(fn)
+    names = tuple(signature.parameters)
+
+    def positional(*values):
+        return fn(**dict(zip(names, values)))
+
+    # the program's key names `fn` (no `__wrapped__`: `eqx.filter_jit` would bind the arguments to `fn`'s signature)
+    positional.__module__, positional.__qualname__ = fn.__module__, fn.__qualname__
+    program = cached_program(positional, compiler_options=HYDROSTATICS_PROGRAM)
 
     @functools.wraps(fn)
     def wrapper(*args, **kwargs):
         bound = signature.bind(*args, **kwargs)
         bound.apply_defaults()  # defaults too: a Python-float default would be static as well
-        return jitted(*map(convert, bound.args), **{k: convert(v) for k, v in bound.kwargs.items()})
+        return program(*(_as_input(bound.arguments[n]) for n in names))
 
     return wrapper
+
+
+def _as_input(v):
+    """An argument as a stored program takes it: a hull without its name and provenance, numbers as float arrays
+    (placed without compiling anything), integer arrays as they are, anything else unchanged (static)."""
+    if isinstance(v, Hull):
+        return _bare(v)  # name and provenance are not part of the program: one compilation per hull size
+    if isinstance(v, bool) or not isinstance(v, int | float | list | np.ndarray | np.generic):
+        return v
+    if isinstance(v, np.ndarray) and np.issubdtype(v.dtype, np.integer):
+        return jax.device_put(v)
+    return as_float(v)
 
 
 def _trapezoid_weights(x: Float[Array, " n"]) -> Float[Array, " n"]:
@@ -301,7 +318,7 @@ def _even_keel_draught(hull: Hull, volume) -> tuple[Array, Array]:
     return sol.value, sol.result == optx.RESULTS.successful
 
 
-@filter_jit
+@functools.partial(cached_program, compiler_options=HYDROSTATICS_PROGRAM)
 def _loading_arrays(hull, kg, draught, displacement, lcg, rho, from_draught: bool):
     zero = jnp.zeros(())
     if from_draught:
@@ -317,7 +334,7 @@ def _loading_arrays(hull, kg, draught, displacement, lcg, rho, from_draught: boo
     return vol * rho, kg, lcg_out, rho, d, ok
 
 
-@filter_jit
+@functools.partial(cached_program, compiler_options=HYDROSTATICS_PROGRAM)
 def _max_displaced_volume(hull):
     zero = jnp.zeros(())
     top = hull.waterlines[-1]  # a mesh's highest point may be above its depth amidships
@@ -395,10 +412,11 @@ def loading_condition(
         warnings.warn(
             f"KG = {float(c_kg):.4g} m is above the deck: the hull's depth is D = {float(hv[1]):.4g} m above the "
             "baseline. Possible only with tall superstructure or deck cargo: check that KG is measured from the "
-            "baseline (the hull's datum; for a mesh, --baseline-z) and is in metres.",
+            "baseline (the hull's datum; for a mesh, --baseline-z, or --kg-datum for a KG given from the keel line or "
+            "the lowest point) and is in metres.",
             stacklevel=2,
         )
-    f = lambda v: None if v is None else jnp.asarray(v, dtype=float)
+    f = lambda v: None if v is None else as_float(v)
     if displacement is not None:
         cd, cr = _concrete(displacement), _concrete(water_density)
         if cd is not None and cr is not None:
@@ -438,371 +456,3 @@ def c11_hull_loading() -> Loading:
 
     hull, loading = read_hull_file(_c11_hull_path())
     return loading_from_dict(hull, loading)
-
-
-# ------------------------------------------------------------------------------------------------------------
-# Equilibrium
-# ------------------------------------------------------------------------------------------------------------
-
-
-class Equilibrium(eqx.Module):
-    """Quasi-static balance of a hull (free sinkage and trim) at a given heel and wave position."""
-
-    sinkage: Float[Array, "*batch"]
-    trim: Float[Array, "*batch"]
-    heel: Float[Array, "*batch"]
-    zeta_mid: Float[Array, "*batch"]
-    volume: Float[Array, "*batch"]
-    lcb: Float[Array, "*batch"]
-    gz: Float[Array, "*batch"]
-    vertical_centre_of_buoyancy: Float[Array, "*batch"]
-    result: optx.RESULTS
-    num_steps: Int[Array, "*batch"]
-
-    @property
-    def converged(self) -> Bool[Array, "*batch"]:
-        """True where the Newton balance converged."""
-        return self.result == optx.RESULTS.successful
-
-
-Equilibrium.__init__.__doc__ = """Fields (all [m] unless stated): `sinkage` (draught amidships,
-earth-vertical), `trim` (d_FP − d_AP, positive by the head), `heel` [rad], `zeta_mid` (wave amplitude, > 0
-trough amidships), `volume` [m³], `lcb` (from the AP), `gz` (righting lever about G, > 0 rights the ship),
-`vertical_centre_of_buoyancy` (earth-vertical height of B above the baseline point on the centreline; KB when
-upright), `result` (`optimistix.RESULTS`), `num_steps` (Newton steps).
-"""
-
-
-def _balance_residual(y, args):
-    hull, loading, heel, zeta_mid, wavelength, calm = args
-    if hull.surface is not None:  # only ∇ and ∫x dV, with closed-form Jacobians
-        lam = hull.lpp if wavelength is None else wavelength
-        args = (hull.surface, heel, y[0], y[1], zeta_mid, lam, hull.amidships, hull.lpp)
-        volume, moment_x = _surface.balance_integrals(*args, calm=calm)
-    else:
-        ints = _integrals(hull, heel, y[0], y[1], zeta_mid, wavelength, calm)
-        volume, moment_x = ints.volume, ints.moment_x
-    scale = hull.lpp * hull.max_breadth
-    return jnp.stack([(volume - loading.volume) / scale, (moment_x - loading.lcg * volume) / loading.volume])
-
-
-def _equilibrium_single(hull, loading, heel, zeta_mid, wavelength, guess, calm: bool = False):
-    sol = optx.root_find(
-        _balance_residual,
-        _NEWTON,
-        guess,
-        (hull, loading, heel, zeta_mid, wavelength, calm),
-        max_steps=_MAX_STEPS,
-        throw=False,
-    )
-    sinkage, trim = sol.value[0], sol.value[1]
-    ints = _integrals(hull, heel, sinkage, trim, zeta_mid, wavelength, calm)
-    gz = ints.moment_u / ints.volume - loading.kg * jnp.sin(heel)
-    return Equilibrium(
-        sinkage=sinkage,
-        trim=trim,
-        heel=heel,
-        zeta_mid=zeta_mid,
-        volume=ints.volume,
-        lcb=ints.moment_x / ints.volume,
-        gz=gz,
-        vertical_centre_of_buoyancy=ints.moment_vertical / ints.volume,
-        result=sol.result,
-        num_steps=sol.stats["num_steps"],
-    )
-
-
-def _check_result(result, throw: bool, what: str):
-    if not throw:
-        return result
-    failed = jnp.any(result != optx.RESULTS.successful)
-    return eqx.error_if(
-        result,
-        failed,
-        f"The quasi-static balance (sinkage and trim) did not converge for {what}. This happens when the "
-        "hull "
-        "cannot float at that heel or wave (deck or keel far out of the water), or the offsets are "
-        "inconsistent. "
-        "Reduce the wave amplitude or heel range, check the loading condition, or pass throw=False and "
-        "inspect "
-        "`result`/`converged`.",
-    )
-
-
-def _equilibrium_batch(hull, loading, heel, zeta_mid, wavelength, calm: bool = False) -> Equilibrium:
-    """Balances at 1-D arrays of heels and amplitudes, one vmapped Newton solve (no throwing); `calm=True` where
-    every amplitude is 0 (a hull surface then uses its unsplit triangles)."""
-    guess = jnp.stack([loading.draught, jnp.zeros_like(loading.draught)])
-    fn = lambda p, z: _equilibrium_single(hull, loading, p, z, wavelength, guess, calm)
-    return jax.vmap(fn)(heel, zeta_mid)
-
-
-@_entry_point
-def equilibrium(
-    hull: Hull,
-    loading: Loading,
-    *,
-    heel: ArrayLike = 0.0,
-    zeta_mid: ArrayLike = 0.0,
-    wavelength: ArrayLike | None = None,
-    throw: bool = True,
-) -> Equilibrium:
-    """Balance sinkage and trim so that displacement = mass and LCB = LCG, at a heel and in a wave.
-
-    **Arguments:**
-
-    - `hull`: the hull; `loading`: its [`Loading`][].
-    - `heel`: heel φ [rad] (positive to starboard), held fixed; scalar or any array shape.
-    - `zeta_mid`: amplitude of a wave of length λ at amidships [m] (> 0 trough, < 0 crest); broadcast with
-        `heel`.
-    - `wavelength`: λ [m]; defaults to Lpp.
-    - `throw`: raise (`EquinoxRuntimeError`) if any balance fails; otherwise report it in `result`.
-
-    **Returns:** an [`Equilibrium`][] with the broadcast shape of `heel` and `zeta_mid`.
-    """
-    heel, zeta_mid = jnp.broadcast_arrays(jnp.asarray(heel, dtype=float), jnp.asarray(zeta_mid, dtype=float))
-    flat = _equilibrium_batch(hull, loading, heel.ravel(), zeta_mid.ravel(), wavelength)
-    out = jax.tree_util.tree_map(lambda a: a.reshape(heel.shape + a.shape[1:]), flat)
-    result = _check_result(out.result, throw, "this heel / wave")
-    return eqx.tree_at(lambda e: e.result, out, result)
-
-
-def _gm_at(hull, loading, sinkage, trim, zeta_mid, wavelength, calm: bool = False):
-    """GM [m] = ∂GZ/∂φ at φ = 0 with sinkage and trim held (they are stationary in φ at φ = 0 by symmetry)."""
-
-    def lever(phi):
-        ints = _integrals(hull, phi, sinkage, trim, zeta_mid, wavelength, calm)
-        return ints.moment_u / ints.volume
-
-    _, dlever = jax.jvp(lever, (jnp.zeros(()),), (jnp.ones(()),))
-    return dlever - loading.kg
-
-
-@_entry_point
-def metacentric_height(
-    hull: Hull,
-    loading: Loading,
-    *,
-    zeta_mid: ArrayLike = 0.0,
-    wavelength: ArrayLike | None = None,
-    throw: bool = True,
-) -> Float[Array, "*zeta"]:
-    r"""Transverse metacentric height GM [m] upright, in calm water or in a wave, with sinkage and trim
-    balanced.
-
-    GM is the initial slope dGZ/dφ at φ = 0 of the free-trim GZ curve; in a wave it includes the local
-    waterline breadths and the shift of the centre of buoyancy (the paper's Froude–Krylov GM).
-
-    **Arguments:**
-
-    - `hull`, `loading`: the hull and its loading condition.
-    - `zeta_mid`: wave amplitude(s) at amidships [m] (> 0 trough, < 0 crest); any shape.
-    - `wavelength`: λ [m], default Lpp.
-    - `throw`: raise if a balance fails (otherwise the GM of a failed balance is NaN-free but meaningless).
-
-    **Returns:** GM [m] with the shape of `zeta_mid`. Differentiable in the hull, KG and ζ.
-    """
-    zeta = jnp.asarray(zeta_mid, dtype=float)
-    eq = equilibrium(
-        hull, loading, heel=jnp.zeros_like(zeta), zeta_mid=zeta, wavelength=wavelength, throw=throw
-    )
-    fn = lambda s, t, z: _gm_at(hull, loading, s, t, z, wavelength)
-    return jax.vmap(fn)(eq.sinkage.ravel(), eq.trim.ravel(), zeta.ravel()).reshape(zeta.shape)
-
-
-@_entry_point
-def gz_curve(
-    hull: Hull,
-    loading: Loading,
-    heels: ArrayLike,
-    *,
-    zeta_mid: ArrayLike = 0.0,
-    wavelength: ArrayLike | None = None,
-    throw: bool = True,
-) -> Float[Array, " heels"]:
-    """Righting lever GZ(φ) [m] with free sinkage and trim (displacement and LCB = LCG held at every heel).
-
-    **Arguments:**
-
-    - `hull`, `loading`: the hull and its loading condition.
-    - `heels`: heel angles φ [rad] (positive to starboard).
-    - `zeta_mid`: wave amplitude at amidships [m] (> 0 trough, < 0 crest), broadcast with `heels`.
-    - `wavelength`: λ [m], default Lpp. `throw`: raise if a balance fails.
-
-    **Returns:** GZ [m], > 0 righting, with the broadcast shape of `heels` and `zeta_mid`.
-    """
-    return equilibrium(hull, loading, heel=heels, zeta_mid=zeta_mid, wavelength=wavelength, throw=throw).gz
-
-
-# ------------------------------------------------------------------------------------------------------------
-# Calm-water particulars
-# ------------------------------------------------------------------------------------------------------------
-
-
-class Particulars(eqx.Module):
-    """Upright hydrostatic particulars of a loading condition (calm water or a wave), all SI."""
-
-    displacement: Float[Array, ""]
-    volume: Float[Array, ""]
-    draught: Float[Array, ""]
-    draught_ap: Float[Array, ""]
-    draught_fp: Float[Array, ""]
-    trim: Float[Array, ""]
-    lcb: Float[Array, ""]
-    lcg: Float[Array, ""]
-    kb: Float[Array, ""]
-    bm: Float[Array, ""]
-    km: Float[Array, ""]
-    kg: Float[Array, ""]
-    gm: Float[Array, ""]
-    bm_longitudinal: Float[Array, ""]
-    gm_longitudinal: Float[Array, ""]
-    waterplane_area: Float[Array, ""]
-    lcf: Float[Array, ""]
-    waterline_breadth: Float[Array, ""]
-    block_coefficient: Float[Array, ""]
-    midship_coefficient: Float[Array, ""]
-    prismatic_coefficient: Float[Array, ""]
-    waterplane_coefficient: Float[Array, ""]
-    result: optx.RESULTS
-
-    def as_dict(self) -> dict[str, float]:
-        """Plain floats keyed `<name>_<unit>` (for JSON)."""
-        units = dict(
-            displacement="kg",
-            volume="m3",
-            waterplane_area="m2",
-            block_coefficient="",
-            midship_coefficient="",
-            prismatic_coefficient="",
-            waterplane_coefficient="",
-        )
-        out = {}
-        for k in self.__dataclass_fields__:
-            if k == "result":
-                continue
-            unit = units.get(k, "m")
-            out[f"{k}_{unit}" if unit else k] = float(getattr(self, k))
-        return out
-
-    def to_xarray(self):
-        """The particulars as an `xarray.Dataset` of scalars named as in `as_dict` (hydrostatics.json's
-        `calm_water`), with units and long names."""
-        from .._labels import tree_to_dataset
-        from .._labels._layouts import PARTICULARS
-
-        return tree_to_dataset(self.as_dict(), PARTICULARS)
-
-
-Particulars.__init__.__doc__ = """Fields: `displacement` Δ [kg]; `volume` ∇ [m³]; `draught` amidships,
-`draught_ap`, `draught_fp` [m]; `trim` = d_FP − d_AP [m]; `lcb`, `lcg`, `lcf` [m] from the AP; `kb`, `bm`,
-`km`, `kg`, `gm` [m] (transverse); `bm_longitudinal`, `gm_longitudinal` [m] (trim moment of the waterplane
-about the LCF); `waterplane_area` [m²]; `waterline_breadth` B_WL [m]; `block_coefficient` ∇/(Lpp B_WL d),
-`midship_coefficient` A_M/(B_WL d), `prismatic_coefficient` C_B/C_M, `waterplane_coefficient` A_WP/(Lpp B_WL);
-`result` of the balance.
-"""
-
-
-@_entry_point
-def hydrostatic_particulars(
-    hull: Hull,
-    loading: Loading,
-    *,
-    zeta_mid: ArrayLike = 0.0,
-    wavelength: ArrayLike | None = None,
-    throw: bool = True,
-) -> Particulars:
-    """Upright particulars (displacement, LCB, KB, BM, KM, GM, waterplane, form coefficients) at free trim.
-
-    **Arguments:**
-
-    - `hull`, `loading`: the hull and its loading condition.
-    - `zeta_mid`: scalar wave amplitude at amidships [m] (0: calm water); `wavelength`: λ [m], default Lpp.
-    - `throw`: raise if the balance fails.
-
-    **Returns:** [`Particulars`][]. KB is the height of the centre of buoyancy above the baseline;
-    BM = KM − KB with KM = KG + GM, GM from [`metacentric_height`][] (so in calm water BM = I_T/∇ exactly).
-    """
-    zeta = jnp.asarray(zeta_mid, dtype=float)
-    eq = equilibrium(hull, loading, heel=jnp.zeros(()), zeta_mid=zeta, wavelength=wavelength, throw=throw)
-    gm = _gm_at(hull, loading, eq.sinkage, eq.trim, zeta, wavelength)
-    return _particulars(hull, loading, eq, gm, zeta, wavelength)
-
-
-def _at_most_one(x, tol: float = 1e-9):
-    """`x`, with values in (1, 1 + tol] (round-off of a form coefficient that is exactly 1) set to 1."""
-    return jnp.where((x > 1) & (x <= 1 + tol), 1.0, x)
-
-
-def _particulars(hull, loading, eq: Equilibrium, gm, zeta, wavelength, calm: bool = False) -> Particulars:
-    zero = jnp.zeros(())
-    s, t = eq.sinkage, eq.trim
-    km = gm + loading.kg
-
-    def vol_mx(y):
-        ints = _integrals(hull, zero, y[0], y[1], zeta, wavelength, calm)
-        return jnp.stack([ints.volume, ints.moment_x])
-
-    jac = jax.jacfwd(vol_mx)(jnp.stack([s, t]))
-    awp = jac[0, 0]
-    lcf = jac[1, 0] / awp
-    xm, lpp = hull.amidships, hull.lpp
-    # ∂∫xA/∂trim = ∫ b x (x − xm) dx / L and ∂∇/∂trim = ∫ b (x − xm) dx / L, b the waterline breadth.
-    i_xm = lpp * (jac[1, 1] - xm * jac[0, 1])  # ∫ b (x − xm)² dx
-    i_l = i_xm - awp * (lcf - xm) ** 2
-    bm_l = i_l / eq.volume
-
-    if hull.surface is not None:
-        lam = hull.lpp if wavelength is None else wavelength
-        b_wl = _surface.waterline_breadth(hull.surface, s, t, zeta, lam, xm, lpp)
-        a_mid = _surface.section_area(hull.surface, xm, s + zeta * (-1.0))  # η(L/2) = −ζ_mid
-    else:
-        ys, zs = _section_polygons(hull)
-        h = s + t * (hull.stations - xm) / lpp + wave_elevation(hull, zeta, wavelength)
-        area, breadth = jax.jvp(
-            lambda hh: _immersed_section_moments(ys, zs, zero, hh)[0], (h,), (jnp.ones_like(h),)
-        )
-        b_wl = jnp.max(breadth)
-        a_mid = jnp.interp(xm, hull.stations, area)
-    # A box's coefficients are 1; round-off of the integrals must not push them past it (a ship file refuses > 1)
-    cb = _at_most_one(eq.volume / (lpp * b_wl * s))
-    cm = _at_most_one(a_mid / (b_wl * s))
-    kb = eq.vertical_centre_of_buoyancy
-    return Particulars(
-        displacement=eq.volume * loading.water_density,
-        volume=eq.volume,
-        draught=s,
-        draught_ap=s - t / 2,
-        draught_fp=s + t / 2,
-        trim=t,
-        lcb=eq.lcb,
-        lcg=loading.lcg,
-        kb=kb,
-        bm=km - kb,
-        km=km,
-        kg=loading.kg,
-        gm=gm,
-        bm_longitudinal=bm_l,
-        gm_longitudinal=kb + bm_l - loading.kg,
-        waterplane_area=awp,
-        lcf=lcf,
-        waterline_breadth=b_wl,
-        block_coefficient=cb,
-        midship_coefficient=cm,
-        prismatic_coefficient=cb / cm,
-        waterplane_coefficient=awp / (lpp * b_wl),
-        result=eq.result,
-    )
-
-
-def kg_for_gm(hull: Hull, gm: ArrayLike, **loading_kwargs) -> Float[Array, ""]:
-    """The KG [m] that gives the upright calm-water GM `gm` [m] (KG = KM − GM; KM does not depend on KG).
-
-    **Arguments:**
-
-    - `hull`: the hull. `gm`: the wanted GM [m].
-    - `**loading_kwargs`: `draught` or `displacement`, and optionally `lcg`, `water_density`, as for
-        [`loading_condition`][].
-    """
-    probe = loading_condition(hull, kg=0.0, **loading_kwargs)
-    return metacentric_height(hull, probe) - jnp.asarray(gm, dtype=float)

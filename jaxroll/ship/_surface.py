@@ -128,11 +128,11 @@ def hull_surface(triangles: np.ndarray, *, strips: int = DEFAULT_WAVE_STRIPS) ->
     bounds = np.stack([edges[k], edges[k + 1]], axis=1)
     n, m = bucket_size(tri.shape[0]), bucket_size(wave.shape[0])
     pad_bounds = np.concatenate([bounds, np.tile([[0.0, 1.0]], (m - bounds.shape[0], 1))])
-    soa = lambda t: jnp.asarray(np.ascontiguousarray(np.transpose(t, (2, 1, 0))))
+    soa = lambda t: jax.device_put(np.ascontiguousarray(np.transpose(t, (2, 1, 0))))  # placed, nothing compiled
     return HullSurface(
         vertices=soa(_pad(tri, n)),
         wave_vertices=soa(_pad(wave, m)),
-        wave_strips=jnp.asarray(np.ascontiguousarray(pad_bounds.T)),
+        wave_strips=jax.device_put(np.ascontiguousarray(pad_bounds.T)),
         n_triangles=int(tri.shape[0]),
         strips=int(strips),
     )
@@ -186,6 +186,8 @@ _MOMENTS = (("w", None), ("w", "x"), ("w", "u"), ("w", "w"), ("w", "h"))
 # boundary terms vanish because w = 0 on the waterline): −∫(1, x, u, h) dS_ζ and −∫(1, x, u, h) τ dS_ζ
 _SLOPES = (("one", None), ("x", None), ("u", None), ("h", None), ("one", "tau"), ("x", "tau"), ("u", "tau"),
            ("h", "tau"))  # fmt: skip
+# and their heel derivatives' waterplane terms (∂w/∂φ = u): −∫(u, x u, u², h u) dS_ζ (`_moments_jvp`)
+_HEEL_SLOPES = (("u", None), ("x", "u"), ("u", "u"), ("h", "u"))
 
 
 _BALANCE = (("w", None), ("w", "x"))  # ∇ and ∫x dV: what the sinkage–trim balance needs
@@ -224,11 +226,11 @@ def _clipped(verts, h, tau, heel, pairs):
     corner = _tri_integrals(corner_fields, pairs)
     lone_wet = partial & pick(f3(wet), 0)
     lone_dry = partial & ~lone_wet
-    out = []
-    for f, k in zip(full, corner):
-        part = jnp.where(all_wet, f, 0.0) + jnp.where(lone_wet, k, 0.0) + jnp.where(lone_dry, f - k, 0.0)
-        out.append(-jnp.sum(part))
-    return out
+    # wet = full (all wet or lone dry) ± corner; one reduction for all the integrals (XLA would otherwise recompute
+    # the clip in each of them: 2× slower)
+    keep_full, sign = all_wet | lone_dry, jnp.where(lone_wet, 1.0, jnp.where(lone_dry, -1.0, 0.0))
+    parts = [jnp.where(keep_full, f, 0.0) + sign * k for f, k in zip(full, corner)]
+    return list(-jnp.sum(jnp.stack(parts), axis=-1))
 
 
 def _strip_wave(surface: HullSurface, x, zeta_mid, wavelength, amidships):
@@ -267,20 +269,35 @@ def _moments(calm, surface, heel, sinkage, trim, zeta_mid, wavelength, amidships
 
 
 def _moments_jvp(calm, primals, tangents):
-    """Where only the sinkage and trim carry tangents (the balance's Newton Jacobian), the closed-form slopes
-    (8 more integrands of the same clip); otherwise forward-mode through the clip."""
+    """Where only the heel, sinkage and trim carry tangents (the balance's Newton Jacobian, GM = ∂GZ/∂φ), closed-form
+    slopes: more integrands of the same clip, for the arguments that have tangents; otherwise forward-mode through
+    the clip.
+
+    With ∂w/∂s = 1, ∂w/∂t = τ, ∂w/∂φ = u and w = 0 on the water surface, d/dq ∫_V g dV = ∫_V ∂g/∂q dV +
+    ∫_WP g ∂w/∂q dA′ (dA′ = dA/|∇w|, so ∫_WP f dA′ = −∫_wet f dS_ζ for f independent of the surface); of the moments
+    only Z = h − w (∂Z/∂s = ∂Z/∂t = 0, ∂Z/∂φ = −u) and u (∂u/∂φ = Z) depend on q:
+    d(∇, ∫x, ∫u, ∫Z)/dφ = (∫_WP u, ∫_WP x u, ∫Z dV + ∫_WP u², −∫u dV + ∫_WP h u)."""
     surface, heel, sinkage, trim, zeta_mid, wavelength, amidships, lpp = primals
-    t_other = jax.tree.leaves((tangents[0], tangents[1], *tangents[4:]))
-    if all(isinstance(t, jax.custom_derivatives.SymbolicZero) or _is_zero(t) for t in t_other):
+    t_other = jax.tree.leaves((tangents[0], *tangents[4:]))
+    if all(_known_zero(t) for t in t_other):
         verts, h, tau = _heights(surface, sinkage, trim, zeta_mid, wavelength, amidships, lpp, calm)
-        out = _clipped(verts, h, tau, heel, _MOMENTS + _SLOPES)
+        groups = [(t, g) for t, g in zip(tangents[1:4], (_HEEL_SLOPES, _SLOPES[:4], _SLOPES[4:])) if not _known_zero(t)]
+        out = _clipped(verts, h, tau, heel, _MOMENTS + sum((g for _, g in groups), ()))
         vol, mx, mu, ww, mh = out[:5]
-        ds, dt = jnp.stack(out[5:9]), jnp.stack(out[9:13])
-        primal = jnp.stack([vol, mx, mu, mh - ww / 2])
-        zero = lambda t: 0.0 if isinstance(t, jax.custom_derivatives.SymbolicZero) else t
-        return primal, ds * zero(tangents[2]) + dt * zero(tangents[3])
+        mz = mh - ww / 2
+        tangent, k = jnp.zeros(4), 5
+        for (t, g) in groups:
+            d = out[k : k + 4]
+            d = [d[0], d[1], mz + d[2], -mu + d[3]] if g is _HEEL_SLOPES else d
+            tangent, k = tangent + jnp.stack(d) * t, k + 4
+        return jnp.stack([vol, mx, mu, mz]), tangent
     plain = lambda *p: _moments.fun(calm, *p)
     return jax.jvp(plain, primals, tuple(_instantiate(t, p) for t, p in zip(tangents, primals)))
+
+
+def _known_zero(t) -> bool:
+    """A symbolic-zero tangent, or one known to be zero without looking at traced values."""
+    return isinstance(t, jax.custom_derivatives.SymbolicZero) or _is_zero(t)
 
 
 _moments.defjvp(_moments_jvp, symbolic_zeros=True)

@@ -1,0 +1,38 @@
+"""Files written completely or not at all: into a temporary file beside the target, flushed to disk, then renamed
+into place (`os.replace` is atomic within a file system). One implementation for the output sets, the netCDF
+datasets, the Monte Carlo checkpoints and the program cache."""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from collections.abc import Callable
+from pathlib import Path
+
+
+def atomic_write(path: str | os.PathLike, write: Callable[[str], None], *, mode: int | None = None) -> None:
+    """Create or replace the file `path` with what `write(temporary_path)` writes, completely or not at all: a
+    killed process or a failing `write` leaves `path` as it was and no temporary file. Permissions: `mode` (e.g.
+    0o600), or what the user's umask gives a new file (0o666 & ~umask)."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    os.close(fd)
+    try:
+        write(tmp)
+        with open(tmp, "rb+") as f:
+            os.fsync(f.fileno())
+        if mode is None:
+            umask = os.umask(0)
+            os.umask(umask)
+            mode = 0o666 & ~umask
+        os.chmod(tmp, mode)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def atomic_write_bytes(path: str | os.PathLike, data: bytes, *, mode: int | None = None) -> None:
+    """Create or replace the file `path` with `data`, completely or not at all (`atomic_write`)."""
+    atomic_write(path, lambda tmp: Path(tmp).write_bytes(data), mode=mode)
