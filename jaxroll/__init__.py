@@ -80,6 +80,15 @@ from .laws import (
     TabulatedAmplitudeLaw as TabulatedAmplitudeLaw,
     roberts_logpdf as roberts_logpdf,
 )
+from .longterm import (  # the stage's names; `jaxroll.longterm` is the function
+    ScatterDiagram as ScatterDiagram,
+    ScatterError as ScatterError,
+    longterm as longterm,
+    longterm_summary as longterm_summary,
+    merge_longterm as merge_longterm,
+    read_scatter as read_scatter,
+    rec34_scatter as rec34_scatter,
+)
 from .notebook import explore as explore  # Jupyter: sliders over the sea state (the `notebook` extra)
 from .roll import (
     DEFAULT_SENSITIVITY_STATISTICS as DEFAULT_SENSITIVITY_STATISTICS,

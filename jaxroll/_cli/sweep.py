@@ -250,10 +250,10 @@ def initialize_distributed() -> None:
         if os.environ.get(var) and not os.environ[var].isdigit():
             raise CLIError(f"{var} must be a non-negative integer; got {os.environ[var]!r}.")
     argv = sys.argv[1:]
-    if "sweep" not in argv or "--distributed" not in argv:
+    if not {"sweep", "longterm"} & set(argv) or "--distributed" not in argv:
         raise CLIError(
-            "--distributed needs the command line (`jaxroll sweep --distributed ...`); from Python, call "
-            "jax.distributed.initialize() before importing jaxroll instead."
+            "--distributed needs the command line (`jaxroll sweep --distributed ...` or `jaxroll longterm "
+            "--distributed ...`); from Python, call jax.distributed.initialize() before importing jaxroll instead."
         )
     sys.stdout.flush()
     sys.stderr.flush()

@@ -226,6 +226,45 @@ SWEEP = Layout(
 )
 
 # --------------------------------------------------------------------------------------------------------------
+# Long-term risk (longterm.json; longterm.nc adds the cells' dataset, `jaxroll.longterm`'s, under the same names)
+# --------------------------------------------------------------------------------------------------------------
+
+_DOMINATING = "longterm_dominating_cells"
+LONGTERM = Layout(
+    labels={"longterm": "angle", "longterm/*/dominating_cells": "rank", "cells": "cell_method"},
+    arrays={"ci_against_effort/trials": ("effort",), "ci_against_effort/sampling_half_width": ("effort", "angle")},
+    units={"exposure_hours": "h", "exposures_per_year": "year-1", "longterm_per_year_rate": "year-1",
+           "longterm_per_year_rate_ci95": "year-1", "left_out_weight": "1", "cells": "1",
+           "ci_against_effort_trials": "1", "ci_against_effort_sampling_half_width": "1",
+           **{f"{_DOMINATING}_{k}": "1" for k in ("weight", "probability", "probability_ci95", "contribution",
+                                                  "share", "theory_probability", "realizations", "seed")},
+           **{f"longterm_{k}": "1" for k in ("probability", "probability_ci95", "sampling_sd", "model_below",
+                                             "model_above", "per_year_probability", "per_year_probability_ci95",
+                                             "capsize_probability", "capsize_probability_ci95",
+                                             "capsize_per_year")}},
+    long_names={
+        "exposure_hours": "exposure of every cell", "exposures_per_year": "exposures per year N_y",
+        "longterm_probability": "P(max |roll| > angle within one exposure), the cells' weighted mean",
+        "longterm_probability_ci95": "95 % interval of the long-term probability (sampling and model allowance)",
+        "longterm_sampling_sd": "(Σ w² Var P)^1/2", "longterm_model_below": "model allowance below",
+        "longterm_model_above": "model allowance above",
+        "longterm_per_year_probability": "P(at least one exceedance in a year) = 1 − Π (1 − P)^(w N_y)",
+        "longterm_per_year_probability_ci95": "95 % interval of the per-year probability",
+        "longterm_per_year_rate": "expected exposures with an exceedance per year, N_y P_LT",
+        "longterm_per_year_rate_ci95": "95 % interval of the per-year rate",
+        "longterm_capsize_probability": "P(capsize within one exposure), the cells' weighted mean",
+        "longterm_capsize_probability_ci95": "95 % interval of the long-term capsize probability",
+        "longterm_capsize_per_year": "P(at least one capsize in a year)",
+        "left_out_weight": "weight of the cells left out (a bound on their contribution)",
+        "cells": "number of cells by method", "ci_against_effort_trials": "Monte Carlo trials at each effort",
+        "ci_against_effort_sampling_half_width": "half width of the sampling interval at each effort",
+        f"{_DOMINATING}_*": "the cells with the largest contributions w·P, largest first (rank 0)",
+    },
+    coords={"angle": ("degree", "roll angle"), "rank": ("1", "rank of the cell by contribution"),
+            "cell_method": (None, "how a cell's probability was obtained")},
+)
+
+# --------------------------------------------------------------------------------------------------------------
 # Sensitivities (sensitivity.json)
 # --------------------------------------------------------------------------------------------------------------
 
@@ -397,6 +436,7 @@ OUTPUTS = {
     "maxima": MAXIMA,
     "risk": RISK,
     "sweep": SWEEP,
+    "longterm": LONGTERM,
     "sensitivity": SENSITIVITY,
     "hydrostatics": HYDROSTATICS,
     "sgisc": SGISC,

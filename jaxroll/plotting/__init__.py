@@ -2,6 +2,7 @@
 
 from ._calibration import *  # noqa: F401,F403
 from ._hydrostatics import *  # noqa: F401,F403
+from ._longterm import *  # noqa: F401,F403
 from ._pdf import *  # noqa: F401,F403
 from ._polar import *  # noqa: F401,F403
 from ._risk import *  # noqa: F401,F403

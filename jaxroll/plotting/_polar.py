@@ -14,8 +14,9 @@ _HEADING_NAMES = {0: "following", 90: "beam", 180: "head"}
 
 def _edges(x: np.ndarray, lo: float, hi: float) -> np.ndarray:
     """Cell edges around sorted centres `x`, clipped to [lo, hi]."""
-    if x.size == 1:
-        half = 0.5 * max(hi - lo, 1.0) / 6
+    if x.size == 1:  # a lone value: a cell a twelfth of the range wide (of [0, max(2x, 6)] for an open range)
+        span = hi - lo if np.isfinite(hi - lo) else max(2 * abs(float(x[0])), 6.0)
+        half = 0.5 * max(span, 1.0) / 6
         return np.clip(np.array([x[0] - half, x[0] + half]), lo, hi)
     mid = (x[1:] + x[:-1]) / 2
     return np.clip(np.concatenate([[2 * x[0] - mid[0]], mid, [2 * x[-1] - mid[-1]]]), lo, hi)
@@ -52,14 +53,17 @@ def polar_risk_chart(
     label: str = "probability",
     cmap: str = "magma_r",
     annotate: bool = True,
+    vmax: float = 1.0,
+    fmt: str = "{:.2f}",
 ):
     """Draw one polar risk chart on the polar axes `ax`: `probability` [-], shaped (heading, speed), as cells over
     heading χ [deg] (angle; 180° head seas at the top, 0° following at the bottom) × speed U [m/s] (radius).
 
     **Arguments:** `ax` (made with `projection="polar"`); `heading_deg` in [0, 180] and `speed_m_s` ≥ 0, the
-    grid's values in any order; `probability`; `label`: the panel's title; `annotate`: write each cell's value.
+    grid's values in any order; `probability`; `label`: the panel's title; `annotate`: write each cell's value
+    (with `fmt`); `vmax`: the top of the colour scale (1; smaller for rare events, e.g. long-term risks).
 
-    **Returns:** the `QuadMesh` (for a colour bar; values in [0, 1]).
+    **Returns:** the `QuadMesh` (for a colour bar; values in [0, `vmax`]).
     """
     chi = np.asarray(heading_deg, float)
     speed = np.asarray(speed_m_s, float)
@@ -70,7 +74,7 @@ def polar_risk_chart(
     r_max = float(r_edges[-1]) if r_edges[-1] > 0 else 1.0
     theta_edges = np.radians(180.0 - _edges(chi, 0.0, 180.0))
     _setup_polar(ax, r_max, speed)
-    mesh = ax.pcolormesh(theta_edges, r_edges, p.T, cmap=cmap, vmin=0.0, vmax=1.0, shading="flat")
+    mesh = ax.pcolormesh(theta_edges, r_edges, p.T, cmap=cmap, vmin=0.0, vmax=vmax, shading="flat")
     ax.plot(*np.meshgrid(np.radians(180.0 - chi), speed, indexing="ij"), "k.", ms=2, alpha=0.4)
     if annotate:  # at the cells' centres (a speed-0 cell is a wedge from the centre)
         r_mid = (r_edges[1:] + r_edges[:-1]) / 2
@@ -80,11 +84,11 @@ def polar_risk_chart(
                 ax.text(
                     theta_mid[a],
                     r_mid[b],
-                    f"{p[a, b]:.2f}",
+                    fmt.format(p[a, b]),
                     ha="center",
                     va="center",
                     fontsize=6,
-                    color="w" if p[a, b] > 0.5 else "k",
+                    color="w" if p[a, b] > 0.5 * vmax else "k",
                 )
     ax.set_title(label, fontsize=9, pad=12)
     ax.grid(True, alpha=0.4)

@@ -57,6 +57,14 @@ def _global_array(host: np.ndarray, sharding) -> jax.Array:
     return jax.make_array_from_callback(host.shape, sharding, lambda index: host[index])
 
 
+def _spans_processes(mesh) -> bool:
+    """Whether `mesh` holds devices of other processes (after `jax.distributed.initialize()`): then its arrays are
+    global and its results are gathered across the processes. A mesh of this process's own devices
+    (`devices=jax.local_devices()`) runs as in a single process, so that several processes can run different Monte
+    Carlos at once (`jaxroll.longterm` shares its cells among the processes so)."""
+    return jax.process_count() > 1 and any(d.process_index != jax.process_index() for d in mesh.devices.flat)
+
+
 def _replicate(tree, mesh):
     """Place the array leaves of `tree` on every device of `mesh` (PRNG keys are left to jit, which copies
     them)."""
@@ -64,7 +72,7 @@ def _replicate(tree, mesh):
     leaves, treedef = jax.tree.flatten(tree)
     moved = [i for i, x in enumerate(leaves)
              if isinstance(x, jax.Array) and not jnp.issubdtype(x.dtype, jax.dtypes.prng_key)]
-    if jax.process_count() == 1:  # one batched transfer (leaf by leaf: 7 ms for the paper's problem, every run)
+    if not _spans_processes(mesh):  # one batched transfer (leaf by leaf: 7 ms for the paper's problem, every run)
         placed = jax.device_put([leaves[i] for i in moved], sharding)
     else:
         placed = [_global_array(np.asarray(leaves[i]), sharding) for i in moved]
@@ -73,9 +81,9 @@ def _replicate(tree, mesh):
     return jax.tree.unflatten(treedef, leaves)
 
 
-def _to_host(tree):
-    """Host numpy copies of (possibly sharded, possibly multi-process) global arrays."""
-    if jax.process_count() > 1:
+def _to_host(tree, mesh=None):
+    """Host numpy copies of (possibly sharded, possibly multi-process) global arrays on `mesh` (None: all)."""
+    if jax.process_count() > 1 and (mesh is None or _spans_processes(mesh)):
         from jax.experimental import multihost_utils
 
         return multihost_utils.process_allgather(tree, tiled=True)
@@ -363,7 +371,7 @@ def run_chunks(
             for k, v in saved_per.items():
                 per[k] = np.zeros((num_realizations, *v.shape[1:]), v.dtype)
                 per[k][:start] = v
-        if jax.process_count() > 1:
+        if _spans_processes(mesh):
             from jax.experimental import multihost_utils
 
             multihost_utils.assert_equal(
@@ -392,7 +400,7 @@ def run_chunks(
         valid, out = pending
         n = int(valid.sum())
         pending = dispatch(start + n) if start + n < num_realizations else None
-        s, p = _to_host(out)
+        s, p = _to_host(out, mesh)
         if resumed_keys is not None:
             _check_resumed_statistics(path, resumed_keys, (set(s), set(p)))
             resumed_keys = None
@@ -411,7 +419,7 @@ def run_chunks(
                 else time.monotonic() - last_save >= CHECKPOINT_SECONDS
             )
             if due or start >= num_realizations:
-                if jax.process_index() == 0:
+                if jax.process_index() == 0 or not _spans_processes(mesh):
                     _save_checkpoint(path, fingerprint, start, summed, per)
                 last_save, chunks_since_save = time.monotonic(), 0
         if progress is not None:
@@ -442,13 +450,14 @@ def _compiled(fn, mesh: jax.sharding.Mesh | None = None):
     added over the devices (`psum`: integer-valued counts, exact in any order), `per_realization` left sharded
     along the axis; cached per (function, mesh). In one process, a stored program
     (`jaxroll._compiled.cached_program`), so a warm command neither traces nor lowers the Monte Carlo body (~0.7 s
-    for the paper's chunk on a 2-core CPU); across processes, `eqx.filter_jit`.
+    for the paper's chunk on a 2-core CPU), also on a mesh of one process's own devices among several; on a mesh
+    across processes, `eqx.filter_jit`.
 
     Each device computes only its own realizations: left to XLA's sharding propagation (a `jit` with output
     shardings), the envelope's FFT was gathered and done in full on every device (2× the work and two
     all-gathers of the chunk's roll history), so the histogram Monte Carlo gained little from a second device."""
     if (fn, mesh) not in _COMPILED:
-        if jax.process_count() == 1:
+        if mesh is None or not _spans_processes(mesh):
             compile_ = functools.partial(cached_program, compiler_options=MONTE_CARLO_PROGRAM)
         else:
             compile_ = eqx.filter_jit

@@ -1,0 +1,334 @@
+"""The long-term result as an `xarray.Dataset`: the cells' variables, the long-term values, partial datasets and
+their merge, and the summary that `longterm.json` holds.
+
+Cell dims: (hs, tz, heading, speed, ship); per angle: + angle. The long-term variables are always recomputed from
+the cell variables by `add_longterm`, so a dataset merged from parts is the one a single run gives, bit for bit.
+"""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+
+from ._monte_carlo import EFFORT_FRACTIONS, Z95, binomial_variance
+from ._risk import annual, longterm_probability
+
+CELL_DIMS = ("hs", "tz", "heading", "speed", "ship")
+#: `method` flag values (CF `flag_values`/`flag_meanings`).
+METHODS = ("not_computed", "zero_weight", "left_out", "no_excitation", "theory", "monte_carlo")
+#: `uncertainty` flag values: what a cell's interval is.
+UNCERTAINTY = ("none", "sampling", "model_factor", "unknown")
+_LONGTERM_VARS = ("longterm_probability", "longterm_probability_ci95", "longterm_sampling_sd",
+                  "longterm_model_below", "longterm_model_above", "longterm_per_year_probability",
+                  "longterm_per_year_probability_ci95", "longterm_per_year_rate", "longterm_per_year_rate_ci95",
+                  "longterm_capsize_probability", "longterm_capsize_probability_ci95", "longterm_capsize_per_year",
+                  "left_out_weight", "exposures_per_year")
+#: The interval's ends (the `bound` dimension, as every `*_ci95` of the labelled outputs).
+BOUNDS = ("lower", "upper")
+
+
+def _flags(names):
+    return {"flag_values": np.arange(len(names), dtype=np.int8), "flag_meanings": " ".join(names)}
+
+
+def build_dataset(grid, cells: dict, config: dict, attrs: dict):
+    """The dataset from per-computation-cell arrays `cells` (shape `grid.shape` [+ angle / effort axes]; see
+    `_run.longterm`), the run's `config` (JSON-able) and dataset `attrs` (provenance and the like)."""
+    import xarray as xr
+
+    k = grid.heading_class
+
+    def to_cells(a):  # (ship, class, speed, hs, tz, ...) → (hs, tz, heading, speed, ship, ...)
+        a = np.asarray(a)[:, k]
+        return np.moveaxis(a, (0, 1, 2, 3, 4), (4, 2, 3, 0, 1))
+
+    angle_dims = (*CELL_DIMS, "angle")
+    data = {
+        "weight": (CELL_DIMS, grid.weight, {"units": "1", "long_name": "cell weight: occurrence × heading × speed "
+                                            "× loading probability (sums to 1)"}),
+        "probability": (angle_dims, to_cells(cells["probability"]),
+                        {"units": "1", "long_name": "short-term P(max |roll| > angle within the exposure), capsizes "
+                         "included (NaN: not computed)"}),
+        "probability_lower": (angle_dims, to_cells(cells["probability_lower"]),
+                              {"units": "1", "long_name": "95 % interval, lower (Monte Carlo: Wilson; theory: model "
+                               "allowance)"}),
+        "probability_upper": (angle_dims, to_cells(cells["probability_upper"]),
+                              {"units": "1", "long_name": "95 % interval, upper"}),
+        "probability_variance": (angle_dims, to_cells(cells["variance"]),
+                                 {"units": "1", "long_name": "sampling variance of the estimate (0: theory)"}),
+        "capsize_probability": (CELL_DIMS, to_cells(cells["capsize_probability"]),
+                                {"units": "1", "long_name": "short-term P(capsize within the exposure)"}),
+        "capsize_probability_lower": (CELL_DIMS, to_cells(cells["capsize_lower"]),
+                                      {"units": "1", "long_name": "95 % interval of the capsize probability, lower"}),
+        "capsize_probability_upper": (CELL_DIMS, to_cells(cells["capsize_upper"]),
+                                      {"units": "1", "long_name": "95 % interval of the capsize probability, upper"}),
+        "capsize_probability_variance": (CELL_DIMS, to_cells(cells["capsize_variance"]),
+                                         {"units": "1", "long_name": "sampling variance of the capsize estimate"}),
+        "method": (CELL_DIMS, to_cells(cells["method"]).astype(np.int8),
+                   {"units": "1", "long_name": "how the cell's probability was obtained", **_flags(METHODS)}),
+        "uncertainty": (CELL_DIMS, to_cells(cells["uncertainty"]).astype(np.int8),
+                        {"units": "1", "long_name": "what the cell's interval is", **_flags(UNCERTAINTY)}),
+        "realizations": (CELL_DIMS, to_cells(cells["realizations"]).astype(np.int64),
+                         {"units": "1", "long_name": "Monte Carlo trials (0: none)"}),
+        "n_exceeded": (angle_dims, to_cells(cells["n_exceeded"]).astype(np.int64),
+                       {"units": "1", "long_name": "Monte Carlo trials beyond the angle or capsized"}),
+        "n_capsized": (CELL_DIMS, to_cells(cells["n_capsized"]).astype(np.int64),
+                       {"units": "1", "long_name": "Monte Carlo trials that capsized"}),
+        "n_exceeded_effort": ((*CELL_DIMS, "effort", "angle"), to_cells(cells["n_exceeded_effort"]).astype(np.int64),
+                              {"units": "1", "long_name": "trials beyond the angle among the first effort × realizations"}),
+        "seed": (CELL_DIMS, to_cells(cells["seed"]).astype(np.int64),
+                 {"units": "1", "long_name": "the cell's Monte Carlo seed s: jax.random.key(s); `jaxroll risk --seed s-1` "
+                  "reproduces it"}),
+        "theory_probability": (angle_dims, to_cells(cells["theory_probability"]),
+                               {"units": "1", "long_name": "the theory's probability (NaN: not evaluated)"}),
+        "theory_capsize_probability": (CELL_DIMS, to_cells(cells["theory_capsize_probability"]),
+                                       {"units": "1", "long_name": "the theory's capsize probability"}),
+        "lyapunov_exponent": (CELL_DIMS, to_cells(cells["lyapunov_exponent"]),
+                              {"units": "1/s", "long_name": "envelope FPK Lyapunov exponent λ of the linearised "
+                               "roll (λ <= 0: the roll dies out)"}),
+        "envelope_gamma": (CELL_DIMS, to_cells(cells["envelope_gamma"]),
+                           {"units": "1/s", "long_name": "fitted envelope decay rate γ (<= 0: the envelope model "
+                            "does not fit)"}),
+        "theory_doubtful": (CELL_DIMS, to_cells(cells["theory_doubtful"]).astype(bool),
+                            {"units": "1", "long_name": "the theory fails a validity check (docs/longterm.md)"}),
+    }
+    if "computed" in cells:
+        data["computed"] = (CELL_DIMS, to_cells(cells["computed"]).astype(bool),
+                            {"units": "1", "long_name": "computed by this part"})
+    coords = {
+        "hs": ("hs", grid.scatter.hs, {"units": "m", "long_name": "significant wave height H_s"}),
+        "tz": ("tz", grid.scatter.tz, {"units": "s", "long_name": "zero-upcrossing period T_z"}),
+        "t01": ("tz", grid.scatter.t01, {"units": "s", "long_name": "mean period T01 = 1.0864 T_z (ITTC)"}),
+        "heading": ("heading", grid.headings_deg, {"units": "degree", "long_name": "heading χ: 0 following, 90 "
+                                                   "beam, 180 head"}),
+        "heading_class": ("heading", grid.classes_deg[k], {"units": "degree", "long_name": "computed at χ' = "
+                                                           "min(χ, 360 − χ) (port/starboard symmetry)"}),
+        "speed": ("speed", grid.speeds, {"units": "m/s", "long_name": "ship speed U"}),
+        "ship": ("ship", np.array(grid.ship_names, dtype=object), {"long_name": "loading condition (ship)"}),
+        "angle": ("angle", np.asarray(config["angles_deg"], float), {"units": "degree",
+                                                                      "long_name": "roll angle"}),
+        "bound": ("bound", np.array(BOUNDS), {"long_name": "end of the interval"}),
+        "effort": ("effort", np.array(EFFORT_FRACTIONS), {"units": "1", "long_name": "fraction of each Monte Carlo "
+                                                                        "cell's trials"}),
+    }
+    ds = xr.Dataset({k_: xr.Variable(*v) for k_, v in data.items()},
+                    coords={k_: xr.Variable(*v) for k_, v in coords.items()})
+    ds.attrs.update(attrs)  # `dataset_attrs(config, …)`: versions, backend, the configuration as JSON text
+    return ds
+
+
+def config_of(ds) -> dict:
+    return json.loads(ds.attrs["config_json"])
+
+
+def add_longterm(ds):
+    """The long-term variables of `ds` (over its angles), computed from its cell variables (module `_risk`):
+    `longterm_probability` per exposure with its 95 % interval and the interval's parts, the capsize probability,
+    the per-year probability and rate, and `left_out_weight`. Returns a new dataset."""
+    import xarray as xr
+
+    from ._risk import model_bounds
+
+    cfg = config_of(ds)
+    w = ds["weight"].values
+    p = ds["probability"].values
+    unc = ds["uncertainty"].values
+    p0 = np.where(np.isnan(p), 0.0, p)
+    var = np.where(np.isnan(p), 0.0, ds["probability_variance"].values)
+    kind = np.where(unc == 2, 1, np.where(unc == 3, 2, 0))
+    lo, hi = model_bounds(p0, kind, ds["probability_lower"].values, ds["probability_upper"].values)
+    lt = longterm_probability(w, p0, var, lo, hi)
+    c = ds["capsize_probability"].values
+    c0 = np.where(np.isnan(c), 0.0, c)[..., None]
+    cvar = np.where(np.isnan(c), 0.0, ds["capsize_probability_variance"].values)[..., None]
+    clo, chi = model_bounds(c0, kind, ds["capsize_probability_lower"].values[..., None],
+                            ds["capsize_probability_upper"].values[..., None])
+    cap = longterm_probability(w, c0, cvar, clo, chi)
+    per_year = cfg["hours_per_year"] * 3600.0 / cfg["exposure_s"]
+    yr = annual(w, p0, var, lo, hi, per_year)
+    cyr = annual(w, c0, cvar, clo, chi, per_year)
+    one = {"units": "1"}
+    ci = lambda r, lo, hi: np.stack([r[lo], r[hi]], axis=-1)  # noqa: E731
+    new = {
+        "longterm_probability": (("angle",), lt["probability"], {**one, "long_name": "P(max |roll| > angle within "
+                                                                 "one exposure), the cells' weighted mean"}),
+        "longterm_probability_ci95": (("angle", "bound"), ci(lt, "lower", "upper"),
+                                      {**one, "long_name": "95 % interval of the long-term probability (sampling "
+                                       "and model allowance)"}),
+        "longterm_sampling_sd": (("angle",), lt["sampling_sd"], {**one, "long_name": "(Σ w² Var P)^1/2"}),
+        "longterm_model_below": (("angle",), lt["model_below"], {**one, "long_name": "model allowance below"}),
+        "longterm_model_above": (("angle",), lt["model_above"], {**one, "long_name": "model allowance above"}),
+        "longterm_per_year_probability": (("angle",), yr["probability"],
+                                          {**one, "long_name": "P(at least one exceedance in a year) = 1 − Π (1 − "
+                                           "P)^(w N_y)"}),
+        "longterm_per_year_probability_ci95": (("angle", "bound"), ci(yr, "lower", "upper"),
+                                               {**one, "long_name": "95 % interval of the per-year probability"}),
+        "longterm_per_year_rate": (("angle",), yr["rate"], {"units": "year-1", "long_name": "expected exposures "
+                                                            "with an exceedance per year, N_y P_LT"}),
+        "longterm_per_year_rate_ci95": (("angle", "bound"), ci(yr, "rate_lower", "rate_upper"),
+                                        {"units": "year-1", "long_name": "95 % interval of the per-year rate"}),
+        "longterm_capsize_probability": ((), cap["probability"][0], {**one, "long_name": "P(capsize within one "
+                                                                     "exposure), the cells' weighted mean"}),
+        "longterm_capsize_probability_ci95": (("bound",), np.array([cap["lower"][0], cap["upper"][0]]),
+                                              {**one, "long_name": "95 % interval of the long-term capsize "
+                                               "probability"}),
+        "longterm_capsize_per_year": ((), cyr["probability"][0], {**one, "long_name": "P(at least one capsize in "
+                                                                  "a year)"}),
+        "left_out_weight": ((), float(np.where(ds["method"].values == METHODS.index("left_out"), w, 0.0).sum()),
+                            {**one, "long_name": "weight of the cells left out (a bound on their contribution)"}),
+        "exposures_per_year": ((), per_year, {"units": "year-1", "long_name": "exposures per year N_y = hours at "
+                                              "sea per year / exposure"}),
+    }
+    ds = ds.drop_vars([v for v in _LONGTERM_VARS if v in ds])
+    ds = ds.assign({k: xr.Variable(*v) for k, v in new.items()})
+    return ds
+
+
+def merge_parts(datasets):
+    """One dataset from the partial datasets of `longterm(part=(i, N))` for i = 1 … N (any order).
+
+    **Raises:** `ValueError` when they are not the parts of one run (configurations differ), a part is missing or
+    repeated, or a cell was computed by no part or by two."""
+    if not datasets:
+        raise ValueError("no partial dataset to merge.")
+    parts = []
+    for i, ds in enumerate(datasets):
+        if "part" not in ds.attrs or "computed" not in ds:
+            raise ValueError(f"dataset {i + 1} is not a partial dataset (longterm(part=…), --part i/N).")
+        parts.append(tuple(int(x) for x in str(ds.attrs["part"]).split("/")))
+    n = parts[0][1]
+    if any(q[1] != n for q in parts) or sorted(q[0] for q in parts) != list(range(1, n + 1)):
+        raise ValueError(f"the datasets are parts {sorted(f'{a}/{b}' for a, b in parts)}; the merge needs each "
+                         f"part 1/{n} … {n}/{n} exactly once.")
+    ref = datasets[0]
+    for ds in datasets[1:]:
+        if ds.attrs["config_json"] != ref.attrs["config_json"]:
+            a, b = config_of(ref), config_of(ds)
+            differ = sorted(k for k in set(a) | set(b) if a.get(k) != b.get(k))
+            raise ValueError(f"the parts come from different runs (configurations differ in {', '.join(differ)}).")
+    count = sum(ds["computed"].values.astype(int) for ds in datasets)
+    trivial = ref["method"].values != METHODS.index("not_computed")  # the same in every part (no computation)
+    if np.any(count > 1) or np.any((count == 0) & ~trivial):
+        raise ValueError("the parts overlap or leave cells out: they are not the parts of one run.")
+    out = ref.drop_vars("computed")
+    cell_vars = [v for v in out.data_vars if out[v].dims[: len(CELL_DIMS)] == CELL_DIMS and v != "weight"]
+    for v in cell_vars:
+        values = out[v].values.copy()
+        for ds in datasets[1:]:
+            mask = ds["computed"].values.reshape(ds["computed"].shape + (1,) * (values.ndim - len(CELL_DIMS)))
+            values = np.where(np.broadcast_to(mask, values.shape), ds[v].values, values)
+        out[v] = (out[v].dims, values, out[v].attrs)
+    out.attrs = {k: v for k, v in ref.attrs.items() if k != "part"}
+    return add_longterm(out)
+
+
+def risk_command(ds, index: dict) -> str:
+    """The `jaxroll risk` command line that reproduces a Monte Carlo cell of `ds` trial for trial (its direct
+    estimate), `index` the cell's coordinates by dim (hs, tz, heading, speed, ship) as positions."""
+    cfg = config_of(ds)
+    cell = ds.isel(index)
+    ship_file = cfg["ships"][index["ship"]]["file"]
+    parts = ["jaxroll risk", f"--hs {float(cell.hs)!r}", f"--t01 {float(cell.t01)!r}",
+             f"--heading {float(cell.heading_class):g}", f"--speed {float(cell.speed)!r}",
+             f"--hours {cfg['exposure_s'] / 3600.0!r}", f"--discard {cfg['discard_s']!r}",
+             f"--realizations {int(cell.realizations)}", f"--seed {int(cell.seed) - 1}",
+             f"--angle {float(ds.angle[0]):g}", f"--dt {cfg['dt_s']!r}", f"--method {cfg['excitation']}",
+             f"--filter-order {cfg['filter_order']}"]
+    if ship_file:
+        parts.append(f"--ship {ship_file}")
+    return " ".join(parts)
+
+
+def dominating_cells(ds, angle_index: int = 0, top: int = 10) -> list[dict]:
+    """The `top` cells by contribution w·P at the angle of index `angle_index`, with their share of P_LT."""
+    contrib = np.nan_to_num(ds["weight"].values * ds["probability"].values[..., angle_index])
+    total = contrib.sum()
+    order = np.argsort(-contrib.reshape(-1), kind="stable")[:top]
+    out = []
+    for flat in order:
+        if contrib.reshape(-1)[flat] <= 0:
+            break
+        idx = dict(zip(CELL_DIMS, np.unravel_index(flat, contrib.shape), strict=True))
+        cell = ds.isel({k: int(v) for k, v in idx.items()})
+        method = METHODS[int(cell.method)]
+        row = {
+            "hs_m": float(cell.hs), "tz_s": float(cell.tz), "t01_s": float(cell.t01),
+            "heading_deg": float(cell.heading), "speed_m_s": float(cell.speed), "ship": str(cell.ship.values),
+            "weight": float(cell.weight), "probability": float(cell.probability[angle_index]),
+            "probability_ci95": [float(cell.probability_lower[angle_index]),
+                                 float(cell.probability_upper[angle_index])],
+            "contribution": float(contrib.reshape(-1)[flat]), "share": float(contrib.reshape(-1)[flat] / total),
+            "method": method, "theory_probability": float(cell.theory_probability[angle_index]),
+        }
+        if method == "monte_carlo":
+            row["realizations"] = int(cell.realizations)
+            row["seed"] = int(cell.seed)
+            row["risk_command"] = risk_command(ds, {k: int(v) for k, v in idx.items()})
+        out.append(row)
+    return out
+
+
+def _ci_effort(ds) -> dict:
+    """The long-term interval's sampling part against the Monte Carlo effort: at each `effort` fraction, the
+    long-term probability and ±z σ from the first fraction of every Monte Carlo cell's trials (angles)."""
+    mc = ds["method"].values == METHODS.index("monte_carlo")
+    if not mc.any():
+        return {}
+    w = ds["weight"].values
+    n = ds["realizations"].values
+    trials, half = [], []
+    for e, f in enumerate(ds.effort.values):
+        m = np.maximum(1, np.round(f * n))
+        k = ds["n_exceeded_effort"].values[..., e, :]
+        var = np.where(mc[..., None], binomial_variance(k, m[..., None]), 0.0)
+        trials.append(int(np.where(mc, m, 0).sum()))
+        half.append((Z95 * np.sqrt((w[..., None] ** 2 * var).sum(axis=tuple(range(w.ndim))))).tolist())
+    return {"trials": trials, "sampling_half_width": half}
+
+
+def longterm_summary(ds, top: int = 10) -> dict:
+    """What `longterm.json` holds (besides the configuration), named as the dataset's variables (`longterm/{angle}/
+    probability` is `longterm_probability(angle)`; docs/outputs.md): per angle [deg] the long-term probability per
+    exposure with its interval and the interval's parts, the per-year values, the dominating cells; the capsize
+    probabilities, the count of cells per method, the interval against effort, the per-year assumptions."""
+    cfg = config_of(ds)
+    methods = {m: int((ds["method"].values == i).sum()) for i, m in enumerate(METHODS) if m != "not_computed"}
+    per_angle = {}
+    for a, angle in enumerate(float(x) for x in ds.angle.values):
+        per_angle[f"{angle:g}"] = {
+            "probability": float(ds.longterm_probability[a]),
+            "probability_ci95": [float(x) for x in ds.longterm_probability_ci95[a]],
+            "sampling_sd": float(ds.longterm_sampling_sd[a]),
+            "model_below": float(ds.longterm_model_below[a]),
+            "model_above": float(ds.longterm_model_above[a]),
+            "per_year": {
+                "probability": float(ds.longterm_per_year_probability[a]),
+                "probability_ci95": [float(x) for x in ds.longterm_per_year_probability_ci95[a]],
+                "rate": float(ds.longterm_per_year_rate[a]),
+                "rate_ci95": [float(x) for x in ds.longterm_per_year_rate_ci95[a]],
+            },
+            "dominating_cells": dominating_cells(ds, a, top),
+        }
+    hours = cfg["exposure_s"] / 3600.0
+    return {
+        "exposure_hours": hours,
+        "exposures_per_year": float(ds.exposures_per_year),
+        "longterm": per_angle,
+        "longterm_capsize": {"probability": float(ds.longterm_capsize_probability),
+                             "probability_ci95": [float(x) for x in ds.longterm_capsize_probability_ci95],
+                             "per_year": float(ds.longterm_capsize_per_year)},
+        "per_year_assumptions": (
+            f"{cfg['hours_per_year']:g} h at sea per year = {float(ds.exposures_per_year):g} exposures of "
+            f"{hours:g} h, spread over the cells in proportion to their weights and independent of each other: "
+            "P_year = 1 − Π_c (1 − P_c)^(w_c N_y); `rate` = N_y P_LT, the expected number of exposures with an "
+            "exceedance per year (P_year's small-probability limit)."),
+        "left_out_weight": float(ds.left_out_weight),
+        "cells": methods,
+        "ci_against_effort": _ci_effort(ds),
+        "interval": ("95 %: ±1.96 (Σ w² Var P)^1/2 over the Monte Carlo cells, plus the model allowance added "
+                     f"linearly: theory cells within [P/{cfg['model_factor']:g}, {cfg['model_factor']:g} P], "
+                     "doubtful theory cells not simulated and left-out cells within [0, 1]"),
+        "probability_definition": ("P(max |roll| > angle within one exposure, or capsize), for an exposure taken "
+                                   "at random from the cells' distribution"),
+    }

@@ -1,0 +1,124 @@
+"""The long-term integral, its interval, the per-year conversion, and the rule of `method="auto"`.
+
+P_LT = Σ_c w_c P_c over the cells c (weights summing to 1): the probability that the roll exceeds the angle within
+one exposure taken at random from the cells' distribution (capsizes counted as exceedances).
+
+Its 95 % interval adds two parts, stated apart:
+- sampling: ±z σ with σ² = Σ_c w_c² Var P̂_c over the Monte Carlo cells (independent estimates: each cell has its
+  own seed);
+- model allowance on the theory's cells: a theory cell's probability is taken to lie in [P/f, min(1, f·P)] with
+  f = `model_factor` (1.25, the accuracy target of issue 34's exposure-risk theory against the direct Monte Carlo);
+  a cell whose theory fails a validity check and was not simulated, or that was left out (`skip_weight`), in
+  [0, 1]. The allowances are added linearly (as if every theory cell erred the same way: conservative).
+
+Per year: N_y = (hours at sea per year)/(exposure) exposures, distributed over the cells with frequencies w_c and
+independent of each other: P_year = 1 − Π_c (1 − P_c)^{w_c N_y}; the expected number of exposures with an
+exceedance per year is N_y P_LT (the rate form, P_year's small-probability limit).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ._monte_carlo import Z95
+
+#: The factor of a valid theory cell's model allowance: [P/f, min(1, f·P)].
+MODEL_FACTOR = 1.25
+#: `auto`: the Monte Carlo cells include the smallest set of cells carrying this share of the theory's P_LT.
+AUTO_SHARE = 0.9
+#: `auto`: a cell failing a validity check is simulated where its worst case, w·max(P, 1 − P), exceeds this
+#: fraction of the theory's P_LT (for some angle).
+AUTO_TOLERANCE = 0.01
+#: A theory cell is doubtful where the envelope's Lyapunov exponent is within this many 1/exposure of 0 (the roll's
+#: growth time 1/|λ| is longer than the exposure: the stationary law the theory assumes is not what an exposure
+#: sees, and near λ = 0 that law changes fast with λ) …
+NEAR_THRESHOLD = 1.0
+#: … or where the theory puts at least this probability per exposure in the capsize range (the envelope FPK's top
+#: cell, a reflecting boundary at the vanishing angle) …
+CAPSIZE_DOUBT = 0.01
+# … or where the fitted envelope decay γ ≤ 0 (the envelope model does not fit the sea; λ is undefined).
+
+
+def doubtful(lyapunov, gamma, capsize_probability, exposure: float) -> np.ndarray:
+    """The theory's validity checks per cell (module constants): True where the theory is not to be trusted."""
+    lam = np.asarray(lyapunov, float)
+    return ((np.asarray(gamma, float) <= 0) | (np.abs(lam) * exposure < NEAR_THRESHOLD)
+            | ((lam > 0) & (np.asarray(capsize_probability, float) >= CAPSIZE_DOUBT)))
+
+
+def auto_cells(weight, p_theory, doubt, needed, share: float = AUTO_SHARE,
+               tolerance: float = AUTO_TOLERANCE) -> tuple[np.ndarray, np.ndarray]:
+    """The Monte Carlo cells of `method="auto"`: (dominant, doubtful-and-material) masks over the cells.
+
+    - dominant: for each angle, the smallest set of cells whose theory contributions w·P add up to at least
+      `share` of the theory's P_LT (largest first);
+    - doubtful-and-material: cells failing a validity check whose worst-case error w·max(P, 1 − P) exceeds
+      `tolerance`·P_LT (theory) for some angle.
+
+    `weight` (cells,), `p_theory` (cells, angles), `doubt`, `needed` (cells,): flat arrays.
+    """
+    w = np.asarray(weight, float)
+    p = np.asarray(p_theory, float)
+    needed = np.asarray(needed, bool)
+    dominant = np.zeros(w.size, bool)
+    material = np.zeros(w.size, bool)
+    for a in range(p.shape[1]):
+        contrib = np.where(needed, w * p[:, a], 0.0)
+        total = contrib.sum()
+        if total > 0:
+            order = np.argsort(-contrib, kind="stable")
+            cum = np.cumsum(contrib[order])
+            count = int(np.searchsorted(cum, share * total * (1 - 1e-12))) + 1
+            dominant[order[:count]] = True
+        worst = w * np.maximum(p[:, a], 1 - p[:, a])
+        material |= needed & np.asarray(doubt, bool) & (worst > tolerance * total)
+    return dominant & needed, material
+
+
+def model_bounds(p, kind, lower, upper) -> tuple[np.ndarray, np.ndarray]:
+    """Per cell and angle the interval the long-term allowance assumes: `kind` 0 exact (Monte Carlo cells, whose
+    uncertainty is sampling, and beam seas), 1 a valid theory cell: its own interval [`lower`, `upper`] (the model
+    factor around the value), 2 unknown [0, 1] (a doubtful theory cell not
+    simulated, or a cell left out)."""
+    p = np.asarray(p, float)
+    kind = np.asarray(kind)[..., None]
+    lo = np.where(kind == 1, np.nan_to_num(lower), np.where(kind == 2, 0.0, p))
+    hi = np.where(kind == 1, np.nan_to_num(upper), np.where(kind == 2, 1.0, p))
+    return lo, hi
+
+
+def longterm_probability(weight, p, variance, lo_model, hi_model) -> dict:
+    """P_LT = Σ w P and its 95 % interval (module docstring). Arrays over cells (first axes) and angles (last);
+    `weight` over cells. **Returns:** dict of arrays over angles: `probability`, `lower`, `upper`, `sampling_sd`,
+    `model_below`, `model_above` (the allowance's reach below and above P_LT)."""
+    w = np.asarray(weight, float)[..., None]
+    axes = tuple(range(w.ndim - 1))
+    est = (w * p).sum(axis=axes)
+    sd = np.sqrt((w**2 * variance).sum(axis=axes))
+    below = (w * (p - lo_model)).sum(axis=axes)
+    above = (w * (hi_model - p)).sum(axis=axes)
+    return {"probability": est, "lower": np.clip(est - Z95 * sd - below, 0.0, 1.0),
+            "upper": np.clip(est + Z95 * sd + above, 0.0, 1.0), "sampling_sd": sd, "model_below": below,
+            "model_above": above}
+
+
+def annual(weight, p, variance, lo_model, hi_model, exposures_per_year: float) -> dict:
+    """P(at least one exceedance in a year) = 1 − Π_c (1 − P_c)^{w_c N_y} and its interval: the allowance's ends
+    put in the product (it is increasing in every P_c), widened by z σ_Y (delta method:
+    ∂P_year/∂P_c = (1 − P_year) N_y w_c / (1 − P_c)); and the rate N_y P_LT. Arrays as `longterm_probability`."""
+    w = np.asarray(weight, float)[..., None]
+    axes = tuple(range(w.ndim - 1))
+    ny = float(exposures_per_year)
+
+    def year(q):
+        with np.errstate(divide="ignore"):
+            s = (w * np.log1p(-np.clip(q, 0.0, 1.0))).sum(axis=axes)
+        return -np.expm1(ny * s)
+
+    y = year(p)
+    grad = np.where(p < 1, (1 - y) * ny * w / np.where(p < 1, 1 - p, 1.0), 0.0)
+    sd = np.sqrt((grad**2 * variance).sum(axis=axes))
+    lt = longterm_probability(weight, p, variance, lo_model, hi_model)
+    return {"probability": y, "lower": np.clip(year(lo_model) - Z95 * sd, 0.0, 1.0),
+            "upper": np.clip(year(hi_model) + Z95 * sd, 0.0, 1.0), "sampling_sd": sd,
+            "rate": ny * lt["probability"], "rate_lower": ny * lt["lower"], "rate_upper": ny * lt["upper"]}

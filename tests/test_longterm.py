@@ -1,0 +1,483 @@
+"""Long-term risk (`jaxroll.longterm`, `jaxroll longterm`, `jaxroll merge`): the scatter diagram and its checks, the
+cells' weights and symmetry, the theory per cell against the per-cell route, the long-term integral and the
+per-year conversion, the Monte Carlo cell against `jaxroll risk` trial for trial, `--method auto` against a
+brute-force Monte Carlo, parts, processes and checkpoints bit for bit, bad input."""
+
+import json
+import math
+import os
+import socket
+import subprocess
+import sys
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+import xarray as xr
+from helpers import SHIP, assert_labelled_output
+
+import jaxroll as jxr
+from jaxroll._cli import main
+from jaxroll.io import read_dataset, write_dataset
+from jaxroll.longterm import (
+    EFFORT_FRACTIONS,
+    METHODS,
+    T01_OVER_TZ,
+    ScatterError,
+    neyman_allocation,
+    parse_scatter,
+)
+from jaxroll.longterm._cells import make_grid
+from jaxroll.longterm._risk import annual, auto_cells, longterm_probability
+from jaxroll.longterm._theory import class_template, class_theory
+
+PUBLISHED_ROWS = [3050, 22575, 23810, 19128, 13289, 8328, 4806, 2586, 1309, 626, 285, 124, 51, 21, 8, 3, 1]
+PUBLISHED_COLUMNS = [0, 0, 1, 165, 2091, 9280, 19922, 24879, 20870, 12898, 6245, 2479, 837, 247, 66, 16, 3, 1]
+ANGLES = (math.radians(25.0), math.radians(35.0))  # two angles everywhere: the theory programs compile once
+SMALL = "hs_m,8.5,9.5\n5.5,10,20\n7.5,5,0\n"  # 3 sea states with weight, one without
+
+
+@pytest.fixture(scope="module")
+def small_csv(tmp_path_factory):
+    path = tmp_path_factory.mktemp("scatter") / "small.csv"
+    path.write_text(SMALL)
+    return path
+
+
+# ----------------------------------------------------------------------------------------------------------
+# The scatter diagram
+# ----------------------------------------------------------------------------------------------------------
+
+
+def test_rec34_matches_the_published_sums_and_the_criteria_transcription():
+    from jaxroll.criteria._parametric_roll import REC34_HS, REC34_SCATTER, REC34_TZ
+
+    d = jxr.rec34_scatter()
+    assert d.counts.sum() == pytest.approx(100_000.0, abs=1e-9)
+    np.testing.assert_array_equal(d.hs, np.arange(0.5, 17.0, 1.0))
+    np.testing.assert_array_equal(d.tz, np.arange(1.5, 19.0, 1.0))
+    # cells are given to 0.1: a published (integer) sum is the sum of the unrounded cells, rounded
+    tolerance = 0.5 + 0.05 * np.count_nonzero(d.counts, axis=1)
+    assert np.all(np.abs(d.counts.sum(axis=1) - PUBLISHED_ROWS) <= tolerance)
+    tolerance = 0.5 + 0.05 * np.count_nonzero(d.counts, axis=0)
+    assert np.all(np.abs(d.counts.sum(axis=0) - PUBLISHED_COLUMNS) <= tolerance)
+    # typed independently of the criteria module's table: they agree cell for cell
+    np.testing.assert_array_equal(d.counts, REC34_SCATTER)
+    np.testing.assert_array_equal(d.hs, REC34_HS)
+    np.testing.assert_array_equal(d.tz, REC34_TZ)
+
+
+def test_t01_over_tz_of_the_ittc_spectrum():
+    """T01 = 1.0864 T_z for jaxroll's ITTC spectrum: its moments by quadrature (m2 converges as ω⁻³)."""
+    from scipy.integrate import quad
+
+    assert T01_OVER_TZ == pytest.approx(1.0864348, abs=1e-7)
+    sea = jxr.ITTC(4.0, 9.0)
+    s = lambda w: float(sea(jnp.asarray(w)))  # noqa: E731
+    m = [quad(lambda w, n=n: w**n * s(w), 0.0, np.inf, limit=400, epsabs=0, epsrel=1e-11)[0] for n in range(3)]
+    t01 = 2 * math.pi * m[0] / m[1]
+    tz = 2 * math.pi * math.sqrt(m[0] / m[2])
+    assert t01 == pytest.approx(9.0, rel=1e-8)
+    assert t01 / tz == pytest.approx(T01_OVER_TZ, rel=1e-8)
+
+
+def test_scatter_file_is_sorted_and_normalised(tmp_path):
+    d = parse_scatter("# a comment\n\nhs_m,9.5,8.5\n7.5,0,5\n5.5,20,10\n", "x.csv")
+    np.testing.assert_array_equal(d.hs, [5.5, 7.5])
+    np.testing.assert_array_equal(d.tz, [8.5, 9.5])
+    np.testing.assert_array_equal(d.counts, [[10, 20], [5, 0]])
+    assert d.probability.sum() == pytest.approx(1.0, rel=1e-15, abs=0)
+    np.testing.assert_allclose(d.t01, T01_OVER_TZ * d.tz, rtol=1e-15, atol=0)
+
+
+BAD_SCATTER = [
+    ("hs,8.5\n5.5,1\n", ":1: the first row must be 'hs_m"),
+    ("hs_m\n5.5\n", ":1: the first row must be 'hs_m"),
+    ("hs_m,8.5,9.5\n5.5,1\n", ":2: 2 fields, but the header has 3"),
+    ("hs_m,8.5\n5.5,abc\n", ":2: the count 'abc' is not a number"),
+    ("hs_m,8.5\nSum,3\n", ":2: the H_s 'Sum' is not a number"),
+    ("hs_m,8.5,9.5\n5.5,1,-2\n", ":2: the count of T_z = 9.5 s is negative"),
+    ("hs_m,8.5,9.5\n5.5,1,nan\n", ":2: the count of T_z = 9.5 s is nan"),
+    ("hs_m,8.5\n5.5,0\n6.5,0\n", "every count is zero"),
+    ("hs_m,8.5\n5.5,1\n# comment\n5.5,2\n", ":4: H_s = 5.5 m repeats the row of line 2"),
+    ("hs_m,8.5,0.5\n5.5,1,0\n", ":1: T_z = 0.5 s is outside the sensible range"),
+    ("hs_m,8.5,45\n5.5,1,0\n", ":1: T_z = 45 s is outside the sensible range"),
+    ("hs_m,8.5,8.5\n5.5,1,0\n", ":1: T_z 8.5 s appears in more than one column"),
+    ("hs_m,2.5\n6.5,1\n", ":2: H_s = 6.5 m with T_z = 2.5 s has a count"),
+    ("hs_m,8.5\n-1,1\n", ":2: H_s = -1 m is outside"),
+    ("", "no data"),
+]
+
+
+@pytest.mark.parametrize("text, message", BAD_SCATTER)
+def test_bad_scatter_file_is_refused_with_file_and_line(text, message, tmp_path, capsys):
+    path = tmp_path / "bad.csv"
+    path.write_text(text)
+    with pytest.raises(ScatterError, match=None) as e:
+        jxr.read_scatter(path)
+    assert str(path) in str(e.value) and message in str(e.value)
+    out = tmp_path / "out"
+    assert main(["longterm", "--scatter", str(path), "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("jaxroll longterm: error: --scatter: ") and message in err and str(path) in err
+    assert not out.exists()  # before any computation
+
+
+BAD_OPTIONS = [
+    (["--heading-weights", "1,2"], "--heading-weights has 2 weights for 24 headings"),
+    (["--heading", "180,150", "--heading-weights", "0,0"], "--heading-weights sum to zero"),
+    (["--heading", "180,150", "--heading-weights", "1,-1"], "--heading-weights must be finite numbers >= 0"),
+    (["--speed", "0,5", "--speed-weights", "1"], "--speed-weights has 1 weights for 2 speeds"),
+    (["--speed", "0,5", "--speed-weights", "0,0"], "--speed-weights sum to zero"),
+    (["--ship-weights", "1,1"], "--ship-weights has 2 weights for 1 ships"),
+    (["--angle", "72"], "--angle 72° is not below the angle of vanishing stability"),
+    (["--angle", "30,95"], "--angle must be distinct angles in (0, 90) degrees"),
+    (["--heading", "360"], "--heading must be all or a list of angles in degrees in [0, 360)"),
+    (["--heading", "180,head"], "--heading repeats a heading"),
+    (["--speed", "-1"], "--speed must be distinct finite speeds >= 0"),
+    (["--hours", "0"], "--hours must be a finite number > 0"),
+    (["--part", "3/2"], "--part must be i/N with integers 1 <= i <= N"),
+    (["--realizations", "0"], "--realizations must be >= 1"),
+    (["--scatter", "nowhere.csv"], "--scatter: scatter file 'nowhere.csv' not found"),
+    (["--estimator", "magic"], "--estimator must be one of brute-force"),
+    (["--model-factor", "0.5"], "--model-factor must be >= 1"),
+    (["--skip-weight", "1"], "--skip-weight must be in [0, 1)"),
+]
+
+
+@pytest.mark.parametrize("argv, message", BAD_OPTIONS, ids=[m[:30] for _, m in BAD_OPTIONS])
+def test_bad_options_exit_2_before_any_computation(argv, message, tmp_path, capsys):
+    out = tmp_path / "out"
+    assert main(["longterm", *argv, "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("jaxroll longterm: error: ") and message in err, err
+    assert not out.exists()
+
+
+# ----------------------------------------------------------------------------------------------------------
+# Cells, weights, the long-term integral
+# ----------------------------------------------------------------------------------------------------------
+
+
+def test_weights_classes_and_seeds():
+    d = parse_scatter(SMALL, "small.csv")
+    h = [math.radians(x) for x in (180.0, 30.0, 330.0, 90.0)]
+    grid = make_grid(d, [SHIP, SHIP], ["a", "b"], [3, 1], h, [1, 2, 3, 4], [0.0, 4.0], [1, 1])
+    w = grid.weight
+    assert w.shape == (2, 2, 4, 2, 2) and w.sum() == pytest.approx(1.0, rel=1e-14, abs=0)
+    np.testing.assert_allclose(w[0, 1, 2, 1, 0], 20 / 35 * 3 / 10 * 0.5 * 0.75, rtol=1e-14, atol=0)
+    np.testing.assert_array_equal(grid.classes_deg, [180.0, 30.0, 90.0])  # 330° is 30° (port/starboard)
+    np.testing.assert_array_equal(grid.heading_class, [0, 1, 1, 2])
+    np.testing.assert_allclose(grid.comp_weight.sum(), 1.0, rtol=1e-14, atol=0)
+    seeds = grid.seeds(7)
+    assert seeds.min() == 7_000_001 and np.unique(seeds).size == seeds.size
+    with pytest.raises(ValueError, match="`heading_weights` has 3 weights for 4 values"):
+        make_grid(d, [SHIP], ["a"], None, h, [1, 2, 3], [0.0], None)
+    with pytest.raises(ValueError, match="`headings` repeats a heading"):
+        make_grid(d, [SHIP], ["a"], None, [1.0, 1.0], None, [0.0], None)
+
+
+def test_long_term_integral_interval_and_per_year():
+    rng = np.random.default_rng(0)
+    w = rng.random((5, 3))
+    w /= w.sum()
+    p = rng.random((5, 3, 2)) * 0.3
+    var = rng.random((5, 3, 2)) * 1e-4
+    lo, hi = p / 1.25, np.minimum(1, 1.25 * p)
+    lt = longterm_probability(w, p, var, lo, hi)
+    np.testing.assert_allclose(lt["probability"], (w[..., None] * p).sum(axis=(0, 1)), rtol=1e-14, atol=0)
+    sd = np.sqrt((w[..., None] ** 2 * var).sum(axis=(0, 1)))
+    np.testing.assert_allclose(lt["upper"], lt["probability"] + 1.959963984540054 * sd + (w[..., None] * (hi - p)).sum(
+        axis=(0, 1)), rtol=1e-14, atol=0)
+    ny = 1000.0
+    yr = annual(w, p, var, lo, hi, ny)
+    direct = 1 - np.prod((1 - p) ** (ny * w[..., None]), axis=(0, 1))
+    np.testing.assert_allclose(yr["probability"], direct, rtol=1e-12, atol=0)
+    np.testing.assert_allclose(yr["rate"], ny * lt["probability"], rtol=1e-14, atol=0)
+    small = annual(w, p * 1e-6, var, lo * 1e-6, hi * 1e-6, ny)  # the rate form is the small-probability limit
+    np.testing.assert_allclose(small["probability"], small["rate"], rtol=1e-3, atol=0)
+
+
+def test_auto_rule_and_neyman_allocation():
+    w = np.array([0.5, 0.3, 0.1, 0.1])
+    p = np.array([[0.01], [0.5], [0.2], [0.0]])  # contributions 0.005, 0.15, 0.02, 0: P_LT 0.175
+    doubt = np.array([False, False, False, True])
+    dominant, material = auto_cells(w, p, doubt, np.ones(4, bool), share=0.9, tolerance=0.01)
+    np.testing.assert_array_equal(dominant, [False, True, True, False])  # 0.15 + 0.02 >= 0.9 × 0.175
+    np.testing.assert_array_equal(material, [False, False, False, True])  # worst case 0.1 > 0.01 × 0.175
+    n = neyman_allocation(np.array([0.4, 0.1, 0.5]), np.array([0.1, 0.1, 0.0]), 1000, 50)
+    a = np.array([0.4 * math.sqrt(0.09), 0.1 * math.sqrt(0.09), 0.5 * math.sqrt(0.01 * 0.99)])
+    np.testing.assert_array_equal(n, np.maximum(50, np.round(a / a.sum() * 1000)))
+
+
+# ----------------------------------------------------------------------------------------------------------
+# Theory per cell
+# ----------------------------------------------------------------------------------------------------------
+
+
+def test_class_theory_is_passage_risk_cell_by_cell(monkeypatch):
+    """A class's cells give `jaxroll.theory.passage_risk`'s numbers, cell by cell; cells with λ <= 0 (by the screen,
+    on passage_risk's own (ρ, θ) grid) never reach it and are 0, as its own `exists` makes them."""
+    from jaxroll.longterm import _theory
+
+    hs = np.array([6.0, 1.5, 7.0])  # 1.5 m: the roll dies out (λ < 0)
+    t01 = np.array([10.0, 10.0, 9.0])
+    seen = []
+    solve = _theory.passage_risk
+
+    def counting(ship, wave, angles, durations):
+        seen.append(float(wave.sea.hs))
+        return solve(ship, wave, angles, durations)
+
+    monkeypatch.setattr(_theory, "passage_risk", counting)
+    r = class_theory(SHIP, class_template(SHIP, 0.0, 180.0), hs, t01, np.asarray(ANGLES), 1800.0)
+    assert r["lyapunov_exponent"][1] < 0 < min(r["lyapunov_exponent"][0], r["lyapunov_exponent"][2])
+    assert seen == [6.0, 7.0]
+    for i in range(3):
+        wave = jxr.EffectiveWave(jxr.ITTC(float(hs[i]), float(t01[i])), SHIP.lpp, 0.0, "head")
+        one = solve(SHIP, wave, np.asarray(ANGLES), jnp.asarray([1800.0]))
+        np.testing.assert_allclose(r["probability"][i], np.asarray(one.probability)[:, 0], rtol=1e-10, atol=1e-300)
+        np.testing.assert_allclose(r["capsize_probability"][i], float(one.capsize_probability[0]), rtol=1e-10,
+                                   atol=1e-300)
+        if i == 1:
+            assert not bool(one.exists)
+    assert np.all(r["probability"][1] == 0) and r["probability"][0, 0] > 0
+
+
+def test_zero_speed_headings_mirror():
+    """At zero speed χ and 180° − χ are one problem (the reuse `_run._twin` makes): the same effective-wave
+    spectrum, so the same theory."""
+    w = jnp.linspace(0.05, 2.0, 400)
+    a = jxr.EffectiveWave(jxr.ITTC(6.0, 10.0), SHIP.lpp, 0.0, math.radians(30.0))
+    b = jxr.EffectiveWave(jxr.ITTC(6.0, 10.0), SHIP.lpp, 0.0, math.radians(150.0))
+    np.testing.assert_allclose(np.asarray(a.spectrum(w)), np.asarray(b.spectrum(w)), rtol=1e-12, atol=1e-300)
+    ra = jxr.theory.passage_risk(SHIP, a, np.asarray(ANGLES), jnp.asarray([1800.0]))
+    rb = jxr.theory.passage_risk(SHIP, b, np.asarray(ANGLES), jnp.asarray([1800.0]))
+    np.testing.assert_allclose(np.asarray(ra.probability), np.asarray(rb.probability), rtol=1e-9, atol=0)
+
+
+@pytest.fixture(scope="module")
+def theory_run(small_csv):
+    h = [math.radians(x) for x in (180.0, 150.0, 210.0, 90.0)]
+    return jxr.longterm(small_csv, headings=h, heading_weights=[4, 2, 1, 1], angles=ANGLES, exposure=1800.0,
+                        hours_per_year=5000.0)
+
+
+def test_longterm_by_theory(theory_run):
+    ds = theory_run
+    assert ds.probability.dims == ("hs", "tz", "heading", "speed", "ship", "angle")
+    w, p = ds.weight.values, ds.probability.values
+    np.testing.assert_allclose(w.sum(), 1.0, rtol=1e-14, atol=0)
+    np.testing.assert_allclose(ds.longterm_probability.values, np.nansum(w[..., None] * p, axis=(0, 1, 2, 3, 4)),
+                               rtol=1e-13, atol=0)
+    np.testing.assert_array_equal(p[:, :, 1], p[:, :, 2])  # 150° and 210°: one problem
+    beam = ds.sel(heading=90.0)
+    assert np.all(beam.probability.sel(hs=5.5).values == 0) and np.all(beam.capsize_probability.sel(hs=5.5) == 0)
+    assert np.all(beam.method.sel(hs=5.5).values == METHODS.index("no_excitation"))
+    empty = ds.sel(hs=7.5, tz=9.5)
+    assert np.all(np.isnan(empty.probability.values)) and np.all(empty.method.values == METHODS.index("zero_weight"))
+    assert np.all(ds.method.sel(hs=5.5, heading=[180.0, 150.0, 210.0]).values == METHODS.index("theory"))
+    # theory cells: the interval is the model allowance [P/1.25, 1.25 P] (none is doubtful here)
+    assert not ds.theory_doubtful.values.any()
+    pt = ds.probability.sel(hs=5.5, heading=180.0).values
+    np.testing.assert_allclose(ds.probability_lower.sel(hs=5.5, heading=180.0).values, pt / 1.25, rtol=1e-15, atol=0)
+    lt = ds.longterm_probability.values
+    np.testing.assert_allclose(ds.longterm_probability_ci95.values[:, 0], lt - ds.longterm_model_below.values,
+                               rtol=1e-14, atol=0)
+    assert np.all(ds.longterm_sampling_sd.values == 0)
+    ny = 5000.0 * 3600 / 1800.0
+    q = np.nan_to_num(p)
+    np.testing.assert_allclose(ds.longterm_per_year_probability.values,
+                               1 - np.prod((1 - q) ** (ny * w[..., None]), axis=(0, 1, 2, 3, 4)), rtol=1e-12, atol=0)
+    np.testing.assert_allclose(ds.longterm_per_year_rate.values, ny * lt, rtol=1e-14, atol=0)
+    cfg = json.loads(ds.attrs["config_json"])
+    assert cfg["heading_classes_deg"] == [180.0, 150.0, 90.0] and ds.attrs["jax_version"] == jax.__version__
+    summary = jxr.longterm_summary(ds)
+    top = summary["longterm"]["25"]["dominating_cells"]
+    assert top[0]["share"] >= top[1]["share"] and sum(c["share"] for c in top) == pytest.approx(1.0, rel=1e-12)
+
+
+def test_skipped_weight_is_a_bound_in_the_interval(small_csv, theory_run):
+    h = [math.radians(x) for x in (180.0, 150.0, 210.0, 90.0)]
+    ds = jxr.longterm(small_csv, headings=h, heading_weights=[4, 2, 1, 1], angles=ANGLES, exposure=1800.0,
+                      hours_per_year=5000.0, skip_weight=0.06)
+    left = ds.method.values == METHODS.index("left_out")
+    assert left.any() and 0 < float(ds.left_out_weight) <= 0.06
+    np.testing.assert_allclose(float(ds.left_out_weight), ds.weight.values[left].sum(), rtol=1e-14, atol=0)
+    full = theory_run
+    assert np.all(ds.longterm_probability.values <= full.longterm_probability.values)
+    assert np.all(ds.longterm_probability_ci95.values[:, 1] >= full.longterm_probability.values)
+
+
+# ----------------------------------------------------------------------------------------------------------
+# Monte Carlo per cell
+# ----------------------------------------------------------------------------------------------------------
+
+
+def test_monte_carlo_cell_is_jaxroll_risk_trial_for_trial(tmp_path):
+    """The cell's recorded `jaxroll risk` command reproduces it: the same exceedances and capsizes; and the cell's
+    counts at every effort fraction are those of `monte_carlo_max_roll` with the cell's seed, trial by trial."""
+    csv = tmp_path / "one.csv"
+    csv.write_text("hs_m,8.5\n7.5,1\n")
+    ds = jxr.longterm(csv, angles=ANGLES, exposure=360.0, discard=100.0, method="monte-carlo", realizations=16,
+                      seed=4)
+    cell = ds.isel(hs=0, tz=0, heading=0, speed=0, ship=0)
+    seed = int(cell.seed)
+    assert seed == 4_000_001
+    summary = jxr.longterm_summary(ds)
+    command = next(iter(summary["longterm"].values()))["dominating_cells"][0]["risk_command"]
+    assert f"--seed {seed - 1}" in command
+    problem = jxr.RollProblem.from_sea(SHIP, jxr.ITTC(7.5, float(cell.t01)), heading="head")
+    stats = jxr.monte_carlo_max_roll(problem, jax.random.key(seed), angle_deg=25.0, num_realizations=16,
+                                     duration=460.0, discard=100.0)
+    for e, f in enumerate(EFFORT_FRACTIONS):
+        m = max(1, round(f * 16))
+        for a, angle in enumerate((25.0, 35.0)):
+            k = int(np.sum(stats.capsized[:m] | (stats.max_abs_phi_deg[:m] > angle)))
+            assert int(cell.n_exceeded_effort[e, a]) == k
+    assert int(cell.n_capsized) == stats.n_capsized
+    argv = command.split()[1:] + ["--duration", "400", "--out", str(tmp_path / "risk"), "--quiet"]
+    assert main(argv) == 0
+    direct = json.loads((tmp_path / "risk" / "risk.json").read_text())["direct"]
+    assert direct["n_realizations"] == 16 and direct["n_capsized"] == int(cell.n_capsized)
+    assert direct["probability"] == int(cell.n_exceeded[0]) / 16 == float(cell.probability[0])
+
+
+@pytest.mark.slow  # ~2-4 min: 18 filter fits, brute force and auto
+def test_auto_lies_within_the_brute_force_interval(tmp_path):
+    """3 × 3 sea states × 3 headings (150° and 210° one class): `auto` (theory, Monte Carlo on the dominating
+    cells) against every cell by Monte Carlo, seeded; tolerance from both standard errors and auto's allowance."""
+    csv = tmp_path / "three.csv"
+    csv.write_text("hs_m,8.5,9.5,10.5\n4.5,30,40,20\n5.5,20,30,20\n6.5,8,12,8\n")
+    kw = dict(headings=[math.pi, math.radians(150), math.radians(210)], angles=ANGLES, exposure=900.0,
+              discard=300.0, realizations=200, seed=1)
+    brute = jxr.longterm(csv, method="monte-carlo", **kw)
+    auto = jxr.longterm(csv, method="auto", **kw)
+    n_mc = int((auto.method.values == METHODS.index("monte_carlo")).sum())
+    assert 0 < n_mc < int((brute.method.values == METHODS.index("monte_carlo")).sum())
+    for a in range(2):
+        pa, pb = float(auto.longterm_probability[a]), float(brute.longterm_probability[a])
+        sd = math.hypot(float(auto.longterm_sampling_sd[a]), float(brute.longterm_sampling_sd[a]))
+        allowance = max(float(auto.longterm_model_below[a]), float(auto.longterm_model_above[a]))
+        assert abs(pa - pb) <= 3 * sd + allowance, (a, pa, pb, sd, allowance)
+        assert float(brute.longterm_probability_ci95[a, 0]) <= float(auto.longterm_probability_ci95[a, 1])
+        assert float(auto.longterm_probability_ci95[a, 0]) <= float(brute.longterm_probability_ci95[a, 1])
+
+
+# ----------------------------------------------------------------------------------------------------------
+# Parts, processes, checkpoints: the same dataset bit for bit
+# ----------------------------------------------------------------------------------------------------------
+
+
+def _assert_same(a, b):
+    xr.testing.assert_identical(a, b)
+    for v in a.variables:
+        np.testing.assert_array_equal(a[v].values, b[v].values, err_msg=v)
+
+
+def _results(folder):
+    """A written longterm.nc without its run time (the one number two runs of the same problem differ in)."""
+    return read_dataset(folder / "longterm.nc").drop_vars("run_time_s", errors="ignore")
+
+
+def _roundtrip(ds, path):
+    write_dataset(path, ds)
+    return read_dataset(path)
+
+
+@pytest.mark.parametrize("method", ["theory", "monte-carlo", "auto"])
+def test_two_parts_merged_equal_one_run(method, small_csv, tmp_path):
+    kw = dict(headings=[math.radians(x) for x in (180.0, 150.0, 210.0, 90.0)], heading_weights=[4, 2, 1, 1],
+              angles=ANGLES, exposure=1800.0, hours_per_year=5000.0, method=method, realizations=6,
+              discard=100.0)
+    whole = jxr.longterm(small_csv, **kw)
+    parts = [_roundtrip(jxr.longterm(small_csv, part=f"{i}/2", **kw), tmp_path / f"p{i}.nc") for i in (2, 1)]
+    assert parts[0].attrs["part"] == "2/2" and parts[0].computed.values.any()
+    assert not (parts[0].computed.values & parts[1].computed.values).any()
+    merged = jxr.merge_longterm(parts)
+    _assert_same(_roundtrip(merged, tmp_path / "merged.nc"), _roundtrip(whole, tmp_path / "whole.nc"))
+    with pytest.raises(ValueError, match="each part 1/2 … 2/2 exactly once"):
+        jxr.merge_longterm([parts[0], parts[0]])
+
+
+def test_cli_parts_merge_and_outputs(small_csv, tmp_path, capsys):
+    common = ["--scatter", str(small_csv), "--heading", "180,150,210,90", "--heading-weights", "4,2,1,1",
+              "--angle", "25,35", "--hours", "0.5", "--hours-per-year", "5000", "--quiet"]
+    assert main(["longterm", *common, "--out", str(tmp_path / "whole")]) == 0
+    for i in (1, 2):
+        assert main(["longterm", *common, "--part", f"{i}/2", "--out", str(tmp_path / "parts")]) == 0
+    files = sorted(str(p) for p in (tmp_path / "parts").glob("longterm.part-*-of-2.nc"))
+    assert len(files) == 2
+    assert main(["merge", *files, "--out", str(tmp_path / "merged")]) == 0
+    _assert_same(_results(tmp_path / "merged"), _results(tmp_path / "whole"))
+    for name in ("longterm.json", "longterm_scatter.png", "longterm_polar.png", "longterm_ci.png"):
+        assert (tmp_path / "whole" / name).is_file()
+    payload = json.loads((tmp_path / "whole" / "longterm.json").read_text())
+    assert payload["config"]["method"] == "theory" and list(payload["longterm"]) == ["25", "35"]
+    assert set(payload["longterm"]["25"]) >= {"probability", "probability_ci95", "per_year", "dominating_cells"}
+    assert "per_year_assumptions" in payload and payload["versions"]["jax_version"] == jax.__version__
+    assert_labelled_output(tmp_path / "whole", "longterm")
+    capsys.readouterr()
+    assert main(["merge", files[0], "--out", str(tmp_path / "bad")]) == 2
+    assert "each part 1/2 … 2/2 exactly once" in capsys.readouterr().err
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("localhost", 0))
+        return s.getsockname()[1]
+
+
+def test_two_processes_equal_one(small_csv, tmp_path):
+    """`jaxroll longterm --distributed` in 2 localhost processes writes the dataset of one process, bit for bit
+    (Monte Carlo cells shared among the processes, each on its own devices)."""
+    argv = ["longterm", "--scatter", str(small_csv), "--heading", "180,150", "--angle", "25,35", "--hours", "0.1",
+            "--discard", "60", "--method", "monte-carlo", "--realizations", "6", "--quiet"]
+    assert main([*argv, "--out", str(tmp_path / "one")]) == 0
+    env = {k: v for k, v in os.environ.items() if k != "JAX_NUM_CPU_DEVICES"}
+    env.update(JAX_NUM_CPU_DEVICES="1", JAX_PLATFORMS="cpu", JAXROLL_NUM_PROCESSES="2",
+               JAX_COORDINATOR_ADDRESS=f"localhost:{_free_port()}")
+    procs = [subprocess.Popen([sys.executable, "-m", "jaxroll", *argv, "--distributed", "--out",
+                               str(tmp_path / "two")], env={**env, "JAXROLL_PROCESS_ID": str(pid)},
+                              stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True) for pid in (0, 1)]
+    for p in procs:
+        _, err = p.communicate(timeout=600)
+        assert p.returncode == 0, err[-3000:]
+    _assert_same(_results(tmp_path / "two"), _results(tmp_path / "one"))
+
+
+class Interrupt(Exception):
+    pass
+
+
+def test_checkpoint_resumes_cell_by_cell(small_csv, tmp_path):
+    kw = dict(headings=[math.pi, math.radians(150)], angles=ANGLES, exposure=360.0, discard=60.0,
+              method="monte-carlo", realizations=6)
+    whole = jxr.longterm(small_csv, **kw)
+    calls = []
+
+    def stop_after_first_cell(done, total, phase):  # in the second cell, once the first is saved
+        calls.append(done)
+        if done >= 12:
+            raise Interrupt
+
+    with pytest.raises(Interrupt):
+        jxr.longterm(small_csv, checkpoint=tmp_path / "ck", progress=stop_after_first_cell, **kw)
+    assert len(list((tmp_path / "ck").glob("mc_*.npz"))) == 1
+    seen = []
+    resumed = jxr.longterm(small_csv, checkpoint=tmp_path / "ck", progress=lambda d, t, p: seen.append(d), **kw)
+    _assert_same(resumed, whole)
+    assert seen[0] == 6  # the first cell came from the checkpoint
+
+
+# ----------------------------------------------------------------------------------------------------------
+# Notebook
+# ----------------------------------------------------------------------------------------------------------
+
+
+def test_notebook_runs_in_smoke_mode(tmp_path, monkeypatch):
+    from helpers import run_notebook
+
+    ns = run_notebook("07_longterm.ipynb", tmp_path, monkeypatch)
+    assert "ds" in ns and float(ns["ds"].longterm_probability[0]) > 0
