@@ -300,12 +300,9 @@ def run(args) -> int:
         initialize_distributed()
     from .. import longterm
     from ..io import write_dataset
-    from .pdf import check_out
 
-    out = Path(args.out)
+    out = Path(args.out)  # checked writable before the command ran (`prepare_out`)
     main = jax.process_index() == 0
-    if main:
-        check_out(out)
     kwargs = check_args(args)
     if main and args.ship is None:
         print("Ship: C11 (representative) — Table-1 particulars, representative coefficients.")
