@@ -26,10 +26,8 @@ def run(args) -> int:
     from .. import merge_longterm
     from ..io import read_dataset
     from .longterm import print_summary, write_outputs
-    from .pdf import check_out
 
-    out = Path(args.out)
-    check_out(out)
+    out = Path(args.out)  # checked writable before the command ran (`prepare_out`)
     datasets = []
     for name in args.parts:
         path = Path(name)
