@@ -18,7 +18,9 @@ def register(sub) -> None:
         "longterm.json and the figures — into --out.",
     )
     p.add_argument("parts", nargs="+", metavar="PART.nc", help="the partial datasets, in any order")
-    p.add_argument("--out", default="jaxroll-out/longterm", help="output folder (default jaxroll-out/longterm)")
+    p.add_argument(
+        "--out", default="jaxroll-out/longterm", help="output folder (default jaxroll-out/longterm)"
+    )
     p.set_defaults(func=run)
 
 
