@@ -484,6 +484,7 @@ def _fill(cells, shape, method, comp_w, beam, left_out, needed, is_mc, factor) -
             cells["capsize_lower"][rough] = 0.0
             cells["capsize_upper"][rough] = np.where(doubt_r, 1.0, np.minimum(
                 1.0, factor * cells["theory_pass_capsize_ratio"][rough] * cells["theory_capsize_probability"][rough]))
+        unc[th] = np.where(doubt, UNCERTAINTY.index("unknown"), UNCERTAINTY.index("model_factor"))
     m[is_mc] = METHODS.index("monte_carlo")
     unc[is_mc] = UNCERTAINTY.index("sampling")
     cells["method"], cells["uncertainty"] = m, unc

@@ -12,7 +12,8 @@ T_z 7.5–10.5 s, headings 0/150/180°, 0 and 4 m/s; probably the mean GM rising
 detuning the resonance), and at a 2 % tolerance it saved 6 of 105 solves.)
 
 **Two passes** (`refine_delta` δ): pass 1 solves every λ > 0 cell on one grid (`extrapolate=False`, a third of
-the work); pass 2 runs the Richardson-extrapolated `passage_risk` only on the smallest set of cells that carries at
+the work); pass 2 runs the Richardson-extrapolated `passage_risk` (its `num_s` grid reused from pass 1: twice
+the work of one grid) only on the smallest set of cells that carries at
 least 1 − δ of the unit's Σ_c w_c P1_c for each angle (largest w_c P1_c first, `auto_cells`' rule). The other
 cells keep P1 (together at most δ of the pass-1 sum); the long-term interval widens their allowance by the
 pass-2/pass-1 ratios measured on the refined cells (`_run._fill`, docs/longterm.md). δ = 0: every λ > 0 cell
@@ -65,10 +66,10 @@ def class_template(ship, speed: float, heading_deg: float) -> EffectiveWave:
     return EffectiveWave(ITTC(1.0, 10.0), ship.lpp, speed, math.radians(heading_deg))
 
 
-def _solve(ship, template, hs, t01, cells, angles, durations, devices, extrapolate: bool) -> dict:
+def _solve(ship, template, hs, t01, cells, angles, durations, devices, extrapolate: bool, coarse=None) -> dict:
     """`passage_risk` of the cells `cells` (indices into `hs`, `t01`), dispatched in turn to the devices (one
-    sea state per call: a vmapped batch ran slower per cell on a CPU). **Returns:** {cell: (P per angle, capsize
-    P)}."""
+    sea state per call: a vmapped batch ran slower per cell on a CPU); `coarse`: {cell: its one-grid result},
+    reused by the extrapolation. **Returns:** {cell: (P per angle, capsize P, the `PassageRisk`)}."""
     fixed = [jax.device_put((ship, template), d) for d in devices]
     pending = []
     for n, c in enumerate(cells):
@@ -76,8 +77,10 @@ def _solve(ship, template, hs, t01, cells, angles, durations, devices, extrapola
         sh, tm = fixed[d]
         sea = eqx.tree_at(lambda s: (s.hs, s.t01), ITTC(1.0, 10.0), (jnp.asarray(hs[c]), jnp.asarray(t01[c])))
         wave = eqx.tree_at(lambda w: w.sea, tm, jax.device_put(sea, devices[d]))
-        pending.append((c, passage_risk(sh, wave, angles, durations, extrapolate=extrapolate)))
-    return {c: (np.asarray(r.probability)[:, 0], float(np.asarray(r.capsize_probability)[0])) for c, r in pending}
+        kw = {} if coarse is None else {"coarse": jax.device_put(coarse[c], devices[d])}
+        pending.append((c, passage_risk(sh, wave, angles, durations, extrapolate=extrapolate, **kw)))
+    return {c: (np.asarray(r.probability)[:, 0], float(np.asarray(r.capsize_probability)[0]), r)
+            for c, r in pending}
 
 
 def screen(ship, template: EffectiveWave, hs, t01) -> tuple[np.ndarray, np.ndarray]:
@@ -131,17 +134,19 @@ def class_theory(ship, template: EffectiveWave, hs, t01, angles, exposure: float
         progress(int(n - live.sum()))
     devices = jax.local_devices()
     p1, c1 = np.full((n, n_a), np.nan), np.full(n, np.nan)
+    first = None
     if refine_delta > 0:
         p1[~live], c1[~live] = 0.0, 0.0
-        for c, (p, cp) in _solve(ship, template, hs, t01, np.flatnonzero(live), angles, durations, devices,
-                                 False).items():
+        first = _solve(ship, template, hs, t01, np.flatnonzero(live), angles, durations, devices, False)
+        for c, (p, cp, _) in first.items():
             p1[c], c1[c] = p, cp
         prob[:], cap[:] = p1, c1
+        first = {c: r for c, (_, _, r) in first.items()}
     refined = refine_set(weight, np.nan_to_num(p1), live, refine_delta)
     if progress is not None and live.sum() - refined.sum():
         progress(int(live.sum() - refined.sum()))
-    for c, (p, cp) in _solve(ship, template, hs, t01, np.flatnonzero(refined), angles, durations, devices,
-                             True).items():
+    for c, (p, cp, _) in _solve(ship, template, hs, t01, np.flatnonzero(refined), angles, durations, devices,
+                                True, first).items():
         prob[c], cap[c] = p, cp
     if progress is not None and refined.sum():
         progress(int(refined.sum()))
