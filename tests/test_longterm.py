@@ -143,6 +143,7 @@ BAD_OPTIONS = [
     (["--estimator", "magic"], "--estimator must be one of brute-force"),
     (["--model-factor", "0.5"], "--model-factor must be >= 1"),
     (["--skip-weight", "1"], "--skip-weight must be in [0, 1)"),
+    (["--refine-delta", "-0.1"], "--refine-delta must be in [0, 1)"),
 ]
 
 
