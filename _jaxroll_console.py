@@ -15,7 +15,9 @@ import sys
 
 def _interrupted(signum, frame) -> None:
     words = [a for a in sys.argv[1:] if not a.startswith("-")]
-    sys.stderr.write(f"jaxroll{' ' + words[0] if words else ''}: interrupted while starting; nothing was written.\n")
+    sys.stderr.write(
+        f"jaxroll{' ' + words[0] if words else ''}: interrupted while starting; nothing was written.\n"
+    )
     sys.stderr.flush()
     os._exit(130)
 

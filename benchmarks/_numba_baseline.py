@@ -53,8 +53,33 @@ def _numba_kernel():
         return -dphi * (b[0] + b[1] * abs(dphi) + b[2] * dphi * dphi) - phi * rest
 
     @nb.njit
-    def one(g, i, n, m, r, n_steps, start, h, phid, chol, schol, c, wa, wb, a, b, pc, cap, phi0, width, phi_out,
-            zbuf, hist, zsum, capsized):
+    def one(
+        g,
+        i,
+        n,
+        m,
+        r,
+        n_steps,
+        start,
+        h,
+        phid,
+        chol,
+        schol,
+        c,
+        wa,
+        wb,
+        a,
+        b,
+        pc,
+        cap,
+        phi0,
+        width,
+        phi_out,
+        zbuf,
+        hist,
+        zsum,
+        capsized,
+    ):
         nbins = hist.size
         z = np.empty(n, phid.dtype)
         e = np.empty(n, phid.dtype)
@@ -139,22 +164,72 @@ def _numba_kernel():
             zsum[i, 1] = total
 
     @nb.njit(parallel=True)
-    def run(g0, g1, n_real, m, r, n_steps, start, h, phid, chol, schol, c, wa, wb, a, b, pc, cap, phi0, width,
-            phi_out, hist, zsum, capsized):
+    def run(
+        g0,
+        g1,
+        n_real,
+        m,
+        r,
+        n_steps,
+        start,
+        h,
+        phid,
+        chol,
+        schol,
+        c,
+        wa,
+        wb,
+        a,
+        b,
+        pc,
+        cap,
+        phi0,
+        width,
+        phi_out,
+        hist,
+        zsum,
+        capsized,
+    ):
         n = c.size
         for lane in nb.prange(2):  # one PCG64 generator (ziggurat normals) per lane = per core
             g = g0 if lane == 0 else g1
             zbuf = np.empty(n_steps, np.int32)
             for i in range(lane, n_real, 2):
-                one(g, i, n, m, r, n_steps, start, h, phid, chol, schol, c, wa, wb, a, b, pc, cap, phi0, width,
-                    phi_out, zbuf, hist[lane], zsum, capsized)
+                one(
+                    g,
+                    i,
+                    n,
+                    m,
+                    r,
+                    n_steps,
+                    start,
+                    h,
+                    phid,
+                    chol,
+                    schol,
+                    c,
+                    wa,
+                    wb,
+                    a,
+                    b,
+                    pc,
+                    cap,
+                    phi0,
+                    width,
+                    phi_out,
+                    zbuf,
+                    hist[lane],
+                    zsum,
+                    capsized,
+                )
 
     _NUMBA["k"] = run
     return run
 
 
-def numba_monte_carlo(problem, n_real, n_steps, discard=500.0, chunk=1000, seed=0, width=0.05, nbins=1800,
-                      dtype=np.float32):
+def numba_monte_carlo(
+    problem, n_real, n_steps, discard=500.0, chunk=1000, seed=0, width=0.05, nbins=1800, dtype=np.float32
+):
     """jaxroll's statistics by the numba kernel, as `jaxroll.monte_carlo_amplitudes(..., discard)`: zero-crossing
     amplitudes binned in the kernel (every step), φ recorded every r steps (`jaxroll.envelope_record_every`) and the
     envelope histogram of its record after the discard; capsized trials left out.
@@ -171,8 +246,10 @@ def numba_monte_carlo(problem, n_real, n_steps, discard=500.0, chunk=1000, seed=
     r = jaxroll.envelope_record_every(problem)
     start = int(round(discard / exc.dt))
     a, b, pc, cap = ship_constants(problem)
-    mats = [np.asarray(x, dtype=dtype) for x in (exc.phi, exc.chol, exc.stationary_chol, exc.c, exc.bridge[0],
-                                                   exc.bridge[1])]
+    mats = [
+        np.asarray(x, dtype=dtype)
+        for x in (exc.phi, exc.chol, exc.stationary_chol, exc.c, exc.bridge[0], exc.bridge[1])
+    ]
     a, b, pc = (np.asarray(x, dtype=dtype) for x in (a, b, pc))
     run = _numba_kernel()
     hist_zc = np.zeros((2, nbins), np.int64)
@@ -184,15 +261,36 @@ def numba_monte_carlo(problem, n_real, n_steps, discard=500.0, chunk=1000, seed=
         caps = np.zeros(k, dtype=np.bool_)
         zsum = np.zeros((k, 2))
         g0, g1 = (np.random.default_rng([seed, first, lane]) for lane in (0, 1))
-        run(g0, g1, k, exc.substeps, r, n_steps, start, dtype(exc.dt), *mats, a, b, pc, dtype(cap),
-            dtype(problem.phi0), width, phi, hist_zc, zsum, caps)
-        kept = phi[~caps, start // r:]
+        run(
+            g0,
+            g1,
+            k,
+            exc.substeps,
+            r,
+            n_steps,
+            start,
+            dtype(exc.dt),
+            *mats,
+            a,
+            b,
+            pc,
+            dtype(cap),
+            dtype(problem.phi0),
+            width,
+            phi,
+            hist_zc,
+            zsum,
+            caps,
+        )
+        kept = phi[~caps, start // r :]
         nt = kept.shape[1]
         spec = scipy.fft.rfft(kept, axis=-1, workers=2)
         kk = np.arange(spec.shape[-1])
         spec[:, (kk == 0) | (kk >= (nt + 1) // 2)] = 0
         env = np.sqrt(kept**2 + scipy.fft.irfft(-1j * spec, n=nt, axis=-1, workers=2) ** 2)
-        he += np.bincount(np.clip((env * DEG / width).astype(np.int64), 0, nbins - 1).ravel(), minlength=nbins)
+        he += np.bincount(
+            np.clip((env * DEG / width).astype(np.int64), 0, nbins - 1).ravel(), minlength=nbins
+        )
         sums["n_env"] += env.size
         sums["sum_env"] += env.astype(np.float64).sum()
         sums["capsized"] += int(caps.sum())

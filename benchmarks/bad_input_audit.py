@@ -87,21 +87,34 @@ def _env(**extra) -> dict:
 def jaxroll(*argv, cwd: Path, env: dict | None = None, timeout: float = 900) -> Run:
     """`jaxroll ARGV` in a subprocess (as a user runs it): exit code, stdout, stderr, wall seconds."""
     t0 = time.time()
-    proc = subprocess.run([sys.executable, "-m", "jaxroll", *map(str, argv)], cwd=cwd, env=env or _env(),
-                          capture_output=True, text=True, timeout=timeout)
+    proc = subprocess.run(
+        [sys.executable, "-m", "jaxroll", *map(str, argv)],
+        cwd=cwd,
+        env=env or _env(),
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+    )
     return Run(proc.returncode, proc.stdout, proc.stderr, time.time() - t0)
 
 
 def start(*argv, cwd: Path, env: dict | None = None) -> subprocess.Popen:
-    return subprocess.Popen([sys.executable, "-m", "jaxroll", *map(str, argv)], cwd=cwd, env=env or _env(),
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    return subprocess.Popen(
+        [sys.executable, "-m", "jaxroll", *map(str, argv)],
+        cwd=cwd,
+        env=env or _env(),
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
 
 
 def python(code: str, *, cwd: Path, timeout: float = 900) -> Run:
     """A Python snippet in a subprocess (library calls; jaxroll imported from this checkout)."""
     t0 = time.time()
-    proc = subprocess.run([sys.executable, "-c", code], cwd=cwd, env=_env(), capture_output=True, text=True,
-                          timeout=timeout)
+    proc = subprocess.run(
+        [sys.executable, "-c", code], cwd=cwd, env=_env(), capture_output=True, text=True, timeout=timeout
+    )
     return Run(proc.returncode, proc.stdout, proc.stderr, time.time() - t0)
 
 
@@ -163,11 +176,19 @@ def prism_stl(path: Path, section, length: float) -> Path:
         tris += [(a, b, c), (a, c, d)]  # outward for a counter-clockwise section, like the caps
     for i in range(1, n - 1):
         (ya, za), (yb, zb), (yc, zc) = section[0], section[i], section[i + 1]
-        tris += [((0, ya, za), (0, yc, zc), (0, yb, zb)), ((length, ya, za), (length, yb, zb), (length, yc, zc))]
+        tris += [
+            ((0, ya, za), (0, yc, zc), (0, yb, zb)),
+            ((length, ya, za), (length, yb, zb), (length, yc, zc)),
+        ]
     lines = ["solid prism"]
     for t in tris:
-        lines += [" facet normal 0 0 0", "  outer loop", *(f"   vertex {x:.6f} {y:.6f} {z:.6f}" for x, y, z in t),
-                  "  endloop", " endfacet"]
+        lines += [
+            " facet normal 0 0 0",
+            "  outer loop",
+            *(f"   vertex {x:.6f} {y:.6f} {z:.6f}" for x, y, z in t),
+            "  endloop",
+            " endfacet",
+        ]
     path.write_text("\n".join([*lines, "endsolid prism", ""]))
     return path
 
@@ -176,8 +197,10 @@ def tank_records(tmp: Path, kind: str, *, wave_unit_header: str | None = None, *
     """Model-scale records of one sea state from `jaxroll tank` (the virtual tank), optionally with the `units`
     line's wave unit replaced (the column keeps its numbers: a unit slip)."""
     out = tmp / "tank"
-    args = {"captive": ["--captive-seas", "7,10", "--captive-heels", "0", "--captive-realizations", "2"],
-            "roll": ["--roll-seas", "7,10", "--roll-realizations", "2"]}[kind]
+    args = {
+        "captive": ["--captive-seas", "7,10", "--captive-heels", "0", "--captive-realizations", "2"],
+        "roll": ["--roll-seas", "7,10", "--roll-realizations", "2"],
+    }[kind]
     run = jaxroll("tank", "--tests", kind, *args, "--out", out, "--quiet", cwd=tmp)
     if run.code != 0:
         raise RuntimeError(f"jaxroll tank failed: {last_line(run.err)}")
@@ -199,8 +222,23 @@ def tank_records(tmp: Path, kind: str, *, wave_unit_header: str | None = None, *
 def asymmetric_hull(tmp: Path) -> Verdict:
     # vertical port side at y = −8 m, starboard flared from y = 8 m at the keel to 10 m at z = 12 m
     stl = prism_stl(tmp / "asym.stl", [(-8, 0), (8, 0), (10, 12), (-8, 12)], 100.0)
-    run = jaxroll("hydrostatics", stl, "--kg", 6, "--draught", 5, "--roll-period", 12, "--lpp", 100, "--x-ap", 0,
-                  "--out", tmp / "o", cwd=tmp)
+    run = jaxroll(
+        "hydrostatics",
+        stl,
+        "--kg",
+        6,
+        "--draught",
+        5,
+        "--roll-period",
+        12,
+        "--lpp",
+        100,
+        "--x-ap",
+        0,
+        "--out",
+        tmp / "o",
+        cwd=tmp,
+    )
     if run.code == 2:
         return held_if_error(run, r"(?i)symmetr")
     if run.code == 0:  # supported: the displacement must be the hand calculation's
@@ -264,17 +302,22 @@ def ship_c1_1e9(tmp):
 
 
 def ship_vanishing_angle_2deg(tmp):
-    return held_if_warning(_ship_show(tmp, "a3 = -0.0165775403135739", "a3 = -50.0"),
-                           r"vanishing stability is 2\.\d+°")
+    return held_if_warning(
+        _ship_show(tmp, "a3 = -0.0165775403135739", "a3 = -50.0"), r"vanishing stability is 2\.\d+°"
+    )
 
 
 def ship_b1_1e6(tmp):
-    return held_if_warning(_ship_show(tmp, "b1 = 0.007725227836696213", "b1 = 1000000.0"), r"damping ratio .*b1 = 1e\+06")
+    return held_if_warning(
+        _ship_show(tmp, "b1 = 0.007725227836696213", "b1 = 1000000.0"), r"damping ratio .*b1 = 1e\+06"
+    )
 
 
 def ship_displacement_in_tonnes(tmp):
-    return held_if_warning(_ship_show(tmp, "displacement_kg = 67247000.0", "displacement_kg = 67247.0"),
-                           r"displacement_kg = .* × ρ C_b L B d")
+    return held_if_warning(
+        _ship_show(tmp, "displacement_kg = 67247000.0", "displacement_kg = 67247.0"),
+        r"displacement_kg = .* × ρ C_b L B d",
+    )
 
 
 def ship_gm_against_roll_period(tmp):
@@ -301,7 +344,9 @@ def decay_negative_b2(tmp: Path) -> Verdict:
         "import equinox as eqx, jax.numpy as jnp, jaxroll as jxr\njxr.configure()\n"
         "from jaxroll.calibration import virtual_decay_record\nfrom jaxroll.io import save_record\n"
         "s = eqx.tree_at(lambda s: s.damping, jxr.c11_representative(), jnp.asarray([0.012, -0.081, 0.0]))\n"
-        "save_record(virtual_decay_record(s, roll_noise_deg=0.02), 'decay/decay.csv')\n", cwd=tmp)
+        "save_record(virtual_decay_record(s, roll_noise_deg=0.02), 'decay/decay.csv')\n",
+        cwd=tmp,
+    )
     if make.code:
         return Verdict(False, f"could not build the record: {last_line(make.err)}")
     run = jaxroll("calibrate", "decay", tmp / "decay", "--out", tmp / "o", cwd=tmp)
@@ -324,8 +369,22 @@ def decay_negative_b2(tmp: Path) -> Verdict:
 
 
 def _checkpointed_pdf(tmp: Path) -> tuple[list, Path]:
-    argv = ["pdf", "--realizations", 40, "--duration", 1200, "--chunk-size", 20, "--theory", "none", "--quiet",
-            "--checkpoint", tmp / "ck", "--out", tmp / "o"]
+    argv = [
+        "pdf",
+        "--realizations",
+        40,
+        "--duration",
+        1200,
+        "--chunk-size",
+        20,
+        "--theory",
+        "none",
+        "--quiet",
+        "--checkpoint",
+        tmp / "ck",
+        "--out",
+        tmp / "o",
+    ]
     run = jaxroll(*argv, cwd=tmp)
     if run.code:
         raise RuntimeError(f"the checkpointed run failed: {last_line(run.err)}")
@@ -380,7 +439,9 @@ def hs_30_beyond_breaking(tmp: Path) -> Verdict:
         verdict = held_if_warning(run, pattern)
         if not verdict.held:
             return verdict
-    return Verdict(True, "warned: beyond breaking (S_p against DNV-RP-C205), and ε beyond the averaging's range")
+    return Verdict(
+        True, "warned: beyond breaking (S_p against DNV-RP-C205), and ε beyond the averaging's range"
+    )
 
 
 def pdf_theories_against_capsizing_sea(tmp: Path) -> Verdict:
@@ -418,7 +479,9 @@ def _plant(tmp: Path, folder: str, argv: list) -> Verdict:
         return Verdict(False, f"a planted file under {folder}/ ran code (the marker file was written)")
     if "Traceback" in run.err or run.code not in (0, 2):
         return Verdict(False, f"exit {run.code}: {last_line(run.err)}")
-    return Verdict(True, f"{len(files)} planted file(s) under {folder}/ read as a cache miss (exit {run.code})")
+    return Verdict(
+        True, f"{len(files)} planted file(s) under {folder}/ read as a cache miss (exit {run.code})"
+    )
 
 
 def cache_programs_pickle(tmp: Path) -> Verdict:
@@ -445,8 +508,11 @@ def cache_writable_by_others(tmp: Path) -> Verdict:
 
 
 def _debris(folder: Path) -> list[str]:
-    return sorted(p.name for p in folder.parent.iterdir() if re.match(rf"\.{re.escape(folder.name)}\.(partial|old)-",
-                                                                      p.name))
+    return sorted(
+        p.name
+        for p in folder.parent.iterdir()
+        if re.match(rf"\.{re.escape(folder.name)}\.(partial|old)-", p.name)
+    )
 
 
 def out_on_mount_point(tmp: Path) -> Verdict:
@@ -531,7 +597,9 @@ def calibrate_killed_is_one_set(tmp: Path) -> Verdict:
     if first.code:
         return Verdict(False, f"the first calibration failed: {last_line(first.err)}")
     before = (out / "ship.toml").stat().st_mtime_ns
-    proc = start("calibrate", "captive", records, "--estimator", "ls", "--name", "second", "--out", out, cwd=tmp)
+    proc = start(
+        "calibrate", "captive", records, "--estimator", "ls", "--name", "second", "--out", out, cwd=tmp
+    )
     while proc.poll() is None and (out / "ship.toml").stat().st_mtime_ns == before:
         time.sleep(0.02)
     if proc.poll() is None:
@@ -540,15 +608,24 @@ def calibrate_killed_is_one_set(tmp: Path) -> Verdict:
     ship = tomllib.loads((out / "ship.toml").read_text())
     payload = json.loads((out / "calibration.json").read_text())
     if ship["correction"]["gm_ratio"] != payload["written"]["gm_correction"]:
-        return Verdict(False, f"ship.toml gm_ratio {ship['correction']['gm_ratio']} beside calibration.json's "
-                              f"{payload['written']['gm_correction']}")
+        return Verdict(
+            False,
+            f"ship.toml gm_ratio {ship['correction']['gm_ratio']} beside calibration.json's "
+            f"{payload['written']['gm_correction']}",
+        )
     return Verdict(True, "ship.toml and calibration.json of one run")
 
 
 def ctrl_c_during_imports(tmp: Path) -> Verdict:
     # the `jaxroll` console script (`_jaxroll_console.main`: guarded before `import jaxroll`), not `python -m jaxroll`
-    proc = subprocess.Popen([sys.executable, str(ROOT / "_jaxroll_console.py"), "pdf", "--out", str(tmp / "o")],
-                            cwd=tmp, env=_env(), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    proc = subprocess.Popen(
+        [sys.executable, str(ROOT / "_jaxroll_console.py"), "pdf", "--out", str(tmp / "o")],
+        cwd=tmp,
+        env=_env(),
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
     time.sleep(0.3)
     proc.send_signal(signal.SIGINT)
     try:
@@ -563,11 +640,30 @@ def ctrl_c_during_imports(tmp: Path) -> Verdict:
 
 def ctrl_c_test_under_load(tmp: Path) -> Verdict:
     t0 = time.time()
-    proc = subprocess.run([sys.executable, "-m", "pytest", "-q", "-n", "0", "-p", "no:cacheprovider",
-                           str(ROOT / "tests" / "test_cli.py"), "-k", "ctrl_c"], cwd=ROOT, env=_env(),
-                          capture_output=True, text=True, timeout=1800)
+    proc = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "pytest",
+            "-q",
+            "-n",
+            "0",
+            "-p",
+            "no:cacheprovider",
+            str(ROOT / "tests" / "test_cli.py"),
+            "-k",
+            "ctrl_c",
+        ],
+        cwd=ROOT,
+        env=_env(),
+        capture_output=True,
+        text=True,
+        timeout=1800,
+    )
     if proc.returncode == 0:
-        return Verdict(True, f"the suite's Ctrl-C tests pass ({time.time() - t0:.0f} s, load {os.getloadavg()[0]:.1f})")
+        return Verdict(
+            True, f"the suite's Ctrl-C tests pass ({time.time() - t0:.0f} s, load {os.getloadavg()[0]:.1f})"
+        )
     return Verdict(False, last_line(proc.stdout))
 
 
@@ -601,8 +697,15 @@ def sensitivity_dt_1e_9(tmp):  # was an out-of-memory traceback after the filter
 
 
 def sensitivity_superposition_sea_derivative(tmp):
-    return _before_fit(tmp, "sensitivity", "--method", "superposition", "--wrt", "hs",
-                       pattern=r"sea-parameter derivatives need the filter")
+    return _before_fit(
+        tmp,
+        "sensitivity",
+        "--method",
+        "superposition",
+        "--wrt",
+        "hs",
+        pattern=r"sea-parameter derivatives need the filter",
+    )
 
 
 # ----------------------------------------------------------------------------------------------------------------
@@ -612,11 +715,30 @@ def sensitivity_superposition_sea_derivative(tmp):
 
 def sgisc_box_barge(tmp: Path) -> Verdict:
     stl = prism_stl(tmp / "box.stl", [(-10, 0), (10, 0), (10, 10), (-10, 10)], 100.0)
-    run = jaxroll("sgisc", stl, "--draught", 4, "--kg", 5, "--speed-kn", 10, "--lpp", 100, "--x-ap", 0,
-                  "--roll-period", 10, "--out", tmp / "o", cwd=tmp)
+    run = jaxroll(
+        "sgisc",
+        stl,
+        "--draught",
+        4,
+        "--kg",
+        5,
+        "--speed-kn",
+        10,
+        "--lpp",
+        100,
+        "--x-ap",
+        0,
+        "--roll-period",
+        10,
+        "--out",
+        tmp / "o",
+        cwd=tmp,
+    )
     if run.code == 0:
         return Verdict(True, "assessed")
-    return held_if_error(run, r"(?i)ikeda.*--damping|--damping.*ikeda", absent=r"damping coefficients must be >= 0")
+    return held_if_error(
+        run, r"(?i)ikeda.*--damping|--damping.*ikeda", absent=r"damping coefficients must be >= 0"
+    )
 
 
 # ----------------------------------------------------------------------------------------------------------------
@@ -625,8 +747,9 @@ def sgisc_box_barge(tmp: Path) -> Verdict:
 
 
 def maxima_terminal_mean(tmp: Path) -> Verdict:
-    run = jaxroll("maxima", "--hs", 9, "--n0", "20,100", "--realizations", 200, "--out", tmp / "o", "--quiet",
-                  cwd=tmp)
+    run = jaxroll(
+        "maxima", "--hs", 9, "--n0", "20,100", "--realizations", 200, "--out", tmp / "o", "--quiet", cwd=tmp
+    )
     if run.code:
         return Verdict(False, f"exit {run.code}: {last_line(run.err)}")
     if "∞" in run.out:
@@ -648,64 +771,141 @@ def risk_ci_near_one(tmp: Path) -> Verdict:
 
 CASES = [
     Case("asymmetric-hull", "37.1", "a prism with one side flared read as symmetric", asymmetric_hull),
-    Case("captive-wave-mm-labelled-m", "37.2", "captive wave column in mm, header m: gm_ratio 4.3e-08",
-         captive_wave_mm_labelled_m),
-    Case("roll-wave-mm-labelled-m", "37.2", "roll records' wave in mm, header m: 'SVD did not converge'",
-         roll_wave_mm_labelled_m),
+    Case(
+        "captive-wave-mm-labelled-m",
+        "37.2",
+        "captive wave column in mm, header m: gm_ratio 4.3e-08",
+        captive_wave_mm_labelled_m,
+    ),
+    Case(
+        "roll-wave-mm-labelled-m",
+        "37.2",
+        "roll records' wave in mm, header m: 'SVD did not converge'",
+        roll_wave_mm_labelled_m,
+    ),
     Case("ship-gm0-in-mm", "37.3", "GM0 1929.9 m accepted by ship show", ship_gm0_in_mm),
     Case("ship-lpp-in-mm", "37.3", "Lpp 262 000 m accepted", ship_lpp_in_mm),
     Case("ship-c1-1e9", "37.3", "c1 = 1e9 accepted", ship_c1_1e9),
     Case("ship-vanishing-2deg", "37.3", "a3 = −50: vanishing angle 2.1° accepted", ship_vanishing_angle_2deg),
     Case("ship-b1-1e6", "37.3", "b1 = 1e6 accepted", ship_b1_1e6),
-    Case("pdf-lpp-in-mm-cause", "37.3", "pdf with Lpp 262 km advised --method superposition",
-         pdf_lpp_in_mm_names_the_cause),
+    Case(
+        "pdf-lpp-in-mm-cause",
+        "37.3",
+        "pdf with Lpp 262 km advised --method superposition",
+        pdf_lpp_in_mm_names_the_cause,
+    ),
     Case("decay-negative-b2", "37.4", "b2 −0.081 clipped to 0 in ship.toml, no message", decay_negative_b2),
-    Case("checkpoint-edited-histogram", "37.5", "a hand-edited histogram resumed (median 7.75° → 23.4°)",
-         checkpoint_edited_histogram),
-    Case("checkpoint-rewound-next-start", "37.5", "a rewound next_start double-counted (digest recomputed)",
-         checkpoint_rewound_next_start),
-    Case("hs-30-beyond-breaking", "37.6", "--hs 30 at T01 10 s without a word; Roberts 2.5° vs MC 15°",
-         hs_30_beyond_breaking),
+    Case(
+        "checkpoint-edited-histogram",
+        "37.5",
+        "a hand-edited histogram resumed (median 7.75° → 23.4°)",
+        checkpoint_edited_histogram,
+    ),
+    Case(
+        "checkpoint-rewound-next-start",
+        "37.5",
+        "a rewound next_start double-counted (digest recomputed)",
+        checkpoint_rewound_next_start,
+    ),
+    Case(
+        "hs-30-beyond-breaking",
+        "37.6",
+        "--hs 30 at T01 10 s without a word; Roberts 2.5° vs MC 15°",
+        hs_30_beyond_breaking,
+    ),
     Case("cache-programs-pickle", "37.7", "a planted jaxroll-programs file ran code", cache_programs_pickle),
     Case("cache-moment-pickle", "37.7", "a planted jaxroll-moment file ran code", cache_moment_tables_pickle),
-    Case("cache-writable-by-others", "37.7", "a cache folder anyone can write used silently",
-         cache_writable_by_others),
+    Case(
+        "cache-writable-by-others",
+        "37.7",
+        "a cache folder anyone can write used silently",
+        cache_writable_by_others,
+    ),
     Case("out-mount-point", "37.8", "--out on a mount point: EXDEV and debris", out_on_mount_point),
-    Case("out-read-only", "37.8", "a read-only --out reported after the computation, as a traceback",
-         out_read_only),
+    Case(
+        "out-read-only",
+        "37.8",
+        "a read-only --out reported after the computation, as a traceback",
+        out_read_only,
+    ),
     Case("out-full-disk", "37.8", "a full disk: ENOSPC traceback", out_full_disk),
-    Case("sigkill-debris", "37.8", "SIGKILL left .out.partial-* that were never cleaned", sigkill_debris_cleaned),
+    Case(
+        "sigkill-debris",
+        "37.8",
+        "SIGKILL left .out.partial-* that were never cleaned",
+        sigkill_debris_cleaned,
+    ),
     Case("out-dot", "37.8", "--out . swapped the working directory", out_dot_keeps_cwd),
-    Case("calibrate-killed", "37.9", "calibrate killed mid-write left ship.toml beside an older calibration.json",
-         calibrate_killed_is_one_set),
+    Case(
+        "calibrate-killed",
+        "37.9",
+        "calibrate killed mid-write left ship.toml beside an older calibration.json",
+        calibrate_killed_is_one_set,
+    ),
     Case("ctrl-c-imports", "37.10", "Ctrl-C during the imports printed a traceback", ctrl_c_during_imports),
     Case("dt-1e-9", "37.11", "--dt 1e-9 reported after the filter fit", dt_1e_9),
     Case("duration-1e12", "37.11", "--duration 1e12 reported after the filter fit", duration_1e12),
-    Case("sgisc-box-barge", "37.12", "simplified Ikeda negative: 'damping coefficients must be >= 0'",
-         sgisc_box_barge),
-    Case("ctrl-c-test-under-load", "37.13", "the suite's Ctrl-C test failed under load", ctrl_c_test_under_load),
+    Case(
+        "sgisc-box-barge",
+        "37.12",
+        "simplified Ikeda negative: 'damping coefficients must be >= 0'",
+        sgisc_box_barge,
+    ),
+    Case(
+        "ctrl-c-test-under-load", "37.13", "the suite's Ctrl-C test failed under load", ctrl_c_test_under_load
+    ),
     Case("maxima-mean-infinity", "37.F", "the terminal printed 'mean max ∞'", maxima_terminal_mean),
     Case("risk-ci-1.0000", "37.F", "risk printed the interval 1.0000–1.0000", risk_ci_near_one),
-    Case("ship-displacement-tonnes", "37+", "displacement in tonnes in a ship file", ship_displacement_in_tonnes),
-    Case("ship-gm-vs-roll-period", "37+", "GM0 and roll period that no radius of gyration joins",
-         ship_gm_against_roll_period),
-    Case("ship-gm-ratio-4e-8", "37+", "a ship file carrying the slipped captive result", ship_gm_ratio_from_slipped_records),
-    Case("pdf-theories-capsizing-sea", "37+", "theories overlaid on a sea where most trials capsize",
-         pdf_theories_against_capsizing_sea),
+    Case(
+        "ship-displacement-tonnes",
+        "37+",
+        "displacement in tonnes in a ship file",
+        ship_displacement_in_tonnes,
+    ),
+    Case(
+        "ship-gm-vs-roll-period",
+        "37+",
+        "GM0 and roll period that no radius of gyration joins",
+        ship_gm_against_roll_period,
+    ),
+    Case(
+        "ship-gm-ratio-4e-8",
+        "37+",
+        "a ship file carrying the slipped captive result",
+        ship_gm_ratio_from_slipped_records,
+    ),
+    Case(
+        "pdf-theories-capsizing-sea",
+        "37+",
+        "theories overlaid on a sea where most trials capsize",
+        pdf_theories_against_capsizing_sea,
+    ),
     Case("risk-hours-1e9", "37+", "--hours 1e9 reported after the amplitude Monte Carlo", risk_hours_1e9),
     Case("sensitivity-dt-1e-9", "37+", "sensitivity --dt 1e-9: out-of-memory traceback", sensitivity_dt_1e_9),
-    Case("sensitivity-superposition-hs", "37+", "--method superposition --wrt hs refused only after the fit",
-         sensitivity_superposition_sea_derivative),
+    Case(
+        "sensitivity-superposition-hs",
+        "37+",
+        "--method superposition --wrt hs refused only after the fit",
+        sensitivity_superposition_sea_derivative,
+    ),
 ]
 
 
 def main() -> int:
     global CACHE
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("-k", action="append", default=[],
-                        help="run the cases whose name contains this, or whose item is this (e.g. 37.5)")
+    parser = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
+    parser.add_argument(
+        "-k",
+        action="append",
+        default=[],
+        help="run the cases whose name contains this, or whose item is this (e.g. 37.5)",
+    )
     parser.add_argument("--list", action="store_true", help="list the cases and exit")
-    parser.add_argument("--cache", default=None, help="JAXROLL_CACHE_DIR for the commands (default: the user's)")
+    parser.add_argument(
+        "--cache", default=None, help="JAXROLL_CACHE_DIR for the commands (default: the user's)"
+    )
     args = parser.parse_args()
     CACHE = args.cache
     cases = [c for c in CASES if not args.k or any(k in c.name or k == c.item for k in args.k)]
@@ -729,9 +929,13 @@ def main() -> int:
             shutil.rmtree(tmp, ignore_errors=True)
         word = {True: "held", False: "FAILED", None: "skipped"}[verdict.held]
         failed += verdict.held is False
-        print(f"{word:>7}  {c.item:>6}  {c.name:<32} ({time.time() - t0:5.0f} s)  {verdict.reason}", flush=True)
-    print(f"{len(cases)} cases, {failed} failed, {sum(1 for _ in cases) - failed} held or skipped, "
-          f"{time.time() - t_all:.0f} s")
+        print(
+            f"{word:>7}  {c.item:>6}  {c.name:<32} ({time.time() - t0:5.0f} s)  {verdict.reason}", flush=True
+        )
+    print(
+        f"{len(cases)} cases, {failed} failed, {sum(1 for _ in cases) - failed} held or skipped, "
+        f"{time.time() - t_all:.0f} s"
+    )
     return 1 if failed else 0
 
 

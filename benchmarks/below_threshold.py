@@ -49,7 +49,9 @@ def main() -> None:
                 mc[(phi0, discard)] = np.rad2deg(st.mean("envelope"))
         cols = [" / ".join(f"{mc[(phi0, d)]:.3f}°" for phi0 in (5.0, 15.0)) for d in (500.0, 15_000.0)]
         print(f"| {r:g}, {hs:g} m | {lam:+.5f} | {paper:.2f}° | {cols[0]} | {cols[1]} |", flush=True)
-    print(f"(Monte Carlo from φ0 = 5° / 15°, {args.realizations} trials each; {time.perf_counter() - t0:.0f} s)")
+    print(
+        f"(Monte Carlo from φ0 = 5° / 15°, {args.realizations} trials each; {time.perf_counter() - t0:.0f} s)"
+    )
 
 
 if __name__ == "__main__":

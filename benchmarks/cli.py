@@ -24,9 +24,25 @@ COMMANDS = {
     "maxima": ["maxima", "--n0", "20,100", "--realizations", "1000"],
     "sweep": ["sweep", "--hs", "5,7", "--t01", "10", "--realizations", "1000", "--duration", "1800"],
     "hydrostatics": ["hydrostatics", "c11"],
-    "sensitivity": ["sensitivity", "--wrt", "b1,gm_correction", "--statistics", "E_phi2,mean_envelope",
-                    "--realizations", "16", "--duration", "900", "--window", "300", "--burn-in", "150",
-                    "--chunk-size", "16", "--theory", "roberts,envelope_fpk"],  # test_cli's settings
+    "sensitivity": [
+        "sensitivity",
+        "--wrt",
+        "b1,gm_correction",
+        "--statistics",
+        "E_phi2,mean_envelope",
+        "--realizations",
+        "16",
+        "--duration",
+        "900",
+        "--window",
+        "300",
+        "--burn-in",
+        "150",
+        "--chunk-size",
+        "16",
+        "--theory",
+        "roberts,envelope_fpk",
+    ],  # test_cli's settings
 }
 QUICK = {"pdf": ["pdf", "--realizations", "1000"], "theory": ["theory", "--theory", "roberts,esam"]}
 
@@ -34,9 +50,20 @@ QUICK = {"pdf": ["pdf", "--realizations", "1000"], "theory": ["theory", "--theor
 def run(argv: list[str], cache: str, out: str) -> float:
     env = {**os.environ, "JAXROLL_CACHE_DIR": cache}
     t0 = time.perf_counter()
-    res = subprocess.run([sys.executable, "-m", "jaxroll", *argv, "--out", out, *(
-        ["--quiet"] if argv[0] in ("pdf", "risk", "maxima", "sweep", "sensitivity") else [])],
-        env=env, capture_output=True, text=True)
+    res = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "jaxroll",
+            *argv,
+            "--out",
+            out,
+            *(["--quiet"] if argv[0] in ("pdf", "risk", "maxima", "sweep", "sensitivity") else []),
+        ],
+        env=env,
+        capture_output=True,
+        text=True,
+    )
     elapsed = time.perf_counter() - t0
     if res.returncode != 0:
         raise SystemExit(f"jaxroll {' '.join(argv)} failed ({res.returncode}):\n{res.stderr[-2000:]}")
@@ -59,13 +86,17 @@ print(*out)
 """
     env = {**os.environ, "JAXROLL_CACHE_DIR": cache}
     for _ in range(2):  # the first process fills the cache
-        res = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True)
+        res = subprocess.run(
+            [sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True
+        )
     first, second = map(float, res.stdout.split())
     return first, second
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     parser.add_argument("--quick", action="store_true", help="small pdf and theory runs only")
     parser.add_argument("--commands", default=None, help="comma-separated subset of " + ",".join(COMMANDS))
     args = parser.parse_args()
@@ -74,7 +105,10 @@ def main() -> None:
         commands = {k: v for k, v in COMMANDS.items() if k in args.commands.split(",")}
     with tempfile.TemporaryDirectory() as tmp:
         for name, argv in commands.items():
-            out, cache = os.path.join(tmp, name), os.path.join(tmp, f"cache-{name}")  # cold: a cache of its own
+            out, cache = (
+                os.path.join(tmp, name),
+                os.path.join(tmp, f"cache-{name}"),
+            )  # cold: a cache of its own
             cold = run(argv, cache, out)
             warm = run(argv, cache, out)
             print(f"{name}_cold_s={cold:.2f}")

@@ -32,10 +32,16 @@ def main() -> None:
     from jaxroll.notebook import explore_curves, explore_monte_carlo
 
     theories = tuple(args.theories.split(","))
-    print(f"device={jax.devices()[0].device_kind} x{len(jax.devices())}, cores available "
-          f"{len(os.sched_getaffinity(0))}, theories {','.join(theories)}; load average {os.getloadavg()[0]:.1f}")
-    moves = [dict(hs=h) for h in (6.0, 6.5, 7.5, 8.0, 5.5)] + [dict(t01=t) for t in (9.5, 11.0)] + [
-        dict(gm_correction=r) for r in (0.8, 0.9, 1.2)] + [dict(speed=u) for u in (1.0, 2.0)]
+    print(
+        f"device={jax.devices()[0].device_kind} x{len(jax.devices())}, cores available "
+        f"{len(os.sched_getaffinity(0))}, theories {','.join(theories)}; load average {os.getloadavg()[0]:.1f}"
+    )
+    moves = (
+        [dict(hs=h) for h in (6.0, 6.5, 7.5, 8.0, 5.5)]
+        + [dict(t01=t) for t in (9.5, 11.0)]
+        + [dict(gm_correction=r) for r in (0.8, 0.9, 1.2)]
+        + [dict(speed=u) for u in (1.0, 2.0)]
+    )
     oblique = [dict(heading_deg=h) for h in (150.0, 135.0, 165.0)]
     t0 = time.perf_counter()
     explore_curves(theories=theories)
@@ -49,8 +55,10 @@ def main() -> None:
             t = time.perf_counter()
             explore_curves(theories=theories, **values)
             times.append(time.perf_counter() - t)
-        print(f"{label}: {len(times)} slider moves, median {statistics.median(times):.3f} s, max {max(times):.3f} s "
-              f"(each: {', '.join(f'{x:.3f}' for x in times)})")
+        print(
+            f"{label}: {len(times)} slider moves, median {statistics.median(times):.3f} s, max {max(times):.3f} s "
+            f"(each: {', '.join(f'{x:.3f}' for x in times)})"
+        )
         return values
 
     run(moves, "explore_curves, head seas")
@@ -68,17 +76,23 @@ def main() -> None:
             times = []
             for change in moves:
                 for name, value in change.items():
-                    ex.sliders[name].unobserve_all()  # set the value without the callback, then time the callback
+                    ex.sliders[
+                        name
+                    ].unobserve_all()  # set the value without the callback, then time the callback
                     ex.sliders[name].value = value
                 times.append(ex.redraw())
-            print(f"Explorer.redraw (theories + figure): median {statistics.median(times):.3f} s, max "
-                  f"{max(times):.3f} s")
+            print(
+                f"Explorer.redraw (theories + figure): median {statistics.median(times):.3f} s, max "
+                f"{max(times):.3f} s"
+            )
     if args.mc:
         for label in ("first (compilation + run)", "second"):
             t = time.perf_counter()
             stats = explore_monte_carlo(num_realizations=args.mc, duration=1800.0, discard=300.0)
-            print(f"Monte Carlo button, {args.mc} x 1800 s, {label}: {time.perf_counter() - t:.2f} s "
-                  f"({stats.n_capsized} capsized)")
+            print(
+                f"Monte Carlo button, {args.mc} x 1800 s, {label}: {time.perf_counter() - t:.2f} s "
+                f"({stats.n_capsized} capsized)"
+            )
 
 
 if __name__ == "__main__":

@@ -41,18 +41,29 @@ def main() -> None:
         for j, hours in enumerate(HOURS):
             t0 = time.time()
             stats = jaxroll.monte_carlo_max_roll(
-                problem, jax.random.key(100 * (len(HOURS) * i + j) + 7), angle_deg=ANGLES[0],
-                num_realizations=args.realizations, duration=DISCARD + 3600.0 * hours, discard=DISCARD)
-            row = {"hs": hs, "hours": hours, "n_realizations": stats.n_realizations,
-                   "n_capsized": stats.n_capsized, "run_time_s": time.time() - t0, "angles_deg": list(ANGLES),
-                   "probability": [stats.exceedance_probability(a) for a in ANGLES],
-                   "probability_ci95": [list(stats.exceedance_interval(a)) for a in ANGLES],
-                   "n_exceeded": [stats.exceedances(a) for a in ANGLES]}
+                problem,
+                jax.random.key(100 * (len(HOURS) * i + j) + 7),
+                angle_deg=ANGLES[0],
+                num_realizations=args.realizations,
+                duration=DISCARD + 3600.0 * hours,
+                discard=DISCARD,
+            )
+            row = {
+                "hs": hs,
+                "hours": hours,
+                "n_realizations": stats.n_realizations,
+                "n_capsized": stats.n_capsized,
+                "run_time_s": time.time() - t0,
+                "angles_deg": list(ANGLES),
+                "probability": [stats.exceedance_probability(a) for a in ANGLES],
+                "probability_ci95": [list(stats.exceedance_interval(a)) for a in ANGLES],
+                "n_exceeded": [stats.exceedances(a) for a in ANGLES],
+            }
             print(json.dumps(row), flush=True)
             cases.append(row)
     payload = {
         "protocol": f"default ship, ITTC T01 = 10 s, head seas, U = 0, filter order 4, dt 0.5 s, phi0 5 deg, discard "
-                    f"{DISCARD:g} s then the exposure; capsizes count as exceedances; key(100*(2*i_hs + i_hours) + 7)",
+        f"{DISCARD:g} s then the exposure; capsizes count as exceedances; key(100*(2*i_hs + i_hours) + 7)",
         "command": f"python benchmarks/exposure_mc_reference.py --realizations {args.realizations}",
         "jaxroll_version": jaxroll.__version__,
         "cases": cases,

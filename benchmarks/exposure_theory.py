@@ -24,8 +24,13 @@ from pathlib import Path
 import numpy as np
 
 REFERENCE = Path(__file__).parent / "data" / "exposure_mc_reference.json"
-GRIDS = {"default": {}, "coarse": dict(num_rho=8, num_theta=12), "coarse-40": dict(num_rho=8, num_theta=12, num_s=40),
-         "single": dict(extrapolate=False), "single-fine": dict(extrapolate=False, num_s=120)}
+GRIDS = {
+    "default": {},
+    "coarse": dict(num_rho=8, num_theta=12),
+    "coarse-40": dict(num_rho=8, num_theta=12, num_s=40),
+    "single": dict(extrapolate=False),
+    "single-fine": dict(extrapolate=False, num_s=120),
+}
 
 
 def main() -> None:
@@ -54,7 +59,9 @@ def main() -> None:
             times.append((observe, hs, time.perf_counter() - t0))
             risks[observe, hs] = r
     print(f"grid: {args.grid} {GRIDS[args.grid] or '(12 rho x 20 theta x 70 ln A cells)'}")
-    print("| H1/3 | T | angle | Monte Carlo (95 % CI) | first passage (ratio) | continuous (ratio) | independent (ratio) |")
+    print(
+        "| H1/3 | T | angle | Monte Carlo (95 % CI) | first passage (ratio) | continuous (ratio) | independent (ratio) |"
+    )
     print("|---|---|---|---|---|---|---|")
     worst = 1.0
     for case in ref["cases"]:
@@ -62,8 +69,11 @@ def main() -> None:
         for i, a in enumerate(case["angles_deg"]):
             p_mc, (lo, hi) = case["probability"][i], case["probability_ci95"][i]
             cells = []
-            for observe, field in (("peaks", "probability"), ("continuous", "probability"),
-                                   ("peaks", "independent_probability")):
+            for observe, field in (
+                ("peaks", "probability"),
+                ("continuous", "probability"),
+                ("peaks", "independent_probability"),
+            ):
                 if (observe, case["hs"]) not in risks:
                     cells.append("—")
                     continue
@@ -74,8 +84,11 @@ def main() -> None:
                 ratio = float(risks["peaks", case["hs"]].probability[i, j]) / p_mc
                 worst = max(worst, ratio, 1 / ratio)
             mark = "" if target else " †"
-            print(f"| {case['hs']:g} m | {case['hours']:g} h | {a:g}° | {p_mc:.4g} ({lo:.4g}–{hi:.4g}){mark} | "
-                  + " | ".join(cells) + " |")
+            print(
+                f"| {case['hs']:g} m | {case['hours']:g} h | {a:g}° | {p_mc:.4g} ({lo:.4g}–{hi:.4g}){mark} | "
+                + " | ".join(cells)
+                + " |"
+            )
     print("\n| H1/3 | T | Monte Carlo P(capsize) (95 % CI) | first passage P(capsize) (ratio) |")
     print("|---|---|---|---|")
     for case in ref["cases"]:
@@ -86,8 +99,12 @@ def main() -> None:
 
         lo, hi = (float(x) for x in wilson_interval(k, n))
         ratio = f" (×{p / (k / n):.2f})" if k else ""
-        print(f"| {case['hs']:g} m | {case['hours']:g} h | {k / n:.3g} ({lo:.2g}–{hi:.2g}) | {p:.3g}{ratio} |")
-    print(f"\nworst first-passage ratio where 1e-3 <= P_MC <= 0.95: ×{worst:.3f} (target 1.25); † outside the target range")
+        print(
+            f"| {case['hs']:g} m | {case['hours']:g} h | {k / n:.3g} ({lo:.2g}–{hi:.2g}) | {p:.3g}{ratio} |"
+        )
+    print(
+        f"\nworst first-passage ratio where 1e-3 <= P_MC <= 0.95: ×{worst:.3f} (target 1.25); † outside the target range"
+    )
     for observe, hs, t in times:
         print(f"time {observe:10s} H1/3 {hs:g} m: {t:.2f} s{' (with compilation)' if hs == 5.0 else ''}")
 

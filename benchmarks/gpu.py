@@ -46,7 +46,9 @@ def main() -> None:
     p.add_argument("--chunk", type=int, default=100_000, help="realizations per chunk for `amplitudes`")
     p.add_argument("--chunk-max", type=int, default=250_000, help="realizations per chunk for `max`")
     p.add_argument("--duration", type=float, default=3600.0)
-    p.add_argument("--chunk-sweep", default="", help="comma-separated further chunk sizes to time at N = sweep-n")
+    p.add_argument(
+        "--chunk-sweep", default="", help="comma-separated further chunk sizes to time at N = sweep-n"
+    )
     p.add_argument("--sweep-n", type=int, default=1_000_000, help="realizations of the chunk-size sweep")
     p.add_argument("--kinds", default="amplitudes,max", help="which Monte Carlos to time")
     p.add_argument("--min-n", type=int, default=1_000, help="the smallest N of the scaling")
@@ -63,13 +65,16 @@ def main() -> None:
     for kind, chunk in (("amplitudes", args.chunk), ("max", args.chunk_max)):
         if kind not in args.kinds.split(","):
             continue
+
         def run(n, chunk=chunk, kind=kind):  # chunk None: the library's own choice
             c = None if chunk is None else min(chunk, n)
             if kind == "amplitudes":
-                return jaxroll.monte_carlo_amplitudes(problem, key, num_realizations=n, duration=args.duration,
-                                                      chunk_size=c)
-            return jaxroll.monte_carlo_max_roll(problem, key, angle_deg=30.0, num_realizations=n,
-                                                duration=args.duration, chunk_size=c)
+                return jaxroll.monte_carlo_amplitudes(
+                    problem, key, num_realizations=n, duration=args.duration, chunk_size=c
+                )
+            return jaxroll.monte_carlo_max_roll(
+                problem, key, angle_deg=30.0, num_realizations=n, duration=args.duration, chunk_size=c
+            )
 
         # compile on the first chunk shape, then time each N (the chunk shape is the same, so no recompile
         # unless N < chunk)
@@ -102,8 +107,10 @@ def main() -> None:
                 print(f"{kind}_N={n} chunk={label} failed: {type(e).__name__}: {str(e)[:200]}")
                 continue
             used = stats.config["chunk_size"]
-            print(f"{kind}_N={n} chunk={label} (used {used}) first_call_s={t_first:.2f} time_s={t:.3f} "
-                  f"steps_per_s={n * steps / t:.3e}{peak_memory(dev, used, steps)}")
+            print(
+                f"{kind}_N={n} chunk={label} (used {used}) first_call_s={t_first:.2f} time_s={t:.3f} "
+                f"steps_per_s={n * steps / t:.3e}{peak_memory(dev, used, steps)}"
+            )
 
 
 if __name__ == "__main__":

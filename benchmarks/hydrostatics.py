@@ -51,8 +51,11 @@ def main() -> None:
     parser.add_argument("--mesh", action="store_true", help="also the STL end-to-end comparison")
     parser.add_argument("--mesh-only", action="store_true", help="only the STL end-to-end comparison")
     parser.add_argument("--warm-rounds", type=int, default=3, help="warm runs of each CLI variant, in turn")
-    parser.add_argument("--baseline-tree", metavar="DIR",
-                        help="also time the exact surface with the jaxroll source tree in DIR (e.g. the code before a change)")
+    parser.add_argument(
+        "--baseline-tree",
+        metavar="DIR",
+        help="also time the exact surface with the jaxroll source tree in DIR (e.g. the code before a change)",
+    )
     args = parser.parse_args()
     if args.mesh or args.mesh_only:
         mesh_benchmark(args.warm_rounds, args.baseline_tree)
@@ -149,7 +152,9 @@ def mesh_benchmark(warm_rounds: int = 3, baseline_tree: str | None = None) -> No
             print(f"cli_{label}_cold_s={wall:.2f} cpu={cpu:.2f} load={os.getloadavg()[0]:.1f}")
         for k in range(warm_rounds):
             for label, (cmd, _) in variants.items():
-                wall, cpu = _cli_run([*cmd, "--out", str(Path(tmp) / f"out-{label}")], envs[label], cwds[label])
+                wall, cpu = _cli_run(
+                    [*cmd, "--out", str(Path(tmp) / f"out-{label}")], envs[label], cwds[label]
+                )
                 print(f"cli_{label}_warm{k}_s={wall:.2f} cpu={cpu:.2f} load={os.getloadavg()[0]:.1f}")
         # calm GZ of the sliced offsets and of the exact surface, KG = 7.555 m at d = 6.15 m
         phi = jnp.radians(jnp.arange(0.0, 75.0, 5.0))

@@ -22,7 +22,9 @@ from jaxroll import default_duration, monte_carlo_maxima
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     parser.add_argument("--quick", action="store_true")
     args = parser.parse_args()
     n0, n_trials = ((1000,), 500) if args.quick else ((10_000,), 5000)
@@ -30,8 +32,10 @@ def main() -> None:
     problem = jaxroll.RollProblem.from_sea(ship, jaxroll.ITTC(7.0, 10.0), dt=0.5)
     duration = default_duration(problem, n0, 500.0)
     steps = n_trials * duration / problem.dt
-    print(f"device={jax.devices()[0].device_kind}, N0={n0[0]}, trials={n_trials}, duration_s={duration:.0f}, "
-          f"nominal simulated_s={n_trials * duration:.3e}, realization_steps={steps:.3e}")
+    print(
+        f"device={jax.devices()[0].device_kind}, N0={n0[0]}, trials={n_trials}, duration_s={duration:.0f}, "
+        f"nominal simulated_s={n_trials * duration:.3e}, realization_steps={steps:.3e}"
+    )
     t0 = time.perf_counter()
     monte_carlo_maxima(problem, jax.random.key(1), n0=n0, num_realizations=8, chunk_size=8, duration=2000.0)
     print(f"compile_s={time.perf_counter() - t0:.2f}  (small problem, same kernel)")
@@ -42,8 +46,10 @@ def main() -> None:
     print(f"run_s={run:.1f}")
     print(f"nominal_realization_steps_per_s={steps / run:.3e}")
     print(f"peak_rss_mb={resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024:.0f}")
-    print(f"mean_max_deg={np.mean(x):.2f} q99_deg={np.quantile(x, 0.99):.2f} valid={x.size} "
-          f"capsized_before_N0={stats.n_capsized_before(0)} incomplete={stats.n_incomplete(0)}")
+    print(
+        f"mean_max_deg={np.mean(x):.2f} q99_deg={np.quantile(x, 0.99):.2f} valid={x.size} "
+        f"capsized_before_N0={stats.n_capsized_before(0)} incomplete={stats.n_incomplete(0)}"
+    )
 
 
 if __name__ == "__main__":

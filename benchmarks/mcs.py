@@ -40,7 +40,9 @@ def numpy_em_step(state, ship_np, filt, dt, rng):
     b1, b2, b3 = ship_np["b"]
     c = ship_np["c"]
     zeta_mid = -(z @ filt["c"])
-    dgm = c[0] + zeta_mid * (c[1] + zeta_mid * (c[2] + zeta_mid * (c[3] + zeta_mid * (c[4] + zeta_mid * (c[5] + zeta_mid * c[6])))))
+    dgm = c[0] + zeta_mid * (
+        c[1] + zeta_mid * (c[2] + zeta_mid * (c[3] + zeta_mid * (c[4] + zeta_mid * (c[5] + zeta_mid * c[6]))))
+    )
     p = ship_np["kappa"] * dgm
     phi2 = phi * phi
     restoring = phi * (a1 + phi2 * (a3 + phi2 * (a5 + phi2 * (a7 + phi2 * a9))))
@@ -67,7 +69,9 @@ def numpy_rk4_run_steps(problem, n_real, n_steps, rng):
 
     def pexc(zeta):
         zm = -zeta
-        return kappa * (cc[0] + zm * (cc[1] + zm * (cc[2] + zm * (cc[3] + zm * (cc[4] + zm * (cc[5] + zm * cc[6]))))))
+        return kappa * (
+            cc[0] + zm * (cc[1] + zm * (cc[2] + zm * (cc[3] + zm * (cc[4] + zm * (cc[5] + zm * cc[6])))))
+        )
 
     def f(phi, dphi, p):
         phi2 = phi * phi
@@ -182,7 +186,9 @@ _REFERENCE: dict[float, float] = {}
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     parser.add_argument("--quick", action="store_true", help="10³ realizations × 1800 s (under a minute)")
     args = parser.parse_args()
     n_real, duration = (1000, 1800.0) if args.quick else (10_000, 3600.0)
@@ -191,19 +197,25 @@ def main() -> None:
     ship = jaxroll.c11_representative()
     sea = jaxroll.ITTC(7.0, 10.0)
     problem = jaxroll.RollProblem.from_sea(ship, sea, dt=dt)
-    print(f"device={jax.devices()[0].device_kind} ({jax.default_backend()}), integration float32 (sums float64)")
-    print(f"protocol: {n_real} realizations x {duration:g} s, dt={dt} s, steps/realization={int(duration / dt)}")
+    print(
+        f"device={jax.devices()[0].device_kind} ({jax.default_backend()}), integration float32 (sums float64)"
+    )
+    print(
+        f"protocol: {n_real} realizations x {duration:g} s, dt={dt} s, steps/realization={int(duration / dt)}"
+    )
 
     key = jax.random.key(0)
     t0 = time.perf_counter()
-    jaxroll.monte_carlo_amplitudes(problem, key, num_realizations=min(1000, n_real), duration=duration,
-                                   chunk_size=1000)
+    jaxroll.monte_carlo_amplitudes(
+        problem, key, num_realizations=min(1000, n_real), duration=duration, chunk_size=1000
+    )
     compile_and_first = time.perf_counter() - t0
     times = []
     for _ in range(2):
         t0 = time.perf_counter()
-        stats = jaxroll.monte_carlo_amplitudes(problem, key, num_realizations=n_real, duration=duration,
-                                               chunk_size=1000)
+        stats = jaxroll.monte_carlo_amplitudes(
+            problem, key, num_realizations=n_real, duration=duration, chunk_size=1000
+        )
         times.append(time.perf_counter() - t0)
     run_time = min(times)
     steps = n_real * duration / dt
@@ -213,8 +225,10 @@ def main() -> None:
     print(f"jaxroll_realization_steps_per_s={steps / run_time:.3e}")
     print(f"peak_rss_mb={peak_mb:.0f}")
     mean_deg = {e: float(np.rad2deg(stats.mean(e))) for e in ("zero_crossing", "envelope")}
-    print(f"mean_amplitude_deg zero_crossing={mean_deg['zero_crossing']:.3f} envelope={mean_deg['envelope']:.3f}"
-          f"  capsized={stats.n_capsized}")
+    print(
+        f"mean_amplitude_deg zero_crossing={mean_deg['zero_crossing']:.3f} envelope={mean_deg['envelope']:.3f}"
+        f"  capsized={stats.n_capsized}"
+    )
 
     # ---- numba running jaxroll's own algorithm (optional dependency) ----
     numba_total = None
@@ -235,17 +249,25 @@ def main() -> None:
             print(f"numba_{dtype.__name__}_run_s={timings[dtype.__name__][0]:.2f}")
         best = min(timings, key=lambda k: timings[k][0])
         numba_total, sums = timings[best]
-        print(f"numba_run_s={numba_total:.2f}  ({best}; prange over 2 lanes; PCG64 normals; envelope by scipy.fft)")
+        print(
+            f"numba_run_s={numba_total:.2f}  ({best}; prange over 2 lanes; PCG64 normals; envelope by scipy.fft)"
+        )
         print(f"numba_realization_steps_per_s={steps / numba_total:.3e}")
-        print(f"numba_mean_amplitude_deg zero_crossing={sums['sum_zc'] / sums['n_zc'] * DEG:.3f} "
-              f"envelope={sums['sum_env'] / sums['n_env'] * DEG:.3f}  capsized={sums['capsized']}")
+        print(
+            f"numba_mean_amplitude_deg zero_crossing={sums['sum_zc'] / sums['n_zc'] * DEG:.3f} "
+            f"envelope={sums['sum_env'] / sums['n_env'] * DEG:.3f}  capsized={sums['capsized']}"
+        )
 
     # ---- NumPy Euler–Maruyama baseline at the dt it needs for the same accuracy ----
     f = problem.filter_fit.filter
     filt = {"a": np.asarray(f.a), "b": np.asarray(f.b), "c": np.asarray(f.c)}
     a = np.asarray(ship.restoring_coefficients)
-    ship_np = {"a": a, "b": np.asarray(ship.damping), "c": np.asarray(ship.delta_gm) * float(ship.gm_correction),
-               "kappa": float(ship.omega0**2 / ship.gm0)}
+    ship_np = {
+        "a": a,
+        "b": np.asarray(ship.damping),
+        "c": np.asarray(ship.delta_gm) * float(ship.gm_correction),
+        "kappa": float(ship.omega0**2 / ship.gm0),
+    }
     var_target = float(f.variance())
     dt_np = 0.4
     while dt_np > 1e-3:
@@ -254,32 +276,45 @@ def main() -> None:
         if var_err < 0.01 and det_err < 0.01:
             break
         dt_np /= 2
-    print(f"numpy_em_dt_s={dt_np:.4g}  (filter variance error {var_err:.2%}, deterministic error {det_err:.2%})")
+    print(
+        f"numpy_em_dt_s={dt_np:.4g}  (filter variance error {var_err:.2%}, deterministic error {det_err:.2%})"
+    )
     # FFT synthesis is exact at any step, so the symplectic-Euler scan needs only the integrator's accuracy: the dt
     # at which halving it moves the mean |φ| by < 1 % on the same seas, as jaxroll's dt = 0.5 s does
     dt_se, change = scan_symplectic_dt(problem, duration)
-    scan_total, scan_mean = scan_symplectic_baseline(problem, n_real, duration, dt_se, chunk=20 if args.quick else 100)
+    scan_total, scan_mean = scan_symplectic_baseline(
+        problem, n_real, duration, dt_se, chunk=20 if args.quick else 100
+    )
     print(f"scan_symplectic_dt_s={dt_se:.4g}  (halving it moves the mean |φ| by {change:.2%})")
-    print(f"scan_symplectic_run_s_extrapolated={scan_total:.1f}  (lax.scan, FFT-synthesised forcing; mean |φ| "
-          f"{scan_mean:.2f}°)")
+    print(
+        f"scan_symplectic_run_s_extrapolated={scan_total:.1f}  (lax.scan, FFT-synthesised forcing; mean |φ| "
+        f"{scan_mean:.2f}°)"
+    )
 
     rng = np.random.default_rng(0)
     n_timed_steps = 400 if args.quick else 200
-    state = {"z": rng.standard_normal((n_real, f.order)) * 0.0, "phi": np.full(n_real, np.deg2rad(5.0)),
-             "dphi": np.zeros(n_real)}
+    state = {
+        "z": rng.standard_normal((n_real, f.order)) * 0.0,
+        "phi": np.full(n_real, np.deg2rad(5.0)),
+        "dphi": np.zeros(n_real),
+    }
     t0 = time.perf_counter()
     for _ in range(n_timed_steps):
         state = numpy_em_step(state, ship_np, filt, dt_np, rng)
     per_step = (time.perf_counter() - t0) / n_timed_steps
     numpy_total = per_step * duration / dt_np
-    print(f"numpy_time_per_step_s={per_step:.3e}  (all {n_real} realizations, timed over {n_timed_steps} steps)")
+    print(
+        f"numpy_time_per_step_s={per_step:.3e}  (all {n_real} realizations, timed over {n_timed_steps} steps)"
+    )
     print(f"numpy_run_s_extrapolated={numpy_total:.1f}")
     print(f"numpy_realization_steps_per_s={n_real / per_step:.3e}")
     t0 = time.perf_counter()
     numpy_rk4_run_steps(problem, n_real, 100, rng)
     per_step_rk4 = (time.perf_counter() - t0) / 100
     rk4_total = per_step_rk4 * duration / dt
-    print(f"numpy_same_algorithm_run_s_extrapolated={rk4_total:.1f}  (exact filter + RK4 at dt={dt} s, as jaxroll)")
+    print(
+        f"numpy_same_algorithm_run_s_extrapolated={rk4_total:.1f}  (exact filter + RK4 at dt={dt} s, as jaxroll)"
+    )
     print(f"speedup_vs_numpy_same_algorithm={rk4_total / run_time:.1f}")
     print(f"speedup_vs_scan_symplectic={scan_total / run_time:.1f}")
     if numba_total is not None:

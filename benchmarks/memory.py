@@ -64,7 +64,9 @@ print((resource.getrusage(resource.RUSAGE_SELF).ru_maxrss - base) * 1024 / ({chu
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     parser.add_argument("--dt", type=float, default=0.05, help="time step [s] (0.05: 72 000 steps per hour)")
     parser.add_argument("--chunk", type=int, default=100, help="realizations per chunk (100)")
     parser.add_argument("--duration", type=float, default=3600.0, help="simulated time [s] (3600)")

@@ -22,7 +22,9 @@ STATS = ("E_phi2", "mean_envelope", "mean_zero_crossing")
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     parser.add_argument("--quick", action="store_true")
     parser.add_argument("--wrt", default="gm_correction,b1,hs")
     parser.add_argument("--seed", type=int, default=20251)
@@ -37,8 +39,10 @@ def main() -> None:
     t1 = time.perf_counter()
     fd = jxr.monte_carlo_sensitivity(problem_fn, params, key, method="finite_difference", fd_step=0.02, **kw)
     t2 = time.perf_counter()
-    print(f"protocol: {n} x {duration:g} s, seed {args.seed}; windowed {t1 - t0:.0f} s, finite differences "
-          f"{t2 - t1:.0f} s; memory ratio rho = {windowed.config['memory_ratio']:.3f}")
+    print(
+        f"protocol: {n} x {duration:g} s, seed {args.seed}; windowed {t1 - t0:.0f} s, finite differences "
+        f"{t2 - t1:.0f} s; memory ratio rho = {windowed.config['memory_ratio']:.3f}"
+    )
     print("statistic parameter windowed (SE) finite-difference (SE) rel_diff z")
     worst = 0.0
     for s in STATS:
@@ -47,8 +51,10 @@ def main() -> None:
             h, f = fd.gradient[s][p], fd.std_error[s][p]
             z = (g - h) / math.hypot(e, f)
             worst = max(worst, abs(z))
-            print(f"{s} {p} {g:.5g} ({e:.2g}, {abs(e / h):.1%}) {h:.5g} ({f:.2g}, {abs(f / h):.1%}) "
-                  f"{g / h - 1:+.1%} {z:+.2f}")
+            print(
+                f"{s} {p} {g:.5g} ({e:.2g}, {abs(e / h):.1%}) {h:.5g} ({f:.2g}, {abs(f / h):.1%}) "
+                f"{g / h - 1:+.1%} {z:+.2f}"
+            )
     print(f"largest_z={worst:.2f}")
 
 

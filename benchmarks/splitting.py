@@ -47,15 +47,27 @@ def wilson(k: int, n: int) -> tuple[float, float]:
 
 def brute_force(problem, args, key):
     t0 = time.perf_counter()
-    stats = jaxroll.monte_carlo_max_roll(problem, key, angle_deg=args.angle, num_realizations=args.bf_trials,
-                                         duration=args.discard + args.hours * 3600, discard=args.discard)
+    stats = jaxroll.monte_carlo_max_roll(
+        problem,
+        key,
+        angle_deg=args.angle,
+        num_realizations=args.bf_trials,
+        duration=args.discard + args.hours * 3600,
+        discard=args.discard,
+    )
     return stats, time.perf_counter() - t0
 
 
 def splitting(problem, args, seed):
-    return jaxroll.monte_carlo_splitting(problem, jax.random.key(seed), angle_deg=args.angle,
-                                         exposure=args.hours * 3600, discard=args.discard, num_trials=args.trials,
-                                         wave_weight=args.wave_weight)
+    return jaxroll.monte_carlo_splitting(
+        problem,
+        jax.random.key(seed),
+        angle_deg=args.angle,
+        exposure=args.hours * 3600,
+        discard=args.discard,
+        num_trials=args.trials,
+        wave_weight=args.wave_weight,
+    )
 
 
 def side_by_side(problem, args, out):
@@ -63,43 +75,68 @@ def side_by_side(problem, args, out):
     # Compile both first (a small brute-force run, a whole splitting run of the same size), so that the timed runs
     # below are the programs' run time.
     t0 = time.perf_counter()
-    jaxroll.monte_carlo_max_roll(problem, jax.random.key(99), angle_deg=args.angle, num_realizations=1000,
-                                 duration=trial_s, discard=args.discard)
+    jaxroll.monte_carlo_max_roll(
+        problem,
+        jax.random.key(99),
+        angle_deg=args.angle,
+        num_realizations=1000,
+        duration=trial_s,
+        discard=args.discard,
+    )
     splitting(problem, args, 99)
     print(f"compile_and_warmup_s={time.perf_counter() - t0:.1f}", flush=True)
     bf, bf_wall = brute_force(problem, args, jax.random.key(1))
     p_bf = bf.exceedance_probability()
     lo, hi = bf.exceedance_interval()
     bf_sim = args.bf_trials * trial_s
-    print(f"brute_force_trials={args.bf_trials} brute_force_P={p_bf:.4g} brute_force_ci95=[{lo:.3g}, {hi:.3g}] "
-          f"brute_force_exceedances={bf.n_exceeded} brute_force_capsized={bf.n_capsized} "
-          f"brute_force_wall_s={bf_wall:.2f} brute_force_realization_s={bf_sim:.4g}", flush=True)
+    print(
+        f"brute_force_trials={args.bf_trials} brute_force_P={p_bf:.4g} brute_force_ci95=[{lo:.3g}, {hi:.3g}] "
+        f"brute_force_exceedances={bf.n_exceeded} brute_force_capsized={bf.n_capsized} "
+        f"brute_force_wall_s={bf_wall:.2f} brute_force_realization_s={bf_sim:.4g}",
+        flush=True,
+    )
     runs = []
     for seed in range(args.repeat):
         sp = splitting(problem, args, 2 + seed)
         runs.append(sp)
-        print(f"splitting_seed={2 + seed} splitting_trials={args.trials} splitting_P={sp.probability:.4g} "
-              f"splitting_se={sp.standard_error:.3g} "
-              f"splitting_ci95=[{sp.probability_ci95[0]:.3g}, {sp.probability_ci95[1]:.3g}] "
-              f"levels_deg={np.round(sp.levels_deg, 2).tolist()} "
-              f"conditional={np.round(sp.conditional_probabilities, 3).tolist()} ancestors={sp.n_ancestors} "
-              f"splitting_wall_s={sp.wall_time_s:.2f} (pilot {sp.pilot_wall_time_s:.2f}) "
-              f"splitting_realization_s={sp.total_simulated_seconds:.4g} (pilot {sp.pilot_simulated_seconds:.3g}; "
-              f"lanes ran {sp.lane_seconds:.4g})", flush=True)
-        print("  stage_realization_s=" + ",".join(f"{x:.3g}" for x in sp.stage_simulated_seconds)
-              + " stage_wall_s=" + ",".join(f"{x:.2f}" for x in sp.stage_wall_time_s))
+        print(
+            f"splitting_seed={2 + seed} splitting_trials={args.trials} splitting_P={sp.probability:.4g} "
+            f"splitting_se={sp.standard_error:.3g} "
+            f"splitting_ci95=[{sp.probability_ci95[0]:.3g}, {sp.probability_ci95[1]:.3g}] "
+            f"levels_deg={np.round(sp.levels_deg, 2).tolist()} "
+            f"conditional={np.round(sp.conditional_probabilities, 3).tolist()} ancestors={sp.n_ancestors} "
+            f"splitting_wall_s={sp.wall_time_s:.2f} (pilot {sp.pilot_wall_time_s:.2f}) "
+            f"splitting_realization_s={sp.total_simulated_seconds:.4g} (pilot {sp.pilot_simulated_seconds:.3g}; "
+            f"lanes ran {sp.lane_seconds:.4g})",
+            flush=True,
+        )
+        print(
+            "  stage_realization_s="
+            + ",".join(f"{x:.3g}" for x in sp.stage_simulated_seconds)
+            + " stage_wall_s="
+            + ",".join(f"{x:.2f}" for x in sp.stage_wall_time_s)
+        )
     p_sp = float(np.mean([r.probability for r in runs]))
-    relvar = float(np.mean([r.relative_error ** 2 for r in runs if r.probability > 0]))
+    relvar = float(np.mean([r.relative_error**2 for r in runs if r.probability > 0]))
     wall = float(np.mean([r.wall_time_s for r in runs]))
     cost = float(np.mean([r.total_simulated_seconds for r in runs]))
     se_bf = math.sqrt(p_bf * (1 - p_bf) / args.bf_trials)
     se_sp = p_sp * math.sqrt(relvar / len(runs))
-    print(f"splitting_mean_P={p_sp:.4g} (of {len(runs)} runs) mean_estimated_relvar={relvar:.3g} "
-          f"mean_wall_s={wall:.2f} mean_realization_s={cost:.4g}")
+    print(
+        f"splitting_mean_P={p_sp:.4g} (of {len(runs)} runs) mean_estimated_relvar={relvar:.3g} "
+        f"mean_wall_s={wall:.2f} mean_realization_s={cost:.4g}"
+    )
     print(f"difference_in_combined_se={(p_sp - p_bf) / math.hypot(se_bf, se_sp):.2f}")
-    result = {"brute_force": {"trials": args.bf_trials, "probability": p_bf, "ci95": [lo, hi],
-                              "wall_s": bf_wall, "realization_s": bf_sim},
-              "splitting": [r.to_dict() for r in runs]}
+    result = {
+        "brute_force": {
+            "trials": args.bf_trials,
+            "probability": p_bf,
+            "ci95": [lo, hi],
+            "wall_s": bf_wall,
+            "realization_s": bf_sim,
+        },
+        "splitting": [r.to_dict() for r in runs],
+    }
     # Work at equal CI width: the brute force's relative variance per trial (1 − P)/P against one splitting run's
     # (its mean estimated relative variance, or `--empirical-relvar` measured over independent runs).
     relvars = {"estimated": relvar}
@@ -124,12 +161,23 @@ def reference(problem, args, out):
     for a in range(20, 51):
         k = int(np.sum(x > a))
         table[a] = {"exceedances": k, "probability": k / args.bf_trials, "ci95": wilson(k, args.bf_trials)}
-        print(f"angle={a} P={k / args.bf_trials:.4g} exceedances={k} ci95=[{table[a]['ci95'][0]:.3g}, "
-              f"{table[a]['ci95'][1]:.3g}]")
-    print(f"reference_trials={args.bf_trials} capsized={bf.n_capsized} wall_s={wall:.1f} "
-          f"realization_steps_per_s={args.bf_trials * (args.discard + args.hours * 3600) / problem.dt / wall:.3g}")
-    return {"trials": args.bf_trials, "hs": args.hs, "hours": args.hours, "discard": args.discard, "table": table,
-            "capsized": bf.n_capsized, "wall_s": wall}
+        print(
+            f"angle={a} P={k / args.bf_trials:.4g} exceedances={k} ci95=[{table[a]['ci95'][0]:.3g}, "
+            f"{table[a]['ci95'][1]:.3g}]"
+        )
+    print(
+        f"reference_trials={args.bf_trials} capsized={bf.n_capsized} wall_s={wall:.1f} "
+        f"realization_steps_per_s={args.bf_trials * (args.discard + args.hours * 3600) / problem.dt / wall:.3g}"
+    )
+    return {
+        "trials": args.bf_trials,
+        "hs": args.hs,
+        "hours": args.hours,
+        "discard": args.discard,
+        "table": table,
+        "capsized": bf.n_capsized,
+        "wall_s": wall,
+    }
 
 
 def coverage(problem, args, out):
@@ -143,7 +191,7 @@ def coverage(problem, args, out):
         if seed % 10 == 9:
             print(f"done={seed + 1} elapsed_s={time.perf_counter() - t0:.0f}", flush=True)
     est = np.array([r.probability for r in runs])
-    relvar_hat = np.array([r.relative_error ** 2 if r.probability > 0 else np.nan for r in runs])
+    relvar_hat = np.array([r.relative_error**2 if r.probability > 0 else np.nan for r in runs])
     covered = np.array([r.probability_ci95[0] <= p_ref <= r.probability_ci95[1] for r in runs])
     sym = np.array([abs(r.probability - p_ref) <= 1.96 * r.standard_error for r in runs])
     cost = np.array([r.total_simulated_seconds for r in runs])
@@ -154,20 +202,35 @@ def coverage(problem, args, out):
     cov, cov_se = covered.mean(), math.sqrt(covered.mean() * (1 - covered.mean()) / n)
     bf_relvar_per_trial = (1 - p_ref) / p_ref
     speedup = bf_relvar_per_trial * trial_s / (relvar_emp * cost.mean())
-    print(f"runs={n} trials={args.trials} wave_weight={args.wave_weight} reference_P={p_ref:.4g} "
-          f"mean_P={mean:.4g} (mean/reference − 1 = {mean / p_ref - 1:+.3f} ± {sd / math.sqrt(n) / p_ref:.3f}) "
-          f"empirical_relvar={relvar_emp:.3g} mean_estimated_relvar={np.nanmean(relvar_hat):.3g} "
-          f"median_estimated_relvar={np.nanmedian(relvar_hat):.3g} zeros={int(np.sum(est == 0))}")
-    print(f"coverage_lognormal={cov:.3f} ± {cov_se:.3f} coverage_symmetric={sym.mean():.3f} "
-          f"mean_realization_s={cost.mean():.4g} mean_wall_s={wall.mean():.2f} "
-          f"mean_levels={np.mean([r.levels_deg.size for r in runs]):.2f} "
-          f"mean_ancestors={np.mean([r.n_ancestors for r in runs]):.1f}")
+    print(
+        f"runs={n} trials={args.trials} wave_weight={args.wave_weight} reference_P={p_ref:.4g} "
+        f"mean_P={mean:.4g} (mean/reference − 1 = {mean / p_ref - 1:+.3f} ± {sd / math.sqrt(n) / p_ref:.3f}) "
+        f"empirical_relvar={relvar_emp:.3g} mean_estimated_relvar={np.nanmean(relvar_hat):.3g} "
+        f"median_estimated_relvar={np.nanmedian(relvar_hat):.3g} zeros={int(np.sum(est == 0))}"
+    )
+    print(
+        f"coverage_lognormal={cov:.3f} ± {cov_se:.3f} coverage_symmetric={sym.mean():.3f} "
+        f"mean_realization_s={cost.mean():.4g} mean_wall_s={wall.mean():.2f} "
+        f"mean_levels={np.mean([r.levels_deg.size for r in runs]):.2f} "
+        f"mean_ancestors={np.mean([r.n_ancestors for r in runs]):.1f}"
+    )
     print(f"speedup_realization_s_at_equal_variance={speedup:.1f}")
-    return {"runs": n, "trials": args.trials, "wave_weight": args.wave_weight, "reference_p": p_ref,
-            "estimates": est.tolist(), "estimated_relvar": relvar_hat.tolist(), "covered": covered.tolist(),
-            "covered_symmetric": sym.tolist(), "realization_s": cost.tolist(), "wall_s": wall.tolist(),
-            "coverage": cov, "coverage_se": cov_se, "empirical_relvar": relvar_emp,
-            "speedup_realization_s": speedup}
+    return {
+        "runs": n,
+        "trials": args.trials,
+        "wave_weight": args.wave_weight,
+        "reference_p": p_ref,
+        "estimates": est.tolist(),
+        "estimated_relvar": relvar_hat.tolist(),
+        "covered": covered.tolist(),
+        "covered_symmetric": sym.tolist(),
+        "realization_s": cost.tolist(),
+        "wall_s": wall.tolist(),
+        "coverage": cov,
+        "coverage_se": cov_se,
+        "empirical_relvar": relvar_emp,
+        "speedup_realization_s": speedup,
+    }
 
 
 def main() -> None:
@@ -184,8 +247,12 @@ def main() -> None:
     p.add_argument("--coverage", type=int, default=0)
     p.add_argument("--reference-p", type=float, default=math.nan)
     p.add_argument("--repeat", type=int, default=5, help="splitting runs in the side-by-side mode")
-    p.add_argument("--empirical-relvar", type=float, default=math.nan,
-                   help="a splitting run's relative variance measured over independent runs (--coverage)")
+    p.add_argument(
+        "--empirical-relvar",
+        type=float,
+        default=math.nan,
+        help="a splitting run's relative variance measured over independent runs (--coverage)",
+    )
     p.add_argument("--json", default="")
     p.add_argument("--quick", action="store_true", help="a smoke run (small counts)")
     args = p.parse_args()
@@ -193,10 +260,15 @@ def main() -> None:
         args.trials, args.bf_trials, args.hours = min(args.trials, 200), min(args.bf_trials, 2000), 0.25
         args.coverage, args.repeat = min(args.coverage, 3), min(args.repeat, 2)
     dev = jax.devices()[0]
-    print(f"device={dev.device_kind} platform={dev.platform} devices={jax.device_count()} jax={jax.__version__} "
-          f"load={os.getloadavg()[0]:.1f} hs={args.hs} t01={args.t01} angle={args.angle} hours={args.hours} "
-          f"discard={args.discard}", flush=True)
-    problem = jaxroll.RollProblem.from_sea(jaxroll.c11_representative(), jaxroll.ITTC(args.hs, args.t01), dt=0.5)
+    print(
+        f"device={dev.device_kind} platform={dev.platform} devices={jax.device_count()} jax={jax.__version__} "
+        f"load={os.getloadavg()[0]:.1f} hs={args.hs} t01={args.t01} angle={args.angle} hours={args.hours} "
+        f"discard={args.discard}",
+        flush=True,
+    )
+    problem = jaxroll.RollProblem.from_sea(
+        jaxroll.c11_representative(), jaxroll.ITTC(args.hs, args.t01), dt=0.5
+    )
     if args.reference:
         result = reference(problem, args, None)
     elif args.coverage:

@@ -35,7 +35,14 @@ import numpy as np
 import jaxroll
 from jaxroll import theory
 
-CLI_SETS = ("roberts,esam,moment", "roberts,esam,moment,envelope_fpk", "roberts", "esam", "moment", "envelope_fpk")
+CLI_SETS = (
+    "roberts,esam,moment",
+    "roberts,esam,moment,envelope_fpk",
+    "roberts",
+    "esam",
+    "moment",
+    "envelope_fpk",
+)
 
 
 def timed(fn, repeat: int = 3):
@@ -62,7 +69,16 @@ def cli_times(names: str, warm_runs: int = 2) -> dict:
         env = {**os.environ, "JAXROLL_CACHE_DIR": os.path.join(tmp, "xla")}
         out = []
         for i in range(1 + warm_runs):
-            cmd = [sys.executable, "-m", "jaxroll", "theory", "--theory", names, "--out", os.path.join(tmp, f"o{i}")]
+            cmd = [
+                sys.executable,
+                "-m",
+                "jaxroll",
+                "theory",
+                "--theory",
+                names,
+                "--out",
+                os.path.join(tmp, f"o{i}"),
+            ]
             t0, c0 = time.perf_counter(), _child_cpu()
             subprocess.run(cmd, env=env, check=True, capture_output=True)
             out.append((time.perf_counter() - t0, _child_cpu() - c0))
@@ -87,7 +103,10 @@ def sweep_times(ship, n: int, order: int, hs_range=(6.5, 8.0)) -> dict:
         return sol.moment((2,) + (0,) * (sol.equations.tables.dim - 1))
 
     def relaxed(f):
-        return theory.roll_moments(ship, None, shaping_filter=f, closure_order=order, throw=False).relax_steps > 0
+        return (
+            theory.roll_moments(ship, None, shaping_filter=f, closure_order=order, throw=False).relax_steps
+            > 0
+        )
 
     single = jax.jit(e_phi2)
     batched = jax.jit(jax.vmap(e_phi2))
@@ -98,8 +117,15 @@ def sweep_times(ship, n: int, order: int, hs_range=(6.5, 8.0)) -> dict:
     loop = np.array([float(single(f)) for f in filters[:: max(1, n // 5)]])
     np.testing.assert_allclose(np.asarray(values)[:: max(1, n // 5)], loop, rtol=1e-10)
     n_relaxed = int(np.sum(jax.jit(jax.vmap(relaxed))(stacked)))
-    return {"single_s": t_single, "vmap_one_s": t_one, "vmap_n_s": t_n, "n": n, "n_relaxed": n_relaxed,
-            "single_first_s": first_single, "vmap_n_first_s": first_n}
+    return {
+        "single_s": t_single,
+        "vmap_one_s": t_one,
+        "vmap_n_s": t_n,
+        "n": n,
+        "n_relaxed": n_relaxed,
+        "single_first_s": first_single,
+        "vmap_n_first_s": first_n,
+    }
 
 
 def main() -> None:
@@ -109,8 +135,11 @@ def main() -> None:
     parser.add_argument("--quick", action="store_true")
     parser.add_argument("--skip-mc", action="store_true")
     parser.add_argument("--skip-cli", action="store_true")
-    parser.add_argument("--cli-sets", default=";".join(CLI_SETS[:2]),
-                        help="';'-separated --theory values to time (default: the paper's three; all four)")
+    parser.add_argument(
+        "--cli-sets",
+        default=";".join(CLI_SETS[:2]),
+        help="';'-separated --theory values to time (default: the paper's three; all four)",
+    )
     parser.add_argument("--sweep", type=int, default=50)
     parser.add_argument("--sweep-order", type=int, default=4)
     parser.add_argument("--sweep-hs", default="6.5,8.0", help="H1/3 range of the sweep [m] (6.5,8.0)")

@@ -43,7 +43,13 @@ from pathlib import Path
 import numpy as np
 
 FORMAT = "jaxroll-cache 2"
-_TRUSTED = ("jaxroll", "equinox", "optimistix", "lineax", "diffrax")  # where the classes of a decoded object live
+_TRUSTED = (
+    "jaxroll",
+    "equinox",
+    "optimistix",
+    "lineax",
+    "diffrax",
+)  # where the classes of a decoded object live
 
 
 # ------------------------------------------------------------------------------------------------------------
@@ -137,7 +143,9 @@ def read_entry(path: Path, key: str) -> dict[str, np.ndarray] | None:
     try:
         with open(path, "rb") as f:
             st = os.fstat(f.fileno())
-            if os.name == "posix" and (st.st_uid != os.geteuid() or st.st_mode & (stat.S_IWGRP | stat.S_IWOTH)):
+            if os.name == "posix" and (
+                st.st_uid != os.geteuid() or st.st_mode & (stat.S_IWGRP | stat.S_IWOTH)
+            ):
                 return None
             data = f.read()
         with np.load(io.BytesIO(data), allow_pickle=False) as npz:
@@ -148,7 +156,9 @@ def read_entry(path: Path, key: str) -> dict[str, np.ndarray] | None:
         if meta.get("sha256") != _digest(members):
             return None
         return members
-    except Exception:  # anything unreadable is a miss (OSError, ValueError from a pickled or broken member, …)
+    except (
+        Exception
+    ):  # anything unreadable is a miss (OSError, ValueError from a pickled or broken member, …)
         return None
 
 
@@ -173,8 +183,11 @@ def _trusted_module(name: str) -> bool:
 def _storable_class(cls: type) -> bool:
     import equinox as eqx
 
-    return (_trusted_module(cls.__module__) and "<locals>" not in cls.__qualname__
-            and (issubclass(cls, eqx.Module) or dataclasses.is_dataclass(cls) or _is_enumeration(cls)))
+    return (
+        _trusted_module(cls.__module__)
+        and "<locals>" not in cls.__qualname__
+        and (issubclass(cls, eqx.Module) or dataclasses.is_dataclass(cls) or _is_enumeration(cls))
+    )
 
 
 def _is_enumeration(cls) -> bool:
@@ -187,7 +200,9 @@ def encode(obj, leaf=None) -> tuple[str, dict[str, np.ndarray]]:
     """`obj` as (JSON text, arrays); `leaf(x)` may return a JSON-able stand-in for `x` (a placeholder), else None.
     Raises `Unencodable` where `obj` holds something `decode` would not rebuild."""
     arrays: dict[str, np.ndarray] = {}
-    seen: dict[int, int] = {}  # id of an instance or array -> its reference number (shared objects stay shared)
+    seen: dict[
+        int, int
+    ] = {}  # id of an instance or array -> its reference number (shared objects stay shared)
     keep = []  # the objects whose ids are in `seen` stay alive
     numbers = itertools.count()
 
@@ -204,7 +219,9 @@ def encode(obj, leaf=None) -> tuple[str, dict[str, np.ndarray]]:
         if type(x) is tuple:
             if all(type(v) is int for v in x):
                 return {"ti": list(x)}
-            if (rows := _int_rows(list(x))) is not None:  # the moment tables' monomials: thousands, as an array
+            if (
+                rows := _int_rows(list(x))
+            ) is not None:  # the moment tables' monomials: thousands, as an array
                 return {"tti": store(rows)}
             return {"t": [enc(v) for v in x]}
         if type(x) is list:
@@ -235,8 +252,12 @@ def encode(obj, leaf=None) -> tuple[str, dict[str, np.ndarray]]:
             raise Unencodable(f"an object of type {_class_name(cls)}")
         if hasattr(cls, "__jaxroll_cache_key__"):  # stored by a key, rebuilt by the class from it
             return {"k": _class_name(cls), "v": enc(x.__jaxroll_cache_key__())}
-        if not (cls.__reduce__ is object.__reduce__ and cls.__reduce_ex__ is object.__reduce_ex__
-                and cls.__getstate__ is object.__getstate__ and not hasattr(cls, "__setstate__")):
+        if not (
+            cls.__reduce__ is object.__reduce__
+            and cls.__reduce_ex__ is object.__reduce_ex__
+            and cls.__getstate__ is object.__getstate__
+            and not hasattr(cls, "__setstate__")
+        ):
             raise Unencodable(f"{_class_name(cls)} pickles in a way of its own")
         seen[id(x)] = n = next(numbers)
         keep.append(x)

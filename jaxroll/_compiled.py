@@ -67,15 +67,20 @@ def enable_compilation_cache(path: str | os.PathLike | None = None) -> pathlib.P
     refused with a warning: JAX runs the compiled code it finds there (docs/scaling.md, "The compilation cache and
     what it trusts"). **Returns:** the folder, or None when left off or refused."""
     if path is None:
-        path = os.environ.get("JAXROLL_CACHE_DIR", os.path.join(os.path.expanduser("~"), ".cache", "jaxroll", "xla"))
+        path = os.environ.get(
+            "JAXROLL_CACHE_DIR", os.path.join(os.path.expanduser("~"), ".cache", "jaxroll", "xla")
+        )
     if not str(path):
         return None
     reason = files.unsafe_reason(os.path.abspath(path))
     if reason is not None:  # JAX would load compiled code that someone else may have put there
-        warnings.warn(f"the compilation cache {str(path)!r} is not used: {reason}, so others could plant "
-                      "compiled code there, which JAX and jaxroll would run. Every program is compiled afresh "
-                      "(slower). Use a folder only you can write: 'chmod go-w' the folder named, or set "
-                      "JAXROLL_CACHE_DIR to a folder of your own.", stacklevel=2)
+        warnings.warn(
+            f"the compilation cache {str(path)!r} is not used: {reason}, so others could plant "
+            "compiled code there, which JAX and jaxroll would run. Every program is compiled afresh "
+            "(slower). Use a folder only you can write: 'chmod go-w' the folder named, or set "
+            "JAXROLL_CACHE_DIR to a folder of your own.",
+            stacklevel=2,
+        )
         return None
     jax.config.update("jax_compilation_cache_dir", str(path))
     jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.0)
@@ -104,9 +109,12 @@ def cache_subfolder(name: str) -> pathlib.Path | None:
         return pathlib.Path(folder)
     if base not in _REFUSED:  # said once for the folder
         _REFUSED.add(base)
-        warnings.warn(f"jaxroll keeps no programs or tables in {base!r}: {reason}, so others could plant files "
-                      "there. Use a compilation cache only you can write (JAXROLL_CACHE_DIR, "
-                      "jaxroll.enable_compilation_cache).", stacklevel=3)
+        warnings.warn(
+            f"jaxroll keeps no programs or tables in {base!r}: {reason}, so others could plant files "
+            "there. Use a compilation cache only you can write (JAXROLL_CACHE_DIR, "
+            "jaxroll.enable_compilation_cache).",
+            stacklevel=3,
+        )
     return None
 
 
@@ -237,8 +245,11 @@ class _Stored:
 
     def outputs(self, arrays):
         """The call's output pytree from its array outputs (the skeleton's `_Slot`s filled in)."""
-        return jax.tree.map(lambda s: arrays[s.index] if isinstance(s, _Slot) else s, self.skeleton,
-                            is_leaf=lambda x: isinstance(x, _Slot))
+        return jax.tree.map(
+            lambda s: arrays[s.index] if isinstance(s, _Slot) else s,
+            self.skeleton,
+            is_leaf=lambda x: isinstance(x, _Slot),
+        )
 
 
 _LOADED: dict[str, _Stored | None] = {}  # key -> the program, or None (not exportable: run the usual way)
@@ -293,15 +304,25 @@ def cached_program(fn: Callable | None = None, *, compiler_options: dict | None 
             static_bytes = pickle.dumps(static, protocol=4) + str(in_tree).encode()
         except Exception:  # an unpicklable static argument: no stored program
             return None
-        key = _sha(package_key(), name, options, static_bytes,
-                   [(x.shape, str(x.dtype), getattr(x, "weak_type", False), _placement(x)) for x in leaves])
+        key = _sha(
+            package_key(),
+            name,
+            options,
+            static_bytes,
+            [(x.shape, str(x.dtype), getattr(x, "weak_type", False), _placement(x)) for x in leaves],
+        )
         with _LOCKS_GUARD:
             lock = _LOCKS.setdefault(key, threading.Lock())
         with lock:
             stored = _LOADED.get(key, False)
-            if stored is False:  # with the cache off, the same program is traced and compiled with the same options
-                stored = _LOADED[key] = (_Stored(*_flat(fn, in_tree, static)) if d is None else
-                                         _load_or_export(d / f"{key}.npz", key, fn, leaves, in_tree, static))
+            if (
+                stored is False
+            ):  # with the cache off, the same program is traced and compiled with the same options
+                stored = _LOADED[key] = (
+                    _Stored(*_flat(fn, in_tree, static))
+                    if d is None
+                    else _load_or_export(d / f"{key}.npz", key, fn, leaves, in_tree, static)
+                )
             if stored is not None and compile and stored.compiled is None:
                 stored.compiled = _compiled(stored.exported, leaves, options)
         return None if stored is None else (stored, leaves)
@@ -330,9 +351,14 @@ def cached_program(fn: Callable | None = None, *, compiler_options: dict | None 
         def call(*rest):
             dynamic, static = eqx.partition(rest, eqx.is_array)
             leaves, tree = jax.tree.flatten(dynamic)
-            kind = (tree, tuple(map(id, jax.tree.leaves(static))),
-                    tuple((x.shape, x.dtype, getattr(x, "weak_type", False), getattr(x, "sharding", None))
-                          for x in leaves))
+            kind = (
+                tree,
+                tuple(map(id, jax.tree.leaves(static))),
+                tuple(
+                    (x.shape, x.dtype, getattr(x, "weak_type", False), getattr(x, "sharding", None))
+                    for x in leaves
+                ),
+            )
             if memo.get("kind") != kind:
                 if not jax.config.jax_enable_x64:
                     require_float64(name)
@@ -389,7 +415,12 @@ def filter_jit(fn: Callable | None = None, *, compiler_options: dict | None = SO
     def wrapper(*args, **kwargs):
         if not jax.config.jax_enable_x64:  # a safety net: the public entry points check first, by their names
             require_float64(name)
-        if compiler_options and _on_cpu(compiler_options) and is_concrete((args, kwargs)) and _accepted(items):
+        if (
+            compiler_options
+            and _on_cpu(compiler_options)
+            and is_concrete((args, kwargs))
+            and _accepted(items)
+        ):
             try:
                 return tuned(*args, **kwargs)
             except ValueError as e:  # inside another trace after all (a tracer in a closure)
@@ -448,8 +479,11 @@ def _load_or_export(path: pathlib.Path, key: str, fn, leaves, in_tree, static) -
             if "exported" not in members:
                 return None  # stored as not exportable
             slots: list[int] = []
-            skeleton = files.decode(files.member_text(members["skeleton"]), members,
-                                    leaf=lambda i: slots.append(int(i)) or _Slot(slots[-1]))
+            skeleton = files.decode(
+                files.member_text(members["skeleton"]),
+                members,
+                leaf=lambda i: slots.append(int(i)) or _Slot(slots[-1]),
+            )
             exported = jax.export.deserialize(bytearray(members["exported"].tobytes()))
             if sorted(slots) != list(range(len(exported.out_avals))):
                 raise ValueError("the skeleton does not match the program's outputs")
@@ -461,9 +495,14 @@ def _load_or_export(path: pathlib.Path, key: str, fn, leaves, in_tree, static) -
         exp = _export(flat, leaves)
         text, arrays = files.encode(box["skeleton"], leaf=lambda x: x.index if isinstance(x, _Slot) else None)
         files.decode(text, arrays, leaf=_Slot)  # the skeleton must come back (else: run the usual way)
-        members = {"exported": np.frombuffer(bytes(exp.serialize()), np.uint8),
-                   "skeleton": files.text_member(text), **arrays}
-    except Exception:  # host callbacks, outputs that are not data, `flatbuffers` missing: run it the usual way
+        members = {
+            "exported": np.frombuffer(bytes(exp.serialize()), np.uint8),
+            "skeleton": files.text_member(text),
+            **arrays,
+        }
+    except (
+        Exception
+    ):  # host callbacks, outputs that are not data, `flatbuffers` missing: run it the usual way
         write_atomic(path, files.entry_bytes(key, {}))
         return None
     write_atomic(path, files.entry_bytes(key, members))

@@ -102,8 +102,11 @@ def configure(
 
     **Raises:** `ValueError` for a `cpu_devices` that is not "all", None or an integer ≥ 1.
     """
-    if not (cpu_devices is None or cpu_devices == "all" or (
-            isinstance(cpu_devices, int) and not isinstance(cpu_devices, bool) and cpu_devices >= 1)):
+    if not (
+        cpu_devices is None
+        or cpu_devices == "all"
+        or (isinstance(cpu_devices, int) and not isinstance(cpu_devices, bool) and cpu_devices >= 1)
+    ):
         raise ValueError(f"`cpu_devices` must be 'all', None or an integer >= 1; got {cpu_devices!r}.")
     if x64:
         jax.config.update("jax_enable_x64", True)
@@ -115,10 +118,14 @@ def configure(
         if wanted != flags:
             if started:
                 if MATH_FLAG not in flags:
-                    missed.append("XLA:CPU's platform-independent math (Monte Carlo results may then differ in "
-                                  "their last bits with the chunk size and the device count)")
+                    missed.append(
+                        "XLA:CPU's platform-independent math (Monte Carlo results may then differ in "
+                        "their last bits with the chunk size and the device count)"
+                    )
                 if LOOP_OPTION not in flags:
-                    missed.append("small loops compiled whole (the time loops run slower, with the same results)")
+                    missed.append(
+                        "small loops compiled whole (the time loops run slower, with the same results)"
+                    )
             else:
                 os.environ["XLA_FLAGS"] = wanted
     if cpu_devices is not None:
@@ -127,8 +134,10 @@ def configure(
             if started:
                 have = _cpu_device_count()
                 if have is not None and have != want:
-                    missed.append(f"{want} JAX CPU devices (JAX has {have}: the Monte Carlo runs on {have} of "
-                                  f"the {usable_cores()} cores)")
+                    missed.append(
+                        f"{want} JAX CPU devices (JAX has {have}: the Monte Carlo runs on {have} of "
+                        f"the {usable_cores()} cores)"
+                    )
             elif want > 1 or cpu_devices != "all":
                 try:
                     jax.config.update("jax_num_cpu_devices", want)
@@ -139,7 +148,7 @@ def configure(
             "jaxroll.configure() came after JAX had started its backends, so it could not apply: "
             + "; ".join(missed)
             + ". Call jaxroll.configure() before the first JAX computation, or set them before Python starts "
-            "(XLA_FLAGS, JAX_NUM_CPU_DEVICES; docs/architecture.md, \"Process-wide settings\")."
+            '(XLA_FLAGS, JAX_NUM_CPU_DEVICES; docs/architecture.md, "Process-wide settings").'
         )
         if message not in _WARNED:
             _WARNED.add(message)
@@ -152,5 +161,5 @@ def require_float64(name: str) -> None:
     if not jax.config.jax_enable_x64:
         raise RuntimeError(
             f"{name} needs float64, but JAX runs in float32 (importing jaxroll does not change that): call "
-            "jaxroll.configure() first (or jax.config.update(\"jax_enable_x64\", True))."
+            'jaxroll.configure() first (or jax.config.update("jax_enable_x64", True)).'
         )

@@ -71,8 +71,10 @@ def run_notebook(name: str, tmp_path, monkeypatch) -> dict:
     monkeypatch.setenv("MPLBACKEND", "Agg")
     monkeypatch.setenv("IPYTHONDIR", str(tmp_path / ".ipython"))
     monkeypatch.chdir(tmp_path)
-    settings = {s: getattr(jax.config, s) for s in
-                ("jax_compilation_cache_dir", "jax_persistent_cache_min_compile_time_secs")}
+    settings = {
+        s: getattr(jax.config, s)
+        for s in ("jax_compilation_cache_dir", "jax_persistent_cache_min_compile_time_secs")
+    }
     hooks = (sys.displayhook, sys.excepthook)
     config = Config()
     config.HistoryManager.enabled = False
@@ -157,8 +159,11 @@ def assert_labelled_output(folder, stem: str) -> None:
                 assert list(np.atleast_1d(got)) == (node if isinstance(node, list) else [node]), (stem, name)
             else:
                 expect = np.array(node, dtype=float) if node is not None else np.full(got.shape, np.nan)
-                np.testing.assert_array_equal(np.where(np.isfinite(got), got, np.nan).astype(float), expect,
-                                              err_msg=f"{stem}.nc {name} at {index} vs {'/'.join(concrete)}")
+                np.testing.assert_array_equal(
+                    np.where(np.isfinite(got), got, np.nan).astype(float),
+                    expect,
+                    err_msg=f"{stem}.nc {name} at {index} vs {'/'.join(concrete)}",
+                )
             seen.add(concrete)
     skipped = set(json.loads(ds.attrs.get("json_fields_not_stored", "{}")))
 
@@ -169,8 +174,9 @@ def assert_labelled_output(folder, stem: str) -> None:
         elif isinstance(node, list) and node and all(isinstance(v, dict) for v in node):
             for i, v in enumerate(node):
                 yield from numbers(v, (*path, str(i)))
-        elif isinstance(node, bool | int | float) or (isinstance(node, list) and any(
-                isinstance(v, bool | int | float | list) for v in node)):
+        elif isinstance(node, bool | int | float) or (
+            isinstance(node, list) and any(isinstance(v, bool | int | float | list) for v in node)
+        ):
             yield path
 
     missing = []

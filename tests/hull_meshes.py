@@ -38,7 +38,16 @@ def ring_mesh(x, Y, Z) -> np.ndarray:
 
 
 def frigate(
-    length=142.0, breadth=19.0, draught=6.15, depth=12.5, *, ns=61, nr=15, dome=0.0, skeg=0.0, flare=1.0,
+    length=142.0,
+    breadth=19.0,
+    draught=6.15,
+    depth=12.5,
+    *,
+    ns=61,
+    nr=15,
+    dome=0.0,
+    skeg=0.0,
+    flare=1.0,
     z0=0.0,
 ) -> np.ndarray:
     """A frigate-like hull (L, B, T, D [m]) with fine ends, a transom, flare above the waterline (`flare` × B/2 ×
@@ -61,7 +70,9 @@ def frigate(
         z = keel[i] + (depth - keel[i]) * s**1.3
         zt = np.clip(z / draught, 0, None)
         sec = np.where(z < 0, 0.0, 1 - (1 - np.clip(zt, 0, 1)) ** 3)  # bilge: full near the waterline
-        appendage = np.where(z < 0, 0.6 * np.sqrt(np.clip(1 - z / keel[i], 0, 1)) if keel[i] < 0 else 0.0, 0.0)
+        appendage = np.where(
+            z < 0, 0.6 * np.sqrt(np.clip(1 - z / keel[i], 0, 1)) if keel[i] < 0 else 0.0, 0.0
+        )
         above = np.clip((z - draught) / (depth - draught), 0, 1)
         y = breadth / 2 * plan[i] * sec * (1 + 0.1 * flare * above) + appendage
         y[0] = 0.0
@@ -85,7 +96,12 @@ def wigley(length=100.0, breadth=10.0, draught=6.25, depth=10.0, *, ns=81, nr=33
     x = np.linspace(0.0, length, ns)
     z = draught * np.concatenate([np.linspace(0, 1, nr), [depth / draught]])
     xi = 2 * (x - length / 2) / length
-    y = breadth / 2 * (1 - xi[:, None] ** 2) * (1 - ((draught - np.minimum(z, draught)) / draught)[None, :] ** 2)
+    y = (
+        breadth
+        / 2
+        * (1 - xi[:, None] ** 2)
+        * (1 - ((draught - np.minimum(z, draught)) / draught)[None, :] ** 2)
+    )
     y = np.maximum(y, 0.005)
     y[:, 0] = 0.0
     return ring_mesh(x, y, np.tile(z, (ns, 1)))
@@ -97,8 +113,15 @@ def asymmetric_prism(length=100.0, depth=10.0, port=8.0, starboard=(8.0, 10.0), 
     x = np.linspace(0.0, length, ns)
     P = []
     for xx in x:
-        P.append([[xx, 0.0, 0.0], [xx, starboard[0], 0.0], [xx, starboard[1], depth], [xx, -port, depth],
-                  [xx, -port, 0.0]])
+        P.append(
+            [
+                [xx, 0.0, 0.0],
+                [xx, starboard[0], 0.0],
+                [xx, starboard[1], depth],
+                [xx, -port, depth],
+                [xx, -port, 0.0],
+            ]
+        )
     P = np.asarray(P)
     tris = []
     m = P.shape[1]

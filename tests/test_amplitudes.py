@@ -15,7 +15,10 @@ def test_hilbert_envelope_matches_scipy(getkey):
     for n in (1000, 1001):
         x = jr.normal(getkey(), (3, n))
         np.testing.assert_allclose(
-            jaxroll.hilbert_envelope(x), np.abs(scipy.signal.hilbert(np.asarray(x), axis=-1)), rtol=1e-10, atol=1e-12
+            jaxroll.hilbert_envelope(x),
+            np.abs(scipy.signal.hilbert(np.asarray(x), axis=-1)),
+            rtol=1e-10,
+            atol=1e-12,
         )
 
 

@@ -53,13 +53,22 @@ def test_imports_run_downward(stage):
                 pytest.fail(f"{path.relative_to(ROOT)} imports matplotlib")
             if target[0] != "jaxroll" or len(target) < 2:
                 continue
-            if target[1] in ("__version__", "_atomic", "_compiled", "_display", "_labels", "_config"):  # infrastructure every stage may use (no numerics)
+            if target[1] in (
+                "__version__",
+                "_atomic",
+                "_compiled",
+                "_display",
+                "_labels",
+                "_config",
+            ):  # infrastructure every stage may use (no numerics)
                 continue
             assert target[1] in ALLOWED[stage], f"{path.relative_to(ROOT)} imports jaxroll.{target[1]}"
 
 
 def test_no_module_is_oversized():
-    big = [(p.relative_to(ROOT), n) for p in PKG.rglob("*.py") if (n := len(p.read_text().splitlines())) > 800]
+    big = [
+        (p.relative_to(ROOT), n) for p in PKG.rglob("*.py") if (n := len(p.read_text().splitlines())) > 800
+    ]
     assert not big, big
 
 
@@ -70,12 +79,16 @@ def test_cli_and_notebooks_use_public_names():
             if target[0] != "jaxroll" or len(target) < 2 or target[1] == "_cli":
                 continue
             private = [part for part in target[1:3] if part.startswith("_") and not part.startswith("__")]
-            if private:  # a private module of jaxroll (`jaxroll._compiled`) or of a stage (`jaxroll.theory._named`)
+            if (
+                private
+            ):  # a private module of jaxroll (`jaxroll._compiled`) or of a stage (`jaxroll.theory._named`)
                 offenders.append((path.name, ".".join(target)))
     for nb in (ROOT / "notebooks").glob("*.ipynb"):
         for cell in json.loads(nb.read_text())["cells"]:
             src = "".join(cell["source"])
-            if "jaxroll." in src and any(f"jaxroll.{s}._" in src or "from jaxroll._" in src for s in CORE + ("plotting",)):
+            if "jaxroll." in src and any(
+                f"jaxroll.{s}._" in src or "from jaxroll._" in src for s in CORE + ("plotting",)
+            ):
                 offenders.append((nb.name, "private import"))
     assert not offenders, offenders
 

@@ -379,12 +379,16 @@ def test_pdfs_are_normalised_and_nonnegative(hs, pdfs):
 
 def test_no_stationary_pdf_errors():
     weak = parametric_spectrum(SHIP, _wave(1.0))  # K ≪ b1/2
-    with pytest.raises(ValueError, match=r"roll dies out.*K = .* below b1/2.*Increase H1/3 or the GM correction r"):
+    with pytest.raises(
+        ValueError, match=r"roll dies out.*K = .* below b1/2.*Increase H1/3 or the GM correction r"
+    ):
         roberts_pdf(SHIP, weak)
     with pytest.raises(ValueError, match="roll dies out"):
         esam_pdf(SHIP, weak)
     unmodulated = eqx.tree_at(lambda s: s.gm_correction, SHIP, jnp.asarray(0.0))  # K = 0: nothing to increase
-    with pytest.raises(ValueError, match=r"K = 0 1/s .* no parametric excitation at all.*GM correction r = 0"):
+    with pytest.raises(
+        ValueError, match=r"K = 0 1/s .* no parametric excitation at all.*GM correction r = 0"
+    ):
         roberts_pdf(unmodulated, _wave(7.0))
     out = roberts_pdf(SHIP, weak, throw=False)
     assert not bool(out.exists) and np.all(np.isnan(np.asarray(out.density)))
@@ -546,7 +550,9 @@ def test_roberts_and_esam_together_are_one_program_with_the_same_numbers(tmp_pat
     monkeypatch.setattr(_compiled, "cache_dir", lambda: tmp_path)
     monkeypatch.setattr(_compiled, "_LOADED", {})
     wave = _wave(7.0)
-    effective_wave_std(wave)  # the set-up checks' own stored program (S_G on a grid), exported before counting
+    effective_wave_std(
+        wave
+    )  # the set-up checks' own stored program (S_G on a grid), exported before counting
     before = set(tmp_path.glob("*.npz"))
     both = dict(jxr.theory.iter_theory_summaries(("esam", "roberts"), SHIP, wave, BINS))
     assert list(both) == ["esam", "roberts"]

@@ -58,7 +58,9 @@ def _tables_args():
 
     ship = jaxroll.c11_representative()
     wave = jaxroll.EffectiveWave(jaxroll.ITTC(7.0, 10.0), ship.lpp)
-    sde = jaxroll.theory.roll_sde(ship, jaxroll.fit_filter(wave, order=4, match_frequency=2 * ship.omega0).filter)
+    sde = jaxroll.theory.roll_sde(
+        ship, jaxroll.fit_filter(wave, order=4, match_frequency=2 * ship.omega0).filter
+    )
     return sde._structure(), 4, me._extra_monomials(sde.dim, sde.symmetric)
 
 
@@ -187,8 +189,16 @@ def test_decode_builds_only_data_and_known_classes():
     it builds on — never a function, a class of another package, or a class from a module not yet imported, and
     never an array of Python objects."""
     sea = jax.tree.map(np.asarray, jaxroll.ITTC(7.0, 10.0))  # a Module of jaxroll, NumPy leaves
-    static = {"label": "x", "n": 3, "t": (1, 2.5, None, True), "a": np.arange(3.0), "sea": sea, "again": sea,
-              "f": np.float32(0.25), "inf": float("inf")}
+    static = {
+        "label": "x",
+        "n": 3,
+        "t": (1, 2.5, None, True),
+        "a": np.arange(3.0),
+        "sea": sea,
+        "again": sea,
+        "f": np.float32(0.25),
+        "inf": float("inf"),
+    }
     text, arrays = files.encode(static)
     back = files.decode(text, arrays)
     assert back["label"] == "x" and back["t"] == (1, 2.5, None, True) and back["inf"] == float("inf")
@@ -197,10 +207,23 @@ def test_decode_builds_only_data_and_known_classes():
     np.testing.assert_array_equal(back["a"], np.arange(3.0))
     with pytest.raises(files.Unencodable):  # a class outside jaxroll and its libraries (this test module's)
         files.encode(_Params(np.asarray(1.0), "p"))
-    for name in ("os:system", "builtins:eval", "subprocess:Popen", "pickle:loads", "jaxroll._compiled:write_atomic",
-                 "jaxroll.notamodule:Thing", "tests.test_cache_safety:_Marker"):
+    for name in (
+        "os:system",
+        "builtins:eval",
+        "subprocess:Popen",
+        "pickle:loads",
+        "jaxroll._compiled:write_atomic",
+        "jaxroll.notamodule:Thing",
+        "tests.test_cache_safety:_Marker",
+    ):
         for tag in ("o", "c", "k"):
-            node = {"o": name, "id": 0, "f": []} if tag == "o" else {"k": name, "v": 1} if tag == "k" else {tag: name}
+            node = (
+                {"o": name, "id": 0, "f": []}
+                if tag == "o"
+                else {"k": name, "v": 1}
+                if tag == "k"
+                else {tag: name}
+            )
             with pytest.raises((ValueError, KeyError, AttributeError, TypeError)):
                 files.decode(json.dumps(node), {})
     with pytest.raises(files.Unencodable):
@@ -228,8 +251,11 @@ def test_a_cache_folder_others_can_write_is_refused(tmp_path, monkeypatch):
     shared.chmod(0o777)
     files.unsafe_reason.cache_clear()
     try:
-        with pytest.warns(UserWarning, match=r"the compilation cache .* is not used: .*shared is writable by every "
-                                               r"user \(mode 777\), so others could plant compiled code there"):
+        with pytest.warns(
+            UserWarning,
+            match=r"the compilation cache .* is not used: .*shared is writable by every "
+            r"user \(mode 777\), so others could plant compiled code there",
+        ):
             assert jaxroll.enable_compilation_cache(shared) is None
         assert jax.config.jax_compilation_cache_dir == before
         group = tmp_path / "group"

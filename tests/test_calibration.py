@@ -438,6 +438,8 @@ def test_a_fit_whose_solver_fails_says_what_to_check():
     from jaxroll.calibration._least_squares import FitFailure
 
     rec = virtual_decay_record(DECAY_SHIP, initial_roll_deg=20.0, duration_model_s=30.0)
-    wild = dataclasses.replace(rec, channels={"roll": rec.roll * 3.4})  # 68°: the fit drives the model to capsize
+    wild = dataclasses.replace(
+        rec, channels={"roll": rec.roll * 3.4}
+    )  # 68°: the fit drives the model to capsize
     with pytest.raises(FitFailure, match="roll unit"):
         fit_decay_ode(wild, BASE)

@@ -23,14 +23,18 @@ def test_help_lists_subcommands(capsys):
 
 def test_pdf_writes_figures_and_json(tmp_path, capsys):
     out = tmp_path / "run"
-    code = main(["pdf", "--realizations", "6", "--duration", "600", "--out", str(out), "--seed", "3", "--quiet"])
+    code = main(
+        ["pdf", "--realizations", "6", "--duration", "600", "--out", str(out), "--seed", "3", "--quiet"]
+    )
     assert code == 0
     for name in ("pdf_linear.png", "pdf_log.png", "pdf.json"):
         assert (out / name).stat().st_size > 0
     assert_labelled_output(out, "pdf")  # pdf.nc: the JSON's numbers, the histograms, the per-trial arrays
     d = json.loads((out / "pdf.json").read_text())
     assert d["jaxroll_version"] == jaxroll.__version__
-    assert d["config"]["ship"]["name"] == "C11 (representative)" and "representative" in d["config"]["ship_note"]
+    assert (
+        d["config"]["ship"]["name"] == "C11 (representative)" and "representative" in d["config"]["ship_note"]
+    )
     assert d["config"]["sea"] == {"spectrum": "ITTC", "hs_m": 7.0, "t01_s": 10.0}
     edges = np.array(d["bins_deg"])
     for method in ("zero_crossing", "envelope"):
@@ -41,17 +45,41 @@ def test_pdf_writes_figures_and_json(tmp_path, capsys):
         assert 0 < q["50"] <= q["90"] <= q["99"] < 90
         assert d["mean_amplitude_deg"][method] > 0
     # φ recorded every 4 steps of 0.5 s for the envelope: 300 samples of 2 s per surviving trial
-    assert d["envelope_sample_interval_s"] == 2.0 and d["n_amplitudes"]["envelope"] == 300 * (6 - d["n_capsized"])
+    assert d["envelope_sample_interval_s"] == 2.0 and d["n_amplitudes"]["envelope"] == 300 * (
+        6 - d["n_capsized"]
+    )
     assert d["n_realizations"] == 6 and d["n_capsized"] + 0 == d["capsize_probability"] * 6
     assert d["filter_fit"]["order"] == 4
     # the paper's figure by default: Roberts, ESAM and the moment method overlaid, each a normalised envelope law
-    assert set(d["theory"]) == {"roberts", "esam", "moment"} and d["config"]["theory"] == ["roberts", "esam", "moment"]
+    assert set(d["theory"]) == {"roberts", "esam", "moment"} and d["config"]["theory"] == [
+        "roberts",
+        "esam",
+        "moment",
+    ]
     for t in d["theory"].values():
-        np.testing.assert_allclose(np.sum(np.array(t["pdf"]) * np.diff(edges)), 1 - t["mass_beyond_grid"], atol=2e-3)
+        np.testing.assert_allclose(
+            np.sum(np.array(t["pdf"]) * np.diff(edges)), 1 - t["mass_beyond_grid"], atol=2e-3
+        )
     assert "C11 (representative)" in capsys.readouterr().out
     # Same seed → same result.
-    main(["pdf", "--realizations", "6", "--duration", "600", "--out", str(tmp_path / "again"), "--seed", "3",
-          "--quiet", "--chunk-size", "4", "--theory", "none"])
+    main(
+        [
+            "pdf",
+            "--realizations",
+            "6",
+            "--duration",
+            "600",
+            "--out",
+            str(tmp_path / "again"),
+            "--seed",
+            "3",
+            "--quiet",
+            "--chunk-size",
+            "4",
+            "--theory",
+            "none",
+        ]
+    )
     d2 = json.loads((tmp_path / "again" / "pdf.json").read_text())
     assert d2["pdf_envelope"] == d["pdf_envelope"]
 
@@ -60,8 +88,26 @@ def test_pdf_with_ship_file_and_superposition(tmp_path):
     ship = tmp_path / "ship.toml"
     text = jaxroll.ship_to_toml(jaxroll.c11_representative()).replace("gm_ratio = 1.0", "gm_ratio = 0.8")
     ship.write_text(text)
-    code = main(["pdf", "--ship", str(ship), "--method", "superposition", "--realizations", "4", "--duration",
-                 "600", "--hs", "5", "--out", str(tmp_path), "--quiet", "--theory", "none"])
+    code = main(
+        [
+            "pdf",
+            "--ship",
+            str(ship),
+            "--method",
+            "superposition",
+            "--realizations",
+            "4",
+            "--duration",
+            "600",
+            "--hs",
+            "5",
+            "--out",
+            str(tmp_path),
+            "--quiet",
+            "--theory",
+            "none",
+        ]
+    )
     assert code == 0
     d = json.loads((tmp_path / "pdf.json").read_text())
     assert d["config"]["ship"]["correction"]["gm_ratio"] == 0.8 and "ship_note" not in d["config"]
@@ -76,7 +122,10 @@ def test_pdf_with_ship_file_and_superposition(tmp_path):
         (["pdf", "--realizations", "0"], "--realizations must be >= 1"),
         (["pdf", "--speed", "-2"], "--speed must be >= 0"),
         (["pdf", "--filter-order", "2"], "--filter-order must be between 3 and 12"),
-        (["theory", "--filter-order", "13"], r"--filter-order must be between 3 and 12 \(4 recommended\); got 13\."),
+        (
+            ["theory", "--filter-order", "13"],
+            r"--filter-order must be between 3 and 12 \(4 recommended\); got 13\.",
+        ),
         (["pdf", "--bin-width-deg", "0.33"], "--bin-width-deg must be a multiple of 0.05"),
         (["pdf", "--theory", "magic"], r"--theory: unknown method\(s\) \['magic'\]"),
         (["pdf", "--ship", "/nonexistent/ship.toml"], "does not exist"),
@@ -112,13 +161,31 @@ def test_ship_show(capsys, tmp_path):
 
 
 def test_maxima_command(tmp_path):
-    code = main(["maxima", "--n0", "10,30", "--realizations", "6", "--out", str(tmp_path), "--quiet",
-                 "--chunk-size", "6"])
+    code = main(
+        [
+            "maxima",
+            "--n0",
+            "10,30",
+            "--realizations",
+            "6",
+            "--out",
+            str(tmp_path),
+            "--quiet",
+            "--chunk-size",
+            "6",
+        ]
+    )
     assert code == 0
     d = json.loads((tmp_path / "maxima.json").read_text())
     assert set(d["per_n0"]) == {"10", "30"}
-    st = d["amplitude_pdf_stationarity"]  # the amplitude run behind P* (7 m: stationary, or too few trials to tell)
-    assert st["stationary"] is not False and set(st) >= {"relative_change", "change_in_standard_errors", "note"}
+    st = d[
+        "amplitude_pdf_stationarity"
+    ]  # the amplitude run behind P* (7 m: stationary, or too few trials to tell)
+    assert st["stationary"] is not False and set(st) >= {
+        "relative_change",
+        "change_in_standard_errors",
+        "note",
+    }
     for k, v in d["per_n0"].items():
         assert v["n_valid"] + v["n_capsized_before"] + v["n_incomplete"] == 6
         assert 0 < v["quantiles_deg"]["50"] <= v["quantiles_deg"]["99"]
@@ -147,8 +214,24 @@ def _maxima_and_risk_with_the_moment_method(tmp_path, capsys):
     "closure order 4: …" in the theory's line and record it in the JSON, with no raw Python warning (the suite
     turns warnings into errors); maxima.json holds P*'s numbers per theory."""
     # (the sizes of test_maxima_command and test_risk_command: their compiled Monte Carlo programs serve here too)
-    code = main(["maxima", "--hs", "5", "--n0", "10,30", "--realizations", "6", "--chunk-size", "6",
-                 "--theory", "moment", "--out", str(tmp_path / "maxima"), "--quiet"])
+    code = main(
+        [
+            "maxima",
+            "--hs",
+            "5",
+            "--n0",
+            "10,30",
+            "--realizations",
+            "6",
+            "--chunk-size",
+            "6",
+            "--theory",
+            "moment",
+            "--out",
+            str(tmp_path / "maxima"),
+            "--quiet",
+        ]
+    )
     assert code == 0
     out = capsys.readouterr().out
     assert "P* moment: mode" in out and "closure order 4: order 6 has no stable fixed point here" in out
@@ -156,11 +239,33 @@ def _maxima_and_risk_with_the_moment_method(tmp_path, capsys):
     details = d["theory_details"]["moment"]
     assert details["closure_fallback"] and details["closure_order"] == 4
     p = d["per_n0"]["10"]["p_star"]["moment"]
-    assert 5 < p["mode_deg"] < 40 and 1 >= p["p_exceed"]["20"] >= p["p_exceed"]["30"] >= p["p_exceed"]["40"] >= 0
-    code = main(["risk", "--hs", "5", "--angle", "20", "--hours", "3", "--realizations", "8", "--duration", "1200",
-                 "--theory", "moment", "--out", str(tmp_path / "risk"), "--quiet"])
+    assert (
+        5 < p["mode_deg"] < 40 and 1 >= p["p_exceed"]["20"] >= p["p_exceed"]["30"] >= p["p_exceed"]["40"] >= 0
+    )
+    code = main(
+        [
+            "risk",
+            "--hs",
+            "5",
+            "--angle",
+            "20",
+            "--hours",
+            "3",
+            "--realizations",
+            "8",
+            "--duration",
+            "1200",
+            "--theory",
+            "moment",
+            "--out",
+            str(tmp_path / "risk"),
+            "--quiet",
+        ]
+    )
     assert code == 0
-    line = [x for x in capsys.readouterr().out.splitlines() if x.startswith("moment (independent amplitudes):")]
+    line = [
+        x for x in capsys.readouterr().out.splitlines() if x.startswith("moment (independent amplitudes):")
+    ]
     assert line and line[0].endswith("closure order 4: order 6 has no stable fixed point here"), line
     d = json.loads((tmp_path / "risk" / "risk.json").read_text())
     assert d["moment"]["theory_details"]["closure_fallback"] and 0 <= d["moment"]["probability"] <= 1
@@ -192,8 +297,16 @@ def test_maxima_and_risk_say_a_closure_fallback_instead_of_warning(tmp_path, cap
 
     details = AveragedAmplitudeLaw.details
     monkeypatch.setattr(theory, "theory_law", fake)
-    monkeypatch.setattr(AveragedAmplitudeLaw, "details", lambda self: {
-        **details(self), "closure_order": 4, "requested_closure_order": 6, "closure_fallback": True})
+    monkeypatch.setattr(
+        AveragedAmplitudeLaw,
+        "details",
+        lambda self: {
+            **details(self),
+            "closure_order": 4,
+            "requested_closure_order": 6,
+            "closure_fallback": True,
+        },
+    )
     _maxima_and_risk_with_the_moment_method(tmp_path, capsys)
 
 
@@ -201,8 +314,24 @@ def test_maxima_count_capsizes_as_the_largest_maxima(tmp_path, capsys):
     """Issue 13 case 4: at H1/3 = 11 m trials capsize before N0; they are maxima beyond the vanishing angle, not
     dropped: the histogram is defective (mass 1 - P(capsize)), the mean is null with a reason, high quantiles are
     null, and P(max > x) counts them."""
-    code = main(["maxima", "--hs", "11", "--n0", "20,100", "--realizations", "60", "--duration", "2500",
-                 "--chunk-size", "60", "--out", str(tmp_path), "--quiet"])
+    code = main(
+        [
+            "maxima",
+            "--hs",
+            "11",
+            "--n0",
+            "20,100",
+            "--realizations",
+            "60",
+            "--duration",
+            "2500",
+            "--chunk-size",
+            "60",
+            "--out",
+            str(tmp_path),
+            "--quiet",
+        ]
+    )
     assert code == 0
     d = json.loads((tmp_path / "maxima.json").read_text())
     for k, v in d["per_n0"].items():
@@ -221,8 +350,22 @@ def test_maxima_count_capsizes_as_the_largest_maxima(tmp_path, capsys):
 
 
 def test_risk_command(tmp_path, capsys):
-    code = main(["risk", "--angle", "20", "--hours", "3", "--realizations", "8", "--duration", "1200",
-                 "--out", str(tmp_path), "--quiet"])
+    code = main(
+        [
+            "risk",
+            "--angle",
+            "20",
+            "--hours",
+            "3",
+            "--realizations",
+            "8",
+            "--duration",
+            "1200",
+            "--out",
+            str(tmp_path),
+            "--quiet",
+        ]
+    )
     assert code == 0
     d = json.loads((tmp_path / "risk.json").read_text())
     m = d["monte_carlo"]
@@ -255,8 +398,26 @@ def test_risk_first_passage(tmp_path, capsys):
     """`risk --theory first_passage`: the envelope FPK model followed through the exposure, in risk.json (with
     the group statistics), on the risk curve (equal to the headline probability at the threshold) and in risk.nc;
     it is below the same model's independent-amplitude probability (large rolls come in groups)."""
-    code = main(["risk", "--hs", "6", "--angle", "30", "--hours", "1", "--realizations", "8", "--duration", "1200",
-                 "--theory", "first_passage", "--out", str(tmp_path), "--quiet"])
+    code = main(
+        [
+            "risk",
+            "--hs",
+            "6",
+            "--angle",
+            "30",
+            "--hours",
+            "1",
+            "--realizations",
+            "8",
+            "--duration",
+            "1200",
+            "--theory",
+            "first_passage",
+            "--out",
+            str(tmp_path),
+            "--quiet",
+        ]
+    )
     assert code == 0
     d = json.loads((tmp_path / "risk.json").read_text())
     f = d["first_passage"]
@@ -267,7 +428,9 @@ def test_risk_first_passage(tmp_path, capsys):
     assert 0 < f["capsize_probability"] < 1e-3
     curve = d["curve"]
     i = curve["angle_deg"].index(30.0)
-    assert curve["first_passage"][i] == pytest.approx(f["probability"], rel=0.02)  # interpolated between levels
+    assert curve["first_passage"][i] == pytest.approx(
+        f["probability"], rel=0.02
+    )  # interpolated between levels
     assert "first_passage (envelope FPK followed through the exposure)" in capsys.readouterr().out
     assert_labelled_output(tmp_path, "risk")
     assert main(["risk", "--theory", "first_passage,nonsense", "--out", str(tmp_path)]) == 2
@@ -296,7 +459,10 @@ def test_theory_default_set_leaves_out_the_theories_without_a_law(tmp_path, caps
     from jaxroll._cli import _theory
 
     real = _theory.start_theory_summaries
-    why = {"moment": "moment method: no stationary law: the roll dies out (test)", "esam": "ESAM: none (test)"}
+    why = {
+        "moment": "moment method: no stationary law: the roll dies out (test)",
+        "esam": "ESAM: none (test)",
+    }
     calls = []
 
     def fake(problem, args, names, bins, *, skip_failed=False, warn=True):
@@ -341,7 +507,9 @@ def _fake_stats(n_realizations=10, n_capsized=0, zc=(), env=(), beyond_deg=None)
             arr = np.zeros(n_realizations)
             arr[-1] = v
             per[f"{key}_{name}"] = arr
-    per.update(n_samples=per["n_env"].copy(), sum_phi2=np.zeros(n_realizations), sum_phi4=np.zeros(n_realizations))
+    per.update(
+        n_samples=per["n_env"].copy(), sum_phi2=np.zeros(n_realizations), sum_phi4=np.zeros(n_realizations)
+    )
     capsized = np.zeros(n_realizations, bool)
     capsized[:n_capsized] = True
     return AmplitudeStatistics(edges, counts["zc"], counts["env"], capsized, np.zeros(n_realizations), per)
@@ -367,12 +535,32 @@ def test_summary_of_nothing_is_null_with_a_reason():
 def test_pdf_all_capsized_reports_null_not_invented_numbers(tmp_path, monkeypatch, capsys):
     _patch_monte_carlo(monkeypatch, _fake_stats(n_realizations=5, n_capsized=5))
     out = tmp_path / "run"
-    assert main(["pdf", "--realizations", "5", "--duration", "600", "--out", str(out), "--quiet", "--theory", "none"]) == 0
+    assert (
+        main(
+            [
+                "pdf",
+                "--realizations",
+                "5",
+                "--duration",
+                "600",
+                "--out",
+                str(out),
+                "--quiet",
+                "--theory",
+                "none",
+            ]
+        )
+        == 0
+    )
     text = (out / "pdf.json").read_text()
     assert "NaN" not in text
     d = json.loads(text)
     for est in ("zero_crossing", "envelope"):
-        assert d[f"pdf_{est}"] is None and d["quantiles_deg"][est] is None and d["mean_amplitude_deg"][est] is None
+        assert (
+            d[f"pdf_{est}"] is None
+            and d["quantiles_deg"][est] is None
+            and d["mean_amplitude_deg"][est] is None
+        )
     assert "all 5 realizations capsized" in d["reason"] and d["n_capsized"] == 5
     printed = capsys.readouterr().out
     assert "no statistics:" in printed and "nan" not in printed.lower()
@@ -385,18 +573,42 @@ def test_pdf_warns_when_the_roll_is_not_stationary(tmp_path, monkeypatch, capsys
     tests/test_dynamics.py): `jaxroll pdf` says so on the terminal, in pdf.json and on the figures."""
     stats = _fake_stats(n_realizations=20, env=[1.0, 2.0])
     rng = np.random.default_rng(1)
-    m1, m2 = np.deg2rad(1.0 + 0.05 * rng.standard_normal(20)), np.deg2rad(0.5 + 0.05 * rng.standard_normal(20))
-    stats.per_realization.update(n_env=np.full(20, 200.0), sum_env=100 * (m1 + m2),
-                                 sum_env_first_half=100 * m1)
+    m1, m2 = (
+        np.deg2rad(1.0 + 0.05 * rng.standard_normal(20)),
+        np.deg2rad(0.5 + 0.05 * rng.standard_normal(20)),
+    )
+    stats.per_realization.update(
+        n_env=np.full(20, 200.0), sum_env=100 * (m1 + m2), sum_env_first_half=100 * m1
+    )
     stats.config = {"discard_s": 0.0, "duration_s": 600.0}
     _patch_monte_carlo(monkeypatch, stats)
     texts = []
     import matplotlib.axes
 
     real = matplotlib.axes.Axes.text
-    monkeypatch.setattr(matplotlib.axes.Axes, "text", lambda self, x, y, s, *a, **k: texts.append(s) or real(self, x, y, s, *a, **k))
+    monkeypatch.setattr(
+        matplotlib.axes.Axes,
+        "text",
+        lambda self, x, y, s, *a, **k: texts.append(s) or real(self, x, y, s, *a, **k),
+    )
     out = tmp_path / "run"
-    assert main(["pdf", "--realizations", "20", "--duration", "600", "--out", str(out), "--quiet", "--theory", "none"]) == 0
+    assert (
+        main(
+            [
+                "pdf",
+                "--realizations",
+                "20",
+                "--duration",
+                "600",
+                "--out",
+                str(out),
+                "--quiet",
+                "--theory",
+                "none",
+            ]
+        )
+        == 0
+    )
     st = json.loads((out / "pdf.json").read_text())["stationarity"]
     assert st["stationary"] is False and st["mean_envelope_first_half_deg"] == pytest.approx(1.0, abs=0.05)
     assert st["relative_change"] == pytest.approx(-0.5, abs=0.05)
@@ -419,7 +631,23 @@ def test_pdf_states_capsizes_and_mass_beyond_grid(tmp_path, monkeypatch, capsys)
 
     monkeypatch.setattr(plotting, "amplitude_pdf_figures", spy)
     out = tmp_path / "run"
-    assert main(["pdf", "--realizations", "10", "--duration", "600", "--out", str(out), "--quiet", "--theory", "none"]) == 0
+    assert (
+        main(
+            [
+                "pdf",
+                "--realizations",
+                "10",
+                "--duration",
+                "600",
+                "--out",
+                str(out),
+                "--quiet",
+                "--theory",
+                "none",
+            ]
+        )
+        == 0
+    )
     d = json.loads((out / "pdf.json").read_text())
     assert d["n_capsized"] == 9 and d["n_survivors"] == 1 and d["conditional_on_no_capsize"] is True
     assert d["mass_beyond_grid"]["zero_crossing"] == pytest.approx(1 / 4)
@@ -516,7 +744,9 @@ def test_a_filter_fit_that_is_not_usable_is_the_moment_methods_reason_only(tmp_p
     assert "moment: the order-4 shaping-filter fit is not usable: filter spectrum at 0.515 rad/s (2ω0)" in err
     assert main([*argv, "--theory", "roberts", "--out", str(tmp_path / "roberts")]) == 2
     err = capsys.readouterr().err
-    assert "roberts: No stationary roll-amplitude PDF: the roll dies out" in err and "shaping-filter" not in err
+    assert (
+        "roberts: No stationary roll-amplitude PDF: the roll dies out" in err and "shaping-filter" not in err
+    )
 
 
 def test_library_warnings_are_one_line_and_in_the_json(tmp_path, capsys):
@@ -524,16 +754,34 @@ def test_library_warnings_are_one_line_and_in_the_json(tmp_path, capsys):
     off at 2ω0) is one line, `jaxroll pdf: warning: …` — no source path, no code line — and is in pdf.json."""
     import warnings
 
-    argv = ["pdf", "--heading", "120", "--speed", "5", "--realizations", "4", "--duration", "600", "--chunk-size",
-            "4", "--theory", "none", "--quiet", "--out", str(tmp_path)]
+    argv = [
+        "pdf",
+        "--heading",
+        "120",
+        "--speed",
+        "5",
+        "--realizations",
+        "4",
+        "--duration",
+        "600",
+        "--chunk-size",
+        "4",
+        "--theory",
+        "none",
+        "--quiet",
+        "--out",
+        str(tmp_path),
+    ]
     with warnings.catch_warnings():
         warnings.simplefilter("default")  # as the command runs (the suite turns warnings into errors)
         assert main(argv) == 0
     err = capsys.readouterr().err
     lines = [line for line in err.splitlines() if "warning" in line.lower()]
     assert lines[0].startswith("jaxroll pdf: warning: dt = 0.5 s may bias the amplitudes by more than ~1 %")
-    assert lines[1] == ("jaxroll pdf: warning: order-4 shaping filter: filter spectrum at 0.515 rad/s (2ω0) is "
-                        "0.8147 vs target 0.9078 m² s (10 % off)")
+    assert lines[1] == (
+        "jaxroll pdf: warning: order-4 shaping filter: filter spectrum at 0.515 rad/s (2ω0) is "
+        "0.8147 vs target 0.9078 m² s (10 % off)"
+    )
     assert "UserWarning" not in err and ".py:" not in err
     d = json.loads((tmp_path / "pdf.json").read_text())
     assert d["warnings"] == [line.removeprefix("jaxroll pdf: warning: ") for line in lines[:2]]
@@ -565,7 +813,16 @@ def test_ctrl_c_while_the_theories_compile_exits_at_once(tmp_path):
 
     cache = tmp_path / "cache"
     env = {**os.environ, "JAXROLL_CACHE_DIR": str(cache)}
-    cmd = [sys.executable, "-m", "jaxroll", "theory", "--theory", "roberts,esam,moment", "--out", str(tmp_path / "out")]
+    cmd = [
+        sys.executable,
+        "-m",
+        "jaxroll",
+        "theory",
+        "--theory",
+        "roberts,esam,moment",
+        "--out",
+        str(tmp_path / "out"),
+    ]
     t_start = time.monotonic()
     programs = cache / "jaxroll-programs"
     with _running(cmd, env=env) as proc:
@@ -641,6 +898,7 @@ def test_a_deferred_ctrl_c_is_sent_again_until_it_is_raised(monkeypatch):
     sent = []
     monkeypatch.setattr(signal, "pthread_kill", lambda ident, sig: sent.append(time.monotonic()))
     monkeypatch.setattr(_cli, "_STATE", {"deferred": None, "raised": None})
+
     def callback(phase, info):
         pass
 
@@ -679,8 +937,11 @@ def test_ctrl_c_while_the_command_starts_is_one_line(tmp_path):
     target = tomllib.loads((root / "pyproject.toml").read_text())["project"]["scripts"]["jaxroll"]
     module, func = target.split(":")
     launcher = f"import sys\nfrom {module} import {func}\nsys.argv[0] = 'jaxroll'\nsys.exit({func}())\n"
-    env = {**os.environ, "JAXROLL_CACHE_DIR": str(tmp_path / "cache"),
-           "PYTHONPATH": os.pathsep.join([str(root), os.environ.get("PYTHONPATH", "")])}
+    env = {
+        **os.environ,
+        "JAXROLL_CACHE_DIR": str(tmp_path / "cache"),
+        "PYTHONPATH": os.pathsep.join([str(root), os.environ.get("PYTHONPATH", "")]),
+    }
     out = tmp_path / "out"
     with _running([sys.executable, "-c", launcher, "theory", "--out", str(out)], env=env) as proc:
         deadline = time.monotonic() + 120
@@ -696,14 +957,31 @@ def test_ctrl_c_while_the_command_starts_is_one_line(tmp_path):
         _, err = proc.communicate(timeout=300)
     assert proc.returncode == 130, err[-2000:]
     assert "Traceback" not in err and err.strip().splitlines() == [
-        "jaxroll theory: interrupted while starting; nothing was written."], err[-2000:]
+        "jaxroll theory: interrupted while starting; nothing was written."
+    ], err[-2000:]
     assert not out.exists()
 
 
 def test_interrupted_run_leaves_the_previous_set_untouched(tmp_path, monkeypatch, capsys):
     _patch_monte_carlo(monkeypatch, _fake_stats(zc=[5.0, 6.0], env=[4.0, 5.0]))
     out = tmp_path / "run"
-    assert main(["pdf", "--realizations", "10", "--duration", "600", "--out", str(out), "--quiet", "--theory", "none"]) == 0
+    assert (
+        main(
+            [
+                "pdf",
+                "--realizations",
+                "10",
+                "--duration",
+                "600",
+                "--out",
+                str(out),
+                "--quiet",
+                "--theory",
+                "none",
+            ]
+        )
+        == 0
+    )
     (out / "notes.txt").write_text("the user's own file")
     before = {p.name: p.read_bytes() for p in out.iterdir()}
     _patch_monte_carlo(monkeypatch, _fake_stats(zc=[15.0, 16.0], env=[14.0, 15.0]))
@@ -714,22 +992,66 @@ def test_interrupted_run_leaves_the_previous_set_untouched(tmp_path, monkeypatch
 
     monkeypatch.setattr(pdf, "write_json", killed)
     capsys.readouterr()
-    assert main(["pdf", "--realizations", "10", "--duration", "600", "--out", str(out), "--quiet", "--theory", "none"]) == 130
+    assert (
+        main(
+            [
+                "pdf",
+                "--realizations",
+                "10",
+                "--duration",
+                "600",
+                "--out",
+                str(out),
+                "--quiet",
+                "--theory",
+                "none",
+            ]
+        )
+        == 130
+    )
     err = capsys.readouterr().err
     assert len(err.strip().splitlines()) == 1 and "interrupted" in err and "Traceback" not in err
     assert {p.name: p.read_bytes() for p in out.iterdir()} == before  # the old set, whole
     assert sorted(p.name for p in tmp_path.iterdir()) == ["run"]  # no partial folder left behind
     monkeypatch.undo()
     _patch_monte_carlo(monkeypatch, _fake_stats(zc=[15.0, 16.0], env=[14.0, 15.0]))
-    assert main(["pdf", "--realizations", "10", "--duration", "600", "--out", str(out), "--quiet", "--theory", "none"]) == 0
+    assert (
+        main(
+            [
+                "pdf",
+                "--realizations",
+                "10",
+                "--duration",
+                "600",
+                "--out",
+                str(out),
+                "--quiet",
+                "--theory",
+                "none",
+            ]
+        )
+        == 0
+    )
     d = json.loads((out / "pdf.json").read_text())
     assert d["mean_amplitude_deg"]["zero_crossing"] == pytest.approx(15.5)
     assert (out / "notes.txt").read_text() == "the user's own file"  # files it does not write are kept
 
 
 def test_resumed_run_says_so_and_reports_total_time(tmp_path, capsys):
-    args = ["pdf", "--realizations", "4", "--duration", "300", "--chunk-size", "2", "--quiet", "--theory", "none",
-            "--checkpoint", str(tmp_path / "ck")]
+    args = [
+        "pdf",
+        "--realizations",
+        "4",
+        "--duration",
+        "300",
+        "--chunk-size",
+        "2",
+        "--quiet",
+        "--theory",
+        "none",
+        "--checkpoint",
+        str(tmp_path / "ck"),
+    ]
     assert main([*args, "--out", str(tmp_path / "a")]) == 0
     first = json.loads((tmp_path / "a" / "pdf.json").read_text())
     assert "resumed_from_checkpoint" not in first
@@ -739,7 +1061,10 @@ def test_resumed_run_says_so_and_reports_total_time(tmp_path, capsys):
     assert "resuming from the checkpoint" in printed and "in total" in printed
     second = json.loads((tmp_path / "b" / "pdf.json").read_text())
     assert second["resumed_from_checkpoint"] is True
-    assert second["total_run_time_s"] >= second["run_time_s"] and second["total_run_time_s"] >= first["run_time_s"] * 0.5
+    assert (
+        second["total_run_time_s"] >= second["run_time_s"]
+        and second["total_run_time_s"] >= first["run_time_s"] * 0.5
+    )
     assert second["pdf_envelope"] == first["pdf_envelope"]
     # A checkpoint of another run is refused before anything says it resumes (the line comes once the Monte Carlo
     # has read the checkpoint and found it belongs to this run).
@@ -757,7 +1082,9 @@ def test_progress_after_a_resume_counts_this_runs_realizations(capsys):
     shown(60)
     assert capsys.readouterr().out == "resuming from the checkpoint in ck\n"
     assert (shown.baseline, shown.done) == (60, 60)
-    shown.start -= 10.0  # 10 s for the 20 done since the resume: 10 s left for the last 20 (2.5 s from all 80)
+    shown.start -= (
+        10.0  # 10 s for the 20 done since the resume: 10 s left for the last 20 (2.5 s from all 80)
+    )
     shown.enabled = True
     shown(80)
     assert "~  10.0 s left" in capsys.readouterr().err
@@ -791,9 +1118,30 @@ def test_sensitivity_command(tmp_path, capsys):
     """Issue 12: `jaxroll sensitivity` writes sensitivity.json (Monte Carlo value ± SE per statistic and parameter,
     the theory beside it) and the bar chart; d(E[φ²])/db1 is negative (more damping, less roll) for the Monte Carlo
     and for Roberts. (The moment method's gradient, its closure recorded, is tested in test_sensitivity.py.)"""
-    code = main(["sensitivity", "--wrt", "b1,gm_correction", "--statistics", "E_phi2,mean_envelope",
-                 "--realizations", "16", "--duration", "900", "--window", "300", "--burn-in", "150",
-                 "--chunk-size", "16", "--theory", "roberts,envelope_fpk", "--out", str(tmp_path), "--quiet"])
+    code = main(
+        [
+            "sensitivity",
+            "--wrt",
+            "b1,gm_correction",
+            "--statistics",
+            "E_phi2,mean_envelope",
+            "--realizations",
+            "16",
+            "--duration",
+            "900",
+            "--window",
+            "300",
+            "--burn-in",
+            "150",
+            "--chunk-size",
+            "16",
+            "--theory",
+            "roberts,envelope_fpk",
+            "--out",
+            str(tmp_path),
+            "--quiet",
+        ]
+    )
     assert code == 0, capsys.readouterr().err
     d = json.loads((tmp_path / "sensitivity.json").read_text())
     g = d["gradients"]["E_phi2_deg2"]
@@ -813,10 +1161,27 @@ def test_sensitivity_command(tmp_path, capsys):
 def test_a_filter_that_cannot_follow_the_sea_says_to_use_superposition(tmp_path, capsys):
     """Following seas at 8 m/s: encounter compresses the effective-wave spectrum and no order-4 filter matches it
     at 2ω0 (319 % off): the error says so and names the remedy; Method 1 runs the same sea."""
-    argv = ["pdf", "--speed", "8", "--heading", "following", "--realizations", "4", "--duration", "600",
-            "--chunk-size", "4", "--theory", "none", "--quiet"]
+    argv = [
+        "pdf",
+        "--speed",
+        "8",
+        "--heading",
+        "following",
+        "--realizations",
+        "4",
+        "--duration",
+        "600",
+        "--chunk-size",
+        "4",
+        "--theory",
+        "none",
+        "--quiet",
+    ]
     assert main([*argv, "--out", str(tmp_path / "filter")]) == 2
     err = capsys.readouterr().err
-    assert "shaping-filter fit is not usable: filter spectrum at 0.515 rad/s (2ω0)" in err and "--method superposition" in err
+    assert (
+        "shaping-filter fit is not usable: filter spectrum at 0.515 rad/s (2ω0)" in err
+        and "--method superposition" in err
+    )
     assert not (tmp_path / "filter").exists()
     assert main([*argv, "--method", "superposition", "--out", str(tmp_path / "superposition")]) == 0

@@ -218,8 +218,9 @@ def test_stored_monte_carlo_program_over_two_devices_equals_a_traced_one(tmp_pat
     import sys
 
     env = {**os.environ, "JAX_NUM_CPU_DEVICES": "2", "JAX_PLATFORMS": "cpu"}
-    res = subprocess.run([sys.executable, "-c", _SHARDED_CHILD, str(tmp_path)], env=env, capture_output=True,
-                         text=True)
+    res = subprocess.run(
+        [sys.executable, "-c", _SHARDED_CHILD, str(tmp_path)], env=env, capture_output=True, text=True
+    )
     assert res.returncode == 0, res.stderr[-3000:]
     assert int(res.stdout.split()[-1]) == 1  # the sharded chunk program was stored
 
@@ -259,7 +260,14 @@ def test_as_float_and_host_checks_concrete_and_traced():
     """`as_float` gives what `jnp.asarray(x, float)` gives (a float64 array, uncommitted) for Python numbers, lists,
     integer and float32 arrays, and passes tracers through; the checks built on it raise at once on concrete
     values and at run time under jit."""
-    for x in (3, 2.5, [1, 2, 3], np.arange(3, dtype=np.int32), np.float32(0.1), jnp.asarray([1.5], jnp.float32)):
+    for x in (
+        3,
+        2.5,
+        [1, 2, 3],
+        np.arange(3, dtype=np.int32),
+        np.float32(0.1),
+        jnp.asarray([1.5], jnp.float32),
+    ):
         got, want = _compiled.as_float(x), jnp.asarray(x, dtype=float)
         assert got.dtype == want.dtype == jnp.float64 and not got.weak_type and not got._committed
         np.testing.assert_array_equal(np.asarray(got), np.asarray(want))
@@ -312,9 +320,13 @@ def test_filter_jit_is_the_same_function_concrete_traced_and_through_a_closure()
     np.testing.assert_allclose(f(x, 2), want, rtol=1e-15)
     np.testing.assert_allclose(jax.jit(lambda x: f(x, 2))(x), want, rtol=1e-15)
     np.testing.assert_allclose(jax.grad(lambda x: f(x, 2).sum())(x), 2 * np.cos(np.arange(3.0)), rtol=1e-15)
-    np.testing.assert_allclose(jax.vmap(lambda x: f(x, 2))(jnp.stack([x, x])), np.stack([want, want]), rtol=1e-15)
+    np.testing.assert_allclose(
+        jax.vmap(lambda x: f(x, 2))(jnp.stack([x, x])), np.stack([want, want]), rtol=1e-15
+    )
     f(x + 1.0, 2)
-    assert calls.count(2) == 2  # one program for the concrete calls (the second reused it), one inlined elsewhere
+    assert (
+        calls.count(2) == 2
+    )  # one program for the concrete calls (the second reused it), one inlined elsewhere
 
     def outer(y):
         return _compiled.filter_jit(lambda x: x * y)(x)

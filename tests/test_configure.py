@@ -46,11 +46,19 @@ def state():
 
 def _run(code: str) -> dict:
     """Run `code` (after `_STATE`) in a fresh Python with JAX's defaults; it prints one JSON line last."""
-    env = {k: v for k, v in os.environ.items()
-           if k not in ("XLA_FLAGS", "JAX_NUM_CPU_DEVICES", "JAX_ENABLE_X64", "JAX_COMPILATION_CACHE_DIR")}
+    env = {
+        k: v
+        for k, v in os.environ.items()
+        if k not in ("XLA_FLAGS", "JAX_NUM_CPU_DEVICES", "JAX_ENABLE_X64", "JAX_COMPILATION_CACHE_DIR")
+    }
     env.update(JAX_PLATFORMS="cpu", JAX_ENABLE_COMPILATION_CACHE="false", PYTHONWARNINGS="default")
-    proc = subprocess.run([sys.executable, "-c", _STATE + textwrap.dedent(code)], env=env, capture_output=True,
-                          text=True, timeout=300)
+    proc = subprocess.run(
+        [sys.executable, "-c", _STATE + textwrap.dedent(code)],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert proc.returncode == 0, proc.stderr[-3000:]
     return json.loads(proc.stdout.strip().splitlines()[-1])
 
@@ -96,11 +104,14 @@ def test_configure_after_jax_started_applies_float64_and_warns_once(late):
     assert late["x64"]  # float64 can still be turned on
     assert late["flags"] is None  # XLA_FLAGS is not edited once it can no longer take effect
     (message,) = late["warnings"]
-    assert message.startswith("jaxroll.configure() came after JAX had started its backends, so it could not apply: ")
+    assert message.startswith(
+        "jaxroll.configure() came after JAX had started its backends, so it could not apply: "
+    )
     assert "XLA:CPU's platform-independent math" in message and "small loops compiled whole" in message
     cores = usable_cores()
-    assert (f"{cores} JAX CPU devices (JAX has 1: the Monte Carlo runs on 1 of the {cores} cores)" in message) == (
-        cores > 1)
+    assert (
+        f"{cores} JAX CPU devices (JAX has 1: the Monte Carlo runs on 1 of the {cores} cores)" in message
+    ) == (cores > 1)
     assert "Call jaxroll.configure() before the first JAX computation" in message
     assert late["again"] == []  # once
 
@@ -135,7 +146,10 @@ def test_configure_keeps_the_users_choices(monkeypatch):
     assert with_jaxroll_flags(mine) == mine
     other = "--xla_backend_extra_options=xla_cpu_disable_loop_unrolling=true"
     assert with_jaxroll_flags(other).split() == [
-        other, f"--{MATH_FLAG}=false", f"--xla_backend_extra_options={LOOP_OPTION}={SMALL_LOOP_BYTES}"]
+        other,
+        f"--{MATH_FLAG}=false",
+        f"--xla_backend_extra_options={LOOP_OPTION}={SMALL_LOOP_BYTES}",
+    ]
     # in this process JAX has started, with the settings the test session chose (tests/conftest.py)
     flags = os.environ.get("XLA_FLAGS")
     jaxroll.configure()
@@ -166,30 +180,39 @@ def test_the_command_line_configures_its_process(monkeypatch, capsys):
 @pytest.fixture(scope="module")
 def inputs():
     problem = jaxroll.RollProblem.from_sea(SHIP, jaxroll.ITTC(7.0, 10.0), dt=0.5)
-    return {"problem": problem, "law": jaxroll.RayleighLaw(0.1), "sea": jaxroll.ITTC(7.0, 10.0),
-            "sde": jaxroll.theory.roll_sde(SHIP, problem.filter_fit.filter)}
+    return {
+        "problem": problem,
+        "law": jaxroll.RayleighLaw(0.1),
+        "sea": jaxroll.ITTC(7.0, 10.0),
+        "sde": jaxroll.theory.roll_sde(SHIP, problem.filter_fit.filter),
+    }
 
 
 ENTRY_POINTS = {
     "jaxroll.RollProblem.from_sea": lambda i: jaxroll.RollProblem.from_sea(SHIP, i["sea"]),
     "jaxroll.RollProblem": lambda i: jaxroll.RollProblem(SHIP, i["problem"].excitation),
     "jaxroll.monte_carlo_amplitudes": lambda i: jaxroll.monte_carlo_amplitudes(
-        i["problem"], jax.random.key(0), num_realizations=4, duration=100.0),
-    "jaxroll.monte_carlo": lambda i: jaxroll.monte_carlo(i["problem"], jax.random.key(0), jaxroll.MaxRoll(0.2),
-                                                         num_realizations=4, duration=100.0),
+        i["problem"], jax.random.key(0), num_realizations=4, duration=100.0
+    ),
+    "jaxroll.monte_carlo": lambda i: jaxroll.monte_carlo(
+        i["problem"], jax.random.key(0), jaxroll.MaxRoll(0.2), num_realizations=4, duration=100.0
+    ),
     "jaxroll.simulate": lambda i: jaxroll.simulate(i["problem"], jax.random.key(0), 10, None, None),
     "jaxroll.theory.roberts_pdf": lambda i: jaxroll.theory.roberts_pdf(SHIP, i["problem"].wave),
     "jaxroll.theory.esam_pdf": lambda i: jaxroll.theory.esam_pdf(SHIP, i["problem"].wave),
     "jaxroll.theory.moment_pdf": lambda i: jaxroll.theory.moment_pdf(SHIP, i["problem"].wave),
     "jaxroll.theory.envelope_fpk_pdf": lambda i: jaxroll.theory.envelope_fpk_pdf(SHIP, i["problem"].wave),
     "jaxroll.theory.theory_law": lambda i: jaxroll.theory.theory_law("roberts", SHIP, i["problem"].wave),
-    "jaxroll.theory.stationary_moments": lambda i: jaxroll.theory.stationary_moments(i["sde"], closure_order=4),
+    "jaxroll.theory.stationary_moments": lambda i: jaxroll.theory.stationary_moments(
+        i["sde"], closure_order=4
+    ),
     "RayleighLaw.sf": lambda i: i["law"].sf(0.2),
     "RayleighLaw.quantile": lambda i: i["law"].quantile(0.5),
     "RayleighLaw.mean": lambda i: i["law"].mean(),
     "jaxroll.max_pdf": lambda i: jaxroll.max_pdf(i["law"], 0.3, 100),
-    "jaxroll.exceedance_probability": lambda i: jaxroll.exceedance_probability(i["law"], 0.3, rate=0.1,
-                                                                               duration=3600.0),
+    "jaxroll.exceedance_probability": lambda i: jaxroll.exceedance_probability(
+        i["law"], 0.3, rate=0.1, duration=3600.0
+    ),
     "jaxroll.fit_filter": lambda i: jaxroll.fit_filter(i["problem"].wave),
     "jaxroll.hull_hydrostatics": lambda i: jaxroll.hull_hydrostatics(jaxroll.c11_hull(), None),
 }
@@ -206,7 +229,8 @@ def test_without_float64_the_library_names_the_call(name, inputs):
         jax.config.update("jax_enable_x64", True)
     assert str(info.value) == (
         f"{name} needs float64, but JAX runs in float32 (importing jaxroll does not change that): call "
-        'jaxroll.configure() first (or jax.config.update("jax_enable_x64", True)).')
+        'jaxroll.configure() first (or jax.config.update("jax_enable_x64", True)).'
+    )
 
 
 def test_the_safety_net_names_the_program():

@@ -37,7 +37,8 @@ DOCS = ROOT / "docs"
 PAGES = sorted(p for p in DOCS.glob("*.md") if p.name != "index.md")
 MARKDOWN = [ROOT / "README.md", *PAGES, ROOT / "benchmarks" / "README.md"]
 PUBLIC_MODULES = ["jaxroll"] + [
-    f"jaxroll.{m}" for m in "sea ship roll laws theory extremes calibration criteria io plotting notebook".split()
+    f"jaxroll.{m}"
+    for m in "sea ship roll laws theory extremes calibration criteria io plotting notebook".split()
 ]
 
 
@@ -215,7 +216,9 @@ def _workspace(folder: Path) -> None:
     (folder / "my_hull.toml").write_text(hull_to_toml(hull))
     text = gzip.decompress((records / "roll" / "roll_H7_T10_r01.csv.gz").read_bytes()).decode()
     rows = [ln.split(",") for ln in text.splitlines() if not ln.startswith("#")][1:]
-    lab = ["Time [s];Roll [deg];WP1 [mm];Status"] + [";".join(x.replace(".", ",") for x in r) + ";ok" for r in rows]
+    lab = ["Time [s];Roll [deg];WP1 [mm];Status"] + [
+        ";".join(x.replace(".", ",") for x in r) + ";ok" for r in rows
+    ]
     (folder / "run3.csv").write_text("\n".join(lab) + "\n")
 
 
@@ -241,8 +244,10 @@ def test_python_examples_run(path, tmp_path, monkeypatch):
     monkeypatch.setenv("JAXROLL_SMOKE", "1" if smoke else "0")
     monkeypatch.chdir(tmp_path)
     _workspace(tmp_path)
-    settings = {s: getattr(jax.config, s) for s in
-                ("jax_compilation_cache_dir", "jax_persistent_cache_min_compile_time_secs")}
+    settings = {
+        s: getattr(jax.config, s)
+        for s in ("jax_compilation_cache_dir", "jax_persistent_cache_min_compile_time_secs")
+    }
     namespace = _namespace()
     try:
         # what a user's session has: standard dtype promotion (the tests run strict), warnings shown, not raised
@@ -258,7 +263,9 @@ def test_python_examples_run(path, tmp_path, monkeypatch):
                 try:
                     exec(compile(code, f"{path.name}:{line}", "exec"), namespace)
                 except Exception as e:
-                    raise AssertionError(f"{path.relative_to(ROOT)}, the block at line {line} failed:\n{code}") from e
+                    raise AssertionError(
+                        f"{path.relative_to(ROOT)}, the block at line {line} failed:\n{code}"
+                    ) from e
     finally:
         for name, value in settings.items():
             jax.config.update(name, value)

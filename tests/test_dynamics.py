@@ -22,14 +22,25 @@ def white_noise_filter(intensity, omega_f=8.0, zeta_f=0.7):
 
 def unit_ship(*, a3=0.0, b1=0.1, c1=0.0):
     """ω0 = 1 rad/s, GM0 = 1 m, so P = C1·ζ_mid and ΔGM/GM0 = C1 ζ_mid."""
-    return jaxroll.Ship(lpp=100.0, breadth=10.0, depth=10.0, draught=5.0, displacement=1e6, block_coefficient=0.6,
-                        gm0=1.0, roll_period=2 * np.pi, restoring=[a3, 0.0, 0.0, 0.0], damping=[b1, 0.0, 0.0],
-                        delta_gm=[0.0, c1, 0.0, 0.0, 0.0, 0.0, 0.0])
+    return jaxroll.Ship(
+        lpp=100.0,
+        breadth=10.0,
+        depth=10.0,
+        draught=5.0,
+        displacement=1e6,
+        block_coefficient=0.6,
+        gm0=1.0,
+        roll_period=2 * np.pi,
+        restoring=[a3, 0.0, 0.0, 0.0],
+        damping=[b1, 0.0, 0.0],
+        delta_gm=[0.0, c1, 0.0, 0.0, 0.0, 0.0, 0.0],
+    )
 
 
 def run_moments(problem, key, n, duration, discard):
-    stats = jaxroll.monte_carlo_amplitudes(problem, key, num_realizations=n, duration=duration, discard=discard,
-                                          chunk_size=n)
+    stats = jaxroll.monte_carlo_amplitudes(
+        problem, key, num_realizations=n, duration=duration, discard=discard, chunk_size=n
+    )
     pr = stats.per_realization
     # Parametric white noise gives heavy (power-law) tails: a rare trial passes |φ| = π and is counted as
     # capsized (excluded); more than 2 % would bias E[φ²] beyond the tolerance, so it fails the test.
@@ -46,9 +57,12 @@ def test_caughey_exact_stationary_law_nonlinear_restoring(getkey):
     c, d, a3 = 0.1, 0.05, 2.0
     ship = unit_ship(a3=a3, b1=c)
     dt = 0.05
-    zero = jaxroll.FilterExcitation(white_noise_filter(1e-30), dt)  # no parametric excitation (ΔGM = 0 anyway)
-    problem = jaxroll.RollProblem(ship, zero, 0.0, 0.0, moment_excitation=jaxroll.FilterExcitation(
-        white_noise_filter(d), dt))
+    zero = jaxroll.FilterExcitation(
+        white_noise_filter(1e-30), dt
+    )  # no parametric excitation (ΔGM = 0 anyway)
+    problem = jaxroll.RollProblem(
+        ship, zero, 0.0, 0.0, moment_excitation=jaxroll.FilterExcitation(white_noise_filter(d), dt)
+    )
     _, (e2, se2), (e4, se4) = run_moments(problem, getkey(), 96, 1100.0, 100.0)
     g = lambda x: x**2 / 2 + a3 * x**4 / 4
     w = lambda x: np.exp(-2 * c / d * g(x))
@@ -69,8 +83,13 @@ def test_white_parametric_noise_stationary_second_moment(getkey, fraction):
     d = fraction * threshold
     dt = 0.05
     ship = unit_ship(b1=2 * zeta, c1=1.0)
-    problem = jaxroll.RollProblem(ship, jaxroll.FilterExcitation(white_noise_filter(d), dt), 0.0, 0.0,
-                                  moment_excitation=jaxroll.FilterExcitation(white_noise_filter(d_e), dt))
+    problem = jaxroll.RollProblem(
+        ship,
+        jaxroll.FilterExcitation(white_noise_filter(d), dt),
+        0.0,
+        0.0,
+        moment_excitation=jaxroll.FilterExcitation(white_noise_filter(d_e), dt),
+    )
     _, (e2, se2), _ = run_moments(problem, getkey(), 128, 1100.0, 100.0)
     exact = d_e / (threshold - d)
     # 4 standard errors plus 1 % for the colour of the "white" filter noise.
@@ -140,7 +159,9 @@ def test_time_step_convergence_with_common_random_numbers(getkey):
 def test_capsize_counted_and_never_poisons_statistics(getkey):
     ship = jaxroll.c11_representative()
     problem = jaxroll.RollProblem.from_sea(ship, jaxroll.ITTC(12.0, 10.0), dt=0.5)
-    stats = jaxroll.monte_carlo_amplitudes(problem, getkey(), num_realizations=40, duration=1200.0, chunk_size=20)
+    stats = jaxroll.monte_carlo_amplitudes(
+        problem, getkey(), num_realizations=40, duration=1200.0, chunk_size=20
+    )
     assert 0 < stats.n_capsized < 40
     assert np.all(np.isfinite(stats.counts_zero_crossing)) and np.all(np.isfinite(stats.counts_envelope))
     assert np.all(np.isfinite(stats.capsize_time[stats.capsized]))
@@ -155,8 +176,10 @@ def test_capsize_counted_and_never_poisons_statistics(getkey):
 def test_results_independent_of_chunk_size(getkey):
     problem = jaxroll.RollProblem.from_sea(jaxroll.c11_representative(), jaxroll.ITTC(7.0, 10.0), dt=0.5)
     key = getkey()
-    runs = [jaxroll.monte_carlo_amplitudes(problem, key, num_realizations=7, duration=600.0, chunk_size=c)
-            for c in (3, 7)]
+    runs = [
+        jaxroll.monte_carlo_amplitudes(problem, key, num_realizations=7, duration=600.0, chunk_size=c)
+        for c in (3, 7)
+    ]
     np.testing.assert_array_equal(runs[0].counts_zero_crossing, runs[1].counts_zero_crossing)
     np.testing.assert_array_equal(runs[0].counts_envelope, runs[1].counts_envelope)
     for k in runs[0].per_realization:
@@ -188,7 +211,9 @@ def _observe_series(observer, phi, dt=0.5, phi0=0.0):
         state, outs = jax.lax.scan(step, observer.init(problem, None), (steps, phi))
         outputs = jax.tree.map(lambda o: o[r - 1 :: r][None], outs)
         end = jaxroll.RealizationEnd(jnp.array([False]), jnp.array([jnp.inf]))
-        return observer.reduce(problem, jax.tree.map(lambda x: x[None], state), outputs, end, jnp.array([True]))
+        return observer.reduce(
+            problem, jax.tree.map(lambda x: x[None], state), outputs, end, jnp.array([True])
+        )
 
     return run(jnp.asarray(phi))
 
@@ -211,7 +236,9 @@ def test_recorded_zero_crossing_bins_are_every_amplitude():
         assert int(summed["zero_crossing_merged"]) == 0 and float(per["n_zc"][0]) == expected.sum() > 30
         kept = phi[every - 1 :: every][101 // every :]
         assert per["n_env"][0] == kept.size
-        np.testing.assert_allclose(per["sum_env"][0], np.asarray(envelope_rfft(jnp.asarray(kept))).sum(), rtol=1e-6)
+        np.testing.assert_allclose(
+            per["sum_env"][0], np.asarray(envelope_rfft(jnp.asarray(kept))).sum(), rtol=1e-6
+        )
 
 
 def test_zero_crossings_in_one_record_interval_are_counted_and_reported():
@@ -225,7 +252,9 @@ def test_zero_crossings_in_one_record_interval_are_counted_and_reported():
     merged = int(summed["zero_crossing_merged"])
     assert merged > 20 and float(summed["counts_zero_crossing"].sum()) + merged == float(per["n_zc"][0])
     per = {k: np.asarray(v) for k, v in per.items()}
-    with pytest.warns(UserWarning, match=f"{merged} zero-crossing amplitudes ended in the same record interval"):
+    with pytest.warns(
+        UserWarning, match=f"{merged} zero-crossing amplitudes ended in the same record interval"
+    ):
         observer.result({k: np.asarray(v) for k, v in summed.items()}, per, {"dt_s": 0.5})
 
 
@@ -236,13 +265,23 @@ def test_envelope_recorded_every_filter_step_estimates_the_same_law(getkey):
     estimates the same law). Measured on 10⁴ trials: KS distance 5e-5, mean 2e-5 (0.01 SE)."""
     problem = jaxroll.RollProblem.from_sea(jaxroll.c11_representative(), jaxroll.ITTC(7.0, 10.0), dt=0.5)
     assert jaxroll.envelope_record_every(problem) == 4
-    superposition = jaxroll.RollProblem.from_sea(jaxroll.c11_representative(), jaxroll.ITTC(7.0, 10.0), dt=0.5,
-                                                 excitation="superposition")
+    superposition = jaxroll.RollProblem.from_sea(
+        jaxroll.c11_representative(), jaxroll.ITTC(7.0, 10.0), dt=0.5, excitation="superposition"
+    )
     assert jaxroll.envelope_record_every(superposition) == 1  # one time step per source step
     key = getkey()
     # every = 4 is the stationarity test's 7 m run (the same program: compiled once per process)
-    runs = {every: jaxroll.monte_carlo(problem, key, jaxroll.AmplitudeHistogram(500.0, every=every),
-                                       num_realizations=32, duration=3600.0, chunk_size=32) for every in (1, 4)}
+    runs = {
+        every: jaxroll.monte_carlo(
+            problem,
+            key,
+            jaxroll.AmplitudeHistogram(500.0, every=every),
+            num_realizations=32,
+            duration=3600.0,
+            chunk_size=32,
+        )
+        for every in (1, 4)
+    }
     fine, coarse = runs[1], runs[4]
     np.testing.assert_array_equal(fine.counts_zero_crossing, coarse.counts_zero_crossing)
     assert coarse.per_realization["n_env"][0] * 4 == fine.per_realization["n_env"][0]
@@ -263,8 +302,17 @@ def test_rk4_order_on_free_decay():
     ship = jaxroll.c11_representative()
     no_wave = lambda t: 0.0
     term = diffrax.ODETerm(jaxroll.roll_vector_field)
-    ref = diffrax.diffeqsolve(term, diffrax.Dopri8(), 0.0, 120.0, 0.01, jnp.array([0.5, 0.0]), args=(ship, no_wave),
-                              stepsize_controller=diffrax.PIDController(rtol=1e-12, atol=1e-12), max_steps=100000)
+    ref = diffrax.diffeqsolve(
+        term,
+        diffrax.Dopri8(),
+        0.0,
+        120.0,
+        0.01,
+        jnp.array([0.5, 0.0]),
+        args=(ship, no_wave),
+        stepsize_controller=diffrax.PIDController(rtol=1e-12, atol=1e-12),
+        max_steps=100000,
+    )
     errors = []
     for dt in (2.0, 1.0, 0.5):
         exc = jaxroll.SampledExcitation(jnp.zeros(4096), jnp.zeros(4096), dt)
@@ -296,8 +344,11 @@ def test_problem_errors():
         exc = jaxroll.SampledExcitation(jnp.zeros(10), jnp.zeros(10), 0.5)
         jaxroll.roll_time_series(jaxroll.RollProblem(ship, exc), jr.key(0), 100.0)
     with pytest.raises(ValueError, match="must equal `excitation.dt`"):
-        jaxroll.RollProblem(ship, jaxroll.SampledExcitation(jnp.zeros(10), jnp.zeros(10), 0.5),
-                            moment_excitation=jaxroll.SampledExcitation(jnp.zeros(10), jnp.zeros(10), 0.25))
+        jaxroll.RollProblem(
+            ship,
+            jaxroll.SampledExcitation(jnp.zeros(10), jnp.zeros(10), 0.5),
+            moment_excitation=jaxroll.SampledExcitation(jnp.zeros(10), jnp.zeros(10), 0.25),
+        )
 
 
 def test_a_roll_that_dies_out_is_reported_as_not_stationary(getkey):
@@ -312,8 +363,9 @@ def test_a_roll_that_dies_out_is_reported_as_not_stationary(getkey):
     out = {}
     for hs in (3.0, 7.0):
         problem = jaxroll.RollProblem.from_sea(ship, jaxroll.ITTC(hs, 10.0), dt=0.5)
-        stats = jaxroll.monte_carlo_amplitudes(problem, key, num_realizations=32, duration=3600.0, discard=500.0,
-                                              chunk_size=32)
+        stats = jaxroll.monte_carlo_amplitudes(
+            problem, key, num_realizations=32, duration=3600.0, discard=500.0, chunk_size=32
+        )
         out[hs] = stats.stationarity()
     s = out[3.0]
     assert s["stationary"] is False and s["relative_change"] < -0.5 and s["change_in_standard_errors"] < -3
@@ -325,7 +377,9 @@ def test_a_roll_that_dies_out_is_reported_as_not_stationary(getkey):
     phi, _, _ = jaxroll.roll_time_series(problem, jr.fold_in(key, 0), 3600.0)
     env = np.abs(hilbert(np.asarray(phi)[1004::4]))
     pr = stats.per_realization
-    assert pr["n_env"][0] == env.size  # its first half, n_env // 2 samples, is pinned by the sum below (rtol 2e-5)
+    assert (
+        pr["n_env"][0] == env.size
+    )  # its first half, n_env // 2 samples, is pinned by the sum below (rtol 2e-5)
     np.testing.assert_allclose(pr["sum_env_first_half"][0], env[: env.size // 2].sum(), rtol=2e-5)
     np.testing.assert_allclose(pr["sum_env"][0], env.sum(), rtol=2e-5)
 
@@ -341,8 +395,15 @@ def test_stationarity_needs_a_change_both_large_and_significant():
         m2 = second + spread * rng.standard_normal(n)
         half = np.full(n, 1000.0)
         per = {"n_env": 2 * half, "sum_env": half * (m1 + m2), "sum_env_first_half": half * m1}
-        return jaxroll.AmplitudeStatistics(np.arange(3.0), np.zeros(2), np.zeros(2), np.zeros(n, bool), np.zeros(n),
-                                           per, {"discard_s": 0.0, "duration_s": 3600.0}).stationarity()
+        return jaxroll.AmplitudeStatistics(
+            np.arange(3.0),
+            np.zeros(2),
+            np.zeros(2),
+            np.zeros(n, bool),
+            np.zeros(n),
+            per,
+            {"discard_s": 0.0, "duration_s": 3600.0},
+        ).stationarity()
 
     s = stats(200, 0.10, 0.07, 0.01)
     assert s["stationary"] is False and s["relative_change"] == pytest.approx(-0.3, abs=0.02)
@@ -351,6 +412,8 @@ def test_stationarity_needs_a_change_both_large_and_significant():
     assert stats(4, 0.10, 0.07, 0.2)["stationary"] is True  # 30 %, but within a few standard errors
     assert stats(1, 0.10, 0.07, 0.01)["stationary"] is None and stats(1, 0.1, 0.07, 0.01)["note"] is None
     assert stats(50, 0.0, 0.0, 0.0)["stationary"] is None
-    alike = stats(50, 0.10, 0.02, 0.0)  # identical trials (an unexcited decay from the same φ0): an exact change
+    alike = stats(
+        50, 0.10, 0.02, 0.0
+    )  # identical trials (an unexcited decay from the same φ0): an exact change
     assert alike["stationary"] is False and alike["change_in_standard_errors"] is None
     assert "every trial alike" in alike["note"]

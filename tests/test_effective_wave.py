@@ -48,7 +48,9 @@ def test_effective_wave_numbers_match_theory():
         np.testing.assert_allclose(jnp.sqrt(wave.variance()), sigma, atol=1e-3, rtol=0)
         s = b * hs**2 / 4 * w**-5 * np.exp(-b * w**-4)
         np.testing.assert_allclose(wave.spectrum(w), f**2 * s, rtol=1e-12, atol=0)
-    np.testing.assert_allclose(jaxroll.EffectiveWave(jaxroll.ITTC(7.0, 10.0), L).spectrum(w), 9.3144, atol=1e-4)
+    np.testing.assert_allclose(
+        jaxroll.EffectiveWave(jaxroll.ITTC(7.0, 10.0), L).spectrum(w), 9.3144, atol=1e-4
+    )
 
 
 def test_superposition_variance_and_derivative(getkey):
@@ -122,8 +124,12 @@ def test_filter_exact_discretisation_statistics(getkey):
         exc = jaxroll.FilterExcitation(f, 0.5, m)
         # Exact step of H = m·dt: the stationary Σ is invariant under z' = Φz + Lε.
         sigma = f.stationary_covariance()
-        np.testing.assert_allclose(exc.phi @ sigma @ exc.phi.T + exc.chol @ exc.chol.T, sigma, rtol=1e-9,
-                                   atol=1e-12 * float(jnp.abs(sigma).max()))
+        np.testing.assert_allclose(
+            exc.phi @ sigma @ exc.phi.T + exc.chol @ exc.chol.T,
+            sigma,
+            rtol=1e-9,
+            atol=1e-12 * float(jnp.abs(sigma).max()),
+        )
 
         def run(key, exc=exc, m=m):
             z, _ = exc.init(key, 0, m, jnp.float64)
@@ -186,8 +192,11 @@ def test_filter_fit_message_where_the_sea_has_no_energy_at_2w0():
     short = jaxroll.fit_filter(jaxroll.EffectiveWave(jaxroll.ITTC(2.0, 4.0), L), order=4, match_frequency=w2)
     ratio = float(short.filter.spectrum(w2)) / float(short.spectrum_target_at_match)
     assert ratio > 1e9
-    with pytest.raises(ValueError, match=rf"\(2ω0\) is .* \({re.escape(f'{ratio:.3g}')} times the target; the sea "
-                                         "has almost no energy at 2ω0"):
+    with pytest.raises(
+        ValueError,
+        match=rf"\(2ω0\) is .* \({re.escape(f'{ratio:.3g}')} times the target; the sea "
+        "has almost no energy at 2ω0",
+    ):
         check_filter_fit(short)
     following = jaxroll.fit_filter(jaxroll.EffectiveWave(jaxroll.ITTC(7.0, 10.0), L, 8.0, "following"), order=4,
                                    match_frequency=w2)  # fmt: skip

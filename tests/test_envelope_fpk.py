@@ -116,7 +116,9 @@ def test_a_sea_the_envelope_model_does_not_fit_is_said_not_called_dying_out():
     wave = jaxroll.EffectiveWave(jaxroll.ITTC(7.0, 10.0), SHIP.lpp, 8.0, "following")
     lam, exc = theory.envelope_lyapunov_exponent(SHIP, wave)
     assert float(exc.gamma) < 0 and np.isnan(float(lam))
-    with pytest.raises(ValueError, match=r"envelope FPK: no law: .*\(fitted decay rate γ = -0.00\d+ 1/s, not > 0"):
+    with pytest.raises(
+        ValueError, match=r"envelope FPK: no law: .*\(fitted decay rate γ = -0.00\d+ 1/s, not > 0"
+    ):
         theory.envelope_fpk_pdf(SHIP, wave, **GRID)
     assert not theory.envelope_fpk_pdf(SHIP, wave, throw=False, **GRID).details()["exists"]
     from jaxroll.theory._moments import roll_not_sustained_error
@@ -245,7 +247,9 @@ def _docs_table() -> dict:
     """{(hs, r): {"Monte Carlo": row, "Roberts": row, "ESAM": row, "moment": row, "envelope FPK": row}}, each row
     a dict of (value, ratio or SE) text pairs and, for the moment method, the closure order printed."""
     lines = (ROOT / "docs" / "theory.md").read_text(encoding="utf-8").splitlines()
-    start = lines.index("| H1/3 | r | method | mean [deg] (ratio) | P(A>20°) (ratio) | 99 % [deg] (ratio) | targets |")
+    start = lines.index(
+        "| H1/3 | r | method | mean [deg] (ratio) | P(A>20°) (ratio) | 99 % [deg] (ratio) | targets |"
+    )
     table, case = {}, None
     for line in lines[start + 2 :]:
         if not line.startswith("|"):
@@ -294,11 +298,15 @@ def test_accuracy_table_theory_rows_regenerate(case):
     ref = _reference(*case)
     for key in ("mean", "p20", "q99"):  # the Monte Carlo row: the reference's value and standard error
         (value, se), (text, se_text) = ref[key], row["Monte Carlo"][key]
-        assert abs(value - float(text)) <= _tolerance(text) and abs(se - float(se_text)) <= _tolerance(se_text)
+        assert abs(value - float(text)) <= _tolerance(text) and abs(se - float(se_text)) <= _tolerance(
+            se_text
+        )
     ship, wave = _case(*case)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", UserWarning)  # the moment method's closure fallback (recorded below)
-        results = dict(theory.iter_theory_summaries(("roberts", "esam", "moment", "envelope_fpk"), ship, wave, BINS))
+        results = dict(
+            theory.iter_theory_summaries(("roberts", "esam", "moment", "envelope_fpk"), ship, wave, BINS)
+        )
     names = {"Roberts": "roberts", "ESAM": "esam", "moment": "moment", "envelope FPK": "envelope_fpk"}
     for printed_name, name in names.items():
         law, summary = results[name]
@@ -315,7 +323,11 @@ def test_accuracy_table_theory_rows_regenerate(case):
         if name == "moment":
             assert law.closure_order == row["moment"]["order"]
         if name == "envelope_fpk" and case != (5.0, 0.8):  # the targets it meets (5 m, r = 0.8: not the mean)
-            for key, (target, factor) in {"mean": (0.10, None), "q99": (0.10, None), "p20": (None, 1.5)}.items():
+            for key, (target, factor) in {
+                "mean": (0.10, None),
+                "q99": (0.10, None),
+                "p20": (None, 1.5),
+            }.items():
                 value, se = ref[key]
                 if factor is None:
                     assert abs(got[key] / value - 1) <= target + 3 * se / value
@@ -340,17 +352,28 @@ def test_accuracy_table_monte_carlo_reference_regenerates(cases, n):
     for hs, r in cases:
         ref = _reference(hs, r)
         ship, _ = _case(hs, r)
-        problem = jaxroll.RollProblem.from_sea(ship, jaxroll.ITTC(hs, 10.0), dt=0.5, filter_order=4, phi0=5 * DEG)
+        problem = jaxroll.RollProblem.from_sea(
+            ship, jaxroll.ITTC(hs, 10.0), dt=0.5, filter_order=4, phi0=5 * DEG
+        )
         stats = jaxroll.monte_carlo_amplitudes(problem, jax.random.key(9_000 + int(10 * hs + r)),
                                                num_realizations=n, duration=3600.0, discard=500.0)  # fmt: skip
         per = stats.per_realization
         keep = per["n_env"] > 0
         count = per["n_env"][keep]
-        for key, total, scale in (("mean", per["sum_env"][keep], 1 / DEG), ("E_A2", per["sumsq_env"][keep], 1.0)):
+        for key, total, scale in (
+            ("mean", per["sum_env"][keep], 1 / DEG),
+            ("E_A2", per["sumsq_env"][keep], 1.0),
+        ):
             est = total.sum() / count.sum()  # ratio estimator and its standard error, as the reference's
             se = np.sqrt(np.sum((total - est * count) ** 2) / (count.size * (count.size - 1))) / count.mean()
             value, ref_se = ref[key]
-            assert abs(est * scale - value) <= k * np.hypot(se * scale, ref_se), (hs, r, key, est * scale, value)
+            assert abs(est * scale - value) <= k * np.hypot(se * scale, ref_se), (
+                hs,
+                r,
+                key,
+                est * scale,
+                value,
+            )
         counts = np.asarray(stats.counts_envelope)
         p20 = counts[int(round(20 / 0.05)) :].sum() / counts.sum()
         value, ref_se = ref["p20"]
@@ -375,5 +398,7 @@ def test_theory_summary_is_the_public_law_and_summary():
             np.testing.assert_allclose(summary[key], value, rtol=1e-12, atol=1e-15)
     got, ref_details = law.details(), ref.details()
     assert got["grid"] == ref_details["grid"] and got["method"] == "envelope_fpk"
-    np.testing.assert_allclose(list(got["parameters"].values()), list(ref_details["parameters"].values()), rtol=1e-12)
+    np.testing.assert_allclose(
+        list(got["parameters"].values()), list(ref_details["parameters"].values()), rtol=1e-12
+    )
     assert summary["mean_amplitude_deg"] == pytest.approx(9.77, abs=0.005)

@@ -24,11 +24,15 @@ def _messages():
                 continue
             f = node.func
             is_cli = isinstance(f, ast.Name) and f.id == "CLIError"
-            is_warn = isinstance(f, ast.Attribute) and f.attr == "warn" and getattr(f.value, "id", "") == "warnings"
+            is_warn = (
+                isinstance(f, ast.Attribute) and f.attr == "warn" and getattr(f.value, "id", "") == "warnings"
+            )
             if not (is_cli or is_warn):
                 continue
             literals = [
-                n.value for n in ast.walk(node.args[0]) if isinstance(n, ast.Constant) and isinstance(n.value, str)
+                n.value
+                for n in ast.walk(node.args[0])
+                if isinstance(n, ast.Constant) and isinstance(n.value, str)
             ]
             fragment = next((s.strip() for s in literals if len(s.strip()) >= 6), None)
             if fragment is not None:

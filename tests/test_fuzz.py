@@ -13,8 +13,13 @@ from jaxroll._cli import main
 
 # hypothesis draws the option mixes; derandomized (reproducible in CI) and bounded to a few tiny runs each.
 MAX_EXAMPLES = 8
-FUZZ = settings(max_examples=MAX_EXAMPLES, deadline=None, derandomize=True, database=None,
-                suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
+FUZZ = settings(
+    max_examples=MAX_EXAMPLES,
+    deadline=None,
+    derandomize=True,
+    database=None,
+    suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow],
+)
 
 
 NUMBERS = ["nan", "inf", "-1", "0"]
@@ -77,14 +82,44 @@ def _ship_file(tmp_path, b1, gm_ratio, a3_scale):
     phi0=st.sampled_from(["5", "-3", "0", "80", "nan"]),
     dt=st.sampled_from(["0.5", "5", "nan"]),
     bin_width=st.sampled_from(["1", "2", "0.33", "nan"]),
-    ship=st.sampled_from([None, (0.0, 0.8, None), (-0.01, None, None), ("nan", None, None), (None, 0.0, None),
-                          (None, "-1", None), (None, None, 3.0)]),
+    ship=st.sampled_from(
+        [
+            None,
+            (0.0, 0.8, None),
+            (-0.01, None, None),
+            ("nan", None, None),
+            (None, 0.0, None),
+            (None, "-1", None),
+            (None, None, 3.0),
+        ]
+    ),
 )
 def test_fuzz_pdf(tmp_path_factory, capsys, hs, duration, discard, phi0, dt, bin_width, ship):
     tmp = tmp_path_factory.mktemp("pdf")
-    argv = ["pdf", "--realizations", "3", "--chunk-size", "3", "--quiet", "--theory", "none", "--out", str(tmp / "out"),
-            "--hs", hs, "--duration", duration, "--discard", discard, "--phi0-deg", phi0, "--dt", dt,
-            "--bin-width-deg", bin_width]
+    argv = [
+        "pdf",
+        "--realizations",
+        "3",
+        "--chunk-size",
+        "3",
+        "--quiet",
+        "--theory",
+        "none",
+        "--out",
+        str(tmp / "out"),
+        "--hs",
+        hs,
+        "--duration",
+        duration,
+        "--discard",
+        discard,
+        "--phi0-deg",
+        phi0,
+        "--dt",
+        dt,
+        "--bin-width-deg",
+        bin_width,
+    ]
     if ship is not None:
         argv += ["--ship", str(_ship_file(tmp, *ship))]
     code = main(argv)
@@ -106,8 +141,23 @@ def test_fuzz_pdf(tmp_path_factory, capsys, hs, duration, discard, phi0, dt, bin
 )
 def test_fuzz_theory(tmp_path_factory, capsys, hs, t01, speed, theory, bin_width):
     tmp = tmp_path_factory.mktemp("theory")
-    code = main(["theory", "--out", str(tmp / "out"), "--hs", hs, "--t01", t01, "--speed", speed,
-                 "--theory", theory, "--bin-width-deg", bin_width])
+    code = main(
+        [
+            "theory",
+            "--out",
+            str(tmp / "out"),
+            "--hs",
+            hs,
+            "--t01",
+            t01,
+            "--speed",
+            speed,
+            "--theory",
+            theory,
+            "--bin-width-deg",
+            bin_width,
+        ]
+    )
     err = capsys.readouterr().err
     d = _check_outcome(code, err, tmp / "out" / "theory.json")
     if d is not None:

@@ -238,8 +238,14 @@ def test_bad_heading_refused_by_the_api(bad):
         ),
         (["theory", "--heading", "-10"], "--heading must be head, following, beam or an angle in degrees"),
         (["risk", "--heading", "bow"], "--heading must be head, following, beam or an angle in degrees"),
-        (["sweep", "--heading", "0,190"], "--heading must be head, following, beam or a list such as head,following, or angles"),
-        (["sweep", "--heading", "head,x"], "--heading must be head, following, beam or a list such as head,following, or angles"),
+        (
+            ["sweep", "--heading", "0,190"],
+            "--heading must be head, following, beam or a list such as head,following, or angles",
+        ),
+        (
+            ["sweep", "--heading", "head,x"],
+            "--heading must be head, following, beam or a list such as head,following, or angles",
+        ),
     ],
 )
 def test_bad_heading_refused_by_the_cli(argv, message, tmp_path, capsys):
@@ -301,7 +307,9 @@ def test_sweep_over_headings_and_speeds_draws_the_polar_chart(tmp_path, capsys):
         assert ax.get_legend_handles_labels()[1] == ["beam seas (χ = 90°)", "head seas"]
         for i, bars in enumerate(ax.containers):  # one errorbar container per heading
             np.testing.assert_array_equal(bars.lines[0].get_xdata(), [0.0, 3.0])
-            np.testing.assert_array_equal(bars.lines[0].get_ydata(), np.array(d[f"{name}_probability"])[i, :, 0, 0])
+            np.testing.assert_array_equal(
+                bars.lines[0].get_ydata(), np.array(d[f"{name}_probability"])[i, :, 0, 0]
+            )
 
 
 def test_polar_risk_chart_draws_cells_over_heading_and_speed():
@@ -327,6 +335,15 @@ def test_heading_words_on_the_command_line():
     from jaxroll._cli._sea import heading_label, heading_phrase, normalise_heading, parse_heading
     from jaxroll._cli.sweep import parse_headings
 
-    assert [parse_heading(w) for w in ("head", "Beam", "following", "135", "90deg")] == [180.0, 90.0, 0.0, 135.0, 90.0]
-    assert normalise_heading("beam") == heading_label(90.0) == "90deg" and heading_phrase(90.0) == "beam seas (χ = 90°)"
+    assert [parse_heading(w) for w in ("head", "Beam", "following", "135", "90deg")] == [
+        180.0,
+        90.0,
+        0.0,
+        135.0,
+        90.0,
+    ]
+    assert (
+        normalise_heading("beam") == heading_label(90.0) == "90deg"
+        and heading_phrase(90.0) == "beam seas (χ = 90°)"
+    )
     assert parse_headings("head,beam,following") == [180.0, 90.0, 0.0]

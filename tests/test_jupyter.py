@@ -26,8 +26,15 @@ def wave_of(ship, hs, t01, speed=0.0, heading="head"):
 def test_explore_curves_equal_the_library_call():
     """The redraw's numbers for given slider values are `theory_summary`'s for that sea state and GM correction."""
     ship = jxr.c11_representative()
-    got = explore_curves(ship, hs=6.5, t01=10.5, heading_deg=180.0, speed=1.0, gm_correction=0.9,
-                         theories=("envelope_fpk", "roberts"))
+    got = explore_curves(
+        ship,
+        hs=6.5,
+        t01=10.5,
+        heading_deg=180.0,
+        speed=1.0,
+        gm_correction=0.9,
+        theories=("envelope_fpk", "roberts"),
+    )
     import equinox as eqx
 
     corrected = eqx.tree_at(lambda s: s.gm_correction, ship, jax.numpy.asarray(0.9))
@@ -51,8 +58,9 @@ def test_explorer_headless_redraws_what_explore_curves_gives():
     ex = explore(hs=6.0, theories=("roberts",))
     assert isinstance(ex, Explorer) and ex.values()["hs"] == 6.0
     line = ex.ax.get_lines()[0]
-    np.testing.assert_array_equal(line.get_ydata(), explore_curves(hs=6.0, theories=("roberts",))["roberts"][
-        "pdf_per_degree"])
+    np.testing.assert_array_equal(
+        line.get_ydata(), explore_curves(hs=6.0, theories=("roberts",))["roberts"]["pdf_per_degree"]
+    )
     ex.sliders["hs"].value = 7.5  # the slider's callback redraws
     ex.sliders["gm_correction"].value = 0.85
     expected = explore_curves(hs=7.5, gm_correction=0.85, theories=("roberts",))["roberts"]
@@ -72,7 +80,9 @@ def test_explorer_monte_carlo_button_runs_the_library_monte_carlo():
     stats = ex.run_monte_carlo()
     direct = explore_monte_carlo(hs=7.0, num_realizations=4, duration=600.0, discard=100.0, seed=3)
     problem = jxr.RollProblem.from_sea(jxr.c11_representative(), jxr.ITTC(7.0, 10.0), dt=0.5)
-    lib = jxr.monte_carlo_amplitudes(problem, jax.random.key(3), num_realizations=4, duration=600.0, discard=100.0)
+    lib = jxr.monte_carlo_amplitudes(
+        problem, jax.random.key(3), num_realizations=4, duration=600.0, discard=100.0
+    )
     for other in (direct, lib):
         np.testing.assert_array_equal(stats.counts_envelope, other.counts_envelope)
         np.testing.assert_array_equal(stats.capsized, other.capsized)
@@ -122,14 +132,23 @@ def test_html_summaries_hold_their_key_numbers():
     assert "<td>20</td><td>4</td><td>1</td><td>0.25</td>" in html and f"<td>{fmt(32 / 3)}</td>" in html
     assert "<td>100</td><td>4</td><td>2</td><td>0.5</td>" in html and "capsize" in html
     max_roll = jxr.MaxRollStatistics(
-        max_abs_phi_deg=np.array([10.0, 35.0, 20.0, 50.0]), capsized=np.array([False, False, False, True]),
-        capsize_time=np.array([np.inf, np.inf, np.inf, 50.0]), angle_deg=30.0, n_exceeded=2,
-        config={"duration_s": 1800.0})
+        max_abs_phi_deg=np.array([10.0, 35.0, 20.0, 50.0]),
+        capsized=np.array([False, False, False, True]),
+        capsize_time=np.array([np.inf, np.inf, np.inf, 50.0]),
+        angle_deg=30.0,
+        n_exceeded=2,
+        config={"duration_s": 1800.0},
+    )
     html = max_roll._repr_html_()
     assert "P(max |φ| &gt; 30°, or capsize)</td><td>0.5</td>" in html and "4 realizations of 1800 s" in html
-    sweep = jxr.SweepResult(grid={"heading": ["head"], "speed_m_s": [0.0], "hs_m": [5.0, 7.0], "t01_s": [10.0]},
-                            n_realizations=10, angle_deg=30.0, confidence=0.95,
-                            n_capsized=np.array([[[[0], [2]]]]), n_exceeded=np.array([[[[1], [5]]]]))
+    sweep = jxr.SweepResult(
+        grid={"heading": ["head"], "speed_m_s": [0.0], "hs_m": [5.0, 7.0], "t01_s": [10.0]},
+        n_realizations=10,
+        angle_deg=30.0,
+        confidence=0.95,
+        n_capsized=np.array([[[[0], [2]]]]),
+        n_exceeded=np.array([[[[1], [5]]]]),
+    )
     html = sweep._repr_html_()
     assert "<td>head</td><td>0</td><td>7</td><td>10</td><td>0.2</td>" in html and "<td>0.5</td>" in html
 

@@ -33,7 +33,9 @@ def test_block_normals_are_threefry_words_mapped_as_jax_random_normal():
     words = jax.extend.random.threefry_2x32(kd, jnp.concatenate([jnp.zeros_like(ctr), ctr]))  # JAX's hash
     b0, b1 = threefry2x32(kd[0], kd[1], jnp.zeros_like(ctr), ctr)
     np.testing.assert_array_equal(np.asarray(jnp.concatenate([b0, b1])), np.asarray(words))
-    np.testing.assert_array_equal(ours.reshape(-1), np.asarray(_bits_to_normal(jnp.stack([b0, b1], -1).reshape(-1))))
+    np.testing.assert_array_equal(
+        ours.reshape(-1), np.asarray(_bits_to_normal(jnp.stack([b0, b1], -1).reshape(-1)))
+    )
     # the bits → normal map is jax.random.normal's: on JAX's own bits (the XOR of the two words) it gives its numbers
     ref = jr.normal(jr.fold_in(key, 5), (BLOCK, 2), jnp.float32)
     np.testing.assert_array_equal(np.asarray(_bits_to_normal(b0 ^ b1)).reshape(BLOCK, 2), np.asarray(ref))
@@ -49,8 +51,10 @@ def test_block_normals_by_column_are_block_normals_columns():
         assert cols.shape == (6, BLOCK, n) and cols.dtype == jnp.float32
         np.testing.assert_array_equal(np.asarray(cols), np.asarray(ref))
     rbg = jr.key(3, impl="rbg")
-    np.testing.assert_array_equal(np.asarray(jnp.stack(block_normals_by_column(rbg, 2, 4), -1)),
-                                  np.asarray(block_normals(rbg, 2, (BLOCK, 4))))
+    np.testing.assert_array_equal(
+        np.asarray(jnp.stack(block_normals_by_column(rbg, 2, 4), -1)),
+        np.asarray(block_normals(rbg, 2, (BLOCK, 4))),
+    )
 
 
 def test_block_normals_are_standard_normal_and_independent():
@@ -81,8 +85,12 @@ def test_filter_source_steps_reproduce_the_stationary_law(getkey):
     problem = default_problem()
     exc, f = problem.excitation, problem.filter_fit.filter
     sigma = f.stationary_covariance()
-    np.testing.assert_allclose(exc.phi @ sigma @ exc.phi.T + exc.chol @ exc.chol.T, sigma, rtol=1e-9,
-                               atol=1e-12 * float(jnp.abs(sigma).max()))
+    np.testing.assert_allclose(
+        exc.phi @ sigma @ exc.phi.T + exc.chol @ exc.chol.T,
+        sigma,
+        rtol=1e-9,
+        atol=1e-12 * float(jnp.abs(sigma).max()),
+    )
     num_steps = 4 * BLOCK * exc.substeps
     p, _ = jax.vmap(lambda k: jaxroll.roll.forcing_series(problem, k, num_steps))(jr.split(getkey(), 64))
     # P is a polynomial of ζ_G; recover ζ_G from the linear term's sign-free second moment through its variance
@@ -146,12 +154,14 @@ def test_monte_carlo_trial_is_the_time_series_of_its_key():
     """Trial i of the Monte Carlo is `roll_time_series` with key fold_in(key, i): one realization, written once."""
     problem = default_problem()
     key = jr.key(4)
-    stats = jaxroll.monte_carlo_max_roll(problem, key, angle_deg=30.0, num_realizations=3, duration=900.0,
-                                         chunk_size=3)
+    stats = jaxroll.monte_carlo_max_roll(
+        problem, key, angle_deg=30.0, num_realizations=3, duration=900.0, chunk_size=3
+    )
     for i in range(3):
         phi, _, _ = jaxroll.roll_time_series(problem, jr.fold_in(key, i), 900.0, dtype=jnp.float32)
-        np.testing.assert_allclose(stats.max_abs_phi_deg[i], np.rad2deg(float(jnp.max(jnp.abs(phi[1:])))),
-                                   rtol=1e-6)
+        np.testing.assert_allclose(
+            stats.max_abs_phi_deg[i], np.rad2deg(float(jnp.max(jnp.abs(phi[1:])))), rtol=1e-6
+        )
 
 
 def test_simulate_counts_no_capsize_after_num_steps():
@@ -165,7 +175,9 @@ def test_simulate_counts_no_capsize_after_num_steps():
     end = run(num_steps)
     t = np.asarray(end.capsize_time)
     assert np.all(t[np.asarray(end.capsized)] <= num_steps * problem.dt)
-    longer = run(4 * BLOCK * 4)  # the same noise: capsizes up to num_steps agree, later ones are not counted above
+    longer = run(
+        4 * BLOCK * 4
+    )  # the same noise: capsizes up to num_steps agree, later ones are not counted above
     tl = np.asarray(longer.capsize_time)
     np.testing.assert_array_equal(np.asarray(end.capsized), tl <= num_steps * problem.dt)
 

@@ -48,8 +48,19 @@ def lab_csv(path: Path, source: Path = ROLL, *, comma: bool = True) -> Path:
         "Time [s];Heave [mm];Roll [deg];Pitch [deg];WP1 [mm];Carriage [m/s];Status",
     ]
     for i, (t, r, w) in enumerate(native_rows(source)):
-        out.append(";".join([dec(t), dec(f"{0.5 * math.sin(0.1 * i):.3f}"), dec(r), dec(f"{0.01 * i:.2f}"), dec(w),
-                             "0", "ok"]))
+        out.append(
+            ";".join(
+                [
+                    dec(t),
+                    dec(f"{0.5 * math.sin(0.1 * i):.3f}"),
+                    dec(r),
+                    dec(f"{0.01 * i:.2f}"),
+                    dec(w),
+                    "0",
+                    "ok",
+                ]
+            )
+        )
     path.write_text("\n".join(out) + "\n", encoding="utf-8")
     return path
 
@@ -88,8 +99,9 @@ def test_semicolon_decimal_comma_preamble_extra_columns_equal_native_record(tmp_
 
 def test_written_record_reads_back_exactly(tmp_path):
     """`record_to_text(decimals="shortest")` (what `jaxroll records import` writes) loses no digit."""
-    rec = import_record(lab_csv(tmp_path / "a.csv"), "roll", time="Time", roll="Roll", wave="WP1", scale=100,
-                        **ROLL_META)
+    rec = import_record(
+        lab_csv(tmp_path / "a.csv"), "roll", time="Time", roll="Roll", wave="WP1", scale=100, **ROLL_META
+    )
     out = tmp_path / "a_record.csv"
     out.write_text(record_to_text(rec, decimals="shortest"))
     assert_same_record(load_record(out), rec)
@@ -109,14 +121,21 @@ def test_units_row_tabs_other_units_and_full_scale_data_follow_froude(tmp_path):
     path = tmp_path / "full.txt"
     path.write_text("\n".join(lines) + "\n")
     table = read_lab_table(path)
-    assert table.layout["delimiter"] == "\t" and table.layout["units_line"] == 2 and table.units == ("ms", "rad", "cm")
-    rec = import_record(path, "roll", time="t", roll="roll", wave="wave probe", scale=lam, full_scale=True,
-                        **ROLL_META)
+    assert (
+        table.layout["delimiter"] == "\t"
+        and table.layout["units_line"] == 2
+        and table.units == ("ms", "rad", "cm")
+    )
+    rec = import_record(
+        path, "roll", time="t", roll="roll", wave="wave probe", scale=lam, full_scale=True, **ROLL_META
+    )
     np.testing.assert_allclose(rec.time, t_full, rtol=1e-13, atol=1e-12)
     np.testing.assert_allclose(rec.roll, np.round(roll_rad, 6), rtol=1e-13, atol=1e-15)
     np.testing.assert_allclose(rec.wave, np.round(wave_cm, 3) / 100, rtol=1e-13, atol=1e-14)
     np.testing.assert_allclose(rec.model_time, t_full / math.sqrt(lam), rtol=1e-13, atol=1e-12)
-    np.testing.assert_allclose(rec.meta["sampling_hz"], 4.0 * math.sqrt(lam), rtol=1e-6, atol=0)  # model scale
+    np.testing.assert_allclose(
+        rec.meta["sampling_hz"], 4.0 * math.sqrt(lam), rtol=1e-6, atol=0
+    )  # model scale
     assert rec.meta["units"] == ["s", "rad", "mm"]
     # the same file read as model scale: every length ×λ and time ×√λ
     model = import_record(path, "roll", time="t", roll="roll", wave="wave probe", scale=lam, **ROLL_META)
@@ -129,8 +148,17 @@ def test_headerless_file_by_number_with_units_and_sampling_rate(tmp_path):
     rows = native_rows(ROLL)
     path = tmp_path / "plain.dat"
     path.write_text("\n".join(f"  {r}   {w}" for _, r, w in rows) + "\n")  # spaces, no time, no names
-    rec = import_record(path, "roll", roll=1, wave=2, units={"roll": "deg", "wave": "mm"}, sampling_hz=10,
-                        scale=100, header_row=0, **ROLL_META)
+    rec = import_record(
+        path,
+        "roll",
+        roll=1,
+        wave=2,
+        units={"roll": "deg", "wave": "mm"},
+        sampling_hz=10,
+        scale=100,
+        header_row=0,
+        **ROLL_META,
+    )
     native = load_record(ROLL)
     np.testing.assert_array_equal(rec.roll, native.roll)
     np.testing.assert_array_equal(rec.wave, native.wave)
@@ -144,8 +172,10 @@ def test_explicit_layout_options(tmp_path):
         assert_same_record(rec, load_record(ROLL))
     plain = lab_csv(tmp_path / "point.csv", comma=False)  # semicolons with decimal points
     assert read_lab_table(plain).layout["decimal"] == "."
-    assert_same_record(import_record(plain, "roll", time="Time", roll="Roll", wave="WP1", scale=100, **ROLL_META),
-                       load_record(ROLL))
+    assert_same_record(
+        import_record(plain, "roll", time="Time", roll="Roll", wave="WP1", scale=100, **ROLL_META),
+        load_record(ROLL),
+    )
 
 
 def write_hdf5(path: Path, *, truncate: bool = False, nan_at: int | None = None) -> Path:
@@ -170,12 +200,20 @@ def write_hdf5(path: Path, *, truncate: bool = False, nan_at: int | None = None)
 def test_hdf5_groups_equal_native_record(tmp_path):
     h5 = write_hdf5(tmp_path / "tank.h5")
     native = load_record(ROLL)
-    rec = import_record(f"{h5}:/series_A/run3", "roll", time="time", roll="roll", wave="wp1", scale=100,
-                        **ROLL_META)
+    rec = import_record(
+        f"{h5}:/series_A/run3", "roll", time="time", roll="roll", wave="wp1", scale=100, **ROLL_META
+    )
     assert_same_record(rec, native)
     assert rec.source == f"{h5}:/series_A/run3"
-    absolute = import_record(h5, "roll", time="/series_A/run1/time", roll="/series_A/run1/roll",
-                             wave="/series_A/run1/wp1", scale=100, **ROLL_META)
+    absolute = import_record(
+        h5,
+        "roll",
+        time="/series_A/run1/time",
+        roll="/series_A/run1/roll",
+        wave="/series_A/run1/wp1",
+        scale=100,
+        **ROLL_META,
+    )
     assert_same_record(absolute, native)
     text = describe_lab_file(h5)
     assert "/series_A/run3/roll  shape (3501,), float64, units deg" in text
@@ -205,28 +243,50 @@ def test_bad_lab_files_are_refused_with_their_line(tmp_path):
         return import_record(path, "roll", **args, **ROLL_META)
 
     p = lab("unknown.csv")
-    with pytest.raises(RecordError, match=rf"^{re.escape(str(p))}:5: no column 'Rol' for `roll` \(columns, line 5: "
-                       r"1 Time \[s\], 2 Heave \[mm\], 3 Roll \[deg\].*give one of these names or a column number"):
+    with pytest.raises(
+        RecordError,
+        match=rf"^{re.escape(str(p))}:5: no column 'Rol' for `roll` \(columns, line 5: "
+        r"1 Time \[s\], 2 Heave \[mm\], 3 Roll \[deg\].*give one of these names or a column number",
+    ):
         imp(p, roll="Rol")
-    with pytest.raises(RecordError, match=r"unit 'furlong' of column `WP1` \(wave\) \(in the file\) is not "
-                       "understood; a wave column takes m, cm, mm"):
+    with pytest.raises(
+        RecordError,
+        match=r"unit 'furlong' of column `WP1` \(wave\) \(in the file\) is not "
+        "understood; a wave column takes m, cm, mm",
+    ):
         imp(_edit_line(lab("unit.csv"), 5, "Time [s];Heave [mm];Roll [deg];Pitch [deg];WP1 [furlong];C;S"))
     with pytest.raises(RecordError, match=r"column `Status` \(wave\): cannot read 'ok' as a number"):
         imp(lab("text.csv"), wave="Status")
-    with pytest.raises(RecordError, match=r"column `Carriage` \(wave\) has no unit in the file; state it: "
-                       r"units=\{'wave': 'mm'\} \(CLI --units wave=mm\)"):
-        imp(_edit_line(lab("nounit.csv"), 5, "Time [s];Heave [mm];Roll [deg];Pitch [deg];WP1 [mm];Carriage;S"),
-            wave="Carriage")
-    with pytest.raises(RecordError, match=r"column `Roll` \(roll\): the file says its unit is 'deg' but 'rad' was "
-                       "given"):
+    with pytest.raises(
+        RecordError,
+        match=r"column `Carriage` \(wave\) has no unit in the file; state it: "
+        r"units=\{'wave': 'mm'\} \(CLI --units wave=mm\)",
+    ):
+        imp(
+            _edit_line(
+                lab("nounit.csv"), 5, "Time [s];Heave [mm];Roll [deg];Pitch [deg];WP1 [mm];Carriage;S"
+            ),
+            wave="Carriage",
+        )
+    with pytest.raises(
+        RecordError,
+        match=r"column `Roll` \(roll\): the file says its unit is 'deg' but 'rad' was "
+        "given",
+    ):
         imp(lab("conflict.csv"), units={"roll": "rad"})
     p = _edit_line(lab("nonmono.csv"), 11, "0,4;0;1,0;0;1,0;0;ok")
-    with pytest.raises(RecordError, match=rf"^{re.escape(str(p))}:11: time 0.4 s does not increase \(previous "
-                       r"sample: 0.4 s\); time must be strictly increasing"):
+    with pytest.raises(
+        RecordError,
+        match=rf"^{re.escape(str(p))}:11: time 0.4 s does not increase \(previous "
+        r"sample: 0.4 s\); time must be strictly increasing",
+    ):
         imp(p)
     p = _edit_line(lab("nan.csv"), 20, "1,4;0;NaN;0;1,0;0;ok")
-    with pytest.raises(RecordError, match=rf"^{re.escape(str(p))}:20: column `Roll` \(roll\) is NaN \(gaps and "
-                       "missing values are not allowed\\)"):
+    with pytest.raises(
+        RecordError,
+        match=rf"^{re.escape(str(p))}:20: column `Roll` \(roll\) is NaN \(gaps and "
+        "missing values are not allowed\\)",
+    ):
         imp(p)
     p = lab("empty.csv")
     _edit_line(p, 21, "1,5;0;;0;1,0;0;ok")
@@ -235,8 +295,11 @@ def test_bad_lab_files_are_refused_with_their_line(tmp_path):
     p = lab("truncated.csv")
     n = len(p.read_text().splitlines())
     _edit_line(p, n, "349,9;0,1;-3,2")
-    with pytest.raises(RecordError, match=rf"^{re.escape(str(p))}:{n}: truncated file: the last line has 3 of 7 "
-                       "columns"):
+    with pytest.raises(
+        RecordError,
+        match=rf"^{re.escape(str(p))}:{n}: truncated file: the last line has 3 of 7 "
+        "columns",
+    ):
         imp(p)
     p = lab("blank.csv")
     lines = p.read_text().splitlines()
@@ -248,25 +311,36 @@ def test_bad_lab_files_are_refused_with_their_line(tmp_path):
     lines = p.read_text().splitlines()
     del lines[30:40]
     p.write_text("\n".join(lines) + "\n")
-    with pytest.raises(RecordError, match=rf"^{re.escape(str(p))}:31: gap in the record: time jumps from 2.4 s to "
-                       r"3.5 s.*Gaps are never filled"):
+    with pytest.raises(
+        RecordError,
+        match=rf"^{re.escape(str(p))}:31: gap in the record: time jumps from 2.4 s to "
+        r"3.5 s.*Gaps are never filled",
+    ):
         imp(p)
-    with pytest.raises(RecordError, match=r"the roll reaches .* with unit `rad`: beyond 90°.*probably in degrees "
-                       r"\(give units=\{'roll': 'deg'\}; CLI --units roll=deg\)"):
+    with pytest.raises(
+        RecordError,
+        match=r"the roll reaches .* with unit `rad`: beyond 90°.*probably in degrees "
+        r"\(give units=\{'roll': 'deg'\}; CLI --units roll=deg\)",
+    ):
         imp(_edit_line(lab("rad.csv"), 5, "Time [s];Heave [mm];Roll [rad];Pitch [deg];WP1 [mm];C;S"))
     with pytest.raises(RecordError, match="too few samples: 10 data rows"):
         p = lab("short.csv")
         p.write_text("\n".join(p.read_text().splitlines()[:15]) + "\n")
         imp(p)
     mixed = _edit_line(lab("mixed.csv"), 30, "2,4;0;1.5;0;1,0;0;ok")
-    with pytest.raises(RecordError, match="numbers with a decimal point and numbers with a decimal comma; give the "
-                       r"decimal mark \(decimal=',' or '.'; CLI --decimal\)"):
+    with pytest.raises(
+        RecordError,
+        match="numbers with a decimal point and numbers with a decimal comma; give the "
+        r"decimal mark \(decimal=',' or '.'; CLI --decimal\)",
+    ):
         imp(mixed)
 
 
 def test_bad_arguments(tmp_path):
     p = lab_csv(tmp_path / "a.csv")
-    with pytest.raises(ValueError, match=r"a roll record needs the column\(s\) roll, wave; give wave= \(CLI --wave\)"):
+    with pytest.raises(
+        ValueError, match=r"a roll record needs the column\(s\) roll, wave; give wave= \(CLI --wave\)"
+    ):
         import_record(p, "roll", time="Time", roll="Roll", scale=100, **ROLL_META)
     with pytest.raises(ValueError, match="a decay record has no wave column; leave wave out"):
         import_record(p, "decay", time="Time", roll="Roll", wave="WP1", scale=100)
@@ -275,8 +349,17 @@ def test_bad_arguments(tmp_path):
     with pytest.raises(ValueError, match="without a time column"):
         import_record(p, "decay", roll="Roll", scale=100)
     with pytest.raises(RecordError, match=r"missing header key\(s\) probe_x_model_m for a roll record"):
-        import_record(p, "roll", time="Time", roll="Roll", wave="WP1", scale=100, wave_height_full_m=7,
-                      wave_period_full_s=10, speed_model_m_s=0)
+        import_record(
+            p,
+            "roll",
+            time="Time",
+            roll="Roll",
+            wave="WP1",
+            scale=100,
+            wave_height_full_m=7,
+            wave_period_full_s=10,
+            speed_model_m_s=0,
+        )
     with pytest.raises(FileNotFoundError, match="does not exist"):
         import_record(tmp_path / "nope.csv", "decay", time=1, roll=2, scale=1)
 
@@ -284,20 +367,32 @@ def test_bad_arguments(tmp_path):
 def test_bad_hdf5_files(tmp_path):
     h5 = write_hdf5(tmp_path / "t.h5")
     kw = dict(time="time", roll="roll", wave="wp1", scale=100, **ROLL_META)
-    with pytest.raises(RecordError, match=r"no dataset 'phi' for `roll` \(/series_A/run3 holds: heave, roll, time, "
-                       r"wp1\)"):
+    with pytest.raises(
+        RecordError,
+        match=r"no dataset 'phi' for `roll` \(/series_A/run3 holds: heave, roll, time, "
+        r"wp1\)",
+    ):
         import_record(f"{h5}:/series_A/run3", "roll", **(kw | {"roll": "phi"}))
-    with pytest.raises(RecordError, match=r"'/series_A/run3/roll' is a dataset; name the group, .*:/series_A/run3, "
-                       r"and the datasets as columns \(e.g. roll='roll'; CLI --roll roll\)"):
+    with pytest.raises(
+        RecordError,
+        match=r"'/series_A/run3/roll' is a dataset; name the group, .*:/series_A/run3, "
+        r"and the datasets as columns \(e.g. roll='roll'; CLI --roll roll\)",
+    ):
         import_record(f"{h5}:/series_A/run3/roll", "roll", **kw)
     with pytest.raises(RecordError, match=r"no group '/series_B' in the file \(top level: /series_A\)"):
         import_record(f"{h5}:/series_B", "roll", **kw)
-    with pytest.raises(RecordError, match=r"truncated data: `/series_A/run3/wp1` \(wave\) has 3500 samples, "
-                       r"`/series_A/run3/time` \(time\) has 3501"):
+    with pytest.raises(
+        RecordError,
+        match=r"truncated data: `/series_A/run3/wp1` \(wave\) has 3500 samples, "
+        r"`/series_A/run3/time` \(time\) has 3501",
+    ):
         import_record(f"{write_hdf5(tmp_path / 'tr.h5', truncate=True)}:/series_A/run3", "roll", **kw)
     bad = write_hdf5(tmp_path / "nan.h5", nan_at=99)
-    with pytest.raises(RecordError, match=rf"^{re.escape(str(bad))}:/series_A/run3:100: `/series_A/run3/roll` "
-                       r"\(roll\) is NaN"):
+    with pytest.raises(
+        RecordError,
+        match=rf"^{re.escape(str(bad))}:/series_A/run3:100: `/series_A/run3/roll` "
+        r"\(roll\) is NaN",
+    ):
         import_record(f"{bad}:/series_A/run3", "roll", **kw)
     cut = tmp_path / "cut.h5"
     cut.write_bytes(h5.read_bytes()[:3000])  # a copy that stopped half-way
@@ -314,19 +409,98 @@ def test_cli_records_import_and_inspect(tmp_path, capsys):
     lab = lab_csv(tmp_path / "run3.csv")
     h5 = write_hdf5(tmp_path / "tank.h5")
     out = tmp_path / "records"
-    assert main(["records", "import", str(lab), f"{h5}:/series_A/run1", "--kind", "roll", "--time", "1",
-                 "--roll", "Roll", "--wave", "3", "--scale", "100", "--hs", "7", "--t01", "10", "--probe-x", "0",
-                 "--out", str(out), "--header-row", "none", "--units", "s,deg,mm", "--skip-rows", "0"]) == 2
+    assert (
+        main(
+            [
+                "records",
+                "import",
+                str(lab),
+                f"{h5}:/series_A/run1",
+                "--kind",
+                "roll",
+                "--time",
+                "1",
+                "--roll",
+                "Roll",
+                "--wave",
+                "3",
+                "--scale",
+                "100",
+                "--hs",
+                "7",
+                "--t01",
+                "10",
+                "--probe-x",
+                "0",
+                "--out",
+                str(out),
+                "--header-row",
+                "none",
+                "--units",
+                "s,deg,mm",
+                "--skip-rows",
+                "0",
+            ]
+        )
+        == 2
+    )
     assert "--header-row and --skip-rows: give one" in capsys.readouterr().err
-    code = main(["records", "import", str(lab), "--kind", "roll", "--time", "Time", "--roll", "Roll", "--wave",
-                 "WP1", "--scale", "100", "--hs", "7", "--t01", "10", "--probe-x", "0", "--out", str(out)])
+    code = main(
+        [
+            "records",
+            "import",
+            str(lab),
+            "--kind",
+            "roll",
+            "--time",
+            "Time",
+            "--roll",
+            "Roll",
+            "--wave",
+            "WP1",
+            "--scale",
+            "100",
+            "--hs",
+            "7",
+            "--t01",
+            "10",
+            "--probe-x",
+            "0",
+            "--out",
+            str(out),
+        ]
+    )
     assert code == 0
-    code = main(["records", "import", f"{h5}:/series_A/run1", "--kind", "roll", "--time", "time", "--roll", "roll",
-                 "--wave", "wp1", "--scale", "100", "--hs", "7", "--t01", "10", "--probe-x", "0", "--out",
-                 str(tmp_path / "one.csv.gz")])
+    code = main(
+        [
+            "records",
+            "import",
+            f"{h5}:/series_A/run1",
+            "--kind",
+            "roll",
+            "--time",
+            "time",
+            "--roll",
+            "roll",
+            "--wave",
+            "wp1",
+            "--scale",
+            "100",
+            "--hs",
+            "7",
+            "--t01",
+            "10",
+            "--probe-x",
+            "0",
+            "--out",
+            str(tmp_path / "one.csv.gz"),
+        ]
+    )
     assert code == 0
     printed = capsys.readouterr().out
-    assert "roll record, 3501 samples at 10 Hz model scale, 350 s model = 3500 s full scale (λ = 100)" in printed
+    assert (
+        "roll record, 3501 samples at 10 Hz model scale, 350 s model = 3500 s full scale (λ = 100)" in printed
+    )
     native = load_record(ROLL)
     assert_same_record(load_record(out / "run3.csv", kind="roll"), native)
     assert_same_record(load_record(tmp_path / "one.csv.gz", kind="roll"), native)
@@ -350,8 +524,28 @@ def test_cli_records_import_and_inspect(tmp_path, capsys):
 )
 def test_cli_import_option_errors(tmp_path, capsys, extra, message):
     lab = lab_csv(tmp_path / "run3.csv")
-    argv = ["records", "import", str(lab), "--kind", "roll", "--time", "Time", "--roll", "Roll", "--wave", "WP1",
-            "--hs", "7", "--t01", "10", "--probe-x", "0", "--out", str(tmp_path / "o"), *extra]
+    argv = [
+        "records",
+        "import",
+        str(lab),
+        "--kind",
+        "roll",
+        "--time",
+        "Time",
+        "--roll",
+        "Roll",
+        "--wave",
+        "WP1",
+        "--hs",
+        "7",
+        "--t01",
+        "10",
+        "--probe-x",
+        "0",
+        "--out",
+        str(tmp_path / "o"),
+        *extra,
+    ]
     assert main(argv) == 2
     err = capsys.readouterr().err
     assert err.startswith("jaxroll records: error: ") and message in err
@@ -361,11 +555,53 @@ def test_cli_import_option_errors(tmp_path, capsys, extra, message):
 def test_cli_lab_options_need_columns_and_sea_state(tmp_path, capsys):
     assert main(["calibrate", "captive", str(CAPTIVE), "--scale", "100", "--out", str(tmp_path / "x")]) == 2
     assert "--scale: options of a lab file; give its columns too" in capsys.readouterr().err
-    assert main(["calibrate", "captive", "lab.csv", "--time", "t", "--wave", "w", "--delta-gm", "g", "--scale",
-                 "100", "--hs", "7", "--t01", "10", "--probe-x", "2", "--out", str(tmp_path / "x")]) == 2
+    assert (
+        main(
+            [
+                "calibrate",
+                "captive",
+                "lab.csv",
+                "--time",
+                "t",
+                "--wave",
+                "w",
+                "--delta-gm",
+                "g",
+                "--scale",
+                "100",
+                "--hs",
+                "7",
+                "--t01",
+                "10",
+                "--probe-x",
+                "2",
+                "--out",
+                str(tmp_path / "x"),
+            ]
+        )
+        == 2
+    )
     assert "--heel: a captive record needs the test's sea state" in capsys.readouterr().err
-    assert main(["calibrate", "decay", "lab.csv", "--time", "t", "--roll", "r", "--scale", "100", "--hs", "7",
-                 "--out", str(tmp_path / "x")]) == 2
+    assert (
+        main(
+            [
+                "calibrate",
+                "decay",
+                "lab.csv",
+                "--time",
+                "t",
+                "--roll",
+                "r",
+                "--scale",
+                "100",
+                "--hs",
+                "7",
+                "--out",
+                str(tmp_path / "x"),
+            ]
+        )
+        == 2
+    )
     assert "--hs: a decay record has no sea state or heel" in capsys.readouterr().err
 
 
@@ -391,14 +627,50 @@ def test_calibrate_lab_csv_and_hdf5_equal_native_record(tmp_path):
     csv_path, h5 = captive_lab_files(tmp_path)
     sea = ["--scale", "100", "--hs", "7", "--t01", "10", "--probe-x", "2", "--heel", "0"]
     assert main(["calibrate", "captive", str(CAPTIVE), "--out", str(tmp_path / "native")]) == 0
-    assert main(["calibrate", "captive", str(csv_path), "--time", "Time", "--wave", "WaveProbe", "--delta-gm", "dGM",
-                 *sea, "--out", str(tmp_path / "lab")]) == 0
-    assert main(["calibrate", "captive", f"{h5}:/H7_T10/heel0", "--time", "t", "--wave", "probe", "--delta-gm",
-                 "dgm", *sea, "--out", str(tmp_path / "h5")]) == 0
+    assert (
+        main(
+            [
+                "calibrate",
+                "captive",
+                str(csv_path),
+                "--time",
+                "Time",
+                "--wave",
+                "WaveProbe",
+                "--delta-gm",
+                "dGM",
+                *sea,
+                "--out",
+                str(tmp_path / "lab"),
+            ]
+        )
+        == 0
+    )
+    assert (
+        main(
+            [
+                "calibrate",
+                "captive",
+                f"{h5}:/H7_T10/heel0",
+                "--time",
+                "t",
+                "--wave",
+                "probe",
+                "--delta-gm",
+                "dgm",
+                *sea,
+                "--out",
+                str(tmp_path / "h5"),
+            ]
+        )
+        == 0
+    )
     native = json.loads((tmp_path / "native" / "calibration.json").read_text())
     for run in ("lab", "h5"):
         got = json.loads((tmp_path / run / "calibration.json").read_text())
-        native["estimates"]["config"]["records"] = got["estimates"]["config"]["records"]  # the file names differ
+        native["estimates"]["config"]["records"] = got["estimates"]["config"][
+            "records"
+        ]  # the file names differ
         assert got["estimates"] == native["estimates"] and got["written"] == native["written"]
         assert len(got["config"]["lab_import"]) == 1
         assert (tmp_path / run / "ship.toml").read_text() == (tmp_path / "native" / "ship.toml").read_text()

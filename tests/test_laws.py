@@ -20,7 +20,9 @@ def problem():
 
 @pytest.fixture(scope="module")
 def laws(problem):
-    stats = jxr.monte_carlo_amplitudes(problem, jax.random.key(0), num_realizations=64, duration=1200.0, discard=200.0)
+    stats = jxr.monte_carlo_amplitudes(
+        problem, jax.random.key(0), num_realizations=64, duration=1200.0, discard=200.0
+    )
     out = {
         "rayleigh": jxr.RayleighLaw(0.15),
         "roberts_closed_form": jxr.RobertsLaw(0.6, 8.0, estimator="envelope"),
@@ -31,7 +33,9 @@ def laws(problem):
         "mc_envelope": stats.law("envelope", pool=20),
     }
     for est in ("envelope", "zero_crossing"):
-        out[f"roberts_{est}"] = jxr.theory.roberts_pdf(SHIP, problem.wave, restoring="nonlinear", estimator=est)
+        out[f"roberts_{est}"] = jxr.theory.roberts_pdf(
+            SHIP, problem.wave, restoring="nonlinear", estimator=est
+        )
         out[f"esam_{est}"] = jxr.theory.esam_pdf(SHIP, problem.wave, estimator=est)
         out[f"moment_{est}"] = jxr.theory.moment_pdf(
             SHIP, problem.wave, shaping_filter=problem.filter_fit, closure_order=6, estimator=est
@@ -40,9 +44,17 @@ def laws(problem):
 
 
 NAMES = [
-    "rayleigh", "roberts_closed_form", "tabulated", "mc_zero_crossing", "mc_envelope",
-    "roberts_envelope", "roberts_zero_crossing", "esam_envelope", "esam_zero_crossing",
-    "moment_envelope", "moment_zero_crossing",
+    "rayleigh",
+    "roberts_closed_form",
+    "tabulated",
+    "mc_zero_crossing",
+    "mc_envelope",
+    "roberts_envelope",
+    "roberts_zero_crossing",
+    "esam_envelope",
+    "esam_zero_crossing",
+    "moment_envelope",
+    "moment_zero_crossing",
 ]
 
 

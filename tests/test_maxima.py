@@ -47,7 +47,9 @@ def test_maxima_equal_the_largest_of_the_first_n0_zero_crossing_amplitudes(probl
     """Cross-check of the streaming reduction with the stored-series route on the same realization."""
     key = jr.key(11)
     discard, n0 = 100.0, (10, 25)
-    stats = jaxroll.monte_carlo_maxima(problem, key, n0=n0, num_realizations=1, discard=discard, duration=1400.0)
+    stats = jaxroll.monte_carlo_maxima(
+        problem, key, n0=n0, num_realizations=1, discard=discard, duration=1400.0
+    )
     phi, _, end = jaxroll.roll_time_series(problem, jr.fold_in(key, 0), 1400.0, dtype=jnp.float32)
     assert not bool(end.capsized)
     amps = np.asarray(jaxroll.zero_crossing_amplitudes(phi))
@@ -59,8 +61,9 @@ def test_maxima_equal_the_largest_of_the_first_n0_zero_crossing_amplitudes(probl
 
 
 def test_incomplete_trials_are_reported_not_hidden(problem):
-    stats = jaxroll.monte_carlo_maxima(problem, jr.key(0), n0=(10, 1000), num_realizations=3, duration=600.0,
-                                       discard=100.0)
+    stats = jaxroll.monte_carlo_maxima(
+        problem, jr.key(0), n0=(10, 1000), num_realizations=3, duration=600.0, discard=100.0
+    )
     assert stats.n_incomplete(1) + stats.n_capsized_before(1) == 3  # 500 s cannot hold 1000 amplitudes
     assert np.all(np.isnan(stats.maxima_deg[:, 1]))
     assert stats.n_incomplete(0) + stats.n_capsized_before(0) < 3
@@ -84,8 +87,9 @@ def test_maxima_checkpoint_resume_equals_uninterrupted(problem, tmp_path):
             raise KeyboardInterrupt
 
     with pytest.raises(KeyboardInterrupt):
-        jaxroll.monte_carlo_maxima(problem, jr.key(4), checkpoint=tmp_path, checkpoint_every=1, progress=interrupt,
-                                   **kw)
+        jaxroll.monte_carlo_maxima(
+            problem, jr.key(4), checkpoint=tmp_path, checkpoint_every=1, progress=interrupt, **kw
+        )
     resumed = jaxroll.monte_carlo_maxima(problem, jr.key(4), checkpoint=tmp_path, **kw)
     np.testing.assert_array_equal(resumed.maxima_deg, ref.maxima_deg)
 
@@ -97,8 +101,9 @@ def test_maxima_statistics_are_a_defective_distribution():
 
     maxima = np.array([[10.0], [20.0], [30.0], [np.nan], [np.nan], [40.0], [np.nan], [15.0], [25.0], [35.0]])
     capsized = np.array([False, False, False, True, True, False, False, False, False, False])
-    stats = MaximaStatistics(n0=(20,), maxima_deg=maxima, capsized=capsized, capsize_time=np.zeros(10),
-                             count=np.full(10, 20))
+    stats = MaximaStatistics(
+        n0=(20,), maxima_deg=maxima, capsized=capsized, capsize_time=np.zeros(10), count=np.full(10, 20)
+    )
     assert (stats.n_capsized_before(0), stats.n_incomplete(0), stats.n_known(0)) == (2, 1, 9)
     # P(max > 22°) = (25, 30, 35, 40 and the two capsizes) / 9 known trials
     assert stats.exceedance_probability(0, 22.0) == pytest.approx(6 / 9)

@@ -154,7 +154,9 @@ def test_axes_convention_and_half_hull(tmp_path):
     half = cuboid(0, L, 0, B / 2, 0, D)
     half = half[~np.all(np.abs(half[:, :, 1]) < 1e-12, axis=1)]  # remove the centre-plane face
     path = io.write_stl(tmp_path / "half.stl", half)
-    with pytest.raises(io.MeshError, match=r"OPEN along the whole of its flat side y = 0 m .* HALF hull .*--half-hull"):
+    with pytest.raises(
+        io.MeshError, match=r"OPEN along the whole of its flat side y = 0 m .* HALF hull .*--half-hull"
+    ):
         read(path, stations=11, waterlines=3)  # refused without the flag, with the reason
     hh = read(path, stations=11, waterlines=3, half_hull=True)
     np.testing.assert_allclose(hh.half_breadths, B / 2, atol=1e-9)
@@ -219,14 +221,22 @@ def test_gdf_box_has_the_stl_box_hydrostatics(tmp_path):
     np.testing.assert_array_equal(pts.min(axis=0), [-50.0, -10.0, -5.0])
     np.testing.assert_array_equal(pts.max(axis=0), [50.0, 10.0, 5.0])
     topo = io._mesh.mesh_topology(tri)
-    assert topo["boundary_edges"].shape[0] == 0 and topo["nonmanifold_edges"].shape[0] == 0  # closed by mirrors
+    assert (
+        topo["boundary_edges"].shape[0] == 0 and topo["nonmanifold_edges"].shape[0] == 0
+    )  # closed by mirrors
     assert topo["volume"] == pytest.approx(L * B * D, rel=1e-12)  # > 0: the mirrors keep the normals outward
 
     hull, loading = io.read_hull(path, lpp=L, stations=N_ST, waterlines=N_WL)
-    assert loading == {"draught_m": pytest.approx(d)}  # WAMIT's z = 0: the file's waterline, 5 m above the keel
+    assert loading == {
+        "draught_m": pytest.approx(d)
+    }  # WAMIT's z = 0: the file's waterline, 5 m above the keel
     assert "WAMIT GDF" in hull.provenance and "ISX 1, ISY 1" in hull.provenance
     stl = read(io.write_stl(tmp_path / "box.stl", box_triangles()))
-    for a, b in ((hull.stations, stl.stations), (hull.waterlines, stl.waterlines), (hull.half_breadths, stl.half_breadths)):
+    for a, b in (
+        (hull.stations, stl.stations),
+        (hull.waterlines, stl.waterlines),
+        (hull.half_breadths, stl.half_breadths),
+    ):
         np.testing.assert_allclose(a, b, rtol=0, atol=1e-9)
     out = []
     for h in (plain(hull), plain(stl)):
@@ -259,7 +269,11 @@ def test_gdf_units_come_from_grav_and_ulen_scales_nothing(tmp_path):
     # feet: GRAV = 32.174 ft/s² and the coordinates in feet; ULEN = 328 (WAMIT's reference length) changes nothing
     ft = io.write_gdf(tmp_path / "ft.gdf", panels / 0.3048, ulen=328.0, grav=32.174, isx=1, isy=1)
     h = io.read_gdf_hull(ft, lpp=L, stations=N_ST, waterlines=N_WL)
-    for a, b in ((h.stations, ref.stations), (h.waterlines, ref.waterlines), (h.half_breadths, ref.half_breadths)):
+    for a, b in (
+        (h.stations, ref.stations),
+        (h.waterlines, ref.waterlines),
+        (h.half_breadths, ref.half_breadths),
+    ):
         np.testing.assert_allclose(a, b, rtol=0, atol=1e-9)
     assert "GRAV 32.174 (unit ft)" in h.provenance
     # millimetres by GRAV = 9806.65 mm/s²; read_hull's default units="m" defers to GRAV
@@ -315,10 +329,16 @@ def test_wetted_surface_meshes_are_refused(tmp_path):
     wet = box_quadrant_panels()[:3].copy()
     wet[..., 2] = np.minimum(wet[..., 2], 0.0)
     path = io.write_gdf(tmp_path / "wet.gdf", wet, isx=1, isy=1)
-    with pytest.raises(io.MeshError, match=r"nothing of the body is above the waterplane z = 0 .* WETTED surface"):
+    with pytest.raises(
+        io.MeshError, match=r"nothing of the body is above the waterplane z = 0 .* WETTED surface"
+    ):
         io.read_gdf_hull(path, lpp=L)
-    lid = io.write_gdf(tmp_path / "lid.gdf", np.concatenate([wet, box_quadrant_panels()[3:4] * [1, 1, 0]]), isx=1, isy=1)
-    with pytest.raises(io.MeshError, match="WETTED"):  # closed by a lid on z = 0: still nothing above the waterline
+    lid = io.write_gdf(
+        tmp_path / "lid.gdf", np.concatenate([wet, box_quadrant_panels()[3:4] * [1, 1, 0]]), isx=1, isy=1
+    )
+    with pytest.raises(
+        io.MeshError, match="WETTED"
+    ):  # closed by a lid on z = 0: still nothing above the waterline
         io.read_gdf_hull(lid, lpp=L)
     # the same surface from an STL (no WAMIT frame): the open-mesh check names the open top
     tri = box_triangles()
@@ -392,7 +412,10 @@ def test_inconsistent_normals_refused_then_fixed_and_inverted_meshes_accepted(tm
     tri = box_triangles()
     bad = tri.copy()
     bad[:5] = bad[:5, ::-1]  # five triangles reversed
-    with pytest.raises(io.MeshError, match=r"orientations \(normals\) are inconsistent: .* 5 of \d+ triangles .*--fix-normals"):
+    with pytest.raises(
+        io.MeshError,
+        match=r"orientations \(normals\) are inconsistent: .* 5 of \d+ triangles .*--fix-normals",
+    ):
         read(io.write_stl(tmp_path / "bad.stl", bad))
     ref = plain(read(io.write_stl(tmp_path / "box.stl", tri)))
     fixed = plain(read(tmp_path / "bad.stl", fix_normals=True))
@@ -405,7 +428,9 @@ def test_inconsistent_normals_refused_then_fixed_and_inverted_meshes_accepted(tm
 def _dome_file(tmp_path, name, **kw):
     import hull_meshes as hm
 
-    return io.write_stl(tmp_path / name, hm.frigate(length=L, breadth=B, draught=d, depth=D, ns=31, nr=9, **kw))
+    return io.write_stl(
+        tmp_path / name, hm.frigate(length=L, breadth=B, draught=d, depth=D, ns=31, nr=9, **kw)
+    )
 
 
 def test_datum_sonar_dome_skeg_and_z0_at_the_waterline(tmp_path):
@@ -424,8 +449,9 @@ def test_datum_sonar_dome_skeg_and_z0_at_the_waterline(tmp_path):
     plain_hull = read(_dome_file(tmp_path, "nodome.stl"), x_ap=0.0)
     v = [float(jxr.hydrostatic_particulars(x, jxr.loading_condition(x, kg=KG, draught=d)).volume)
          for x in (h, plain_hull)]  # fmt: skip
-    dome_volume = hm.volume(hm.frigate(length=L, breadth=B, draught=d, depth=D, ns=31, nr=9, dome=3.0)) - hm.volume(
-        hm.frigate(length=L, breadth=B, draught=d, depth=D, ns=31, nr=9))
+    dome_volume = hm.volume(
+        hm.frigate(length=L, breadth=B, draught=d, depth=D, ns=31, nr=9, dome=3.0)
+    ) - hm.volume(hm.frigate(length=L, breadth=B, draught=d, depth=D, ns=31, nr=9))
     # the dome's stations are meshed at other heights, so the hulls above the keel differ by their chords: 1 %
     assert v[0] - v[1] == pytest.approx(dome_volume, rel=1e-2)
     # the lowest point on request: no warning, the datum recorded as given
@@ -465,7 +491,11 @@ def test_meshio_formats_read_like_the_stl(tmp_path):
     ref = read(io.write_stl(tmp_path / "box.stl", tri))
     for suffix in (".obj", ".ply", ".vtk", ".msh"):
         path = tmp_path / f"box{suffix}"
-        meshio.write(str(path), meshio.Mesh(pts, [("triangle", cells)]), **({"binary": False} if suffix == ".msh" else {}))
+        meshio.write(
+            str(path),
+            meshio.Mesh(pts, [("triangle", cells)]),
+            **({"binary": False} if suffix == ".msh" else {}),
+        )
         h, loading = io.read_hull(path, lpp=L, stations=N_ST, waterlines=N_WL)
         assert loading == {}
         np.testing.assert_allclose(h.half_breadths, ref.half_breadths, rtol=0, atol=1e-9)
@@ -524,7 +554,9 @@ def test_cli_sgisc_box_barge_names_ikedas_range_and_damping(tmp_path, capsys, mo
 
 
 def test_kg_above_the_deck_warns():
-    with pytest.warns(UserWarning, match=r"KG = 12 m is above the deck: the hull's depth is D = 10 m .*--baseline-z"):
+    with pytest.warns(
+        UserWarning, match=r"KG = 12 m is above the deck: the hull's depth is D = 10 m .*--baseline-z"
+    ):
         jxr.loading_condition(jxr.box_hull(L, B, D), kg=12.0, draught=d)
 
 
@@ -549,15 +581,22 @@ def test_cli_draught_and_kg_from_another_datum(tmp_path, capsys, monkeypatch):
         warnings.filterwarnings("ignore", ".*local protrusion")
         code, out = _cli(argv, tmp_path, capsys)
     assert code == 0, out.err
-    assert "KG given from the given reference (file z = " in out.out and "draughts given from the lowest" in out.out
+    assert (
+        "KG given from the given reference (file z = " in out.out
+        and "draughts given from the lowest" in out.out
+    )
     doc = json.loads((tmp_path / "out" / "hydrostatics.json").read_text())
     cfg = doc["config"]
-    assert cfg["kg_m"] == pytest.approx(KG, abs=1e-9) and doc["calm_water"]["draught_m"] == pytest.approx(d, abs=1e-6)
+    assert cfg["kg_m"] == pytest.approx(KG, abs=1e-9) and doc["calm_water"]["draught_m"] == pytest.approx(
+        d, abs=1e-6
+    )
     assert cfg["kg_given_m"] == pytest.approx(KG - low) and cfg["draught_given_m"] == pytest.approx(d - low)
     datum = cfg["datum"]
     assert datum["baseline_file_z_m"] == 0.0 and datum["lowest_point_file_z_m"] == pytest.approx(low)
     assert datum["draught_datum"] == {"option": "lowest", "file_z_m": low, "above_baseline_m": low}
-    assert datum["kg_datum"]["option"] == pytest.approx(low) and datum["kg_datum"]["above_baseline_m"] == pytest.approx(low)
+    assert datum["kg_datum"]["option"] == pytest.approx(low) and datum["kg_datum"][
+        "above_baseline_m"
+    ] == pytest.approx(low)
     assert_labelled_output(tmp_path / "out", "hydrostatics")
     # the same condition given from the baseline: the same displacement and GM
     with pytest.warns(UserWarning, match="local protrusion"):
@@ -597,6 +636,13 @@ def test_cli_datum_options_contradicting_the_hull_exit_2_before_computing(tmp_pa
         assert not (tmp_path / "out").exists()
     # a reference that is neither a name nor a number: argparse's usage error (exit 2)
     with pytest.raises(SystemExit) as e:
-        _cli(["sgisc", *base, "--kg", "6", "--draught", "5", "--kg-datum", "deck", "--speed-kn", "10"], tmp_path, capsys)
+        _cli(
+            ["sgisc", *base, "--kg", "6", "--draught", "5", "--kg-datum", "deck", "--speed-kn", "10"],
+            tmp_path,
+            capsys,
+        )
     assert e.value.code == 2
-    assert "--kg-datum: give baseline, keel, lowest or a file z [m, full scale]; got 'deck'" in capsys.readouterr().err
+    assert (
+        "--kg-datum: give baseline, keel, lowest or a file z [m, full scale]; got 'deck'"
+        in capsys.readouterr().err
+    )

@@ -306,8 +306,10 @@ def test_default_ship_order4_order6_vs_monte_carlo(ship_solutions, monte_carlo_7
     fam, _, _ = fit_amplitude_family(jnp.asarray([np.sum(w * mid**k) for k in (2, 4, 6)]))
     np.testing.assert_allclose(np.rad2deg(float(fam.mean())), mean_mc, rtol=0.02, atol=0)
     np.testing.assert_allclose(
-        np.rad2deg(_tabulated_law(fam, SHIP, "envelope").quantile(jnp.array([0.5, 0.99]))), q_mc[[0, 2]],
-        rtol=0.02, atol=0,
+        np.rad2deg(_tabulated_law(fam, SHIP, "envelope").quantile(jnp.array([0.5, 0.99]))),
+        q_mc[[0, 2]],
+        rtol=0.02,
+        atol=0,
     )
 
 
@@ -368,8 +370,11 @@ def test_no_law_where_the_roll_dies_out_though_the_closure_keeps_a_fixed_point()
     (`moment_pdf_first_stable`, the named `theory_law("moment")` that the command line uses) refuse there;
     `moment_pdf`, the paper's method, is left as it is."""
     wave = _wave(3.0)
-    assert float(jxr.theory.sustained_roll_exponent(SHIP, wave)) < 0 < float(
-        jxr.theory.sustained_roll_exponent(SHIP, _wave(7.0)))
+    assert (
+        float(jxr.theory.sustained_roll_exponent(SHIP, wave))
+        < 0
+        < float(jxr.theory.sustained_roll_exponent(SHIP, _wave(7.0)))
+    )
     paper = moment_pdf(SHIP, wave, closure_order=4)
     paper_mean = math.degrees(float(paper.mean()))
     assert paper_mean > 1.0
@@ -596,7 +601,9 @@ def test_theory_summary_is_the_moment_methods_law_and_summary(ship_solutions):
     assert summary["mean_amplitude_deg"] == pytest.approx(11.2077, abs=1e-4)  # docs/theory.md §5
 
 
-def test_a_fit_still_being_made_runs_the_program_compiled_for_the_fits_form(ship_solutions, tmp_path, monkeypatch):
+def test_a_fit_still_being_made_runs_the_program_compiled_for_the_fits_form(
+    ship_solutions, tmp_path, monkeypatch
+):
     """`iter_theory_summaries` with the filter given as a future (`jaxroll theory` makes the fit meanwhile) traces
     and compiles the moment method's program and the λ gate's for `fitted_form`, and the fitted filter's calls run
     those: each exported once, and the law is `moment_pdf`'s. `fitted_form` has every fit's zero coefficients."""
@@ -616,13 +623,17 @@ def test_a_fit_still_being_made_runs_the_program_compiled_for_the_fits_form(ship
     wave, bins = _wave(7.0), np.arange(0.0, 73.0, 1.0)
     fit = fit_filter(wave, order=4, match_frequency=2 * SHIP.omega0)
     assert zero_pattern(SHIP, fitted_form(4)) == zero_pattern(SHIP, fit.filter)
-    effective_wave_std(wave)  # the set-up checks' own stored program (S_G on a grid), exported before counting
+    effective_wave_std(
+        wave
+    )  # the set-up checks' own stored program (S_G on a grid), exported before counting
     before = len(exported)
     future = concurrent.futures.Future()
     results = jxr.theory.iter_theory_summaries(("moment",), SHIP, wave, bins, shaping_filter=future)
     future.set_result(fit)
     ((name, (law, summary)),) = list(results)
-    assert len(exported) - before == 2  # the law's program and the gate's, for the form; the fit's calls ran them
+    assert (
+        len(exported) - before == 2
+    )  # the law's program and the gate's, for the form; the fit's calls ran them
     assert law.closure_order == 6
     _same_summary(summary, ship_solutions[6].summary(bins), rtol=1e-10)
     for order in (3, 5, 6, 12):  # the form's zeros are those of the fit's parametrisation at every order
@@ -639,8 +650,9 @@ def test_vmap_over_sea_states_equals_loop():
     stacked = jax.tree.map(lambda *x: jnp.stack(x), *filters)
 
     def e_phi2(f, start_deg):
-        sol = jxr.theory.roll_moments(SHIP, None, shaping_filter=f, closure_order=4, throw=False,
-                                      initial_roll_deg=start_deg)
+        sol = jxr.theory.roll_moments(
+            SHIP, None, shaping_filter=f, closure_order=4, throw=False, initial_roll_deg=start_deg
+        )
         return sol.moment((2, 0, 0, 0, 0, 0)), sol.relax_steps
 
     # From the default start (15°) Newton converges at every member; from 10° (the start before 2026-11-26) the
@@ -660,7 +672,9 @@ def test_vmap_over_ship_parameters_equals_loop():
     the same fixed point (measured: 8e-15)."""
     f = _filter(7.0)
     ships = [
-        eqx.tree_at(lambda s: (s.gm_correction, s.damping), SHIP, (jnp.asarray(r), SHIP.damping.at[0].multiply(k)))
+        eqx.tree_at(
+            lambda s: (s.gm_correction, s.damping), SHIP, (jnp.asarray(r), SHIP.damping.at[0].multiply(k))
+        )
         for r, k in ((1.0, 1.0), (0.9, 1.1), (0.8, 0.9))
     ]
     stacked = jax.tree.map(lambda *x: jnp.stack(x), *ships)
@@ -716,8 +730,14 @@ def test_first_stable_records_the_closure_and_never_switches_under_tracing(monke
     monkeypatch.setattr(_moments, "moment_pdf", fake_fit)
     with pytest.warns(UserWarning, match="closure order 6 has a stable solution here, but no amplitude law"):
         d = jxr.theory.moment_pdf_first_stable(SHIP, _wave(7.0)).details()
-    assert "amplitude family" in d["closure_fallback_reason"] and d["closure_fallback_cause"] == "amplitude_family"
-    assert closure_note(d) == ", closure order 4: order 6's moments fit no law of the method's amplitude family here"
+    assert (
+        "amplitude family" in d["closure_fallback_reason"]
+        and d["closure_fallback_cause"] == "amplitude_family"
+    )
+    assert (
+        closure_note(d)
+        == ", closure order 4: order 6's moments fit no law of the method's amplitude family here"
+    )
 
 
 def _hs_path(hs):

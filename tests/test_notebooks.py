@@ -7,8 +7,13 @@ OWN = ["01_monte_carlo_pdf.ipynb", "02_theory_vs_monte_carlo.ipynb", "03_maximum
 
 
 def test_every_notebook_is_run_by_a_test():
-    tested = {*OWN, "04_calibration.ipynb", "05_hydrostatics.ipynb", "06_vulnerability.ipynb",
-              "07_longterm.ipynb"}  # 04-07 run by test_calibration, test_hydrostatics, test_sgisc, test_longterm
+    tested = {
+        *OWN,
+        "04_calibration.ipynb",
+        "05_hydrostatics.ipynb",
+        "06_vulnerability.ipynb",
+        "07_longterm.ipynb",
+    }  # 04-07 run by test_calibration, test_hydrostatics, test_sgisc, test_longterm
     assert {p.name for p in NOTEBOOKS.glob("*.ipynb")} == tested
 
 

@@ -35,7 +35,9 @@ def _inside(path, folder: Path) -> bool:
 
 def _dead_pid() -> int:
     """The PID of a process that has ended."""
-    proc = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"], capture_output=True, text=True)
+    proc = subprocess.run(
+        [sys.executable, "-c", "import os; print(os.getpid())"], capture_output=True, text=True
+    )
     return int(proc.stdout)
 
 
@@ -102,9 +104,13 @@ def test_debris_of_a_killed_run_is_removed_by_the_next(tmp_path, existing):
     if existing:
         assert _tank(out, seed=0) == 0
     before = _contents(out) if existing else None
-    done = subprocess.run([sys.executable, "-c", _KILLED_WHILE_WRITING, str(out)], capture_output=True, timeout=300)
+    done = subprocess.run(
+        [sys.executable, "-c", _KILLED_WHILE_WRITING, str(out)], capture_output=True, timeout=300
+    )
     assert done.returncode == -signal.SIGKILL, done.stderr.decode()[-2000:]
-    left = [p for p in (*tmp_path.iterdir(), *(out.iterdir() if out.is_dir() else ())) if p.name.startswith(".")]
+    left = [
+        p for p in (*tmp_path.iterdir(), *(out.iterdir() if out.is_dir() else ())) if p.name.startswith(".")
+    ]
     assert left, "the killed run left nothing to clean"
     visible = {k: v for k, v in _contents(out).items() if not k.startswith(".")} if existing else None
     assert (visible == before) if existing else not out.exists()  # ... and `out` as it was
@@ -130,7 +136,9 @@ def test_a_run_killed_while_it_renames_its_set_is_rolled_back(tmp_path, monkeypa
     assert _tank(new_set, seed=1) == 0
     names = sorted(p.name for p in new_set.iterdir())  # decay/, truth.json, truth_ship.toml
     pid = _dead_pid()
-    monkeypatch.setattr(_common, "_hidden_name", lambda prefix: f"{prefix}.{_common._host()}.{pid}.{os.urandom(4).hex()}")
+    monkeypatch.setattr(
+        _common, "_hidden_name", lambda prefix: f"{prefix}.{_common._host()}.{pid}.{os.urandom(4).hex()}"
+    )
 
     def entry(folder, name):
         path = folder / name
@@ -138,7 +146,9 @@ def test_a_run_killed_while_it_renames_its_set_is_rolled_back(tmp_path, monkeypa
 
     versions = {name: (entry(out, name), entry(new_set, name)) for name in names}
     real_rename, real_unlink = os.rename, os.unlink
-    for k in range(2 * len(names) + 1):  # killed before the (k+1)-th rename; k = 6: before the journal's removal
+    for k in range(
+        2 * len(names) + 1
+    ):  # killed before the (k+1)-th rename; k = 6: before the journal's removal
         tmp = out / _common._hidden_name(_common._PARTIAL)
         shutil.copytree(new_set, tmp)
         calls = []
@@ -168,7 +178,12 @@ def test_a_run_killed_while_it_renames_its_set_is_rolled_back(tmp_path, monkeypa
         with pytest.warns(UserWarning, match="was rolled back; the folder holds the set it held before"):
             _common.prepare_out(out)  # the next run
         assert _contents(out) == old, f"not rolled back after {k} renames"
-        assert sorted(p.name for p in out.iterdir()) == ["decay", "notes.txt", "truth.json", "truth_ship.toml"]
+        assert sorted(p.name for p in out.iterdir()) == [
+            "decay",
+            "notes.txt",
+            "truth.json",
+            "truth_ship.toml",
+        ]
 
 
 def test_a_rename_refused_half_way_puts_the_previous_set_back(tmp_path, monkeypatch, capsys):
@@ -203,8 +218,11 @@ def _read_only(monkeypatch, folder: Path):
 
     def check(name, *paths):
         for p in paths:
-            if _inside(p, folder) and os.path.abspath(os.fspath(p)) != str(folder) or (
-                    name in ("rename", "replace") and os.path.abspath(os.fspath(p)) == str(folder)):
+            if (
+                _inside(p, folder)
+                and os.path.abspath(os.fspath(p)) != str(folder)
+                or (name in ("rename", "replace") and os.path.abspath(os.fspath(p)) == str(folder))
+            ):
                 denied(p)
 
     def open_(path, flags, *a, **k):
@@ -259,7 +277,8 @@ def test_read_only_out_is_refused_before_computing(tmp_path, monkeypatch, capsys
     err = capsys.readouterr().err
     assert err.strip().splitlines() == [
         f"jaxroll tank: error: --out {str(out)!r} cannot be written: no file can be created in {str(folder)!r} "
-        "(permission denied). Choose a folder you can write, or fix its permissions."]
+        "(permission denied). Choose a folder you can write, or fix its permissions."
+    ]
     assert list(folder.iterdir()) == []
 
 
@@ -283,7 +302,8 @@ def test_full_disk_is_one_line_and_leaves_out_as_it_was(tmp_path, monkeypatch, c
     err = capsys.readouterr().err
     assert err.strip().splitlines() == [
         "jaxroll tank: error: No space left on device; outputs are written as a complete set or not at all, so "
-        "--out is unchanged; free some space or choose another --out."]
+        "--out is unchanged; free some space or choose another --out."
+    ]
     assert _contents(out) == before
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]
 
@@ -300,7 +320,8 @@ def test_any_os_error_is_one_line(tmp_path, monkeypatch, capsys):
     assert _tank(tmp_path / "out") == 2
     assert capsys.readouterr().err.strip().splitlines() == [
         "jaxroll tank: error: Input/output error (/dev/sdz); outputs are written as a complete set or not at all, "
-        "so --out is unchanged."]
+        "so --out is unchanged."
+    ]
     assert list(tmp_path.iterdir()) == []
 
 
@@ -314,7 +335,8 @@ def test_folders_left_by_an_earlier_jaxroll_are_named(tmp_path, capsys):
         warnings.simplefilter("default")  # as the command runs (the suite turns warnings into errors)
         assert _tank(out) == 0
     assert capsys.readouterr().err.startswith(
-        "jaxroll tank: warning: 2 folder(s) beside --out were left by an interrupted run of an earlier jaxroll")
+        "jaxroll tank: warning: 2 folder(s) beside --out were left by an interrupted run of an earlier jaxroll"
+    )
     assert sorted(p.name for p in tmp_path.iterdir()) == [".out.old-ef56gh78", ".out.partial-ab12cd34", "out"]
 
 
@@ -328,13 +350,17 @@ def test_calibrate_writes_one_set(tmp_path, monkeypatch, capsys):
     assert main(["tank", "--tests", "decay", "--quiet", "--out", str(records)]) == 0
     out = tmp_path / "cal"
     capsys.readouterr()
-    assert main(["calibrate", "decay", str(records / "decay"), "--out", str(out), "--method", "extinction"]) == 0
+    assert (
+        main(["calibrate", "decay", str(records / "decay"), "--out", str(out), "--method", "extinction"]) == 0
+    )
     # these records' extinction fit puts b3 0.3 standard errors below 0: held at 0, said on one line
     assert "jaxroll calibrate: warning: decay fit (extinction): b3 = -0.16" in capsys.readouterr().err
     before = _contents(out)
     assert {"ship.toml", "calibration.json", "extinction.png"} <= set(before)
 
-    def killed(*args, **kwargs):  # Ctrl-C (or SIGKILL) after ship.toml and the figures, before calibration.json
+    def killed(
+        *args, **kwargs
+    ):  # Ctrl-C (or SIGKILL) after ship.toml and the figures, before calibration.json
         raise KeyboardInterrupt
 
     monkeypatch.setattr(calibrate, "write_json", killed)

@@ -29,7 +29,9 @@ def _has_labels(ds: xr.Dataset) -> None:
 @pytest.fixture(scope="module")
 def amplitude_stats():
     # the run of test_cli's `jaxroll pdf` (its compiled programs serve both): 6 trials × 600 s of the 7 m sea
-    return jxr.monte_carlo_amplitudes(default_problem(), jax.random.key(3), num_realizations=6, duration=600.0)
+    return jxr.monte_carlo_amplitudes(
+        default_problem(), jax.random.key(3), num_realizations=6, duration=600.0
+    )
 
 
 def test_amplitude_statistics_to_xarray(amplitude_stats, tmp_path):
@@ -43,19 +45,30 @@ def test_amplitude_statistics_to_xarray(amplitude_stats, tmp_path):
     assert ds.n_amplitudes.sel(estimator="zero_crossing") == stats.n_amplitudes("zero_crossing") > 100
     assert int(ds.counts_zero_crossing.sum()) == stats.n_amplitudes("zero_crossing")
     assert int(ds.counts_envelope.sum()) == stats.n_amplitudes("envelope")
-    assert ds.quantiles_deg.sel(estimator="envelope", percentile=99) == summary["quantiles_deg"]["envelope"]["99"]
-    np.testing.assert_allclose(ds.mean_amplitude_deg.sel(estimator="envelope"),
-                               np.rad2deg(stats.mean("envelope")), rtol=1e-15, atol=0)
+    assert (
+        ds.quantiles_deg.sel(estimator="envelope", percentile=99)
+        == summary["quantiles_deg"]["envelope"]["99"]
+    )
+    np.testing.assert_allclose(
+        ds.mean_amplitude_deg.sel(estimator="envelope"),
+        np.rad2deg(stats.mean("envelope")),
+        rtol=1e-15,
+        atol=0,
+    )
     # the per-trial arrays: capsizes, capsize time (inf: none), the largest roll, the exact sums behind the means
     assert ds.capsized.dims == ("realization",) and ds.capsized.dtype == bool and ds.sizes["realization"] == 6
     np.testing.assert_array_equal(ds.capsize_time_s, stats.capsize_time)
     assert np.all(np.isinf(ds.capsize_time_s.values[~stats.capsized]))
     n, s = ds.n_zero_crossing.sum(), ds.sum_zero_crossing_rad.sum()
-    np.testing.assert_allclose(np.rad2deg(s / n), ds.mean_amplitude_deg.sel(estimator="zero_crossing"), rtol=1e-12)
+    np.testing.assert_allclose(
+        np.rad2deg(s / n), ds.mean_amplitude_deg.sel(estimator="zero_crossing"), rtol=1e-12
+    )
     # the largest envelope amplitude per trial is at least the trial's own quantiles and below the vanishing angle
     largest = ds.max_envelope_deg.values
     assert np.all(largest > ds.quantiles_deg.sel(estimator="envelope", percentile=50).item() * 0.5)
-    assert np.all(largest < 71.6) and largest.max() >= ds.quantiles_deg.sel(estimator="envelope", percentile=99)
+    assert np.all(largest < 71.6) and largest.max() >= ds.quantiles_deg.sel(
+        estimator="envelope", percentile=99
+    )
     # written and read back: the same numbers, the booleans restored
     write_dataset(tmp_path / "a.nc", ds)
     back = read_dataset(tmp_path / "a.nc")
@@ -74,8 +87,9 @@ def test_maxima_and_max_roll_to_xarray():
     # the maximum of the first 30 amplitudes is at least that of the first 10, trial by trial
     assert np.all(ds.maxima_deg.sel(n0=30) >= ds.maxima_deg.sel(n0=10))
     assert ds.n_trials.sel(n0=10) == 6 and list(ds.percentile.values) == [50, 90, 99]
-    roll = jxr.monte_carlo_max_roll(problem, jax.random.key(1), angle_deg=15.0, num_realizations=5, duration=300.0,
-                                    chunk_size=4)
+    roll = jxr.monte_carlo_max_roll(
+        problem, jax.random.key(1), angle_deg=15.0, num_realizations=5, duration=300.0, chunk_size=4
+    )
     dr = roll.to_xarray()
     _has_labels(dr)
     np.testing.assert_array_equal(dr.max_abs_phi_deg, roll.max_abs_phi_deg)
@@ -83,11 +97,22 @@ def test_maxima_and_max_roll_to_xarray():
     lo, hi = roll.exceedance_interval()
     np.testing.assert_array_equal(dr.probability_ci95.sel(bound=["lower", "upper"]), [lo, hi])
     # a second run with other N0 joins the first along `n0`, NaN where one has no trial (as maxima.nc does)
-    more = jxr.MaximaStatistics(n0=(60,), maxima_deg=np.array([[20.0], [np.nan], [25.0], [30.0]]),
-                                capsized=np.array([False, True, False, False]),
-                                capsize_time=np.array([np.inf, 900.0, np.inf, np.inf]), count=np.array([60, 41, 60, 60]))
-    both = xr.concat([ds, more.to_xarray()], dim="n0", data_vars="minimal", coords="minimal", compat="override",
-                     join="outer", combine_attrs="drop_conflicts")
+    more = jxr.MaximaStatistics(
+        n0=(60,),
+        maxima_deg=np.array([[20.0], [np.nan], [25.0], [30.0]]),
+        capsized=np.array([False, True, False, False]),
+        capsize_time=np.array([np.inf, 900.0, np.inf, np.inf]),
+        count=np.array([60, 41, 60, 60]),
+    )
+    both = xr.concat(
+        [ds, more.to_xarray()],
+        dim="n0",
+        data_vars="minimal",
+        coords="minimal",
+        compat="override",
+        join="outer",
+        combine_attrs="drop_conflicts",
+    )
     assert list(both.n0.values) == [10, 30, 60] and both.sizes["realization"] == 6
     assert np.isnan(both.maxima_deg.sel(n0=60, realization=5)) and both.n_trials.sel(n0=60) == 4
     assert both.n_capsized.sel(n0=60) == 1 and both.capsize_time_s.sel(n0=60, realization=1) == 900.0
@@ -106,8 +131,9 @@ def test_law_to_xarray_rayleigh_closed_form():
     top = math.degrees(sigma * math.sqrt(24 * math.log(10)))
     assert top <= ds.amplitude_deg[-1] < top + 0.1 + 1e-9
     np.testing.assert_allclose(ds.mean_amplitude_deg, math.degrees(sigma * math.sqrt(math.pi / 2)), rtol=1e-9)
-    np.testing.assert_allclose(ds.quantiles_deg.sel(percentile=50),
-                               math.degrees(sigma * math.sqrt(2 * math.log(2))), rtol=1e-9)
+    np.testing.assert_allclose(
+        ds.quantiles_deg.sel(percentile=50), math.degrees(sigma * math.sqrt(2 * math.log(2))), rtol=1e-9
+    )
     assert ds.attrs["law"] == "RayleighLaw" and ds.attrs["estimator"] == "zero_crossing"
     own = law.to_xarray(np.array([0.0, 5.0, 10.0]))
     np.testing.assert_allclose(own.sf, np.exp(-np.array([0.0, 0.5, 2.0])), rtol=1e-12)
@@ -122,8 +148,11 @@ def test_exposure_risk_to_xarray():
     # F̄(20°) = exp(-8) for σ = 5°; at least one of n independent amplitudes exceeds it
     np.testing.assert_allclose(ds.exceedance_per_cycle, math.exp(-8.0), rtol=1e-12)
     np.testing.assert_allclose(ds.probability, 1 - (1 - math.exp(-8.0)) ** 1080, rtol=1e-10)
-    assert float(ds.probability_ci95.sel(bound="lower")) < float(ds.probability) < float(
-        ds.probability_ci95.sel(bound="upper"))
+    assert (
+        float(ds.probability_ci95.sel(bound="lower"))
+        < float(ds.probability)
+        < float(ds.probability_ci95.sel(bound="upper"))
+    )
     np.testing.assert_allclose(ds.characteristic_largest_deg, float(r.characteristic_largest_deg), rtol=1e-15)
     assert ds.characteristic_largest_ci95_deg.attrs["units"] == "degree"
 
@@ -147,7 +176,10 @@ def test_sweep_datasets_combine_across_runs():
     # another grid of heights joins along hs_m
     c = _sweep_result([9.0], [5, 6], [15, 16]).to_xarray()
     wide = xr.merge([a, c], join="outer", compat="no_conflicts", combine_attrs="drop_conflicts")
-    assert list(wide.hs_m.values) == [5.0, 7.0, 9.0] and wide.n_capsized.sel(heading="head", hs_m=9.0).item() == 5
+    assert (
+        list(wide.hs_m.values) == [5.0, 7.0, 9.0]
+        and wide.n_capsized.sel(heading="head", hs_m=9.0).item() == 5
+    )
 
 
 def test_sensitivity_result_to_xarray():
@@ -169,13 +201,18 @@ def test_sensitivity_result_to_xarray():
     # the influence of the realization left out is NaN; the others' mean is the gradient
     infl = ds.influence.sel(statistic="E_phi2", parameter="b1")
     assert np.isnan(infl.sel(realization=2)) and infl.mean().item() == pytest.approx(-2.0, rel=1e-15)
-    assert list(ds.statistic_unit.values) == ["rad2", "rad"] and list(ds.parameter_unit.values) == ["1/s", "-"]
+    assert list(ds.statistic_unit.values) == ["rad2", "rad"] and list(ds.parameter_unit.values) == [
+        "1/s",
+        "-",
+    ]
 
 
 def test_hydrostatics_to_xarray():
     hull = jxr.box_hull(100.0, 20.0, 12.0)
     loading = jxr.loading_condition(hull, kg=6.0, draught=5.0)
-    sol = jxr.hull_hydrostatics(hull, loading, zeta_mid=np.linspace(-2.0, 2.0, 7), heels=np.radians([0.0, 5, 10, 15, 20]))
+    sol = jxr.hull_hydrostatics(
+        hull, loading, zeta_mid=np.linspace(-2.0, 2.0, 7), heels=np.radians([0.0, 5, 10, 15, 20])
+    )
     ds = sol.to_xarray()
     _has_labels(ds)
     assert ds.tables_gz_m.dims == ("zeta_mid_m", "heel_deg")
@@ -194,7 +231,11 @@ def test_decay_fit_to_xarray():
     fit = jxr.fit_extinction(records, jxr.c11_representative())
     ds = fit.to_xarray()
     _has_labels(ds)
-    assert list(ds.parameter.values) == ["b1", "b2", "b3"] and list(ds.unit.values) == ["1/s", "1/rad", "s/rad^2"]
+    assert list(ds.parameter.values) == ["b1", "b2", "b3"] and list(ds.unit.values) == [
+        "1/s",
+        "1/rad",
+        "s/rad^2",
+    ]
     for name, e in fit.damping.items():
         assert ds.estimate.sel(parameter=name) == e.value and ds.std_error.sel(parameter=name) == e.std_error
     cov = ds.covariance.values
@@ -211,21 +252,35 @@ def test_tree_rule_refuses_what_its_layout_does_not_describe():
     with pytest.raises(ValueError, match="two fields map to the variable 'a_b'"):
         tree_to_dataset({"a_b": 1.0, "a": {"b": 2.0}}, Layout(units={"a_b": "m"}))
     # the rule: nested names joined, labelled levels as dimensions (numeric keys as numbers), text as attributes
-    ds = tree_to_dataset({"q_deg": {"zc": {"50": 1.0, "90": 2.0}, "env": {"50": 3.0}}, "note": "x"},
-                         Layout(labels={"q_deg": "estimator", "q_deg/*": "percentile"}))
+    ds = tree_to_dataset(
+        {"q_deg": {"zc": {"50": 1.0, "90": 2.0}, "env": {"50": 3.0}}, "note": "x"},
+        Layout(labels={"q_deg": "estimator", "q_deg/*": "percentile"}),
+    )
     assert ds.q_deg.dims == ("estimator", "percentile") and list(ds.percentile.values) == [50, 90]
     assert np.isnan(ds.q_deg.sel(estimator="env", percentile=90)) and ds.attrs["note"] == "x"
-    assert ds.q_deg.attrs["json_path"] == "q_deg/{estimator}/{percentile}" and ds.q_deg.attrs["units"] == "degree"
+    assert (
+        ds.q_deg.attrs["json_path"] == "q_deg/{estimator}/{percentile}"
+        and ds.q_deg.attrs["units"] == "degree"
+    )
 
 
 def test_the_round_trip_check_catches_a_wrong_or_missing_number(tmp_path):
     """`assert_labelled_output` (used by every command's test) fails on a changed number or a missing field."""
     result = _sweep_result([5.0, 7.0], [0, 1, 0, 2], [3, 9, 4, 12])
-    payload = {"config": {"angle_deg": 30.0}, "grid": {"axes": list(result.grid), **result.grid},
-               "heading_deg": [180.0, 135.0], "n_realizations": 20, "n_capsized": result.n_capsized,
-               "n_exceeded": result.n_exceeded, "capsize_probability": result.capsize_probability,
-               "capsize_ci": result.capsize_interval(), "exceedance_probability": result.exceedance_probability,
-               "exceedance_ci": result.exceedance_interval(), "points": [{"hs_m": 5.0}], "run_time_s": 1.5}
+    payload = {
+        "config": {"angle_deg": 30.0},
+        "grid": {"axes": list(result.grid), **result.grid},
+        "heading_deg": [180.0, 135.0],
+        "n_realizations": 20,
+        "n_capsized": result.n_capsized,
+        "n_exceeded": result.n_exceeded,
+        "capsize_probability": result.capsize_probability,
+        "capsize_ci": result.capsize_interval(),
+        "exceedance_probability": result.exceedance_probability,
+        "exceedance_ci": result.exceedance_interval(),
+        "points": [{"hs_m": 5.0}],
+        "run_time_s": 1.5,
+    }
     write_json(tmp_path / "sweep.json", payload)
     write_netcdf(tmp_path / "sweep.nc", "sweep", payload, result.to_xarray())
     assert_labelled_output(tmp_path, "sweep")

@@ -40,7 +40,9 @@ def test_every_floor_is_pinned_in_the_oldest_versions_ci_installs():
         match = re.search(r">=\s*([0-9][^,;\s]*)", requirement)
         assert match, f"{requirement!r} has no floor"
         floors[_name(requirement)] = match.group(1)
-    assert {k: Version(v) for k, v in floors.items()} == {k: Version(v) for k, v in pins.items() if k in floors}
+    assert {k: Version(v) for k, v in floors.items()} == {
+        k: Version(v) for k, v in pins.items() if k in floors
+    }
     assert set(pins) - set(floors) == {"jaxlib"} and pins["jaxlib"] == pins["jax"]
 
 
@@ -48,8 +50,10 @@ def test_package_metadata():
     project = PYPROJECT["project"]
     assert project["version"] == "0.2.0"
     assert project["license"] == "Apache-2.0" and "LICENSE" in project["license-files"]
-    assert "Apache License" in (ROOT / "LICENSE").read_text() and "Version 2.0, January 2004" in (
-        ROOT / "LICENSE").read_text()
+    assert (
+        "Apache License" in (ROOT / "LICENSE").read_text()
+        and "Version 2.0, January 2004" in (ROOT / "LICENSE").read_text()
+    )
     assert f"## {project['version']}" in (ROOT / "CHANGELOG.md").read_text()
     assert (ROOT / "jaxroll" / "py.typed").is_file()
     assert "Typing :: Typed" in project["classifiers"]
@@ -61,15 +65,28 @@ def test_json_outputs_record_versions(tmp_path):
 
     write_json(tmp_path / "out.json", {"config": {"hs_m": 7.0}, "mean_amplitude_deg": 9.8})
     data = json.loads((tmp_path / "out.json").read_text())
-    assert list(data) == ["jaxroll_version", "config", "mean_amplitude_deg", "versions"]  # names stable, first first
+    assert list(data) == [
+        "jaxroll_version",
+        "config",
+        "mean_amplitude_deg",
+        "versions",
+    ]  # names stable, first first
     v = data["versions"]
     assert v == jaxroll.io.provenance()
     assert v["jaxroll_version"] == data["jaxroll_version"] == jaxroll.__version__
     import jax
 
-    assert v["jax_version"] == jax.__version__ and v["backend"] == jax.default_backend() and v["x64"] == "true"
-    assert {"jaxlib_version", "equinox_version", "diffrax_version", "optimistix_version", "numpy_version",
-            "device_kind"} <= set(v)
+    assert (
+        v["jax_version"] == jax.__version__ and v["backend"] == jax.default_backend() and v["x64"] == "true"
+    )
+    assert {
+        "jaxlib_version",
+        "equinox_version",
+        "diffrax_version",
+        "optimistix_version",
+        "numpy_version",
+        "device_kind",
+    } <= set(v)
 
 
 def test_netcdf_round_trip(tmp_path):
@@ -78,8 +95,14 @@ def test_netcdf_round_trip(tmp_path):
     import xarray as xr
 
     ds = xr.Dataset(
-        {"pdf": ("amplitude_deg", np.array([0.1, 0.5, 0.4]), {"units": "1/deg", "long_name": "amplitude PDF"}),
-         "capsized": ("trial", np.array([True, False]))},
+        {
+            "pdf": (
+                "amplitude_deg",
+                np.array([0.1, 0.5, 0.4]),
+                {"units": "1/deg", "long_name": "amplitude PDF"},
+            ),
+            "capsized": ("trial", np.array([True, False])),
+        },
         coords={"amplitude_deg": [1.0, 2.0, 3.0]},
         attrs=jaxroll.io.dataset_attrs({"hs_m": 7.0}),
     )

@@ -34,8 +34,16 @@ def test_survival_equals_the_system_marched_in_time():
     with the same killing and start marched by backward Euler (dt 2 s and 1 s, Richardson-extrapolated)."""
     angle, durations = 30 * DEG, np.array([600.0, 1200.0, 1800.0])
     risk = theory.passage_risk(SHIP, _wave(6.0), [angle], durations, extrapolate=False, **SMALL)
-    grid = fpk._grid(SMALL["num_s"], SMALL["num_s_coarse"], SMALL["num_rho"], SMALL["num_theta"], 5.5,
-                     math.radians(0.5), math.radians(1e-4), 0)
+    grid = fpk._grid(
+        SMALL["num_s"],
+        SMALL["num_s_coarse"],
+        SMALL["num_rho"],
+        SMALL["num_theta"],
+        5.5,
+        math.radians(0.5),
+        math.radians(1e-4),
+        0,
+    )
     levels = passage._levels(SHIP, grid, [angle])
     face = grid.num_s_coarse + levels[0][0]
 
@@ -57,7 +65,9 @@ def test_survival_equals_the_system_marched_in_time():
         return mass
 
     m2, m1 = np.asarray(marched(2.0)), np.asarray(marched(1.0))
-    exact = np.array([2 * m1[int(t) - 1] - m2[int(t) // 2 - 1] for t in durations])  # first-order error removed
+    exact = np.array(
+        [2 * m1[int(t) - 1] - m2[int(t) // 2 - 1] for t in durations]
+    )  # first-order error removed
     theory_s = 1.0 - np.asarray(risk.probability[0])
     np.testing.assert_allclose(theory_s, exact, rtol=3e-3)
     assert np.all(np.diff(exact) < 0) and 0.5 < exact[-1] < 0.9  # a case where the survival really moves
@@ -72,8 +82,10 @@ def _reference_cases():
 def default_grid_risks():
     """The default grid at H1/3 5–8 m, 25°/30°/40°, 1 h and 3 h (one compiled program per grid for the four
     seas)."""
-    return {hs: theory.passage_risk(SHIP, _wave(hs), np.deg2rad([25.0, 30.0, 40.0]), [3600.0, 10800.0])
-            for hs in (5.0, 6.0, 7.0, 8.0)}
+    return {
+        hs: theory.passage_risk(SHIP, _wave(hs), np.deg2rad([25.0, 30.0, 40.0]), [3600.0, 10800.0])
+        for hs in (5.0, 6.0, 7.0, 8.0)
+    }
 
 
 def test_within_a_factor_1_25_of_the_direct_monte_carlo(default_grid_risks):
@@ -88,7 +100,14 @@ def test_within_a_factor_1_25_of_the_direct_monte_carlo(default_grid_risks):
                 continue
             p = float(risk.probability[i, j])
             ratio = p / p_mc
-            assert 1 / 1.25 <= ratio <= 1.25, (case["hs"], case["hours"], case["angles_deg"][i], p, p_mc, (lo, hi))
+            assert 1 / 1.25 <= ratio <= 1.25, (
+                case["hs"],
+                case["hours"],
+                case["angles_deg"][i],
+                p,
+                p_mc,
+                (lo, hi),
+            )
             worst = max(worst, ratio, 1 / ratio)
             independent_worst = max(independent_worst, float(risk.independent_probability[i, j]) / p_mc)
             checked += 1
@@ -103,8 +122,11 @@ def test_clusters_and_rates_are_consistent(default_grid_risks):
     risk = default_grid_risks[5.0]
     p = np.asarray(risk.probability)
     lam = np.asarray(risk.cluster_rate)
-    np.testing.assert_allclose(p[2], 1 - (1 - np.asarray(risk.start_exceedance)[2]) * np.exp(-lam[2] * np.array(
-        [3600.0, 10800.0])), rtol=3e-2)
+    np.testing.assert_allclose(
+        p[2],
+        1 - (1 - np.asarray(risk.start_exceedance)[2]) * np.exp(-lam[2] * np.array([3600.0, 10800.0])),
+        rtol=3e-2,
+    )
     theta = np.asarray(risk.extremal_index)
     assert np.all(theta < 1) and np.all(np.diff(theta) > 0)
     caps = [float(default_grid_risks[h].capsize_probability[1]) for h in (6.0, 7.0, 8.0)]
@@ -128,7 +150,9 @@ def test_vmapped_over_sea_states_equals_the_loop():
 
 def test_gradient_in_the_sea_matches_central_differences():
     def p(hs):
-        return theory.passage_risk(SHIP, _wave(hs), [30 * DEG], jnp.array([3600.0]), **SMALL).probability[0, 0]
+        return theory.passage_risk(SHIP, _wave(hs), [30 * DEG], jnp.array([3600.0]), **SMALL).probability[
+            0, 0
+        ]
 
     g = float(jax.grad(p)(6.0))
     h = 1e-3

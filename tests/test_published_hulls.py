@@ -43,7 +43,9 @@ def closed_forms() -> dict[str, float]:
     fz = [1, 0, -1]  # 1 − ζ²
     gz = P.polymul([0, 0, 1], P.polysub(one, [0] * 8 + [1]))  # ζ²(1 − ζ⁸)
     cb = _integral(fx) * _integral(fz) + _integral(gx) * _integral(gz)
-    first_moment = _integral(fx) * _integral(P.polymul([0, 1], fz)) + _integral(gx) * _integral(P.polymul([0, 1], gz))
+    first_moment = _integral(fx) * _integral(P.polymul([0, 1], fz)) + _integral(gx) * _integral(
+        P.polymul([0, 1], gz)
+    )
     cm = _integral(fz) + _integral(gz)  # η(ξ = 0, ζ)
     cwp = _integral(fx)  # η(ξ, ζ = 0)
     volume = cb * L * B * T

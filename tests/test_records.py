@@ -403,7 +403,9 @@ def test_issue13_bom_accepted_and_degrees_labelled_rad_refused(tmp_path):
     lines = good("decay")
     path = tmp_path / "bom.csv"
     path.write_bytes(b"\xef\xbb\xbf" + ("\n".join(lines) + "\n").encode("utf-8"))
-    np.testing.assert_allclose(load_record(path).roll, load_record(write(tmp_path, lines)).roll, rtol=0, atol=0)
+    np.testing.assert_allclose(
+        load_record(path).roll, load_record(write(tmp_path, lines)).roll, rtol=0, atol=0
+    )
     deg = [ln.replace("# units: s, deg", "# units: s, rad") for ln in HEADER["decay"]] + [COLUMNS["decay"]]
     deg += [f"{k * 0.1:.4f},{20 * math.cos(0.3 * k):.4f}" for k in range(40)]
     with pytest.raises(RecordError, match="probably in degrees"):

@@ -79,7 +79,9 @@ CHILD = textwrap.dedent(
 
 
 def _child_env(devices_per_process: int) -> dict:
-    env = {k: v for k, v in os.environ.items() if k != "JAX_NUM_CPU_DEVICES"}  # set for xdist workers (conftest)
+    env = {
+        k: v for k, v in os.environ.items() if k != "JAX_NUM_CPU_DEVICES"
+    }  # set for xdist workers (conftest)
     env["JAX_NUM_CPU_DEVICES"] = str(devices_per_process)
     env["JAX_PLATFORMS"] = "cpu"
     return env
@@ -331,8 +333,11 @@ def test_checkpoint_without_a_statistic_this_run_records_is_refused(problem, tmp
     contents = {k: v for k, v in _read_checkpoint(tmp_path).items() if k != "per/sum_env_first_half"}
     assert int(contents["next_start"]) == 4  # interrupted after two chunks of two
     _write_checkpoint(tmp_path, contents)
-    with pytest.raises(ValueError, match=r"records other statistics than this run \(only in the checkpoint: none; "
-                                         r"only in this run: sum_env_first_half\).*Delete"):
+    with pytest.raises(
+        ValueError,
+        match=r"records other statistics than this run \(only in the checkpoint: none; "
+        r"only in this run: sum_env_first_half\).*Delete",
+    ):
         _amplitudes(problem, checkpoint=tmp_path)
 
 
@@ -340,11 +345,23 @@ def test_checkpoint_without_a_statistic_this_run_records_is_refused(problem, tmp
     "edit, digest, message",
     [
         # issue 37: a hand-edited histogram moved the median from 7.75° to 23.4°, silently
-        ("histogram", "keep", r"has been changed since jaxroll wrote it \(its content digest does not match\)"),
-        ("histogram", "recompute", r"is inconsistent \(the zero-crossing histogram holds \d+ amplitudes \(merged included\), "
-                            r"the realizations \d+; next start 5\)"),
+        (
+            "histogram",
+            "keep",
+            r"has been changed since jaxroll wrote it \(its content digest does not match\)",
+        ),
+        (
+            "histogram",
+            "recompute",
+            r"is inconsistent \(the zero-crossing histogram holds \d+ amplitudes \(merged included\), "
+            r"the realizations \d+; next start 5\)",
+        ),
         # a rewound next_start (per-realization arrays cut to match) double-counted: n_amplitudes 1.17 M → 1.76 M
-        ("next_start", "recompute", r"is inconsistent \(the zero-crossing histogram .*the envelope histogram .*next start 4\)"),
+        (
+            "next_start",
+            "recompute",
+            r"is inconsistent \(the zero-crossing histogram .*the envelope histogram .*next start 4\)",
+        ),
         ("envelope", "recompute", r"is inconsistent \(the envelope histogram holds"),
         ("capsized", "recompute", r"is inconsistent \(a capsized realization has amplitudes"),
         ("none", "none", r"has no content digest: it was written by an older jaxroll"),
@@ -373,23 +390,30 @@ def test_edited_streaming_checkpoints_are_refused(problem, tmp_path):
     """The maxima and largest-roll observers check their checkpoints too (counts against maxima, n_exceeded against
     the trials)."""
     kw = dict(num_realizations=4, duration=DURATION, chunk_size=2, checkpoint_every=1)
-    maxima = jaxroll.monte_carlo_maxima(problem, jax.random.key(1), n0=(2, 4), discard=0.0, checkpoint=tmp_path / "mx",
-                                        **kw)
+    maxima = jaxroll.monte_carlo_maxima(
+        problem, jax.random.key(1), n0=(2, 4), discard=0.0, checkpoint=tmp_path / "mx", **kw
+    )
     roll = monte_carlo_max_roll(problem, jax.random.key(1), angle_deg=3.0, checkpoint=tmp_path / "mr", **kw)
-    again = jaxroll.monte_carlo_maxima(problem, jax.random.key(1), n0=(2, 4), discard=0.0, checkpoint=tmp_path / "mx",
-                                       **kw)  # an unedited checkpoint is accepted
+    again = jaxroll.monte_carlo_maxima(
+        problem, jax.random.key(1), n0=(2, 4), discard=0.0, checkpoint=tmp_path / "mx", **kw
+    )  # an unedited checkpoint is accepted
     np.testing.assert_array_equal(again.maxima_deg, maxima.maxima_deg)
     contents = _read_checkpoint(tmp_path / "mx")
     contents["per/maxima"] = contents["per/maxima"].copy()
     contents["per/maxima"][0, 1] = contents["per/maxima"][0, 0] / 2  # N0 = 4's maximum below N0 = 2's
     _write_checkpoint(tmp_path / "mx", contents)
     with pytest.raises(ValueError, match=r"is inconsistent \(.*maximum of more amplitudes is below"):
-        jaxroll.monte_carlo_maxima(problem, jax.random.key(1), n0=(2, 4), discard=0.0, checkpoint=tmp_path / "mx", **kw)
+        jaxroll.monte_carlo_maxima(
+            problem, jax.random.key(1), n0=(2, 4), discard=0.0, checkpoint=tmp_path / "mx", **kw
+        )
     contents = _read_checkpoint(tmp_path / "mr")
     contents["summed/n_exceeded"] = contents["summed/n_exceeded"] + 1
     _write_checkpoint(tmp_path / "mr", contents)
-    with pytest.raises(ValueError, match=rf"is inconsistent \(n_exceeded = {roll.n_exceeded + 1}, but "
-                                         rf"{roll.n_exceeded} trials exceeded the angle"):
+    with pytest.raises(
+        ValueError,
+        match=rf"is inconsistent \(n_exceeded = {roll.n_exceeded + 1}, but "
+        rf"{roll.n_exceeded} trials exceeded the angle",
+    ):
         monte_carlo_max_roll(problem, jax.random.key(1), angle_deg=3.0, checkpoint=tmp_path / "mr", **kw)
 
 
@@ -426,11 +450,17 @@ def test_every_cpu_core_is_a_device_unless_the_user_chose():
     code = "import os, jax, jaxroll; jaxroll.configure(); print(jax.device_count(), len(os.sched_getaffinity(0)))"
     env = {k: v for k, v in os.environ.items() if k not in ("JAX_NUM_CPU_DEVICES", "XLA_FLAGS")}
     env["JAX_PLATFORMS"] = "cpu"
-    devices, cores = map(int, subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True,
-                                             check=True).stdout.split())
+    devices, cores = map(
+        int,
+        subprocess.run(
+            [sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True
+        ).stdout.split(),
+    )
     assert devices == cores
     env["JAX_NUM_CPU_DEVICES"] = "1"
-    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True).stdout
+    out = subprocess.run(
+        [sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True
+    ).stdout
     assert out.split()[0] == "1"
 
 
@@ -453,7 +483,9 @@ def test_devices_argument():
     assert realization_mesh().devices.size == jax.device_count()
     assert realization_mesh(1).devices.size == 1
     n = jax.device_count()
-    with pytest.raises(ValueError, match=f"`devices` = {n + 1} must be between 1 and the number of devices, {n}"):
+    with pytest.raises(
+        ValueError, match=f"`devices` = {n + 1} must be between 1 and the number of devices, {n}"
+    ):
         realization_mesh(n + 1)
     with pytest.raises(ValueError, match="distinct devices from jax.devices"):
         realization_mesh([])
@@ -632,7 +664,11 @@ def test_chunks_are_sized_for_the_devices(monkeypatch):
     assert jax.devices()[0].platform == "cpu"
     cores = len(jax.devices())  # each CPU core a device
     assert default_chunk_size(AmplitudeHistogram.keeps_history) == 500 * cores
-    assert default_chunk_size(FirstMaxima.keeps_history) == default_chunk_size(MaxRoll.keeps_history) == 500 * cores
+    assert (
+        default_chunk_size(FirstMaxima.keeps_history)
+        == default_chunk_size(MaxRoll.keeps_history)
+        == 500 * cores
+    )
     assert default_chunk_size(True, devices=1) == 500
     # and the command line's --chunk-size help says so
     from jaxroll._cli import build_parser
@@ -654,7 +690,10 @@ def test_chunks_are_sized_for_the_devices(monkeypatch):
     assert default_memory_budget(0.5) == 0.5 * 60e9 * 2
     # the paper protocol (7200 steps) fits whole; at dt = 0.05 s (72 000 steps) the histogram chunk is cut
     hist = AmplitudeHistogram()
-    assert chunk_size_for_memory(default_chunk_size(True), 7200, None, hist.bytes_per_realization(7200)) == 200_000
+    assert (
+        chunk_size_for_memory(default_chunk_size(True), 7200, None, hist.bytes_per_realization(7200))
+        == 200_000
+    )
     cut = chunk_size_for_memory(default_chunk_size(True), 72_000, None, hist.bytes_per_realization(72_000))
     assert cut == 20_480  # 23 108 fit, rounded down to three significant binary digits
     # a device that reports no memory statistics: the host's memory, as on a CPU

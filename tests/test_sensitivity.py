@@ -53,8 +53,14 @@ def test_values_are_the_monte_carlo_of_the_same_trials(problem, reduced):
     (finite differences keep the survivors of every shifted run too)."""
     windowed, fd = reduced
     prob = jxr.RollProblem.from_sea(SHIP, jxr.ITTC(7.0, 10.0))
-    stats = jxr.monte_carlo(prob, jax.random.key(7), jxr.AmplitudeHistogram(every=1), num_realizations=400,
-                            duration=1200.0, dtype=jnp.float64)
+    stats = jxr.monte_carlo(
+        prob,
+        jax.random.key(7),
+        jxr.AmplitudeHistogram(every=1),
+        num_realizations=400,
+        duration=1200.0,
+        dtype=jnp.float64,
+    )
     per = stats.per_realization
     np.testing.assert_array_equal(windowed.kept, ~stats.capsized)
     assert not np.any(fd.kept & stats.capsized)
@@ -138,10 +144,14 @@ def test_problem_derivative_in_the_wave_height_is_exact(problem):
     exc, d_exc = parts.excitation, d.excitation
     for name in ("c", "bridge"):
         value = np.asarray(getattr(exc, name))
-        np.testing.assert_allclose(np.asarray(getattr(d_exc, name))[0], value / 7.0, rtol=1e-7,
-                                   atol=1e-12 * np.abs(value).max())
+        np.testing.assert_allclose(
+            np.asarray(getattr(d_exc, name))[0], value / 7.0, rtol=1e-7, atol=1e-12 * np.abs(value).max()
+        )
     for name in ("phi", "chol", "stationary_chol"):
-        assert np.abs(np.asarray(getattr(d_exc, name))).max() < 1e-12 * np.abs(np.asarray(getattr(exc, name))).max()
+        assert (
+            np.abs(np.asarray(getattr(d_exc, name))).max()
+            < 1e-12 * np.abs(np.asarray(getattr(exc, name))).max()
+        )
 
 
 @pytest.mark.slow
@@ -155,7 +165,9 @@ def test_protocol_10k_by_3600s(problem):
     fd = jxr.monte_carlo_sensitivity(problem_fn, params, key, method="finite_difference", fd_step=0.02, **kw)
     for stat, param in (("mean_envelope", "gm_correction"), ("E_phi2", "b1"), ("mean_envelope", "hs")):
         se = math.hypot(windowed.std_error[stat][param], fd.std_error[stat][param])
-        assert_within_se(windowed.gradient[stat][param], fd.gradient[stat][param], se, what=f"d{stat}/d{param}")
+        assert_within_se(
+            windowed.gradient[stat][param], fd.gradient[stat][param], se, what=f"d{stat}/d{param}"
+        )
         # informative: the estimator's standard error on this protocol is 0.4–4 % of the value (heavy-tailed
         # per-trial contributions, Hill index ~2: docs/sensitivity.md); 5 % bounds it with the stream's luck
         assert windowed.std_error[stat][param] < 0.05 * abs(fd.gradient[stat][param])

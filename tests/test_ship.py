@@ -19,7 +19,9 @@ def test_default_ship_matches_conventions():
     np.testing.assert_allclose(gz.max(), 1.14, atol=0.005, rtol=0)  # CONVENTIONS: GZ max ≈ 1.14 m at 46°
     np.testing.assert_allclose(jnp.rad2deg(phi[jnp.argmax(gz)]), 46.0, atol=0.5, rtol=0)
     # GM0 is the slope of GZ at the origin.
-    np.testing.assert_allclose(jax.grad(lambda p: jaxroll.righting_lever(s, p))(0.0), s.gm0, rtol=1e-12, atol=0)
+    np.testing.assert_allclose(
+        jax.grad(lambda p: jaxroll.righting_lever(s, p))(0.0), s.gm0, rtol=1e-12, atol=0
+    )
 
 
 def test_vanishing_angle_closed_form():
@@ -27,7 +29,9 @@ def test_vanishing_angle_closed_form():
     s = jaxroll.c11_representative()
     np.testing.assert_allclose(jaxroll.vanishing_angle(s), np.sqrt((np.sqrt(17) - 1) / 2), rtol=1e-10, atol=0)
     with pytest.warns(UserWarning, match="GZ never returns to zero"):
-        linear = jaxroll.ship_from_dict({**jaxroll.ship_to_dict(s), "restoring": {"a3": 0.0, "a5": 0.0, "a7": 0.0, "a9": 0.0}})
+        linear = jaxroll.ship_from_dict(
+            {**jaxroll.ship_to_dict(s), "restoring": {"a3": 0.0, "a5": 0.0, "a7": 0.0, "a9": 0.0}}
+        )
     np.testing.assert_allclose(jaxroll.vanishing_angle(linear), np.pi, rtol=0, atol=0)
 
 
@@ -38,8 +42,12 @@ def test_delta_gm_sign_convention():
     p = jaxroll.parametric_excitation(s, -2.0)  # ζ_G = −2 m: trough amidships
     np.testing.assert_allclose(p, s.omega0**2 / s.gm0 * jaxroll.delta_gm(s, 2.0), rtol=1e-14, atol=0)
     half = jaxroll.ship_from_dict({**jaxroll.ship_to_dict(s), "correction": {"gm_ratio": 0.5}})
-    np.testing.assert_allclose(jaxroll.parametric_excitation(half, 1.3), 0.5 * jaxroll.parametric_excitation(s, 1.3),
-                               rtol=1e-14, atol=0)
+    np.testing.assert_allclose(
+        jaxroll.parametric_excitation(half, 1.3),
+        0.5 * jaxroll.parametric_excitation(s, 1.3),
+        rtol=1e-14,
+        atol=0,
+    )
 
 
 def test_ship_file_round_trip(tmp_path):
@@ -79,7 +87,9 @@ def test_ship_file_errors(tmp_path):
     with pytest.raises(ValueError, match="must be a finite number"):
         jaxroll.load_ship(_write(tmp_path, good.replace("b1 = ", "b1 = nan #")))
     with pytest.raises(ValueError, match=r"block_coefficient = 1.5 must be in \(0, 1\]"):
-        jaxroll.load_ship(_write(tmp_path, good.replace("block_coefficient = 0.56", "block_coefficient = 1.5")))
+        jaxroll.load_ship(
+            _write(tmp_path, good.replace("block_coefficient = 0.56", "block_coefficient = 1.5"))
+        )
     with pytest.raises(ValueError, match="gm_ratio = -1.0 must be >= 0"):
         jaxroll.load_ship(_write(tmp_path, good.replace("gm_ratio = 1.0", "gm_ratio = -1.0")))
     with pytest.raises(ValueError, match=r"`restoring` must have shape \(4,\)"):
@@ -87,8 +97,19 @@ def test_ship_file_errors(tmp_path):
 
 
 def _kwargs():
-    return dict(lpp=1.0, breadth=1.0, depth=1.0, draught=0.5, displacement=1.0, block_coefficient=0.5, gm0=0.1,
-                roll_period=10.0, restoring=[0.0] * 4, damping=[0.0] * 3, delta_gm=[0.0] * 7)
+    return dict(
+        lpp=1.0,
+        breadth=1.0,
+        depth=1.0,
+        draught=0.5,
+        displacement=1.0,
+        block_coefficient=0.5,
+        gm0=0.1,
+        roll_period=10.0,
+        restoring=[0.0] * 4,
+        damping=[0.0] * 3,
+        delta_gm=[0.0] * 7,
+    )
 
 
 def test_validate_ship_refuses_absurd_period_and_gz_without_vanishing_angle():

@@ -65,8 +65,9 @@ def test_encounter_frequency_branches_map_back():
         omegas, weights = wave_frequencies_from_encounter(we, 3.0, heading)
         back = jaxroll.encounter_frequency(omegas, 3.0, heading)
         mask = np.asarray(weights) > 0
-        np.testing.assert_allclose(np.asarray(back)[mask], np.broadcast_to(we[:, None], back.shape)[mask],
-                                   rtol=1e-10, atol=1e-12)
+        np.testing.assert_allclose(
+            np.asarray(back)[mask], np.broadcast_to(we[:, None], back.shape)[mask], rtol=1e-10, atol=1e-12
+        )
     w = 0.6
     assert float(jaxroll.encounter_frequency(w, 2.0, "head")) == pytest.approx(w + w**2 * 2.0 / GRAVITY)
 

@@ -48,9 +48,17 @@ class Walk:
 
     def initial(self, key, num):
         zero = np.zeros(num)
-        return {"phi": zero.copy(), "dphi": zero.copy(), "z": np.zeros((num, 1)), "x": zero.copy(),
-                "k": np.zeros(num, np.int32), "alive": np.ones(num, bool), "top": np.full(num, -np.inf),
-                "hit": np.zeros(num, bool), "index": np.arange(num, dtype=np.int32)}
+        return {
+            "phi": zero.copy(),
+            "dphi": zero.copy(),
+            "z": np.zeros((num, 1)),
+            "x": zero.copy(),
+            "k": np.zeros(num, np.int32),
+            "alive": np.ones(num, bool),
+            "top": np.full(num, -np.inf),
+            "hit": np.zeros(num, bool),
+            "index": np.arange(num, dtype=np.int32),
+        }
 
     def run(self, key, queue, level, final):
         num = queue["k"].size
@@ -70,8 +78,18 @@ class Walk:
             done = h if final else top >= level
             success = np.where(running, done, success)
             running = running & ~done & (k < self.horizon)
-        out = {"phi": x, "dphi": 0 * x, "z": np.zeros((num, 1)), "x": 0 * x, "k": k, "alive": np.ones(num, bool),
-               "top": top, "hit": hit, "peak": peak, "success": success}
+        out = {
+            "phi": x,
+            "dphi": 0 * x,
+            "z": np.zeros((num, 1)),
+            "x": 0 * x,
+            "k": k,
+            "alive": np.ones(num, bool),
+            "top": top,
+            "hit": hit,
+            "peak": peak,
+            "success": success,
+        }
         return out, 0
 
 
@@ -195,7 +213,12 @@ def test_splitting_agrees_with_brute_force(sea5):
     se = math.sqrt(p * (1 - p) / bf.n_realizations)
     assert 0.005 < p < 0.02
     assert len(r.levels_deg) >= 2  # it did split
-    assert abs(r.probability - p) < 4 * math.hypot(se, r.standard_error), (r.probability, p, r.standard_error, se)
+    assert abs(r.probability - p) < 4 * math.hypot(se, r.standard_error), (
+        r.probability,
+        p,
+        r.standard_error,
+        se,
+    )
     lo, hi = r.probability_ci95
     assert lo < r.probability < hi
     assert 0 < r.relative_error < 1
@@ -230,7 +253,10 @@ def test_bad_input(sea5):
 def test_risk_cli_splitting_refuses_too_few_trials(tmp_path, capsys):
     from jaxroll._cli import main
 
-    assert main(["risk", "--estimator", "splitting", "--splitting-trials", "5", "--out", str(tmp_path / "bad")]) == 2
+    assert (
+        main(["risk", "--estimator", "splitting", "--splitting-trials", "5", "--out", str(tmp_path / "bad")])
+        == 2
+    )
     assert "--splitting-trials must be >= 10; got 5." in capsys.readouterr().err
     assert not (tmp_path / "bad").exists()
 
@@ -243,8 +269,28 @@ def test_risk_cli_splitting(tmp_path, capsys):
 
     from jaxroll._cli import main
 
-    code = main(["risk", "--hs", "5", "--angle", "25", "--hours", "0.25", "--realizations", "16", "--duration", "1400",
-                 "--estimator", "splitting", "--splitting-trials", "64", "--out", str(tmp_path / "r"), "--quiet"])
+    code = main(
+        [
+            "risk",
+            "--hs",
+            "5",
+            "--angle",
+            "25",
+            "--hours",
+            "0.25",
+            "--realizations",
+            "16",
+            "--duration",
+            "1400",
+            "--estimator",
+            "splitting",
+            "--splitting-trials",
+            "64",
+            "--out",
+            str(tmp_path / "r"),
+            "--quiet",
+        ]
+    )
     assert code == 0
     d = json.loads((tmp_path / "r" / "risk.json").read_text())
     assert {"direct", "monte_carlo", "curve", "splitting"} <= set(d)
@@ -263,8 +309,10 @@ def test_interval_coverage_on_the_roll_problem(sea5):
     kw = dict(angle_deg=30.0, discard=200.0)
     bf = jxr.monte_carlo_max_roll(sea5, jax.random.key(100), num_realizations=100_000, duration=1100.0, **kw)
     p = bf.exceedance_probability()
-    runs = [jxr.monte_carlo_splitting(sea5, jax.random.key(200 + i), exposure=900.0, num_trials=200, **kw)
-            for i in range(100)]
+    runs = [
+        jxr.monte_carlo_splitting(sea5, jax.random.key(200 + i), exposure=900.0, num_trials=200, **kw)
+        for i in range(100)
+    ]
     est = np.array([r.probability for r in runs])
     covered = np.mean([r.probability_ci95[0] <= p <= r.probability_ci95[1] for r in runs])
     se = math.hypot(est.std(ddof=1) / math.sqrt(est.size), math.sqrt(p * (1 - p) / bf.n_realizations))

@@ -71,7 +71,9 @@ def test_box_closed_forms_calm_and_wall_sided_gz():
     phi = np.radians(np.linspace(0.0, 26.0, 8))  # the bilge emerges at atan(2d/B) = 26.6°
     gz = np.asarray(jxr.gz_curve(h, ld, phi))
     bm = B**2 / (12 * d)
-    np.testing.assert_allclose(gz, np.sin(phi) * (d / 2 + bm * (1 + np.tan(phi) ** 2 / 2) - KG), rtol=0, atol=1e-10)
+    np.testing.assert_allclose(
+        gz, np.sin(phi) * (d / 2 + bm * (1 + np.tan(phi) ** 2 / 2) - KG), rtol=0, atol=1e-10
+    )
 
 
 def test_box_in_waves_closed_forms():
@@ -86,7 +88,9 @@ def test_box_in_waves_closed_forms():
     phi = np.radians([5.0, 10.0, 15.0])
     gz = np.asarray(jxr.gz_curve(h, ld, phi, zeta_mid=2.0))
     bm = B**2 / (12 * d)
-    exact = np.sin(phi) * (bm + (d**2 + 4.0 / (2 * np.cos(phi) ** 2)) / (2 * d) - KG + bm * np.tan(phi) ** 2 / 2)
+    exact = np.sin(phi) * (
+        bm + (d**2 + 4.0 / (2 * np.cos(phi) ** 2)) / (2 * d) - KG + bm * np.tan(phi) ** 2 / 2
+    )
     np.testing.assert_allclose(gz, exact, rtol=0, atol=2e-5)
 
 
@@ -149,7 +153,9 @@ def test_section_area_and_waterline_breadth():
     zs = np.concatenate([zz, zz[::-1]])
     shoelace = 0.5 * abs(np.sum(ys * np.roll(zs, -1) - np.roll(ys, -1) * zs))
     np.testing.assert_allclose(float(section_area(s, L / 2, 5.0)), shoelace, rtol=1e-12)
-    np.testing.assert_allclose(float(waterline_breadth(s, 5.0, 0.0, 0.0, L, L / 2, L)), 2 * (9.0 + 2.0 / 3.0), rtol=1e-12)
+    np.testing.assert_allclose(
+        float(waterline_breadth(s, 5.0, 0.0, 0.0, L, L / 2, L)), 2 * (9.0 + 2.0 / 3.0), rtol=1e-12
+    )
 
 
 @pytest.mark.slow  # reverse mode through the balance compiles for ~100 s on the 2-core CPU
@@ -180,7 +186,9 @@ def test_mesh_and_sliced_offsets_agree_and_differ_where_slicing_errs():
     for h in (exact, sliced):
         ld = jxr.loading_condition(h, kg=KG, draught=d)
         out.append(np.asarray(jxr.gz_curve(h, ld, phi)))
-    np.testing.assert_allclose(out[0], out[1], rtol=0, atol=0.05)  # same hull; the slicing errs by centimetres
+    np.testing.assert_allclose(
+        out[0], out[1], rtol=0, atol=0.05
+    )  # same hull; the slicing errs by centimetres
 
 
 def test_against_navaltoolbox_upright_and_free_trim_gz(tmp_path):
@@ -205,6 +213,6 @@ def test_against_navaltoolbox_upright_and_free_trim_gz(tmp_path):
     ref = np.asarray(curve.values())
     # the mesh's triangulation leaves TCB = 6e-4 m, which the two codes' y axes (jaxroll's body frame keeps the
     # file's y) see with opposite signs: compare the parts odd in φ, which a TCB does not touch
-    odd = lambda g: (g[: len(phi)] - g[len(phi):]) / 2
+    odd = lambda g: (g[: len(phi)] - g[len(phi) :]) / 2
     # measured: 0.25 mm at most (60–70°; their trim is a rotation, ours the small-angle shear). Target: 2 mm
     np.testing.assert_allclose(odd(gz), odd(ref), rtol=0, atol=5e-4)

@@ -89,7 +89,9 @@ def _run(args) -> int:
     from .. import enable_compilation_cache
     from ._common import CLIError, os_error_message, prepare_out
 
-    if signal.getsignal(signal.SIGINT) is _exit_at_once:  # the `jaxroll` command: its Ctrl-C handling from now
+    if (
+        signal.getsignal(signal.SIGINT) is _exit_at_once
+    ):  # the `jaxroll` command: its Ctrl-C handling from now
         signal.signal(signal.SIGINT, _on_interrupt)
     try:
         if getattr(args, "out", None) is not None:
@@ -137,7 +139,10 @@ def _on_interrupt(signum, frame) -> None:
     raise KeyboardInterrupt
 
 
-_STATE: dict[str, float | None] = {"deferred": None, "raised": None}  # when a Ctrl-C was deferred / last raised
+_STATE: dict[str, float | None] = {
+    "deferred": None,
+    "raised": None,
+}  # when a Ctrl-C was deferred / last raised
 _LOCK = threading.Lock()
 
 

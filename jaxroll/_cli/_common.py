@@ -56,8 +56,11 @@ def write_netcdf(path: str | Path, command: str, payload: dict[str, Any], parts=
     except ValueError as e:  # a field its layout does not describe: the JSON and figures are still written
         if not str(e).startswith("labelled results:"):
             raise
-        print(f"jaxroll {command}: warning: {Path(path).name} not written ({e}); the JSON holds every number. "
-              "Please report it.", file=sys.stderr)
+        print(
+            f"jaxroll {command}: warning: {Path(path).name} not written ({e}); the JSON holds every number. "
+            "Please report it.",
+            file=sys.stderr,
+        )
         return
     write_dataset(path, dataset)
 
@@ -91,17 +94,25 @@ def load_ship_arg(path: str | None):
 
 def add_memory_option(parser) -> None:
     """--memory-gb: the memory a compiled chunk of realizations may use."""
-    parser.add_argument("--memory-gb", type=float, default=None,
-                        help="memory a chunk of realizations may use [GiB] (default: a quarter of the available "
-                        "memory; on GPUs 0.9 of their free memory); the chunk is cut to fit, so any --dt runs")
+    parser.add_argument(
+        "--memory-gb",
+        type=float,
+        default=None,
+        help="memory a chunk of realizations may use [GiB] (default: a quarter of the available "
+        "memory; on GPUs 0.9 of their free memory); the chunk is cut to fit, so any --dt runs",
+    )
 
 
 def add_chunk_option(parser, streaming: bool, what: str = "realizations") -> None:
     """--chunk-size: realizations per compiled batch (default: `jaxroll.default_chunk_size` for the devices)."""
     gpu = "2.5e5" if streaming else "1e5"  # jaxroll.default_chunk_size (tested)
-    parser.add_argument("--chunk-size", type=int, default=None,
-                        help=f"{what} per compiled batch (default: 500 per CPU core, {gpu} per GPU; cut to the "
-                        "memory budget)")
+    parser.add_argument(
+        "--chunk-size",
+        type=int,
+        default=None,
+        help=f"{what} per compiled batch (default: 500 per CPU core, {gpu} per GPU; cut to the "
+        "memory budget)",
+    )
 
 
 def check_chunk_size(args) -> None:
@@ -149,8 +160,10 @@ class Progress:
             return
         elapsed = time.time() - self.start
         eta = elapsed / (done - self.baseline) * (self.total - done) if done > self.baseline else float("nan")
-        sys.stderr.write(f"\r{self.label}: {done}/{self.total} ({100 * done / self.total:5.1f} %), "
-                         f"{elapsed:6.1f} s elapsed, ~{eta:6.1f} s left ")
+        sys.stderr.write(
+            f"\r{self.label}: {done}/{self.total} ({100 * done / self.total:5.1f} %), "
+            f"{elapsed:6.1f} s elapsed, ~{eta:6.1f} s left "
+        )
         sys.stderr.flush()
         if done >= self.total:
             sys.stderr.write("\n")
@@ -237,7 +250,9 @@ class OutputFolder:
 
 _PARTIAL = ".jaxroll-partial"  # the new set, being written
 _REPLACED = ".jaxroll-replaced"  # the entries it replaces, during the commit
-_JOURNAL = ".jaxroll-commit.json"  # in the partial folder: what the commit moves (present only while it moves)
+_JOURNAL = (
+    ".jaxroll-commit.json"  # in the partial folder: what the commit moves (present only while it moves)
+)
 
 
 def _host() -> str:
@@ -332,13 +347,20 @@ def prepare_out(out: str | Path) -> None:
         os.unlink(probe)
     except OSError as e:
         why = "it is on a read-only file system" if e.errno == errno.EROFS else (e.strerror or str(e)).lower()
-        raise CLIError(f"--out {str(out)!r} cannot be written: no file can be created in {str(base)!r} ({why}). "
-                       "Choose a folder you can write, or fix its permissions.") from None
-    pattern = re.compile(rf"^({re.escape(_PARTIAL)}|{re.escape(_REPLACED)})\.([A-Za-z0-9-]+)\.(\d+)\.[0-9a-f]+$")
+        raise CLIError(
+            f"--out {str(out)!r} cannot be written: no file can be created in {str(base)!r} ({why}). "
+            "Choose a folder you can write, or fix its permissions."
+        ) from None
+    pattern = re.compile(
+        rf"^({re.escape(_PARTIAL)}|{re.escape(_REPLACED)})\.([A-Za-z0-9-]+)\.(\d+)\.[0-9a-f]+$"
+    )
     if out.is_dir():
         with _locked(out):
-            stale = [(m.group(1), p) for p in out.iterdir()
-                     if (m := pattern.match(p.name)) and _process_ended(m.group(2), m.group(3))]
+            stale = [
+                (m.group(1), p)
+                for p in out.iterdir()
+                if (m := pattern.match(p.name)) and _process_ended(m.group(2), m.group(3))
+            ]
             for kind, path in sorted(stale, key=lambda x: x[0] != _PARTIAL):  # roll back before clearing
                 if kind == _PARTIAL and (path / _JOURNAL).exists():
                     try:
@@ -356,9 +378,12 @@ def prepare_out(out: str | Path) -> None:
             elif p.name.startswith((f".{name}.partial-", f".{name}.old-")) and p.is_dir():
                 old.append(p.name)
         if old:
-            warnings.warn(f"{len(old)} folder(s) beside --out were left by an interrupted run of an earlier jaxroll "
-                          f"(before 0.2): {', '.join(sorted(old))} in {str(parent)!r}. Remove them once no jaxroll "
-                          "command writes there (a '.old-' folder holds that run's previous set).", stacklevel=2)
+            warnings.warn(
+                f"{len(old)} folder(s) beside --out were left by an interrupted run of an earlier jaxroll "
+                f"(before 0.2): {', '.join(sorted(old))} in {str(parent)!r}. Remove them once no jaxroll "
+                "command writes there (a '.old-' folder holds that run's previous set).",
+                stacklevel=2,
+            )
 
 
 def _roll_back(tmp: Path, out: Path, killed: bool = True) -> None:
@@ -369,9 +394,16 @@ def _roll_back(tmp: Path, out: Path, killed: bool = True) -> None:
 
     journal = json.loads((tmp / _JOURNAL).read_text())
     names = [*journal["new"], *journal["replaced"]]
-    if not (all(isinstance(n, str) and n not in ("", ".", "..") and os.sep not in n and "/" not in n for n in names)
-            and re.fullmatch(rf"{re.escape(_REPLACED)}\.[A-Za-z0-9-]+\.\d+\.[0-9a-f]+", str(journal["aside"]))):
-        raise ValueError(f"{tmp / _JOURNAL} is not a journal jaxroll wrote")  # names outside `out`: touch nothing
+    if not (
+        all(
+            isinstance(n, str) and n not in ("", ".", "..") and os.sep not in n and "/" not in n
+            for n in names
+        )
+        and re.fullmatch(rf"{re.escape(_REPLACED)}\.[A-Za-z0-9-]+\.\d+\.[0-9a-f]+", str(journal["aside"]))
+    ):
+        raise ValueError(
+            f"{tmp / _JOURNAL} is not a journal jaxroll wrote"
+        )  # names outside `out`: touch nothing
     aside = out / journal["aside"]
     for name in journal["new"]:
         moved_in = not os.path.lexists(tmp / name)
@@ -384,8 +416,11 @@ def _roll_back(tmp: Path, out: Path, killed: bool = True) -> None:
     shutil.rmtree(aside, ignore_errors=True)
     (tmp / _JOURNAL).unlink()
     if killed:
-        warnings.warn(f"--out {str(out)!r}: a run killed while it renamed its files into place was rolled back; the "
-                      "folder holds the set it held before that run.", stacklevel=3)
+        warnings.warn(
+            f"--out {str(out)!r}: a run killed while it renamed its files into place was rolled back; the "
+            "folder holds the set it held before that run.",
+            stacklevel=3,
+        )
 
 
 def os_error_message(e: OSError) -> str:
@@ -403,7 +438,8 @@ def os_error_message(e: OSError) -> str:
     where = f" ({e.filename})" if e.filename else ""
     text = f"{e.strerror or e}{where}"
     return f"{text}; outputs are written as a complete set or not at all, so --out is unchanged" + (
-        f"; {advice}." if advice else ".")
+        f"; {advice}." if advice else "."
+    )
 
 
 def interrupted_message(command: str, out: str | None) -> str:

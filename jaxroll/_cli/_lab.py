@@ -9,8 +9,21 @@ from ._common import CLIError
 
 _DELIMITER_NAMES = {"tab": "\t", "\\t": "\t", "space": " ", "whitespace": " ", "semicolon": ";", "comma": ","}
 #: The options that only describe a lab file (they need a column option).
-LAB_ONLY = ("units", "scale", "full_scale", "sampling_hz", "delimiter", "decimal", "header_row", "skip_rows", "hs",
-            "t01", "probe_x", "speed", "heel")
+LAB_ONLY = (
+    "units",
+    "scale",
+    "full_scale",
+    "sampling_hz",
+    "delimiter",
+    "decimal",
+    "header_row",
+    "skip_rows",
+    "hs",
+    "t01",
+    "probe_x",
+    "speed",
+    "heel",
+)
 _COLUMN_OPTIONS = ("time", "roll", "wave", "delta_gm")
 
 
@@ -23,37 +36,83 @@ def add_lab_options(parser, *, for_calibrate: bool) -> None:
         else None
     )
     g = parser.add_argument_group("lab file: columns and units", how)
-    g.add_argument("--time", metavar="COL", default=None,
-                   help="time column: a header name (with or without its unit) or a 1-based number; HDF5: a "
-                   "dataset path (relative to FILE:/group, or absolute). Without it, --sampling-hz from t = 0")
+    g.add_argument(
+        "--time",
+        metavar="COL",
+        default=None,
+        help="time column: a header name (with or without its unit) or a 1-based number; HDF5: a "
+        "dataset path (relative to FILE:/group, or absolute). Without it, --sampling-hz from t = 0",
+    )
     g.add_argument("--roll", metavar="COL", default=None, help="roll column (decay, roll)")
     g.add_argument("--wave", metavar="COL", default=None, help="wave-probe column (captive, roll)")
     g.add_argument("--delta-gm", metavar="COL", default=None, help="ΔGM column (captive)")
-    g.add_argument("--units", default=None, metavar="UNITS",
-                   help="units the file does not state, e.g. 'roll=deg,wave=mm' (or 's,deg,mm' in the order "
-                   "time, then the record's columns); time s|ms|min, roll deg|rad|mrad, lengths m|cm|mm")
-    g.add_argument("--scale", type=float, default=None, metavar="λ",
-                   help="model scale λ >= 1 (1: full-scale data); Froude scaling (docs/conventions.md)")
-    g.add_argument("--full-scale", action="store_true",
-                   help="the file's time and lengths are already full scale (default: model scale)")
-    g.add_argument("--sampling-hz", type=float, default=None,
-                   help="sampling rate [Hz, at the file's scale] (default: from the time column)")
+    g.add_argument(
+        "--units",
+        default=None,
+        metavar="UNITS",
+        help="units the file does not state, e.g. 'roll=deg,wave=mm' (or 's,deg,mm' in the order "
+        "time, then the record's columns); time s|ms|min, roll deg|rad|mrad, lengths m|cm|mm",
+    )
+    g.add_argument(
+        "--scale",
+        type=float,
+        default=None,
+        metavar="λ",
+        help="model scale λ >= 1 (1: full-scale data); Froude scaling (docs/conventions.md)",
+    )
+    g.add_argument(
+        "--full-scale",
+        action="store_true",
+        help="the file's time and lengths are already full scale (default: model scale)",
+    )
+    g.add_argument(
+        "--sampling-hz",
+        type=float,
+        default=None,
+        help="sampling rate [Hz, at the file's scale] (default: from the time column)",
+    )
     lay = parser.add_argument_group("lab file: layout (found by default)")
-    lay.add_argument("--delimiter", default=None,
-                     help="field separator: ';' ',' '|' tab or space (default: sniffed from the data)")
-    lay.add_argument("--decimal", choices=(".", ","), default=None,
-                     help="decimal mark (default: ',' when the data hold numbers like 0,25)")
-    lay.add_argument("--header-row", default=None, metavar="N",
-                     help="1-based line holding the column names; 0 or none: no names (columns by number)")
-    lay.add_argument("--skip-rows", type=int, default=None, metavar="N",
-                     help="preamble lines before the column names (instead of --header-row)")
+    lay.add_argument(
+        "--delimiter",
+        default=None,
+        help="field separator: ';' ',' '|' tab or space (default: sniffed from the data)",
+    )
+    lay.add_argument(
+        "--decimal",
+        choices=(".", ","),
+        default=None,
+        help="decimal mark (default: ',' when the data hold numbers like 0,25)",
+    )
+    lay.add_argument(
+        "--header-row",
+        default=None,
+        metavar="N",
+        help="1-based line holding the column names; 0 or none: no names (columns by number)",
+    )
+    lay.add_argument(
+        "--skip-rows",
+        type=int,
+        default=None,
+        metavar="N",
+        help="preamble lines before the column names (instead of --header-row)",
+    )
     sea = parser.add_argument_group("lab file: the test (written into the record's header)")
-    sea.add_argument("--hs", type=float, default=None, help="captive, roll: H1/3 of the ITTC sea [m, full scale]")
+    sea.add_argument(
+        "--hs", type=float, default=None, help="captive, roll: H1/3 of the ITTC sea [m, full scale]"
+    )
     sea.add_argument("--t01", type=float, default=None, help="captive, roll: T01 [s, full scale]")
-    sea.add_argument("--probe-x", type=float, default=None,
-                     help="captive, roll: wave probe ahead of amidships [m, model scale]")
-    sea.add_argument("--speed", type=float, default=None,
-                     help="captive, roll: model speed [m/s, model scale] (default 0; head seas)")
+    sea.add_argument(
+        "--probe-x",
+        type=float,
+        default=None,
+        help="captive, roll: wave probe ahead of amidships [m, model scale]",
+    )
+    sea.add_argument(
+        "--speed",
+        type=float,
+        default=None,
+        help="captive, roll: model speed [m/s, model scale] (default 0; head seas)",
+    )
     sea.add_argument("--heel", type=float, default=None, help="captive: the fixed heel [deg]")
 
 
@@ -123,6 +182,7 @@ def delimiter_arg(text: str | None) -> str | None:
 
 def lab_settings(args, kind: str) -> dict:
     """The checked keyword arguments of `jaxroll.io.import_record` for these options (CLIError on a bad one)."""
+
     def finite(name, value):
         if value is not None and not math.isfinite(value):
             raise CLIError(f"--{name} must be a finite number; got {value}.")
@@ -132,7 +192,9 @@ def lab_settings(args, kind: str) -> dict:
     if args.scale is None:
         raise CLIError("--scale: give the model scale λ of the lab file (1 for full-scale data).")
     if args.scale < 1:
-        raise CLIError(f"--scale must be >= 1 (λ: model = full/λ; 1 for full-scale data); got {args.scale:g}.")
+        raise CLIError(
+            f"--scale must be >= 1 (λ: model = full/λ; 1 for full-scale data); got {args.scale:g}."
+        )
     if args.sampling_hz is not None and not args.sampling_hz > 0:
         raise CLIError(f"--sampling-hz must be > 0 [Hz]; got {args.sampling_hz:g}.")
     if args.time is None and args.sampling_hz is None:
@@ -145,8 +207,11 @@ def lab_settings(args, kind: str) -> dict:
     delimiter = delimiter_arg(args.delimiter)
     meta = {}
     if kind == "decay":
-        given = [f"--{o.replace('_', '-')}" for o in ("hs", "t01", "probe_x", "speed", "heel")
-                 if getattr(args, o) is not None]
+        given = [
+            f"--{o.replace('_', '-')}"
+            for o in ("hs", "t01", "probe_x", "speed", "heel")
+            if getattr(args, o) is not None
+        ]
         if given:
             raise CLIError(f"{', '.join(given)}: a decay record has no sea state or heel; leave them out.")
     else:
@@ -157,7 +222,8 @@ def lab_settings(args, kind: str) -> dict:
             raise CLIError(
                 f"{', '.join(missing)}: a {kind} record needs the test's sea state (--hs, --t01: full scale), the "
                 f"wave probe's position (--probe-x: m ahead of amidships, model scale)"
-                + (" and the heel (--heel, deg)" if kind == "captive" else "") + "."
+                + (" and the heel (--heel, deg)" if kind == "captive" else "")
+                + "."
             )
         for name in ("hs", "t01"):
             if not getattr(args, name) > 0:
@@ -165,8 +231,12 @@ def lab_settings(args, kind: str) -> dict:
         speed = 0.0 if args.speed is None else args.speed
         if speed < 0:
             raise CLIError(f"--speed must be >= 0 [m/s, model scale] (head seas); got {speed:g}.")
-        meta = {"wave_height_full_m": args.hs, "wave_period_full_s": args.t01, "probe_x_model_m": args.probe_x,
-                "speed_model_m_s": speed}
+        meta = {
+            "wave_height_full_m": args.hs,
+            "wave_period_full_s": args.t01,
+            "probe_x_model_m": args.probe_x,
+            "speed_model_m_s": speed,
+        }
         if kind == "captive":
             if not 0 <= args.heel < 90:
                 raise CLIError(f"--heel must be in [0, 90) [deg]; got {args.heel:g}.")

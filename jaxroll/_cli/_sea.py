@@ -154,8 +154,10 @@ def check_filter_order(args) -> None:
     from ..sea import MAX_FILTER_ORDER
 
     if not 3 <= args.filter_order <= MAX_FILTER_ORDER:
-        raise CLIError(f"--filter-order must be between 3 and {MAX_FILTER_ORDER} (4 recommended); "
-                       f"got {args.filter_order}.")
+        raise CLIError(
+            f"--filter-order must be between 3 and {MAX_FILTER_ORDER} (4 recommended); "
+            f"got {args.filter_order}."
+        )
 
 
 def check_sea_options(args) -> None:

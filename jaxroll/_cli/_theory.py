@@ -66,7 +66,9 @@ def start_theory_summaries(problem, args, names, bins_deg, *, skip_failed: bool 
         pool = concurrent.futures.ThreadPoolExecutor(max_workers=1, thread_name_prefix="jaxroll-fit")
         fit = pool.submit(lambda: problem.filter_fit)
         pool.shutdown(wait=False)
-    if callable(bins_deg):  # after the fit has started (`jaxroll theory`'s bins need the vanishing angle's program)
+    if callable(
+        bins_deg
+    ):  # after the fit has started (`jaxroll theory`'s bins need the vanishing angle's program)
         bins_deg = bins_deg()
     results = theory.iter_theory_summaries(
         names, problem.ship, problem.wave, bins_deg, shaping_filter=fit, filter_order=args.filter_order,
@@ -94,7 +96,7 @@ def start_theory_summaries(problem, args, names, bins_deg, *, skip_failed: bool 
 
 
 def closure_note(summary: dict) -> str:
-    """", closure order 4: order 6 has no stable fixed point here" (or "order 6's moments fit no law of the method's
+    """ ", closure order 4: order 6 has no stable fixed point here" (or "order 6's moments fit no law of the method's
     amplitude family here", where its fixed point exists but the PDF family cannot reproduce its moments) for a
     theory summary whose moment closure fell back to a lower order (`closure_fallback` and
     `closure_fallback_cause` in its details), else "": the terminal's line for what the JSON records."""

@@ -34,8 +34,11 @@ def _common(p, kind: str) -> None:
         default=None,
         help="ship file (TOML) whose other coefficients are kept; default C11 (representative)",
     )
-    p.add_argument("--out", default=f"jaxroll-out/calibrate-{kind}",
-                   help=f"output folder (default ./jaxroll-out/calibrate-{kind})")
+    p.add_argument(
+        "--out",
+        default=f"jaxroll-out/calibrate-{kind}",
+        help=f"output folder (default ./jaxroll-out/calibrate-{kind})",
+    )
     p.add_argument(
         "--resample",
         action="store_true",
@@ -167,8 +170,9 @@ def _load(args, kind):
     from ..io import load_records
 
     if lab_mode(args):
-        return import_lab_files(args.records, kind or "roll", lab_settings(args, kind or "roll"),
-                                resample=args.resample)
+        return import_lab_files(
+            args.records, kind or "roll", lab_settings(args, kind or "roll"), resample=args.resample
+        )
     return load_records(args.records, kind=kind, resample=args.resample)
 
 
@@ -184,7 +188,9 @@ def _finish(args, kind, ship, fitted, payload, figures, fit=None) -> int:
         for name, fig in figures.items():
             save_figure(fig, tmp / name)
         write_json(tmp / "calibration.json", payload)
-        write_netcdf(tmp / "calibration.nc", f"calibrate-{layout}", payload, None if fit is None else {"fit": fit})
+        write_netcdf(
+            tmp / "calibration.nc", f"calibrate-{layout}", payload, None if fit is None else {"fit": fit}
+        )
     print(
         f"wrote {out / 'ship.toml'}, {out / 'calibration.json'}, {out / 'calibration.nc'}, "
         + ", ".join(str(out / n) for n in figures)
@@ -244,8 +250,11 @@ def run_decay(args) -> int:
     plot_decay_fit(ode, ax=ax2)
     constrained = nonnegative_damping(("b1", "b2", "b3"), chosen.b, chosen.damping_covariance)[1]
     written_damping = {  # the fit's estimates; where constrained, the value ship.toml holds (no interval: not fitted)
-        k: ({**e, "value": constrained[k]["written"], "fitted_value": e["value"], "ci95": None} if k in constrained
-            else e)
+        k: (
+            {**e, "value": constrained[k]["written"], "fitted_value": e["value"], "ci95": None}
+            if k in constrained
+            else e
+        )
         for k, e in chosen.to_dict()["damping"].items()
     }
     payload = {
@@ -266,8 +275,15 @@ def run_decay(args) -> int:
         "agreement_z": agree,
         "run_time_s": time.time() - t0,
     }
-    return _finish(args, "decay", ship, fitted, payload, {"extinction.png": fig1, "decay_fit.png": fig2},
-                   chosen.to_xarray())
+    return _finish(
+        args,
+        "decay",
+        ship,
+        fitted,
+        payload,
+        {"extinction.png": fig1, "decay_fit.png": fig2},
+        chosen.to_xarray(),
+    )
 
 
 def run_captive(args) -> int:
@@ -309,7 +325,12 @@ def run_captive(args) -> int:
         "run_time_s": time.time() - t0,
     }
     return _finish(
-        args, "captive", ship, fitted, payload, {"captive_ratio.png": fig1, "captive_series.png": fig2},
+        args,
+        "captive",
+        ship,
+        fitted,
+        payload,
+        {"captive_ratio.png": fig1, "captive_series.png": fig2},
         fit.to_xarray(),
     )
 
@@ -365,8 +386,9 @@ def run_roll(args) -> int:
         "estimates": fit.to_dict(),
         "run_time_s": time.time() - t0,
     }
-    return _finish(args, "roll", ship, fitted, payload, {"roll_pdfs.png": plot_roll_calibration(fit)},
-                   fit.to_xarray())
+    return _finish(
+        args, "roll", ship, fitted, payload, {"roll_pdfs.png": plot_roll_calibration(fit)}, fit.to_xarray()
+    )
 
 
 def _run_roll_time_domain(args) -> int:
@@ -392,7 +414,9 @@ def _run_roll_time_domain(args) -> int:
             "the effective wave from the records' wave probe."
         )
     if kalman and args.shooting_window is not None:
-        raise CLIError("--shooting-window belongs to --estimator time-domain (the Kalman filter has no windows).")
+        raise CLIError(
+            "--shooting-window belongs to --estimator time-domain (the Kalman filter has no windows)."
+        )
     try:
         params = check_time_domain_params(
             [p.strip() for p in (args.params or "b1,b2,gm_correction").split(",") if p.strip()]
@@ -443,12 +467,19 @@ def _run_roll_time_domain(args) -> int:
             "shooting_window_s": None if kalman else checked.window,
             "shooting_window_rule": None
             if kalman
-            else ("given" if args.shooting_window is not None else f"four natural roll periods ({default_window(ship):.4g} s)"),
+            else (
+                "given"
+                if args.shooting_window is not None
+                else f"four natural roll periods ({default_window(ship):.4g} s)"
+            ),
             "fit": result.pop("config"),
         },
         **result,
         "written": {"ship": ship_to_dict(fitted)},
         "run_time_s": time.time() - t0,
     }
-    figures = {"roll_fit.png": plot_time_domain_fit(fit), "residual_spectrum.png": plot_residual_spectrum(fit).figure}
+    figures = {
+        "roll_fit.png": plot_time_domain_fit(fit),
+        "residual_spectrum.png": plot_residual_spectrum(fit).figure,
+    }
     return _finish(args, "roll", ship, fitted, payload, figures, fit.to_xarray())

@@ -83,8 +83,9 @@ def register(subparsers) -> None:
 
 def _check_options(args) -> None:
     """Every numeric option, before any hydrostatics is computed."""
-    check_positive(args, "kg", "displacement", "draught", "water_density", "roll_period", "roll_gyradius",
-                   "wavelength")
+    check_positive(
+        args, "kg", "displacement", "draught", "water_density", "roll_period", "roll_gyradius", "wavelength"
+    )
     for flag, value in (("--gm", args.gm), ("--lcg", args.lcg)):
         if value is not None and not math.isfinite(value):
             raise CLIError(f"{flag} must be a finite number; got {value}.")
@@ -129,8 +130,12 @@ def run(args) -> int:
     heels = default_heel_grid(math.radians(args.heel_max_deg), args.n_heel)
 
     # the draught and KG given from --draught-datum / --kg-datum, measured from the baseline
-    (draught,), kg_above = heights_above_baseline(hull, args, draughts=[("--draught", args.draught)], kg=args.kg)
-    overrides = dict(draught=draught, displacement=args.displacement, lcg=args.lcg, water_density=args.water_density)
+    (draught,), kg_above = heights_above_baseline(
+        hull, args, draughts=[("--draught", args.draught)], kg=args.kg
+    )
+    overrides = dict(
+        draught=draught, displacement=args.displacement, lcg=args.lcg, water_density=args.water_density
+    )
     if args.gm is not None:
         probe = loading_from_dict(hull, file_loading, kg=0.0, **overrides)
         kg = float(metacentric_height(hull, probe)) - args.gm
@@ -164,7 +169,10 @@ def run(args) -> int:
     )
     table_ok = np.asarray(sol.converged)
     rows = [np.asarray(sol.gz_calm), *(np.asarray(sol.gz)[i] for i in (np.argmin(zeta), np.argmax(zeta)))]
-    rows = [np.where(ok, r, np.nan) for r, ok in zip(rows, (table_ok.all(axis=0), *table_ok[[np.argmin(zeta), np.argmax(zeta)]]))]
+    rows = [
+        np.where(ok, r, np.nan)
+        for r, ok in zip(rows, (table_ok.all(axis=0), *table_ok[[np.argmin(zeta), np.argmax(zeta)]]))
+    ]
     fine, curves_gz = heels, np.stack(rows)
     if beyond.size:
         fine = np.concatenate([heels, beyond])

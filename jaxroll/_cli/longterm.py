@@ -42,67 +42,138 @@ def register(sub) -> None:
         "longterm.json and figures into --out.",
     )
     g = p.add_argument_group("cells (full scale)")
-    g.add_argument("--scatter", default="rec34", metavar="rec34|FILE.csv",
-                   help="wave scatter diagram: rec34 (IACS Rec. 34, North Atlantic, shipped) or a CSV file: first row "
-                   "hs_m,<Tz1>,<Tz2>,… [s], then one row per H_s [m] with its counts (default rec34); each sea is "
-                   "ITTC with T01 = 1.0864 T_z")
-    g.add_argument("--heading", default="all", metavar="LIST|all",
-                   help="headings χ [deg] in [0, 360): 0 following, 90 beam, 180 head (or head/beam/following); all: "
-                   "0 … 345 every 15° (default); χ and 360 − χ are computed once (port/starboard)")
-    g.add_argument("--heading-weights", default=None, metavar="LIST", help="probability of each heading (default "
-                   "uniform; normalised)")
+    g.add_argument(
+        "--scatter",
+        default="rec34",
+        metavar="rec34|FILE.csv",
+        help="wave scatter diagram: rec34 (IACS Rec. 34, North Atlantic, shipped) or a CSV file: first row "
+        "hs_m,<Tz1>,<Tz2>,… [s], then one row per H_s [m] with its counts (default rec34); each sea is "
+        "ITTC with T01 = 1.0864 T_z",
+    )
+    g.add_argument(
+        "--heading",
+        default="all",
+        metavar="LIST|all",
+        help="headings χ [deg] in [0, 360): 0 following, 90 beam, 180 head (or head/beam/following); all: "
+        "0 … 345 every 15° (default); χ and 360 − χ are computed once (port/starboard)",
+    )
+    g.add_argument(
+        "--heading-weights",
+        default=None,
+        metavar="LIST",
+        help="probability of each heading (default uniform; normalised)",
+    )
     g.add_argument("--speed", default="0", metavar="LIST", help="ship speeds U [m/s] (default 0)")
-    g.add_argument("--speed-weights", default=None, metavar="LIST", help="probability of each speed (default "
-                   "uniform)")
-    g.add_argument("--ship", default=None, metavar="FILE[,FILE…]",
-                   help="ship files (TOML) of the loading conditions, or c11-hull; default: C11 (representative)")
-    g.add_argument("--ship-weights", default=None, metavar="LIST", help="probability of each loading condition "
-                   "(default uniform)")
+    g.add_argument(
+        "--speed-weights", default=None, metavar="LIST", help="probability of each speed (default uniform)"
+    )
+    g.add_argument(
+        "--ship",
+        default=None,
+        metavar="FILE[,FILE…]",
+        help="ship files (TOML) of the loading conditions, or c11-hull; default: C11 (representative)",
+    )
+    g.add_argument(
+        "--ship-weights",
+        default=None,
+        metavar="LIST",
+        help="probability of each loading condition (default uniform)",
+    )
     r = p.add_argument_group("risk")
     r.add_argument("--angle", default="30", metavar="LIST", help="roll angles [deg] (default 30)")
     r.add_argument("--hours", type=float, default=3.0, help="exposure per cell [h] (default 3)")
-    r.add_argument("--hours-per-year", type=float, default=8766.0,
-                   help="hours at sea per year, for the per-year values (default 8766: all year)")
-    r.add_argument("--method", choices=("theory", "monte-carlo", "auto"), default="theory",
-                   help="theory in every cell (default); Monte Carlo in every cell; auto: theory everywhere and "
-                   "Monte Carlo where a cell dominates or the theory fails a validity check")
-    r.add_argument("--realizations", type=int, default=1000,
-                   help="Monte Carlo trials per cell (auto: on average per Monte Carlo cell, Neyman-allocated) "
-                   "(default 1000)")
+    r.add_argument(
+        "--hours-per-year",
+        type=float,
+        default=8766.0,
+        help="hours at sea per year, for the per-year values (default 8766: all year)",
+    )
+    r.add_argument(
+        "--method",
+        choices=("theory", "monte-carlo", "auto"),
+        default="theory",
+        help="theory in every cell (default); Monte Carlo in every cell; auto: theory everywhere and "
+        "Monte Carlo where a cell dominates or the theory fails a validity check",
+    )
+    r.add_argument(
+        "--realizations",
+        type=int,
+        default=1000,
+        help="Monte Carlo trials per cell (auto: on average per Monte Carlo cell, Neyman-allocated) "
+        "(default 1000)",
+    )
     r.add_argument("--discard", type=float, default=500.0, help="initial transient of each trial [s] (500)")
-    r.add_argument("--auto-share", type=float, default=0.9,
-                   help="auto: Monte Carlo on the smallest set of cells carrying this share of the theory's "
-                   "long-term value (0.9)")
-    r.add_argument("--auto-tolerance", type=float, default=0.01,
-                   help="auto: and on doubtful theory cells whose worst case exceeds this fraction of it (0.01)")
-    r.add_argument("--model-factor", type=float, default=1.25,
-                   help="allowance on theory cells in the long-term interval: [P/f, f·P] (1.25)")
-    r.add_argument("--skip-weight", type=float, default=0.0,
-                   help="leave out the lightest cells up to this total weight (a bound added to the interval; 0)")
-    r.add_argument("--refine-delta", type=float, default=0.01,
-                   help="theory in two passes: the cells outside the smallest set carrying 1 - δ of the one-grid "
-                        "sum w·P per heading class and speed keep the one-grid value (0: every cell refined; 0.01)")
+    r.add_argument(
+        "--auto-share",
+        type=float,
+        default=0.9,
+        help="auto: Monte Carlo on the smallest set of cells carrying this share of the theory's "
+        "long-term value (0.9)",
+    )
+    r.add_argument(
+        "--auto-tolerance",
+        type=float,
+        default=0.01,
+        help="auto: and on doubtful theory cells whose worst case exceeds this fraction of it (0.01)",
+    )
+    r.add_argument(
+        "--model-factor",
+        type=float,
+        default=1.25,
+        help="allowance on theory cells in the long-term interval: [P/f, f·P] (1.25)",
+    )
+    r.add_argument(
+        "--skip-weight",
+        type=float,
+        default=0.0,
+        help="leave out the lightest cells up to this total weight (a bound added to the interval; 0)",
+    )
+    r.add_argument(
+        "--refine-delta",
+        type=float,
+        default=0.01,
+        help="theory in two passes: the cells outside the smallest set carrying 1 - δ of the one-grid sum w·P per "
+        "heading class and speed keep the one-grid value (0: every cell refined; 0.01)",
+    )
     r.add_argument("--estimator", default="brute-force", help="per-cell Monte Carlo estimator (brute-force)")
     n = p.add_argument_group("numerics")
     n.add_argument("--dt", type=float, default=0.5, help="time step [s] (default 0.5)")
-    n.add_argument("--excitation", choices=("filter", "superposition"), default="filter",
-                   help="effective wave of the Monte Carlo: Method 2 shaping filter (default) or superposition")
+    n.add_argument(
+        "--excitation",
+        choices=("filter", "superposition"),
+        default="filter",
+        help="effective wave of the Monte Carlo: Method 2 shaping filter (default) or superposition",
+    )
     n.add_argument("--filter-order", type=int, default=4, help="order of the Method-2 filter (default 4)")
     n.add_argument("--phi0-deg", type=float, default=5.0, help="initial roll of each trial [deg] (5)")
-    n.add_argument("--seed", type=int, default=0,
-                   help="random seed (default 0); cell c uses seed 1000000·SEED + c + 1, recorded per cell")
+    n.add_argument(
+        "--seed",
+        type=int,
+        default=0,
+        help="random seed (default 0); cell c uses seed 1000000·SEED + c + 1, recorded per cell",
+    )
     s = p.add_argument_group("scale-out")
     add_chunk_option(s, streaming=True, what="trials")
     add_memory_option(s)
-    s.add_argument("--checkpoint", metavar="DIR", default=None, help="save each finished cell in DIR; a rerun "
-                   "resumes")
-    s.add_argument("--part", default=None, metavar="i/N",
-                   help="compute part i of N (1 <= i <= N, e.g. a SLURM array task) and write the partial dataset "
-                   "longterm.part-i-of-N.nc; merge the parts with `jaxroll merge`")
-    s.add_argument("--distributed", action="store_true",
-                   help="call jax.distributed.initialize() first and share the cells among the processes "
-                   "(docs/scaling.md)")
-    p.add_argument("--out", default="jaxroll-out/longterm", help="output folder (default jaxroll-out/longterm)")
+    s.add_argument(
+        "--checkpoint", metavar="DIR", default=None, help="save each finished cell in DIR; a rerun resumes"
+    )
+    s.add_argument(
+        "--part",
+        default=None,
+        metavar="i/N",
+        help="compute part i of N (1 <= i <= N, e.g. a SLURM array task) and write the partial dataset "
+        "longterm.part-i-of-N.nc; merge the parts with `jaxroll merge`",
+    )
+    s.add_argument(
+        "--distributed",
+        action="store_true",
+        help="call jax.distributed.initialize() first and share the cells among the processes "
+        "(docs/scaling.md)",
+    )
+    p.add_argument(
+        "--out", default="jaxroll-out/longterm", help="output folder (default jaxroll-out/longterm)"
+    )
     p.add_argument("--quiet", action="store_true", help="no progress display")
     p.set_defaults(func=run)
 
@@ -132,8 +203,10 @@ def parse_headings(text: str) -> list[float]:
             except ValueError:
                 value = math.nan
         if not (0.0 <= value < 360.0):
-            raise CLIError(f"--heading must be all or a list of angles in degrees in [0, 360) (0 following, 90 beam, "
-                           f"180 head) or head/beam/following; got {item.strip()!r}.")
+            raise CLIError(
+                f"--heading must be all or a list of angles in degrees in [0, 360) (0 following, 90 beam, "
+                f"180 head) or head/beam/following; got {item.strip()!r}."
+            )
         out.append(value)
     if len(set(out)) != len(out):
         raise CLIError(f"--heading repeats a heading: {text!r}.")
@@ -146,8 +219,10 @@ def weights(text, n: int, option: str, what: str) -> list[float] | None:
         return None
     w = _floats(text, option)
     if len(w) != n:
-        raise CLIError(f"{option} has {len(w)} weights for {n} {what}; give one weight per value (or leave it out "
-                       "for uniform weights).")
+        raise CLIError(
+            f"{option} has {len(w)} weights for {n} {what}; give one weight per value (or leave it out "
+            "for uniform weights)."
+        )
     if not all(math.isfinite(x) and x >= 0 for x in w):
         raise CLIError(f"{option} must be finite numbers >= 0; got {text!r}.")
     if not sum(w) > 0:
@@ -177,21 +252,29 @@ def check_args(args):
     if not (math.isfinite(args.auto_tolerance) and args.auto_tolerance >= 0):
         raise CLIError(f"--auto-tolerance must be >= 0; got {args.auto_tolerance}.")
     if not (math.isfinite(args.model_factor) and args.model_factor >= 1):
-        raise CLIError(f"--model-factor must be >= 1 (1: the theory taken as exact); got {args.model_factor}.")
+        raise CLIError(
+            f"--model-factor must be >= 1 (1: the theory taken as exact); got {args.model_factor}."
+        )
     if not 0 <= args.skip_weight < 1:
         raise CLIError(f"--skip-weight must be in [0, 1); got {args.skip_weight}.")
     if not (math.isfinite(args.refine_delta) and 0 <= args.refine_delta < 1):
         raise CLIError(f"--refine-delta must be in [0, 1); got {args.refine_delta}.")
     if not 3 <= args.filter_order <= MAX_FILTER_ORDER:
-        raise CLIError(f"--filter-order must be between 3 and {MAX_FILTER_ORDER} (4 recommended); "
-                       f"got {args.filter_order}.")
+        raise CLIError(
+            f"--filter-order must be between 3 and {MAX_FILTER_ORDER} (4 recommended); "
+            f"got {args.filter_order}."
+        )
     if not math.isfinite(args.phi0_deg) or args.phi0_deg == 0:
-        raise CLIError(f"--phi0-deg must be a finite non-zero angle (a ship started upright stays upright); got "
-                       f"{args.phi0_deg}.")
+        raise CLIError(
+            f"--phi0-deg must be a finite non-zero angle (a ship started upright stays upright); got "
+            f"{args.phi0_deg}."
+        )
     estimator = args.estimator.replace("-", "_")
     if estimator not in CELL_ESTIMATORS:
-        raise CLIError(f"--estimator must be one of {', '.join(e.replace('_', '-') for e in CELL_ESTIMATORS)}; got "
-                       f"{args.estimator!r}.")
+        raise CLIError(
+            f"--estimator must be one of {', '.join(e.replace('_', '-') for e in CELL_ESTIMATORS)}; got "
+            f"{args.estimator!r}."
+        )
     check_chunk_size(args)
     budget = memory_budget(args)
     part = None
@@ -230,19 +313,42 @@ def check_args(args):
         vanish = math.degrees(float(vanishing_angle(ship)))
         for a in angles:
             if a >= vanish:
-                raise CLIError(f"--angle {a:g}° is not below the angle of vanishing stability of {ship.name} "
-                               f"({vanish:.1f}°): beyond it the ship capsizes (capsizes are counted separately); "
-                               "choose a smaller angle.")
+                raise CLIError(
+                    f"--angle {a:g}° is not below the angle of vanishing stability of {ship.name} "
+                    f"({vanish:.1f}°): beyond it the ship capsizes (capsizes are counted separately); "
+                    "choose a smaller angle."
+                )
     kwargs = dict(
-        scatter=scatter, ships=ships, ship_weights=shw, ship_names=names, ship_files=files,
-        headings=[math.radians(h) for h in headings], heading_weights=hw, speeds=speeds, speed_weights=sw,
-        angles=[math.radians(a) for a in angles], exposure=args.hours * 3600.0, method=args.method,
-        realizations=args.realizations, discard=args.discard, dt=args.dt, excitation=args.excitation,
-        filter_order=args.filter_order, phi0=math.radians(args.phi0_deg), seed=args.seed,
-        hours_per_year=args.hours_per_year, auto_share=args.auto_share, auto_tolerance=args.auto_tolerance,
-        model_factor=args.model_factor, skip_weight=args.skip_weight, refine_delta=args.refine_delta,
-        estimator=estimator, part=part,
-        checkpoint=args.checkpoint, chunk_size=args.chunk_size, memory_budget=budget,
+        scatter=scatter,
+        ships=ships,
+        ship_weights=shw,
+        ship_names=names,
+        ship_files=files,
+        headings=[math.radians(h) for h in headings],
+        heading_weights=hw,
+        speeds=speeds,
+        speed_weights=sw,
+        angles=[math.radians(a) for a in angles],
+        exposure=args.hours * 3600.0,
+        method=args.method,
+        realizations=args.realizations,
+        discard=args.discard,
+        dt=args.dt,
+        excitation=args.excitation,
+        filter_order=args.filter_order,
+        phi0=math.radians(args.phi0_deg),
+        seed=args.seed,
+        hours_per_year=args.hours_per_year,
+        auto_share=args.auto_share,
+        auto_tolerance=args.auto_tolerance,
+        model_factor=args.model_factor,
+        skip_weight=args.skip_weight,
+        refine_delta=args.refine_delta,
+        estimator=estimator,
+        part=part,
+        checkpoint=args.checkpoint,
+        chunk_size=args.chunk_size,
+        memory_budget=budget,
     )
     return kwargs
 
@@ -286,15 +392,24 @@ def print_summary(summary: dict, out: Path) -> None:
     for angle, row in summary["longterm"].items():
         lo, hi = row["probability_ci95"]
         y = row["per_year"]
-        print(f"P(roll > {angle}° within {hours:g} h) = {row['probability']:.4g} (95 % {lo:.4g}–{hi:.4g}); "
-              f"per year: P = {y['probability']:.4g}, {y['rate']:.4g} exposures with an exceedance")
+        print(
+            f"P(roll > {angle}° within {hours:g} h) = {row['probability']:.4g} (95 % {lo:.4g}–{hi:.4g}); "
+            f"per year: P = {y['probability']:.4g}, {y['rate']:.4g} exposures with an exceedance"
+        )
         for cell in row["dominating_cells"][:3]:
-            print(f"  {cell['share']:6.1%}  H_s {cell['hs_m']:g} m, T_z {cell['tz_s']:g} s, χ {cell['heading_deg']:g}°, "
-                  f"U {cell['speed_m_s']:g} m/s, {cell['ship']}: P = {cell['probability']:.3g} ({cell['method']})")
+            print(
+                f"  {cell['share']:6.1%}  H_s {cell['hs_m']:g} m, T_z {cell['tz_s']:g} s, χ {cell['heading_deg']:g}°, "
+                f"U {cell['speed_m_s']:g} m/s, {cell['ship']}: P = {cell['probability']:.3g} ({cell['method']})"
+            )
     c = summary["longterm_capsize"]
-    print(f"P(capsize within {hours:g} h) = {c['probability']:.3g} (95 % {c['probability_ci95'][0]:.3g}–"
-          f"{c['probability_ci95'][1]:.3g}); cells: " + ", ".join(f"{k} {v}" for k, v in summary["cells"].items() if v))
-    print(f"wrote {out}/longterm.json, longterm.nc, longterm_scatter.png, longterm_polar.png, longterm_ci.png")
+    print(
+        f"P(capsize within {hours:g} h) = {c['probability']:.3g} (95 % {c['probability_ci95'][0]:.3g}–"
+        f"{c['probability_ci95'][1]:.3g}); cells: "
+        + ", ".join(f"{k} {v}" for k, v in summary["cells"].items() if v)
+    )
+    print(
+        f"wrote {out}/longterm.json, longterm.nc, longterm_scatter.png, longterm_polar.png, longterm_ci.png"
+    )
 
 
 def run(args) -> int:

@@ -18,7 +18,9 @@ def register(sub) -> None:
         "longterm.json and the figures — into --out.",
     )
     p.add_argument("parts", nargs="+", metavar="PART.nc", help="the partial datasets, in any order")
-    p.add_argument("--out", default="jaxroll-out/longterm", help="output folder (default jaxroll-out/longterm)")
+    p.add_argument(
+        "--out", default="jaxroll-out/longterm", help="output folder (default jaxroll-out/longterm)"
+    )
     p.set_defaults(func=run)
 
 
@@ -26,10 +28,8 @@ def run(args) -> int:
     from .. import merge_longterm
     from ..io import read_dataset
     from .longterm import print_summary, write_outputs
-    from .pdf import check_out
 
-    out = Path(args.out)
-    check_out(out)
+    out = Path(args.out)  # checked writable before the command ran (`prepare_out`)
     datasets = []
     for name in args.parts:
         path = Path(name)

@@ -49,7 +49,9 @@ def register(sub) -> None:
     m = p.add_argument_group("Monte Carlo")
     m.add_argument("--realizations", type=int, default=10_000, help="number of realizations (default 10000)")
     m.add_argument("--duration", type=float, default=3600.0, help="simulated time per realization [s] (3600)")
-    m.add_argument("--discard", type=float, default=0.0, help="initial transient left out of the PDFs [s] (0)")
+    m.add_argument(
+        "--discard", type=float, default=0.0, help="initial transient left out of the PDFs [s] (0)"
+    )
     m.add_argument("--phi0-deg", type=float, default=5.0, help="initial roll angle [deg] (5)")
     add_chunk_option(m, streaming=False)
     add_memory_option(m)
@@ -118,7 +120,9 @@ def check_phi0(phi0_deg: float, ship) -> None:
         )
     vanish = float(jnp.rad2deg(vanishing_angle(ship)))
     if abs(phi0_deg) >= vanish:
-        raise CLIError(f"--phi0-deg {phi0_deg:g} is at or beyond the angle of vanishing stability ({vanish:.1f}°).")
+        raise CLIError(
+            f"--phi0-deg {phi0_deg:g} is at or beyond the angle of vanishing stability ({vanish:.1f}°)."
+        )
 
 
 def capsize_caption(n_realizations: int, n_capsized: int) -> str:
@@ -168,7 +172,9 @@ def run(args) -> int:
     capsize_deg = float(jnp.rad2deg(problem.capsize_angle))
     bins = pdf_bins(args.bin_width_deg, capsize_deg)
     if args.ship is None:
-        print("Ship: C11 (representative) — Table-1 particulars, representative coefficients (see `jaxroll ship show`).")
+        print(
+            "Ship: C11 (representative) — Table-1 particulars, representative coefficients (see `jaxroll ship show`)."
+        )
     print(
         f"Monte Carlo: {args.realizations} realizations × {args.duration:g} s, dt {args.dt} s, "
         f"H1/3 {args.hs} m, T01 {args.t01} s, {heading_phrase(parse_heading(args.heading))}, U {args.speed} m/s, method {args.method}"
@@ -181,7 +187,9 @@ def run(args) -> int:
         except (OSError, ValueError, KeyError, TypeError):
             earlier = 0.0
     finish_theories = None
-    if theories:  # loaded and dispatched before the Monte Carlo (not in its run time): they compute while it runs
+    if (
+        theories
+    ):  # loaded and dispatched before the Monte Carlo (not in its run time): they compute while it runs
         from ._theory import start_theory_summaries
 
         default = args.theory is None  # the default overlay: a theory without a law, or a fallback, is noted
@@ -195,8 +203,10 @@ def run(args) -> int:
     def progress(done: int) -> None:
         shown(done)
         if args.checkpoint is not None:
-            atomic_write_text(Path(args.checkpoint) / _TIME_FILE,
-                              json.dumps({"run_time_s": earlier + time.time() - t0}) + "\n")
+            atomic_write_text(
+                Path(args.checkpoint) / _TIME_FILE,
+                json.dumps({"run_time_s": earlier + time.time() - t0}) + "\n",
+            )
 
     with OutputFolder(out) as tmp:
         stats = monte_carlo_amplitudes(
@@ -205,7 +215,8 @@ def run(args) -> int:
             num_realizations=args.realizations,
             duration=args.duration,
             discard=args.discard,
-            chunk_size=chunk, memory_budget=budget,
+            chunk_size=chunk,
+            memory_budget=budget,
             progress=progress,
             checkpoint=args.checkpoint,
         )
@@ -247,8 +258,10 @@ def run(args) -> int:
                 stacklevel=2,
             )
         caption = capsize_caption(stats.n_realizations, stats.n_capsized)
-        title = (f"{ship.name}: H1/3 = {args.hs:g} m, T01 = {args.t01:g} s, U = {args.speed:g} m/s, "
-                 f"{heading_phrase(parse_heading(args.heading))}, {caption}")
+        title = (
+            f"{ship.name}: H1/3 = {args.hs:g} m, T01 = {args.t01:g} s, U = {args.speed:g} m/s, "
+            f"{heading_phrase(parse_heading(args.heading))}, {caption}"
+        )
         fig_lin, fig_log = amplitude_pdf_figures(payload, title=title)
         save_figure(fig_lin, tmp / "pdf_linear.png")
         save_figure(fig_log, tmp / "pdf_log.png")
@@ -264,8 +277,10 @@ def run(args) -> int:
             continue
         q = summary["quantiles_deg"][est]
         beyond = summary["mass_beyond_grid"][est]
-        print(f"{name:>13}: mean amplitude {summary['mean_amplitude_deg'][est]:.2f}°, 99 % quantile {q['99']:.1f}°"
-              + (f", {beyond:.2g} of the amplitudes beyond {bins[-1]:g}°" if beyond else ""))
+        print(
+            f"{name:>13}: mean amplitude {summary['mean_amplitude_deg'][est]:.2f}°, 99 % quantile {q['99']:.1f}°"
+            + (f", {beyond:.2g} of the amplitudes beyond {bins[-1]:g}°" if beyond else "")
+        )
     if summary["reason"]:
         print(f"no statistics: {summary['reason']}")
     if summary["stationarity"]["note"]:

@@ -25,14 +25,24 @@ def register(sub) -> None:
         "named by path) and writes it as a jaxroll record (model scale, docs/records.md), after the checks "
         "`jaxroll calibrate` makes. `jaxroll calibrate` takes the same options and reads lab files directly.",
     )
-    imp.add_argument("files", nargs="+", metavar="FILE", help="lab files: text (.csv, .txt, … .gz) or HDF5 "
-                     "(FILE.h5, FILE.h5:/group)")
+    imp.add_argument(
+        "files",
+        nargs="+",
+        metavar="FILE",
+        help="lab files: text (.csv, .txt, … .gz) or HDF5 (FILE.h5, FILE.h5:/group)",
+    )
     imp.add_argument("--kind", choices=("decay", "captive", "roll"), required=True, help="what the test is")
-    imp.add_argument("--out", default=None, help="output folder (default ./jaxroll-out/records), or a .csv / "
-                     ".csv.gz file name for one FILE")
+    imp.add_argument(
+        "--out",
+        default=None,
+        help="output folder (default ./jaxroll-out/records), or a .csv / .csv.gz file name for one FILE",
+    )
     imp.add_argument("--gzip", action="store_true", help="write .csv.gz")
-    imp.add_argument("--resample", action="store_true",
-                     help="interpolate irregularly sampled data onto the nominal rate (gaps are still refused)")
+    imp.add_argument(
+        "--resample",
+        action="store_true",
+        help="interpolate irregularly sampled data onto the nominal rate (gaps are still refused)",
+    )
     add_lab_options(imp, for_calibrate=False)
     imp.set_defaults(func=run_import)
     ins = cmds.add_parser(
@@ -44,8 +54,12 @@ def register(sub) -> None:
     ins.add_argument("files", nargs="+", metavar="FILE")
     ins.add_argument("--delimiter", default=None, help="field separator (default: sniffed)")
     ins.add_argument("--decimal", choices=(".", ","), default=None, help="decimal mark (default: found)")
-    ins.add_argument("--header-row", default=None, metavar="N", help="1-based line of the column names; 0: none")
-    ins.add_argument("--skip-rows", type=int, default=None, metavar="N", help="preamble lines before the names")
+    ins.add_argument(
+        "--header-row", default=None, metavar="N", help="1-based line of the column names; 0: none"
+    )
+    ins.add_argument(
+        "--skip-rows", type=int, default=None, metavar="N", help="preamble lines before the names"
+    )
     ins.set_defaults(func=run_inspect)
 
 
@@ -75,7 +89,9 @@ def run_import(args) -> int:
     out = Path(args.out or "jaxroll-out/records")
     single = out.name.endswith((".csv", ".csv.gz"))
     if single and len(args.files) != 1:
-        raise CLIError(f"--out {str(out)!r} names one file but {len(args.files)} FILEs are given; give a folder.")
+        raise CLIError(
+            f"--out {str(out)!r} names one file but {len(args.files)} FILEs are given; give a folder."
+        )
     records = import_lab_files(args.files, args.kind, settings, resample=args.resample)
     texts = [record_to_text(r, decimals="shortest") for r in records]
     if single:
@@ -86,7 +102,9 @@ def run_import(args) -> int:
         names = _output_names(args.files, args.gzip)
         with OutputFolder(out) as tmp:
             for name, text in zip(names, texts):
-                (tmp / name).write_bytes(gzip.compress(text.encode(), mtime=0) if args.gzip else text.encode())
+                (tmp / name).write_bytes(
+                    gzip.compress(text.encode(), mtime=0) if args.gzip else text.encode()
+                )
         written = [out / n for n in names]
     for rec, path in zip(records, written):
         n = rec.time.size
@@ -105,6 +123,9 @@ def run_inspect(args) -> int:
     header_row = header_row_arg(args.header_row)
     delimiter = delimiter_arg(args.delimiter)
     for f in args.files:
-        print(describe_lab_file(f, delimiter=delimiter, decimal=args.decimal, header_row=header_row,
-                                skip_rows=args.skip_rows))
+        print(
+            describe_lab_file(
+                f, delimiter=delimiter, decimal=args.decimal, header_row=header_row, skip_rows=args.skip_rows
+            )
+        )
     return 0

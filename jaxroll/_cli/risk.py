@@ -46,15 +46,24 @@ def register(sub) -> None:
     p.add_argument("--discard", type=float, default=500.0, help="initial transient left out [s] (500)")
     add_chunk_option(p, streaming=True, what="trials")
     add_memory_option(p)
-    p.add_argument("--theory", default="",
-                   help="also from theory: first_passage (the envelope FPK model followed through the exposure: large "
-                   "rolls come in groups) and/or the amplitude laws roberts,esam,moment,envelope_fpk (amplitudes "
-                   "taken as independent); all: every one")
-    p.add_argument("--estimator", choices=("direct", "splitting"), default="direct",
-                   help="direct: trials of the exposure's length (always run); splitting: also multilevel splitting "
-                        "for the direct probability, for rare exceedances (risk.json 'splitting'; docs/rare_events.md)")
+    p.add_argument(
+        "--theory",
+        default="",
+        help="also from theory: first_passage (the envelope FPK model followed through the exposure: large "
+        "rolls come in groups) and/or the amplitude laws roberts,esam,moment,envelope_fpk (amplitudes "
+        "taken as independent); all: every one",
+    )
+    p.add_argument(
+        "--estimator",
+        choices=("direct", "splitting"),
+        default="direct",
+        help="direct: trials of the exposure's length (always run); splitting: also multilevel splitting "
+        "for the direct probability, for rare exceedances (risk.json 'splitting'; docs/rare_events.md)",
+    )
     p.add_argument("--splitting-trials", type=int, default=1000, help="splitting: runs a stage (1000)")
-    p.add_argument("--out", default="jaxroll-out/risk", help="output folder for risk.json, risk.nc and risk.png")
+    p.add_argument(
+        "--out", default="jaxroll-out/risk", help="output folder for risk.json, risk.nc and risk.png"
+    )
     p.add_argument("--quiet", action="store_true", help="no progress display")
     p.set_defaults(func=run)
 
@@ -83,8 +92,12 @@ def probability_text(p: float, complement: float) -> str:
 
 
 def _risk_dict(r) -> dict:
-    q, lo, hi, n = (float(r.exceedance_per_cycle), float(r.exceedance_per_cycle_lower),
-                    float(r.exceedance_per_cycle_upper), float(r.n_cycles))
+    q, lo, hi, n = (
+        float(r.exceedance_per_cycle),
+        float(r.exceedance_per_cycle_lower),
+        float(r.exceedance_per_cycle_upper),
+        float(r.n_cycles),
+    )
     return {
         "n_cycles": n,
         "exceedance_per_cycle": q,
@@ -97,8 +110,10 @@ def _risk_dict(r) -> dict:
         "probability_ci95": [float(r.probability_lower), float(r.probability_upper)],
         "most_probable_largest_deg": float(r.most_probable_largest_deg),
         "characteristic_largest_deg": float(r.characteristic_largest_deg),
-        "characteristic_largest_ci95_deg": [float(r.characteristic_largest_lower_deg),
-                                            float(r.characteristic_largest_upper_deg)],
+        "characteristic_largest_ci95_deg": [
+            float(r.characteristic_largest_lower_deg),
+            float(r.characteristic_largest_upper_deg),
+        ],
         "expected_largest_deg": float(r.expected_largest_deg),
     }
 
@@ -137,8 +152,9 @@ def _first_passage(problem, angle_deg: float, exposure: float, curve_deg, vanish
     loglog = np.log(-np.log(np.clip(1 - p, 1e-300, 1 - 1e-16)))
     x = np.asarray(curve_deg, float)
     inside = (x >= levels[0]) & (x <= levels[-1])
-    on_curve = np.where(inside, -np.expm1(-np.exp(np.interp(np.log(np.maximum(x, 1e-9)), np.log(levels), loglog))),
-                        np.nan)
+    on_curve = np.where(
+        inside, -np.expm1(-np.exp(np.interp(np.log(np.maximum(x, 1e-9)), np.log(levels), loglog))), np.nan
+    )
     theta = float(risk.extremal_index[0])
     entry = {
         "probability": float(risk.probability[0, 0]),
@@ -153,8 +169,8 @@ def _first_passage(problem, angle_deg: float, exposure: float, curve_deg, vanish
         "lyapunov_exponent_per_s": float(risk.lyapunov_exponent),
         "exists": bool(risk.exists),
         "method": "envelope FPK model followed through the exposure: the roll is seen at its peaks (a Poisson "
-                  "stream at the model's half-cycle rate), the exposure starts in the stationary law; P = 1 − "
-                  "survival (docs/theory.md, 'Exposure risk')",
+        "stream at the model's half-cycle rate), the exposure starts in the stationary law; P = 1 − "
+        "survival (docs/theory.md, 'Exposure risk')",
         "grid": dict(risk.grid),
     }
     return entry, on_curve
@@ -185,9 +201,13 @@ def run(args) -> int:
         raise CLIError(f"--splitting-trials must be >= 10; got {args.splitting_trials}.")
     check_chunk_size(args)
     if not (math.isfinite(args.discard) and 0 <= args.discard < args.duration):
-        raise CLIError(f"--discard must be in [0, --duration) = [0, {args.duration:g}) s; got {args.discard:g}.")
+        raise CLIError(
+            f"--discard must be in [0, --duration) = [0, {args.duration:g}) s; got {args.discard:g}."
+        )
     check_sea_options(args)
-    check_steps(args.dt, {"--duration": args.duration, "--discard + --hours": args.discard + args.hours * 3600.0})
+    check_steps(
+        args.dt, {"--duration": args.duration, "--discard + --hours": args.discard + args.hours * 3600.0}
+    )
     budget = memory_budget(args)
     out = Path(args.out)
     ship = load_ship_arg(args.ship)
@@ -202,9 +222,16 @@ def run(args) -> int:
     exposure = args.hours * 3600.0
     t0 = time.time()
     progress = Progress(args.realizations, "realizations", enabled=None if not args.quiet else False)
-    stats = monte_carlo_amplitudes(problem, jax.random.key(args.seed), num_realizations=args.realizations,
-                                   duration=args.duration, discard=args.discard, chunk_size=args.chunk_size, memory_budget=budget,
-                                   progress=progress)
+    stats = monte_carlo_amplitudes(
+        problem,
+        jax.random.key(args.seed),
+        num_realizations=args.realizations,
+        duration=args.duration,
+        discard=args.discard,
+        chunk_size=args.chunk_size,
+        memory_budget=budget,
+        progress=progress,
+    )
     counts = stats.counts_zero_crossing
     stationarity = stats.stationarity()
     edges = stats.edges_deg
@@ -216,13 +243,25 @@ def run(args) -> int:
     angle_used = float(edges[k])
     survivors = stats.n_realizations - stats.n_capsized
     rate = n_amp / (survivors * (args.duration - args.discard))
-    mc = exposure_risk(stats.law("zero_crossing"), jnp.deg2rad(angle_used), rate=rate, duration=exposure,
-                       n_amplitudes=n_amp,
-                       n_exceed=n_exceed)
+    mc = exposure_risk(
+        stats.law("zero_crossing"),
+        jnp.deg2rad(angle_used),
+        rate=rate,
+        duration=exposure,
+        n_amplitudes=n_amp,
+        n_exceed=n_exceed,
+    )
     # Direct estimate: trials as long as the exposure, no independence assumption between amplitudes.
-    direct_stats = monte_carlo_max_roll(problem, jax.random.key(args.seed + 1), angle_deg=angle_used,
-                                        num_realizations=args.realizations, duration=args.discard + exposure,
-                                        discard=args.discard, chunk_size=args.chunk_size, memory_budget=budget)
+    direct_stats = monte_carlo_max_roll(
+        problem,
+        jax.random.key(args.seed + 1),
+        angle_deg=angle_used,
+        num_realizations=args.realizations,
+        duration=args.discard + exposure,
+        discard=args.discard,
+        chunk_size=args.chunk_size,
+        memory_budget=budget,
+    )
     # A capsized trial's largest roll is beyond the vanishing angle: counted in the order statistics, never dropped.
     largest_q = direct_stats.largest_roll_quantiles_deg()
     direct = {
@@ -234,91 +273,149 @@ def run(args) -> int:
         "largest_roll_quantiles_deg": largest_q,
         "n_realizations": direct_stats.n_realizations,
         "method": "trials of the exposure's length after the discard; exceedance = max |φ| > angle or capsize; "
-                  "a capsized trial's largest roll counts as beyond the angle of vanishing stability",
+        "a capsized trial's largest roll counts as beyond the angle of vanishing stability",
     }
     if None in largest_q.values():
         direct["largest_roll_quantiles_reason"] = (
             f"null: beyond the angle of vanishing stability ({direct_stats.n_capsized} of "
-            f"{direct_stats.n_realizations} trials capsized)")
+            f"{direct_stats.n_realizations} trials capsized)"
+        )
     if args.estimator == "splitting":
         # The same probability by multilevel splitting on the roll energy (unbiased; for rare exceedances).
-        split = monte_carlo_splitting(problem, jax.random.key(args.seed + 2), angle_deg=angle_used, exposure=exposure,
-                                      discard=args.discard, num_trials=args.splitting_trials)
-        direct_splitting = {**split.to_dict(), "method": "fixed-effort multilevel splitting on the roll energy and "
-                            "wave envelope; the same event as direct (docs/rare_events.md)"}
-    result = {"direct": direct,
-              "monte_carlo": {"angle_deg": angle_used, "rate_per_s": rate, "n_amplitudes": n_amp,
-                              "n_exceed": n_exceed, **_risk_dict(mc),
-                              "n_capsized": stats.n_capsized, "n_realizations": stats.n_realizations,
-                              "stationarity": stationarity,
-                              "method": "per-cycle amplitude distribution, amplitudes assumed independent; "
-                                        "the amplitudes of the trials that did not capsize (conditional on "
-                                        "survival: see direct.capsize_probability)"}}
+        split = monte_carlo_splitting(
+            problem,
+            jax.random.key(args.seed + 2),
+            angle_deg=angle_used,
+            exposure=exposure,
+            discard=args.discard,
+            num_trials=args.splitting_trials,
+        )
+        direct_splitting = {
+            **split.to_dict(),
+            "method": "fixed-effort multilevel splitting on the roll energy and "
+            "wave envelope; the same event as direct (docs/rare_events.md)",
+        }
+    result = {
+        "direct": direct,
+        "monte_carlo": {
+            "angle_deg": angle_used,
+            "rate_per_s": rate,
+            "n_amplitudes": n_amp,
+            "n_exceed": n_exceed,
+            **_risk_dict(mc),
+            "n_capsized": stats.n_capsized,
+            "n_realizations": stats.n_realizations,
+            "stationarity": stationarity,
+            "method": "per-cycle amplitude distribution, amplitudes assumed independent; "
+            "the amplitudes of the trials that did not capsize (conditional on "
+            "survival: see direct.capsize_probability)",
+        },
+    }
     if args.estimator == "splitting":
         result["splitting"] = direct_splitting
     # The risk curve P(max |φ| > x within the exposure) over x, for the figure and the JSON.
     curve_deg = np.arange(0.0, math.floor(vanishing_deg) + 1e-9, 0.5)
     curve_rad = jnp.deg2rad(curve_deg)
-    curves = {"monte_carlo": np.asarray(exceedance_probability(stats.law("zero_crossing"), curve_rad, rate=rate,
-                                                               duration=exposure))}
+    curves = {
+        "monte_carlo": np.asarray(
+            exceedance_probability(stats.law("zero_crossing"), curve_rad, rate=rate, duration=exposure)
+        )
+    }
     if theories:
         from ._theory import closure_note, theory_laws
 
         for name, tdist in theory_laws(problem, args, theories).items():
-            result[name] = _risk_dict(exposure_risk(tdist, jnp.deg2rad(angle_used), rate=rate, duration=exposure))
+            result[name] = _risk_dict(
+                exposure_risk(tdist, jnp.deg2rad(angle_used), rate=rate, duration=exposure)
+            )
             result[name]["theory_details"] = tdist.details()
             curves[name] = np.asarray(exceedance_probability(tdist, curve_rad, rate=rate, duration=exposure))
     if first_passage:
-        result["first_passage"], curves["first_passage"] = _first_passage(problem, angle_used, exposure, curve_deg,
-                                                                          vanishing_deg)
+        result["first_passage"], curves["first_passage"] = _first_passage(
+            problem, angle_used, exposure, curve_deg, vanishing_deg
+        )
     direct_curve = np.array([direct_stats.exceedance_probability(x) for x in curve_deg])
     result["curve"] = {"angle_deg": curve_deg, "direct": direct_curve, **curves}
-    payload = {"config": {**sea_config(args, ship), "angle_deg": args.angle, "hours": args.hours,
-                          "realizations": args.realizations, "duration_s": args.duration,
-                          "discard_s": args.discard, "theory": theories + (["first_passage"] if first_passage else []),
-                          "estimator": args.estimator,
-                          "amplitudes": "zero-crossing, per half cycle; amplitudes assumed independent"},
-               **result, "run_time_s": time.time() - t0}
-    title = (f"{ship.name}: H1/3 = {args.hs:g} m, T01 = {args.t01:g} s, U = {args.speed:g} m/s, "
-             f"{heading_phrase(parse_heading(args.heading))}; {args.realizations} trials")
+    payload = {
+        "config": {
+            **sea_config(args, ship),
+            "angle_deg": args.angle,
+            "hours": args.hours,
+            "realizations": args.realizations,
+            "duration_s": args.duration,
+            "discard_s": args.discard,
+            "theory": theories + (["first_passage"] if first_passage else []),
+            "estimator": args.estimator,
+            "amplitudes": "zero-crossing, per half cycle; amplitudes assumed independent",
+        },
+        **result,
+        "run_time_s": time.time() - t0,
+    }
+    title = (
+        f"{ship.name}: H1/3 = {args.hs:g} m, T01 = {args.t01:g} s, U = {args.speed:g} m/s, "
+        f"{heading_phrase(parse_heading(args.heading))}; {args.realizations} trials"
+    )
     with OutputFolder(out) as tmp:
-        fig = risk_figure(curve_deg, direct_curve, curves, angle_deg=angle_used, hours=args.hours,
-                          capsize_probability=direct_stats.capsize_probability, title=title)
+        fig = risk_figure(
+            curve_deg,
+            direct_curve,
+            curves,
+            angle_deg=angle_used,
+            hours=args.hours,
+            capsize_probability=direct_stats.capsize_probability,
+            title=title,
+        )
         save_figure(fig, tmp / "risk.png")
         write_json(tmp / "risk.json", payload)
-        write_netcdf(tmp / "risk.nc", "risk", payload, {"direct": direct_stats.to_xarray(),
-                                                        "monte_carlo": stats.to_xarray()})
+        write_netcdf(
+            tmp / "risk.nc",
+            "risk",
+            payload,
+            {"direct": direct_stats.to_xarray(), "monte_carlo": stats.to_xarray()},
+        )
     m, d = result["monte_carlo"], result["direct"]
-    print(f"Sea: H1/3 {args.hs} m, T01 {args.t01} s, {heading_phrase(parse_heading(args.heading))}, U {args.speed} m/s; ship {ship.name}")
-    print(f"Direct ({args.realizations} trials of {args.hours:g} h after {args.discard:g} s): "
-          f"P(roll > {angle_used:g}° within {args.hours:g} h) = {probability_text(d['probability'], 1 - d['probability'])} "
-          f"(95 % CI {probability_text(d['probability_ci95'][0], 1 - d['probability_ci95'][0])}–"
-          f"{probability_text(d['probability_ci95'][1], 1 - d['probability_ci95'][1])}); "
-          f"median largest roll {_deg(d['largest_roll_quantiles_deg']['50'])}, "
-          f"90 % {_deg(d['largest_roll_quantiles_deg']['90'])}; "
-          f"P(capsize) = {d['capsize_probability']:.4f} "
-          f"(95 % CI {d['capsize_probability_ci95'][0]:.4f}–{d['capsize_probability_ci95'][1]:.4f})")
-    print(f"Independent amplitudes ({n_amp} amplitudes, {rate * 3600:.0f} per hour): "
-          f"P = {probability_text(m['probability'], m['probability_complement'])} (95 % CI "
-          f"{probability_text(m['probability_ci95'][0], m['probability_complement_ci95'][1])} … "
-          f"{probability_text(m['probability_ci95'][1], m['probability_complement_ci95'][0])}); "
-          f"characteristic largest {m['characteristic_largest_deg']:.1f}°, expected largest "
-          f"{m['expected_largest_deg']:.1f}° (assumes independent amplitudes)")
+    print(
+        f"Sea: H1/3 {args.hs} m, T01 {args.t01} s, {heading_phrase(parse_heading(args.heading))}, U {args.speed} m/s; ship {ship.name}"
+    )
+    print(
+        f"Direct ({args.realizations} trials of {args.hours:g} h after {args.discard:g} s): "
+        f"P(roll > {angle_used:g}° within {args.hours:g} h) = {probability_text(d['probability'], 1 - d['probability'])} "
+        f"(95 % CI {probability_text(d['probability_ci95'][0], 1 - d['probability_ci95'][0])}–"
+        f"{probability_text(d['probability_ci95'][1], 1 - d['probability_ci95'][1])}); "
+        f"median largest roll {_deg(d['largest_roll_quantiles_deg']['50'])}, "
+        f"90 % {_deg(d['largest_roll_quantiles_deg']['90'])}; "
+        f"P(capsize) = {d['capsize_probability']:.4f} "
+        f"(95 % CI {d['capsize_probability_ci95'][0]:.4f}–{d['capsize_probability_ci95'][1]:.4f})"
+    )
+    print(
+        f"Independent amplitudes ({n_amp} amplitudes, {rate * 3600:.0f} per hour): "
+        f"P = {probability_text(m['probability'], m['probability_complement'])} (95 % CI "
+        f"{probability_text(m['probability_ci95'][0], m['probability_complement_ci95'][1])} … "
+        f"{probability_text(m['probability_ci95'][1], m['probability_complement_ci95'][0])}); "
+        f"characteristic largest {m['characteristic_largest_deg']:.1f}°, expected largest "
+        f"{m['expected_largest_deg']:.1f}° (assumes independent amplitudes)"
+    )
     if args.estimator == "splitting":
         s = result["splitting"]
-        print(f"Splitting ({args.splitting_trials} runs a stage, {len(s['levels_deg'])} stages): "
-              f"P = {s['probability']:.3g} (95 % CI {s['probability_ci95'][0]:.3g}–{s['probability_ci95'][1]:.3g}); "
-              f"{s['total_simulated_seconds'] / 3600:.0f} realization-hours")
+        print(
+            f"Splitting ({args.splitting_trials} runs a stage, {len(s['levels_deg'])} stages): "
+            f"P = {s['probability']:.3g} (95 % CI {s['probability_ci95'][0]:.3g}–{s['probability_ci95'][1]:.3g}); "
+            f"{s['total_simulated_seconds'] / 3600:.0f} realization-hours"
+        )
     if stationarity["note"]:
         print(f"warning: the amplitudes behind the independent-amplitude estimate: {stationarity['note']}")
     if first_passage:
         f = result["first_passage"]
-        print(f"first_passage (envelope FPK followed through the exposure): P = {f['probability']:.4f}, "
-              f"P(capsize) = {f['capsize_probability']:.2g}; {f['clusters_per_hour']:.3g} groups of large rolls per "
-              f"hour, {f['amplitudes_per_cluster']:.2f} amplitudes above {angle_used:g}° per group")
+        print(
+            f"first_passage (envelope FPK followed through the exposure): P = {f['probability']:.4f}, "
+            f"P(capsize) = {f['capsize_probability']:.2g}; {f['clusters_per_hour']:.3g} groups of large rolls per "
+            f"hour, {f['amplitudes_per_cluster']:.2f} amplitudes above {angle_used:g}° per group"
+        )
     for name in theories:
         t = result[name]
-        print(f"{name} (independent amplitudes): P = {probability_text(t['probability'], t['probability_complement'])}, "
-              f"most probable largest {t['most_probable_largest_deg']:.1f}°{closure_note(t['theory_details'])}")
+        print(
+            f"{name} (independent amplitudes): P = {probability_text(t['probability'], t['probability_complement'])}, "
+            f"most probable largest {t['most_probable_largest_deg']:.1f}°{closure_note(t['theory_details'])}"
+        )
     print(f"wrote {out}/risk.json, risk.nc, risk.png")
     return 0

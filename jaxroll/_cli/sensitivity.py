@@ -52,16 +52,24 @@ def register(sub) -> None:
     m.add_argument("--discard", type=float, default=0.0, help="initial transient left out [s] (0)")
     m.add_argument("--phi0-deg", type=float, default=5.0, help="initial roll angle [deg] (5)")
     m.add_argument("--window", type=float, default=300.0, help="scored window of the estimator [s] (300)")
-    m.add_argument("--burn-in", type=float, default=300.0, help="tangent burn-in before each window [s] (300)")
+    m.add_argument(
+        "--burn-in", type=float, default=300.0, help="tangent burn-in before each window [s] (300)"
+    )
     m.add_argument("--no-extrapolate", action="store_true", help="do not extrapolate the burn-in bias away")
-    m.add_argument("--smoothing-deg", type=float, default=1.0, help="exceedance smoothing bandwidth [deg] (1)")
-    m.add_argument("--chunk-size", type=int, default=250, help="realizations per compiled batch (memory bound)")
+    m.add_argument(
+        "--smoothing-deg", type=float, default=1.0, help="exceedance smoothing bandwidth [deg] (1)"
+    )
+    m.add_argument(
+        "--chunk-size", type=int, default=250, help="realizations per compiled batch (memory bound)"
+    )
     m.add_argument(
         "--theory",
         default=",".join(THEORIES),
         help=f"comma-separated theories to differentiate: {','.join(THEORIES)} (default all; '' for none)",
     )
-    p.add_argument("--out", default="jaxroll-out/sensitivity", help="output folder (default ./jaxroll-out/sensitivity)")
+    p.add_argument(
+        "--out", default="jaxroll-out/sensitivity", help="output folder (default ./jaxroll-out/sensitivity)"
+    )
     p.add_argument("--quiet", action="store_true", help="no progress display")
     p.set_defaults(func=run)
 
@@ -105,7 +113,9 @@ def run(args) -> int:
     if args.chunk_size < 1:
         raise CLIError(f"--chunk-size must be >= 1; got {args.chunk_size}.")
     if not (math.isfinite(args.discard) and 0 <= args.discard < args.duration):
-        raise CLIError(f"--discard must be in [0, --duration) = [0, {args.duration:g}) s; got {args.discard:g}.")
+        raise CLIError(
+            f"--discard must be in [0, --duration) = [0, {args.duration:g}) s; got {args.discard:g}."
+        )
     check_steps(args.dt, {"--duration": args.duration})
     if args.method != "filter" and any(p in ("hs", "t01", "speed") for p in wrt):
         raise CLIError("sea-parameter derivatives need the filter excitation (--method filter).")
@@ -130,8 +140,14 @@ def run(args) -> int:
     )  # fmt: skip
     elapsed = time.time() - t0
     t1 = time.time()
-    theory = theory_sensitivities(problem_fn, params, wrt=wrt, statistics=res.statistics, theories=theories,
-                                  filter_order=args.filter_order)
+    theory = theory_sensitivities(
+        problem_fn,
+        params,
+        wrt=wrt,
+        statistics=res.statistics,
+        theories=theories,
+        filter_order=args.filter_order,
+    )
     theory_time = time.time() - t1
 
     parameters = {
@@ -151,7 +167,9 @@ def run(args) -> int:
         gradients[key] = {
             p: {
                 "monte_carlo": {"value": f * res.gradient[s][p], "std_error": f * res.std_error[s][p]},
-                "theory": {n: (f * t["gradients"][i][j] if "gradients" in t else None) for n, t in theory.items()},
+                "theory": {
+                    n: (f * t["gradients"][i][j] if "gradients" in t else None) for n, t in theory.items()
+                },
             }
             for j, p in enumerate(wrt)
         }
@@ -192,6 +210,8 @@ def run(args) -> int:
         for p, e in per.items():
             mc = e["monte_carlo"]
             th = "  ".join(f"{n} {v:+.4g}" for n, v in e["theory"].items() if v is not None)
-            print(f"  d/d{p:<14s} {mc['value']:+.4g} ± {mc['std_error']:.2g} per {parameters[p]['unit']}   {th}")
+            print(
+                f"  d/d{p:<14s} {mc['value']:+.4g} ± {mc['std_error']:.2g} per {parameters[p]['unit']}   {th}"
+            )
     print(f"wrote {out / 'sensitivity.json'}, {out / 'sensitivity.nc'}, {out / 'sensitivity.png'}")
     return 0

@@ -12,9 +12,22 @@ from ._sea import check_positive
 DEFAULT_OUT = Path("jaxroll-out") / "sgisc"
 MESH_UNITS = ("m", "mm", "cm", "dm", "hm", "in", "ft")
 AXES = ("+x", "-x", "+y", "-y", "+z", "-z")
-MESH_SUFFIXES = (".stl", ".gdf", ".csv", ".obj", ".ply", ".off", ".vtk", ".vtu", ".msh", ".mesh", ".medit", ".xdmf",
-                 ".nas", ".bdf")  # hull files read with the mesh options (jaxroll.io.read_hull; jaxroll.io MESH_SUFFIXES)
-
+MESH_SUFFIXES = (
+    ".stl",
+    ".gdf",
+    ".csv",
+    ".obj",
+    ".ply",
+    ".off",
+    ".vtk",
+    ".vtu",
+    ".msh",
+    ".mesh",
+    ".medit",
+    ".xdmf",
+    ".nas",
+    ".bdf",
+)  # hull files read with the mesh options (jaxroll.io.read_hull; jaxroll.io MESH_SUFFIXES)
 
 
 #: Printed with every Level-2 result and written to sgisc.json: the Level-2 standards and rules could not be checked
@@ -25,12 +38,18 @@ LEVEL2_CAUTION = (
     "statutory use. Level 1 is corroborated by an independent implementation."
 )
 
+
 def add_hull_options(p) -> None:
     """The STL/GDF/CSV reading options shared with `jaxroll hydrostatics`."""
     g = p.add_argument_group("hull files in STL, WAMIT GDF or CSV (ignored for TOML hull files)")
     g.add_argument("--lpp", type=float, metavar="M", help="length between perpendiculars L [m, full scale]")
     g.add_argument("--x-ap", type=float, metavar="M", help="x of the AP [m, full scale] (default: aft end)")
-    g.add_argument("--units", choices=MESH_UNITS, default="m", help="length unit of the file (default: m; a GDF: the unit of its GRAV)")
+    g.add_argument(
+        "--units",
+        choices=MESH_UNITS,
+        default="m",
+        help="length unit of the file (default: m; a GDF: the unit of its GRAV)",
+    )
     g.add_argument(
         "--scale", type=float, default=1.0, metavar="S", help="model scale (100 for 1:100; default 1)"
     )
@@ -51,14 +70,20 @@ def add_hull_options(p) -> None:
         help="what --kg is measured from (and KG, KGmax are also reported from): baseline (default), keel, lowest, or "
         "a file z [m, full scale]",
     )  # fmt: skip
-    g.add_argument("--half-hull", action="store_true", help="the file holds one side, open on the centre plane: mirror it")
+    g.add_argument(
+        "--half-hull",
+        action="store_true",
+        help="the file holds one side, open on the centre plane: mirror it",
+    )
     g.add_argument("--fix-normals", action="store_true", help="orient inconsistent triangles consistently")
     g.add_argument(
         "--sliced", action="store_true",
         help="hydrostatics from the sliced stations × waterlines instead of the exact surface (the method of jaxroll "
         "0.1; for comparison)",
     )  # fmt: skip
-    g.add_argument("--stations", type=int, default=61, metavar="N", help="stations sliced from an STL/GDF (61)")
+    g.add_argument(
+        "--stations", type=int, default=61, metavar="N", help="stations sliced from an STL/GDF (61)"
+    )
     g.add_argument(
         "--waterlines", type=int, default=41, metavar="N", help="waterlines sliced from an STL/GDF (41)"
     )
@@ -73,7 +98,9 @@ def _height_reference(text: str):
     except ValueError:
         value = math.nan
     if not math.isfinite(value):
-        raise argparse.ArgumentTypeError(f"give baseline, keel, lowest or a file z [m, full scale]; got {text!r}")
+        raise argparse.ArgumentTypeError(
+            f"give baseline, keel, lowest or a file z [m, full scale]; got {text!r}"
+        )
     return value
 
 
@@ -81,7 +108,10 @@ def heights_above_baseline(hull, args, *, draughts=(), kg=None) -> tuple[list, f
     """The draughts (from `--draught-datum`) and KG (from `--kg-datum`) given on the command line, measured from the
     baseline as jaxroll measures every height (None stays None). A draught at or above the deck, or a KG at or below
     the baseline, is refused with both values."""
-    d_ref, k_ref = getattr(args, "draught_datum", None) or "baseline", getattr(args, "kg_datum", None) or "baseline"
+    d_ref, k_ref = (
+        getattr(args, "draught_datum", None) or "baseline",
+        getattr(args, "kg_datum", None) or "baseline",
+    )
     datum = hull.datum
     if datum is None:
         if (d_ref, k_ref) != ("baseline", "baseline"):
@@ -117,7 +147,11 @@ def heights_above_baseline(hull, args, *, draughts=(), kg=None) -> tuple[list, f
 def datum_lines(hull, args) -> list[str]:
     """What the command line's draughts and KG were measured from, for the printed summary (none where both are the
     baseline)."""
-    refs = [(what, ref) for what, ref in (("draughts", args.draught_datum), ("KG", args.kg_datum)) if ref not in (None, "baseline")]
+    refs = [
+        (what, ref)
+        for what, ref in (("draughts", args.draught_datum), ("KG", args.kg_datum))
+        if ref not in (None, "baseline")
+    ]
     if hull.datum is None or not refs:
         return []
     z0 = hull.datum.baseline_file_z
@@ -217,10 +251,14 @@ def datum_record(hull, args) -> dict | None:
         ref = ref or "baseline"
         z = hull.datum.file_z(ref)
         refs[key] = {"option": ref, "file_z_m": z, "above_baseline_m": z - hull.datum.baseline_file_z}
-    return {**hull.datum.as_dict(), "baseline_z_option": args.baseline_z, **refs,
-            "note": "draughts, KG and every height in the outputs are measured from the baseline (z = 0 of jaxroll's "
-            "frame); the command line's draughts and KG were given from draught_datum and kg_datum (add "
-            "above_baseline_m to measure them from the baseline)"}
+    return {
+        **hull.datum.as_dict(),
+        "baseline_z_option": args.baseline_z,
+        **refs,
+        "note": "draughts, KG and every height in the outputs are measured from the baseline (z = 0 of jaxroll's "
+        "frame); the command line's draughts and KG were given from draught_datum and kg_datum (add "
+        "above_baseline_m to measure them from the baseline)",
+    }
 
 
 def register(subparsers) -> None:
@@ -293,8 +331,16 @@ def register(subparsers) -> None:
 
 
 def _check_options(args) -> None:
-    check_positive(args, "kg", "draught", "displacement", "water_density", "roll_period", "roll_gyradius",
-                   "full_load_draught")
+    check_positive(
+        args,
+        "kg",
+        "draught",
+        "displacement",
+        "water_density",
+        "roll_period",
+        "roll_gyradius",
+        "full_load_draught",
+    )
     if args.speed_kn is None:
         raise CLIError("--speed-kn is required: the service speed V_S [kn] enters C1 (V_PR) and C2 (K V_S).")
     if not (math.isfinite(args.speed_kn) and args.speed_kn >= 0):

@@ -11,7 +11,9 @@ def register(sub) -> None:
     p = sub.add_parser("ship", help="show ship parameters (default: C11 representative)")
     ssub = p.add_subparsers(dest="ship_command", metavar="ACTION", required=True)
     show = ssub.add_parser("show", help="print the ship's coefficients and where they come from")
-    show.add_argument("--ship", metavar="FILE", default=None, help="ship file (TOML); default: C11 (representative)")
+    show.add_argument(
+        "--ship", metavar="FILE", default=None, help="ship file (TOML); default: C11 (representative)"
+    )
     show.add_argument("--json", action="store_true", help="print JSON instead of the ship file (TOML)")
     show.set_defaults(func=run_show)
 

@@ -417,6 +417,7 @@ def run(args) -> int:
             save_figure(sweep_polar_figure(payload), tmp / "sweep_polar.png")
         write_json(tmp / "sweep.json", payload)
         write_netcdf(tmp / "sweep.nc", "sweep", payload, result.to_xarray())
+
     def where(p):
         return f"{heading_phrase(p['heading_deg'])}, U {p['speed_m_s']:g} m/s, H1/3 {p['hs_m']:g} m, T01 {p['t01_s']:g} s"
 
@@ -425,10 +426,15 @@ def run(args) -> int:
     if w["n_capsized"]:
         capsize = f"largest P(capsize) {w['capsize_probability']:.3f} in {where(w)}"
     else:  # no capsize anywhere: the bound the trials give, not the first grid point's zero
-        capsize = (f"no capsize at any of the {len(points)} points (P(capsize) < {w['capsize_ci'][1]:.3g} at each, "
-                   "95 %)")
-    exceed = (f"largest P(max |φ| > {args.angle:g}°) {e['exceedance_probability']:.3f} in {where(e)}"
-              if e["n_exceeded"] else f"no trial beyond {args.angle:g}° at any point")
+        capsize = (
+            f"no capsize at any of the {len(points)} points (P(capsize) < {w['capsize_ci'][1]:.3g} at each, "
+            "95 %)"
+        )
+    exceed = (
+        f"largest P(max |φ| > {args.angle:g}°) {e['exceedance_probability']:.3f} in {where(e)}"
+        if e["n_exceeded"]
+        else f"no trial beyond {args.angle:g}° at any point"
+    )
     print(f"done in {elapsed:.1f} s: {capsize}; {exceed}")
     polar_note = f", {out / 'sweep_polar.png'}" if polar else ""
     print(f"wrote {out / 'sweep.png'}{polar_note}, {out / 'sweep.json'}, {out / 'sweep.nc'}")

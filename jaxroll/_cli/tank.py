@@ -218,9 +218,16 @@ def run(args) -> int:
                         )
                         name = f"captive_H{hs:g}_T{t01:g}_heel{heel:02g}_r{k + 1:02d}.csv"
                         files["captive"].append(
-                        str(final / _write(rec, out / "captive" / name, args.gzip, args.compact).relative_to(out))
-                    )
-                say(f"captive: H1/3 {hs:g} m, T01 {t01:g} s: {len(heels)} heels × {args.captive_realizations}")
+                            str(
+                                final
+                                / _write(rec, out / "captive" / name, args.gzip, args.compact).relative_to(
+                                    out
+                                )
+                            )
+                        )
+                say(
+                    f"captive: H1/3 {hs:g} m, T01 {t01:g} s: {len(heels)} heels × {args.captive_realizations}"
+                )
         if "roll" in tests:
             for i, (hs, t01) in enumerate(roll_seas):
                 lost = 0
@@ -241,7 +248,9 @@ def run(args) -> int:
                     lost += n_cap
                     name = f"roll_H{hs:g}_T{t01:g}_r{k + 1:02d}.csv"
                     files["roll"].append(
-                        str(final / _write(rec, out / "roll" / name, args.gzip, args.compact).relative_to(out))
+                        str(
+                            final / _write(rec, out / "roll" / name, args.gzip, args.compact).relative_to(out)
+                        )
                     )
                 capsized_attempts[f"{hs:g},{t01:g}"] = lost
                 say(

@@ -39,7 +39,9 @@ def run(args) -> int:
 
     # Check every option before the filter fit and the theories' compilation.
     named = args.theory is not None  # named theories must all have a law; of the default set, those that have
-    names = parse_theories(args.theory) if named else list(THEORIES)  # one here are shown, the others left out
+    names = (
+        parse_theories(args.theory) if named else list(THEORIES)
+    )  # one here are shown, the others left out
     if not names:
         raise CLIError("--theory: give at least one of roberts,esam,moment,envelope_fpk.")
     check_sea_options(args)
@@ -48,7 +50,9 @@ def run(args) -> int:
     out = Path(args.out)
     ship = load_ship_arg(args.ship)
     t0 = time.time()
-    inputs = build_theory_inputs(args, ship)  # no time stepping here: the Monte Carlo's dt check does not apply
+    inputs = build_theory_inputs(
+        args, ship
+    )  # no time stepping here: the Monte Carlo's dt check does not apply
 
     @functools.cache
     def bins():  # computed while the filter fit starts (a program to load or compile: the vanishing angle's)
@@ -59,22 +63,31 @@ def run(args) -> int:
 
     theories, left_out = finish() if not named else (finish(), {})
     if not theories:
-        raise CLIError("no theory has a law in this sea state:\n"
-                       + "\n".join(f"  {name}: {reason}" for name, reason in left_out.items()))
-    payload = {"config": {**sea_config(args, ship), "theory": names}, "bins_deg": bins(), "theory": theories,
-               "run_time_s": time.time() - t0}
+        raise CLIError(
+            "no theory has a law in this sea state:\n"
+            + "\n".join(f"  {name}: {reason}" for name, reason in left_out.items())
+        )
+    payload = {
+        "config": {**sea_config(args, ship), "theory": names},
+        "bins_deg": bins(),
+        "theory": theories,
+        "run_time_s": time.time() - t0,
+    }
     if left_out:
         payload["theory_left_out"] = left_out
     with OutputFolder(out) as tmp:
         fig_lin, fig_log = amplitude_pdf_figures(
-            payload, title=f"{ship.name}: H1/3 = {args.hs:g} m, T01 = {args.t01:g} s (theory)")
+            payload, title=f"{ship.name}: H1/3 = {args.hs:g} m, T01 = {args.t01:g} s (theory)"
+        )
         save_figure(fig_lin, tmp / "theory_linear.png")
         save_figure(fig_log, tmp / "theory_log.png")
         write_json(tmp / "theory.json", payload)
         write_netcdf(tmp / "theory.nc", "theory", payload)
     for name, t in theories.items():
-        print(f"{name:>12}: mean {t['mean_amplitude_deg']:.2f}°, 99 % {t['quantiles_deg']['99']:.2f}° "
-              f"({t['time_s']:.2f} s{closure_note(t)})")
+        print(
+            f"{name:>12}: mean {t['mean_amplitude_deg']:.2f}°, 99 % {t['quantiles_deg']['99']:.2f}° "
+            f"({t['time_s']:.2f} s{closure_note(t)})"
+        )
     for name, reason in left_out.items():
         print(f"{name:>12}: left out, no law here: {reason}")
     print(f"wrote {out}/theory_linear.png, theory_log.png, theory.json, theory.nc")

@@ -15,16 +15,32 @@ PERCENTILE = {"percentile": ("percent", "quantile level (the JSON keys 50, 90, 9
 # The ship's coefficients (ship_to_dict, the ship file's tables)
 # --------------------------------------------------------------------------------------------------------------
 
-SHIP = Layout(units={
-    "*restoring_a3": "s-2 rad-2", "*restoring_a5": "s-2 rad-4", "*restoring_a7": "s-2 rad-6",
-    "*restoring_a9": "s-2 rad-8", "*damping_b1": "s-1", "*damping_b2": "rad-1", "*damping_b3": "s rad-2",
-    "*delta_gm_c0": "m", "*delta_gm_c1": "1", "*delta_gm_c2": "m-1", "*delta_gm_c3": "m-2", "*delta_gm_c4": "m-3",
-    "*delta_gm_c5": "m-4", "*delta_gm_c6": "m-5", "*correction_gm_ratio": "1",
-}, long_names={
-    "*restoring_a3": "restoring coefficient a3 (a1 = ω0²)", "*damping_b1": "linear roll damping b1",
-    "*damping_b2": "quadratic roll damping b2", "*damping_b3": "cubic roll damping b3",
-    "*correction_gm_ratio": "GM-variation correction σ_obs/σ_thr",
-})
+SHIP = Layout(
+    units={
+        "*restoring_a3": "s-2 rad-2",
+        "*restoring_a5": "s-2 rad-4",
+        "*restoring_a7": "s-2 rad-6",
+        "*restoring_a9": "s-2 rad-8",
+        "*damping_b1": "s-1",
+        "*damping_b2": "rad-1",
+        "*damping_b3": "s rad-2",
+        "*delta_gm_c0": "m",
+        "*delta_gm_c1": "1",
+        "*delta_gm_c2": "m-1",
+        "*delta_gm_c3": "m-2",
+        "*delta_gm_c4": "m-3",
+        "*delta_gm_c5": "m-4",
+        "*delta_gm_c6": "m-5",
+        "*correction_gm_ratio": "1",
+    },
+    long_names={
+        "*restoring_a3": "restoring coefficient a3 (a1 = ω0²)",
+        "*damping_b1": "linear roll damping b1",
+        "*damping_b2": "quadratic roll damping b2",
+        "*damping_b3": "cubic roll damping b3",
+        "*correction_gm_ratio": "GM-variation correction σ_obs/σ_thr",
+    },
+)
 
 # --------------------------------------------------------------------------------------------------------------
 # Monte Carlo amplitude statistics (AmplitudeStatistics.summary: pdf.json's top level)
@@ -33,12 +49,27 @@ SHIP = Layout(units={
 STATIONARITY_UNITS = {"*change_in_standard_errors": "1", "*mass_beyond_grid": "1"}
 
 AMPLITUDES = Layout(
-    labels={"n_amplitudes": "estimator", "mean_amplitude_deg": "estimator", "quantiles_deg": "estimator",
-            "quantiles_deg/*": "percentile", "mass_beyond_grid": "estimator", "amplitude_sampling": "estimator"},
-    arrays={"bins_deg": ("bins_deg",), "pdf_zero_crossing": ("amplitude_deg",), "pdf_envelope": ("amplitude_deg",)},
+    labels={
+        "n_amplitudes": "estimator",
+        "mean_amplitude_deg": "estimator",
+        "quantiles_deg": "estimator",
+        "quantiles_deg/*": "percentile",
+        "mass_beyond_grid": "estimator",
+        "amplitude_sampling": "estimator",
+    },
+    arrays={
+        "bins_deg": ("bins_deg",),
+        "pdf_zero_crossing": ("amplitude_deg",),
+        "pdf_envelope": ("amplitude_deg",),
+    },
     centres={"amplitude_deg": "bins_deg"},
-    units={"pdf_zero_crossing": "degree-1", "pdf_envelope": "degree-1", "roll_moments_E_phi2": "rad2",
-           "roll_moments_E_phi4": "rad4", **STATIONARITY_UNITS},
+    units={
+        "pdf_zero_crossing": "degree-1",
+        "pdf_envelope": "degree-1",
+        "roll_moments_E_phi2": "rad2",
+        "roll_moments_E_phi4": "rad4",
+        **STATIONARITY_UNITS,
+    },
     long_names={"bins_deg": "bin edges of the amplitude PDFs"},
     coords={**PERCENTILE, "bins_deg": ("degree", "bin edges of the amplitude PDFs")},
 )
@@ -48,21 +79,42 @@ AMPLITUDES = Layout(
 # --------------------------------------------------------------------------------------------------------------
 
 THEORY_UNITS = {
-    "*parameters_nu": "1", "*parameters_c2": "rad-1", "*parameters_c3": "rad-2", "*parameters_K": "s-1",
-    "*parameters_K_at_top": "s-1", "*parameters_b1": "s-1", "*parameters_omega": "rad s-1",
-    "*parameters_omega_at_top": "rad s-1", "*parameters_lyapunov_exponent": "s-1",
-    "*parameters_mean_stiffness_shift": "s-2", "*parameters_S_P_at_2omega": "s-3",
-    "*parameters_mass_beyond_vanishing_angle": "1", "*parameters_period_at_top": "s",
-    "*parameters_mass_top_cell": "1", "*parameters_envelope_gamma": "s-1", "*parameters_envelope_shift": "rad s-1",
-    "*parameters_envelope_variance": "1", "*parameters_sigma_zeta": "m",
-    "*_nu": "1", "*fit_residual": "1", "*closure_order": "1", "*filter_order": "1", "*closure_fallback": "1",
-    "*grid_rho_max": "1", "*grid_a_fine": "rad", "*grid_a_min": "rad", "*mass_beyond_grid": "1",
+    "*parameters_nu": "1",
+    "*parameters_c2": "rad-1",
+    "*parameters_c3": "rad-2",
+    "*parameters_K": "s-1",
+    "*parameters_K_at_top": "s-1",
+    "*parameters_b1": "s-1",
+    "*parameters_omega": "rad s-1",
+    "*parameters_omega_at_top": "rad s-1",
+    "*parameters_lyapunov_exponent": "s-1",
+    "*parameters_mean_stiffness_shift": "s-2",
+    "*parameters_S_P_at_2omega": "s-3",
+    "*parameters_mass_beyond_vanishing_angle": "1",
+    "*parameters_period_at_top": "s",
+    "*parameters_mass_top_cell": "1",
+    "*parameters_envelope_gamma": "s-1",
+    "*parameters_envelope_shift": "rad s-1",
+    "*parameters_envelope_variance": "1",
+    "*parameters_sigma_zeta": "m",
+    "*_nu": "1",
+    "*fit_residual": "1",
+    "*closure_order": "1",
+    "*filter_order": "1",
+    "*closure_fallback": "1",
+    "*grid_rho_max": "1",
+    "*grid_a_fine": "rad",
+    "*grid_a_min": "rad",
+    "*mass_beyond_grid": "1",
 }
 THEORY_LONG_NAMES = {
-    "*parameters_K": "Roberts' excitation intensity K = (π/8) S_P(2ω)/ω²", "*parameters_nu": "exponent ν = 1 − b1/K",
-    "*parameters_lyapunov_exponent": "growth rate of ln A at small amplitude", "*_nu": "fitted family's ν",
+    "*parameters_K": "Roberts' excitation intensity K = (π/8) S_P(2ω)/ω²",
+    "*parameters_nu": "exponent ν = 1 − b1/K",
+    "*parameters_lyapunov_exponent": "growth rate of ln A at small amplitude",
+    "*_nu": "fitted family's ν",
     "*parameters_S_P_at_2omega": "one-sided spectrum of the parametric term at 2ω",
-    "*closure_order": "cumulant-closure order used", "*requested_closure_order": "cumulant-closure order asked for",
+    "*closure_order": "cumulant-closure order used",
+    "*requested_closure_order": "cumulant-closure order asked for",
 }
 
 THEORY_SUMMARY = Layout(
@@ -74,13 +126,20 @@ THEORY_SUMMARY = Layout(
     text=("theory_left_out",),
 )
 
-FILTER_FIT = Layout(units={"filter_fit_order": "1"},
-                    long_names={"filter_fit_order": "order of the shaping filter (Method 2)"})
+FILTER_FIT = Layout(
+    units={"filter_fit_order": "1"}, long_names={"filter_fit_order": "order of the shaping filter (Method 2)"}
+)
 
 PDF = AMPLITUDES + THEORY_SUMMARY + FILTER_FIT
 
-THEORY = Layout(arrays={"bins_deg": ("bins_deg",)}, centres={"amplitude_deg": "bins_deg"},
-                coords={"bins_deg": ("degree", "bin edges of the amplitude PDFs")}) + THEORY_SUMMARY
+THEORY = (
+    Layout(
+        arrays={"bins_deg": ("bins_deg",)},
+        centres={"amplitude_deg": "bins_deg"},
+        coords={"bins_deg": ("degree", "bin edges of the amplitude PDFs")},
+    )
+    + THEORY_SUMMARY
+)
 
 # --------------------------------------------------------------------------------------------------------------
 # Maxima (MaximaStatistics.summary per N0, and maxima.json)
@@ -90,35 +149,65 @@ MAXIMA_SUMMARY = Layout(
     labels={"per_n0": "(n0)", "per_n0/*/quantiles_deg": "percentile", "per_n0/*/p_exceed": "threshold_deg"},
     arrays={"bins_deg": ("bins_deg",), "per_n0/*/histogram_pdf_per_deg": ("maximum_deg",)},
     centres={"maximum_deg": "bins_deg"},
-    units={"mean_deg_given_no_capsize": "degree", "beyond_bins": "1", "n_trials": "1", "histogram_mass": "1",
-           "p_exceed": "1"},
+    units={
+        "mean_deg_given_no_capsize": "degree",
+        "beyond_bins": "1",
+        "n_trials": "1",
+        "histogram_mass": "1",
+        "p_exceed": "1",
+    },
     long_names={
         "mean_deg": "mean of the maximum of the first N0 amplitudes (NaN: infinite, trials capsized)",
         "mean_deg_given_no_capsize": "mean of the maximum over the trials that did not capsize before N0",
         "histogram_pdf_per_deg": "PDF of the maximum of the first N0 amplitudes per degree (defective: integrates "
-                                 "to 1 − capsize_probability)",
+        "to 1 − capsize_probability)",
         "p_exceed": "Monte Carlo P(maximum of the first N0 amplitudes > threshold, or a capsize before them)",
-        "n_trials": "number of trials run for this N0", "n_known": "trials whose maximum is known (or capsized)",
-        "n_valid": "trials with a finite maximum", "n_capsized_before": "trials that capsized before N0 amplitudes",
+        "n_trials": "number of trials run for this N0",
+        "n_known": "trials whose maximum is known (or capsized)",
+        "n_valid": "trials with a finite maximum",
+        "n_capsized_before": "trials that capsized before N0 amplitudes",
         "n_incomplete": "trials that neither capsized nor reached N0 amplitudes",
-        "beyond_bins": "maxima beyond the last bin edge", "histogram_mass": "integral of the histogram PDF",
+        "beyond_bins": "maxima beyond the last bin edge",
+        "histogram_mass": "integral of the histogram PDF",
     },
     coords={**PERCENTILE, "threshold_deg": ("degree", "exceedance threshold"), "n0": ("1", "N0")},
 )
 
 MAXIMA = MAXIMA_SUMMARY + Layout(
-    labels={"per_n0/*/curves": "source", "per_n0/*/p_star": "source", "per_n0/*/p_star/*/p_exceed": "threshold_deg",
-            "theory_details": "theory"},
-    arrays={"grid_deg": ("grid_deg",), "per_n0/*/curves/*/exact": ("grid_deg",),
-            "per_n0/*/curves/*/asymptotic": ("grid_deg",)},
-    units={"curves_exact": "degree-1", "curves_asymptotic": "degree-1", "p_star_mass_on_grid": "1",
-           "p_star_p_exceed": "1", **STATIONARITY_UNITS, **THEORY_UNITS},
-    long_names={"curves_exact": "P*(A_M): PDF of the maximum of N0 independent amplitudes, per degree",
-                "curves_asymptotic": "asymptotic P*(A_M) per degree", "p_star_mode_deg": "mode of P*(A_M)",
-                "p_star_mean_deg": "mean of P*(A_M) (NaN: mass beyond the grid)",
-                "p_star_p_exceed": "P*(A_M > threshold)", **THEORY_LONG_NAMES},
-    coords={"grid_deg": ("degree", "amplitude grid of the P* curves"),
-            "source": (None, "amplitude law behind P* (mcs_amplitudes: the Monte Carlo's zero-crossing histogram)")},
+    labels={
+        "per_n0/*/curves": "source",
+        "per_n0/*/p_star": "source",
+        "per_n0/*/p_star/*/p_exceed": "threshold_deg",
+        "theory_details": "theory",
+    },
+    arrays={
+        "grid_deg": ("grid_deg",),
+        "per_n0/*/curves/*/exact": ("grid_deg",),
+        "per_n0/*/curves/*/asymptotic": ("grid_deg",),
+    },
+    units={
+        "curves_exact": "degree-1",
+        "curves_asymptotic": "degree-1",
+        "p_star_mass_on_grid": "1",
+        "p_star_p_exceed": "1",
+        **STATIONARITY_UNITS,
+        **THEORY_UNITS,
+    },
+    long_names={
+        "curves_exact": "P*(A_M): PDF of the maximum of N0 independent amplitudes, per degree",
+        "curves_asymptotic": "asymptotic P*(A_M) per degree",
+        "p_star_mode_deg": "mode of P*(A_M)",
+        "p_star_mean_deg": "mean of P*(A_M) (NaN: mass beyond the grid)",
+        "p_star_p_exceed": "P*(A_M > threshold)",
+        **THEORY_LONG_NAMES,
+    },
+    coords={
+        "grid_deg": ("degree", "amplitude grid of the P* curves"),
+        "source": (
+            None,
+            "amplitude law behind P* (mcs_amplitudes: the Monte Carlo's zero-crossing histogram)",
+        ),
+    },
     text=("runs", "theory_amplitude_laws"),
 )
 
@@ -126,14 +215,21 @@ MAXIMA = MAXIMA_SUMMARY + Layout(
 # Risk (ExposureRisk, MaxRollStatistics; risk.json)
 # --------------------------------------------------------------------------------------------------------------
 
-EXPOSURE_UNITS = {"*exceedance_per_cycle": "1", "*exceedance_per_cycle_ci95": "1", "*probability_poisson": "1", "*n_cycles": "1",
-                  "*confidence": "1"}
+EXPOSURE_UNITS = {
+    "*exceedance_per_cycle": "1",
+    "*exceedance_per_cycle_ci95": "1",
+    "*probability_poisson": "1",
+    "*n_cycles": "1",
+    "*confidence": "1",
+}
 EXPOSURE_LONG_NAMES = {
     "*n_cycles": "number of amplitudes in the exposure (rate × duration)",
     "*exceedance_per_cycle": "probability that one amplitude exceeds the angle",
-    **{f"{source}_probability": "P(at least one amplitude beyond the angle within the exposure): independent "
-       f"amplitudes of the {'Monte Carlo' if source == 'monte_carlo' else source + ' law'}"
-       for source in ("monte_carlo", "roberts", "esam", "moment", "envelope_fpk")},
+    **{
+        f"{source}_probability": "P(at least one amplitude beyond the angle within the exposure): independent "
+        f"amplitudes of the {'Monte Carlo' if source == 'monte_carlo' else source + ' law'}"
+        for source in ("monte_carlo", "roberts", "esam", "moment", "envelope_fpk")
+    },
     "direct_probability": "P(max |φ| > angle within the exposure, or a capsize): trials of the exposure's length",
     "*probability_poisson": "Poisson approximation of that probability",
     "*most_probable_largest_deg": "mode of the largest amplitude in the exposure",
@@ -141,22 +237,31 @@ EXPOSURE_LONG_NAMES = {
     "*expected_largest_deg": "expected largest amplitude in the exposure",
 }
 
-MAX_ROLL = Layout(labels={"largest_roll_quantiles_deg": "percentile"}, coords=PERCENTILE, long_names={
-    "probability": "P(max |φ| > angle within the duration, or a capsize) per trial",
-    "largest_roll_quantiles_deg": "quantiles of the largest |φ| per trial (NaN: among capsizes)"})
+MAX_ROLL = Layout(
+    labels={"largest_roll_quantiles_deg": "percentile"},
+    coords=PERCENTILE,
+    long_names={
+        "probability": "P(max |φ| > angle within the duration, or a capsize) per trial",
+        "largest_roll_quantiles_deg": "quantiles of the largest |φ| per trial (NaN: among capsizes)",
+    },
+)
 
 EXPOSURE = Layout(units=EXPOSURE_UNITS, long_names=EXPOSURE_LONG_NAMES)
 
 _STAGE = ("splitting_stage",)
 FIRST_PASSAGE_UNITS = {
-    "first_passage_capsize_probability": "1", "first_passage_clusters_per_hour": "h-1",
-    "first_passage_amplitudes_per_cluster": "1", "first_passage_extremal_index": "1",
-    "first_passage_start_exceedance": "1", "first_passage_independent_probability": "1",
-    "first_passage_lyapunov_exponent_per_s": "s-1", "first_passage_exists": "1",
+    "first_passage_capsize_probability": "1",
+    "first_passage_clusters_per_hour": "h-1",
+    "first_passage_amplitudes_per_cluster": "1",
+    "first_passage_extremal_index": "1",
+    "first_passage_start_exceedance": "1",
+    "first_passage_independent_probability": "1",
+    "first_passage_lyapunov_exponent_per_s": "s-1",
+    "first_passage_exists": "1",
 }
 FIRST_PASSAGE_LONG_NAMES = {
     "first_passage_probability": "P(max |φ| > angle within the exposure): the envelope FPK model followed through "
-                                 "the exposure (large rolls in groups)",
+    "the exposure (large rolls in groups)",
     "first_passage_capsize_probability": "P(capsize within the exposure) of the envelope FPK model",
     "first_passage_clusters_per_hour": "groups of large rolls (first passages once the start is forgotten) per hour",
     "first_passage_amplitudes_per_cluster": "mean number of amplitudes above the angle per group (1/θ)",
@@ -168,10 +273,16 @@ FIRST_PASSAGE_LONG_NAMES = {
     "first_passage_exists": "sustained parametric roll (Lyapunov exponent > 0; 1: yes)",
 }
 SPLITTING_UNITS = {
-    "splitting_standard_error": "1", "splitting_capsize_standard_error": "1", "splitting_relative_error": "1",
-    "splitting_relative_variance_independent": "1", "splitting_conditional_probabilities": "1",
-    "splitting_simulated_seconds": "s", "splitting_pilot_simulated_seconds": "s", "splitting_lane_seconds": "s",
-    "splitting_total_simulated_seconds": "s", "splitting_stage_simulated_seconds": "s",
+    "splitting_standard_error": "1",
+    "splitting_capsize_standard_error": "1",
+    "splitting_relative_error": "1",
+    "splitting_relative_variance_independent": "1",
+    "splitting_conditional_probabilities": "1",
+    "splitting_simulated_seconds": "s",
+    "splitting_pilot_simulated_seconds": "s",
+    "splitting_lane_seconds": "s",
+    "splitting_total_simulated_seconds": "s",
+    "splitting_stage_simulated_seconds": "s",
 }
 SPLITTING_LONG_NAMES = {
     "splitting_probability": "P(max |φ| > angle within the exposure, or a capsize): multilevel splitting",
@@ -185,21 +296,40 @@ SPLITTING_LONG_NAMES = {
 
 RISK = Layout(
     labels={"direct/largest_roll_quantiles_deg": "percentile"},
-    arrays={"curve/*": ("curve_angle_deg",), "splitting/levels_deg": _STAGE,
-            "splitting/conditional_probabilities": _STAGE, "splitting/n_successes": _STAGE,
-            "splitting/stage_simulated_seconds": _STAGE, "splitting/stage_wall_time_s": _STAGE},
+    arrays={
+        "curve/*": ("curve_angle_deg",),
+        "splitting/levels_deg": _STAGE,
+        "splitting/conditional_probabilities": _STAGE,
+        "splitting/n_successes": _STAGE,
+        "splitting/stage_simulated_seconds": _STAGE,
+        "splitting/stage_wall_time_s": _STAGE,
+    },
     names={"curve/angle_deg": "curve_angle_deg"},
-    units={"curve_*": "1", **STATIONARITY_UNITS, **EXPOSURE_UNITS, **THEORY_UNITS, **FIRST_PASSAGE_UNITS,
-           **SPLITTING_UNITS},
-    long_names={"curve_angle_deg": "roll angle x of the risk curve",
-                "curve_direct": "P(max |φ| > x within the exposure): trials of the exposure's length",
-                "curve_monte_carlo": "P(max |φ| > x within the exposure): independent Monte Carlo amplitudes",
-                "direct_largest_roll_quantiles_deg": "quantiles of the largest |φ| per trial (NaN: among capsizes)",
-                "curve_first_passage": "P(max |φ| > x within the exposure): the envelope FPK model followed through "
-                                       "the exposure",
-                **EXPOSURE_LONG_NAMES, **THEORY_LONG_NAMES, **FIRST_PASSAGE_LONG_NAMES, **SPLITTING_LONG_NAMES},
-    coords={**PERCENTILE, "curve_angle_deg": ("degree", "roll angle x of the risk curve"),
-            "splitting_stage": (None, "stage of the splitting estimate")},
+    units={
+        "curve_*": "1",
+        **STATIONARITY_UNITS,
+        **EXPOSURE_UNITS,
+        **THEORY_UNITS,
+        **FIRST_PASSAGE_UNITS,
+        **SPLITTING_UNITS,
+    },
+    long_names={
+        "curve_angle_deg": "roll angle x of the risk curve",
+        "curve_direct": "P(max |φ| > x within the exposure): trials of the exposure's length",
+        "curve_monte_carlo": "P(max |φ| > x within the exposure): independent Monte Carlo amplitudes",
+        "direct_largest_roll_quantiles_deg": "quantiles of the largest |φ| per trial (NaN: among capsizes)",
+        "curve_first_passage": "P(max |φ| > x within the exposure): the envelope FPK model followed through "
+        "the exposure",
+        **EXPOSURE_LONG_NAMES,
+        **THEORY_LONG_NAMES,
+        **FIRST_PASSAGE_LONG_NAMES,
+        **SPLITTING_LONG_NAMES,
+    },
+    coords={
+        **PERCENTILE,
+        "curve_angle_deg": ("degree", "roll angle x of the risk curve"),
+        "splitting_stage": (None, "stage of the splitting estimate"),
+    },
     text=("first_passage/grid", "splitting/config"),
 )
 
@@ -209,17 +339,35 @@ RISK = Layout(
 
 GRID = ("heading", "speed_m_s", "hs_m", "t01_s")
 SWEEP = Layout(
-    arrays={"grid/heading": ("heading",), "grid/speed_m_s": ("speed_m_s",), "grid/hs_m": ("hs_m",),
-            "grid/t01_s": ("t01_s",), "heading_deg": ("heading",), "n_capsized": GRID, "n_exceeded": GRID,
-            "capsize_probability": GRID, "exceedance_probability": GRID, "capsize_ci": (*GRID, "bound"),
-            "exceedance_ci": (*GRID, "bound")},
-    names={"grid/heading": "heading", "grid/speed_m_s": "speed_m_s", "grid/hs_m": "hs_m", "grid/t01_s": "t01_s"},
+    arrays={
+        "grid/heading": ("heading",),
+        "grid/speed_m_s": ("speed_m_s",),
+        "grid/hs_m": ("hs_m",),
+        "grid/t01_s": ("t01_s",),
+        "heading_deg": ("heading",),
+        "n_capsized": GRID,
+        "n_exceeded": GRID,
+        "capsize_probability": GRID,
+        "exceedance_probability": GRID,
+        "capsize_ci": (*GRID, "bound"),
+        "exceedance_ci": (*GRID, "bound"),
+    },
+    names={
+        "grid/heading": "heading",
+        "grid/speed_m_s": "speed_m_s",
+        "grid/hs_m": "hs_m",
+        "grid/t01_s": "t01_s",
+    },
     units={"exceedance_probability": "1", "exceedance_ci": "1", "capsize_ci": "1"},
-    long_names={"heading_deg": "heading χ (0 following, 90 beam, 180 head)", "speed_m_s": "ship speed",
-                "hs_m": "significant wave height H1/3", "t01_s": "mean wave period T01",
-                "exceedance_probability": "P(max |φ| > angle within the duration, or a capsize) per trial",
-                "exceedance_ci": "Wilson interval of the exceedance probability",
-                "capsize_ci": "Wilson interval of the capsize probability"},
+    long_names={
+        "heading_deg": "heading χ (0 following, 90 beam, 180 head)",
+        "speed_m_s": "ship speed",
+        "hs_m": "significant wave height H1/3",
+        "t01_s": "mean wave period T01",
+        "exceedance_probability": "P(max |φ| > angle within the duration, or a capsize) per trial",
+        "exceedance_ci": "Wilson interval of the exceedance probability",
+        "capsize_ci": "Wilson interval of the capsize probability",
+    },
     coords={"heading": (None, "heading (label)")},
     text=("grid/axes",),
     skip=("points",),
@@ -232,21 +380,55 @@ SWEEP = Layout(
 _DOMINATING = "longterm_dominating_cells"
 LONGTERM = Layout(
     labels={"longterm": "angle", "longterm/*/dominating_cells": "rank", "cells": "cell_method"},
-    arrays={"ci_against_effort/trials": ("effort",), "ci_against_effort/sampling_half_width": ("effort", "angle")},
-    units={"exposure_hours": "h", "exposures_per_year": "year-1", "longterm_per_year_rate": "year-1",
-           "longterm_per_year_rate_ci95": "year-1", "left_out_weight": "1", "cells": "1",
-           "ci_against_effort_trials": "1", "ci_against_effort_sampling_half_width": "1",
-           **{f"{_DOMINATING}_{k}": "1" for k in ("weight", "probability", "probability_ci95", "contribution",
-                                                  "share", "theory_probability", "realizations", "seed")},
-           **{f"longterm_{k}": "1" for k in ("probability", "probability_ci95", "sampling_sd", "model_below",
-                                             "model_above", "per_year_probability", "per_year_probability_ci95",
-                                             "capsize_probability", "capsize_probability_ci95",
-                                             "capsize_per_year")}},
+    arrays={
+        "ci_against_effort/trials": ("effort",),
+        "ci_against_effort/sampling_half_width": ("effort", "angle"),
+    },
+    units={
+        "exposure_hours": "h",
+        "exposures_per_year": "year-1",
+        "longterm_per_year_rate": "year-1",
+        "longterm_per_year_rate_ci95": "year-1",
+        "left_out_weight": "1",
+        "cells": "1",
+        "ci_against_effort_trials": "1",
+        "ci_against_effort_sampling_half_width": "1",
+        **{
+            f"{_DOMINATING}_{k}": "1"
+            for k in (
+                "weight",
+                "probability",
+                "probability_ci95",
+                "contribution",
+                "share",
+                "theory_probability",
+                "realizations",
+                "seed",
+            )
+        },
+        **{
+            f"longterm_{k}": "1"
+            for k in (
+                "probability",
+                "probability_ci95",
+                "sampling_sd",
+                "model_below",
+                "model_above",
+                "per_year_probability",
+                "per_year_probability_ci95",
+                "capsize_probability",
+                "capsize_probability_ci95",
+                "capsize_per_year",
+            )
+        },
+    },
     long_names={
-        "exposure_hours": "exposure of every cell", "exposures_per_year": "exposures per year N_y",
+        "exposure_hours": "exposure of every cell",
+        "exposures_per_year": "exposures per year N_y",
         "longterm_probability": "P(max |roll| > angle within one exposure), the cells' weighted mean",
         "longterm_probability_ci95": "95 % interval of the long-term probability (sampling and model allowance)",
-        "longterm_sampling_sd": "(Σ w² Var P)^1/2", "longterm_model_below": "model allowance below",
+        "longterm_sampling_sd": "(Σ w² Var P)^1/2",
+        "longterm_model_below": "model allowance below",
         "longterm_model_above": "model allowance above",
         "longterm_per_year_probability": "P(at least one exceedance in a year) = 1 − Π (1 − P)^(w N_y)",
         "longterm_per_year_probability_ci95": "95 % interval of the per-year probability",
@@ -256,12 +438,16 @@ LONGTERM = Layout(
         "longterm_capsize_probability_ci95": "95 % interval of the long-term capsize probability",
         "longterm_capsize_per_year": "P(at least one capsize in a year)",
         "left_out_weight": "weight of the cells left out (a bound on their contribution)",
-        "cells": "number of cells by method", "ci_against_effort_trials": "Monte Carlo trials at each effort",
+        "cells": "number of cells by method",
+        "ci_against_effort_trials": "Monte Carlo trials at each effort",
         "ci_against_effort_sampling_half_width": "half width of the sampling interval at each effort",
         f"{_DOMINATING}_*": "the cells with the largest contributions w·P, largest first (rank 0)",
     },
-    coords={"angle": ("degree", "roll angle"), "rank": ("1", "rank of the cell by contribution"),
-            "cell_method": (None, "how a cell's probability was obtained")},
+    coords={
+        "angle": ("degree", "roll angle"),
+        "rank": ("1", "rank of the cell by contribution"),
+        "cell_method": (None, "how a cell's probability was obtained"),
+    },
 )
 
 # --------------------------------------------------------------------------------------------------------------
@@ -271,23 +457,39 @@ LONGTERM = Layout(
 _MIXED_STAT = "mixed: each statistic in its own unit (degree2, degree or 1, the statistic's name says)"
 _MIXED_GRAD = "mixed: the statistic's unit (its name says) per unit of the parameter (parameters_unit)"
 SENSITIVITY = Layout(
-    labels={"parameters": "parameter", "values": "statistic", "values/*/theory": "theory",
-            "gradients": "statistic", "gradients/*": "parameter", "gradients/*/*/theory": "theory",
-            "theory_details": "theory", "estimator/fd_step": "parameter"},
+    labels={
+        "parameters": "parameter",
+        "values": "statistic",
+        "values/*/theory": "theory",
+        "gradients": "statistic",
+        "gradients/*": "parameter",
+        "gradients/*/*/theory": "theory",
+        "theory_details": "theory",
+        "estimator/fd_step": "parameter",
+    },
     arrays={"estimator/burn_in_s": ("burn_in",)},
     names={"units": "units_note"},
-    units={"parameters_value": "mixed: the parameter's own unit (parameters_unit)",
-           "parameters_step": "mixed: the parameter's own unit (parameters_unit)",
-           "values_*": _MIXED_STAT, "gradients_*": _MIXED_GRAD, "estimator_memory_ratio": "1",
-           "estimator_extrapolation_factor": "1", "estimator_extrapolated": "1", "theory_time_s": "s",
-           "estimator_fd_step": "mixed: the parameter's own unit (parameters_unit)"},
-    long_names={"values_monte_carlo_value": "Monte Carlo value of the statistic",
-                "values_monte_carlo_std_error": "its standard error",
-                "values_theory": "the theory's value of the statistic",
-                "gradients_monte_carlo_value": "Monte Carlo derivative d(statistic)/d(parameter)",
-                "gradients_monte_carlo_std_error": "its standard error",
-                "gradients_theory": "the theory's derivative d(statistic)/d(parameter)",
-                "parameters_value": "nominal value of the parameter", "parameters_step": "step of the bar chart"},
+    units={
+        "parameters_value": "mixed: the parameter's own unit (parameters_unit)",
+        "parameters_step": "mixed: the parameter's own unit (parameters_unit)",
+        "values_*": _MIXED_STAT,
+        "gradients_*": _MIXED_GRAD,
+        "estimator_memory_ratio": "1",
+        "estimator_extrapolation_factor": "1",
+        "estimator_extrapolated": "1",
+        "theory_time_s": "s",
+        "estimator_fd_step": "mixed: the parameter's own unit (parameters_unit)",
+    },
+    long_names={
+        "values_monte_carlo_value": "Monte Carlo value of the statistic",
+        "values_monte_carlo_std_error": "its standard error",
+        "values_theory": "the theory's value of the statistic",
+        "gradients_monte_carlo_value": "Monte Carlo derivative d(statistic)/d(parameter)",
+        "gradients_monte_carlo_std_error": "its standard error",
+        "gradients_theory": "the theory's derivative d(statistic)/d(parameter)",
+        "parameters_value": "nominal value of the parameter",
+        "parameters_step": "step of the bar chart",
+    },
     coords={"statistic": (None, "statistic (its unit in its name)"), "parameter": (None, "parameter")},
 )
 
@@ -296,92 +498,184 @@ SENSITIVITY = Layout(
 # --------------------------------------------------------------------------------------------------------------
 
 _PARTICULARS = {
-    "displacement_kg": "displacement Δ", "volume_m3": "displaced volume ∇", "draught_m": "draught amidships",
-    "draught_ap_m": "draught at the AP", "draught_fp_m": "draught at the FP", "trim_m": "trim d_FP − d_AP",
-    "lcb_m": "longitudinal centre of buoyancy from the AP", "lcg_m": "longitudinal centre of gravity from the AP",
-    "kb_m": "KB", "bm_m": "transverse BM", "km_m": "transverse KM", "kg_m": "KG",
-    "gm_m": "transverse metacentric height GM", "bm_longitudinal_m": "longitudinal BM",
-    "gm_longitudinal_m": "longitudinal GM", "waterplane_area_m2": "waterplane area",
-    "lcf_m": "longitudinal centre of flotation from the AP", "waterline_breadth_m": "waterline breadth B_WL",
-    "block_coefficient": "block coefficient ∇/(Lpp B_WL d)", "midship_coefficient": "midship coefficient",
-    "prismatic_coefficient": "prismatic coefficient", "waterplane_coefficient": "waterplane coefficient",
+    "displacement_kg": "displacement Δ",
+    "volume_m3": "displaced volume ∇",
+    "draught_m": "draught amidships",
+    "draught_ap_m": "draught at the AP",
+    "draught_fp_m": "draught at the FP",
+    "trim_m": "trim d_FP − d_AP",
+    "lcb_m": "longitudinal centre of buoyancy from the AP",
+    "lcg_m": "longitudinal centre of gravity from the AP",
+    "kb_m": "KB",
+    "bm_m": "transverse BM",
+    "km_m": "transverse KM",
+    "kg_m": "KG",
+    "gm_m": "transverse metacentric height GM",
+    "bm_longitudinal_m": "longitudinal BM",
+    "gm_longitudinal_m": "longitudinal GM",
+    "waterplane_area_m2": "waterplane area",
+    "lcf_m": "longitudinal centre of flotation from the AP",
+    "waterline_breadth_m": "waterline breadth B_WL",
+    "block_coefficient": "block coefficient ∇/(Lpp B_WL d)",
+    "midship_coefficient": "midship coefficient",
+    "prismatic_coefficient": "prismatic coefficient",
+    "waterplane_coefficient": "waterplane coefficient",
 }
 # Particulars.as_dict()'s names, alone (Particulars.to_xarray) and as hydrostatics.json's and sgisc.json's `calm_water`
 PARTICULARS_LONG_NAMES = {**_PARTICULARS, **{f"calm_water_{k}": v for k, v in _PARTICULARS.items()}}
 PARTICULARS = Layout(long_names=PARTICULARS_LONG_NAMES)
 
 HYDRO = ("zeta_mid_m", "heel_deg")
-HYDROSTATICS = SHIP + PARTICULARS + Layout(
-    arrays={"tables/zeta_mid_m": ("zeta_mid_m",), "tables/heel_deg": ("heel_deg",), "tables/gz_m": HYDRO,
-            "tables/sinkage_m": HYDRO, "tables/trim_m": HYDRO, "tables/gz_calm_m": ("heel_deg",),
-            "tables/gm_m": ("zeta_mid_m",), "tables/delta_gm_m": ("zeta_mid_m",),
-            "gz_curves_figure/heel_deg": ("figure_heel_deg",), "gz_curves_figure/zeta_mid_m": ("figure_zeta_mid_m",),
-            "gz_curves_figure/gz_m": ("figure_zeta_mid_m", "figure_heel_deg")},
-    names={"tables/zeta_mid_m": "zeta_mid_m", "tables/heel_deg": "heel_deg", "gz_curves_figure/heel_deg":
-           "figure_heel_deg", "gz_curves_figure/zeta_mid_m": "figure_zeta_mid_m"},
-    units={"fits_gz_coefficients_m_g3": "m rad-3", "fits_gz_coefficients_m_g5": "m rad-5",
-           "fits_gz_coefficients_m_g7": "m rad-7", "fits_gz_coefficients_m_g9": "m rad-9",
-           "balance_check_max_relative_volume_error": "1", "balance_check_all_converged": "1",
-           "fits_restoring_a3": "s-2 rad-2", "fits_restoring_a5": "s-2 rad-4", "fits_restoring_a7": "s-2 rad-6",
-           "fits_restoring_a9": "s-2 rad-8", "fits_delta_gm_coefficients_c0": "m",
-           "fits_delta_gm_coefficients_c1": "1", "fits_delta_gm_coefficients_c2": "m-1",
-           "fits_delta_gm_coefficients_c3": "m-2", "fits_delta_gm_coefficients_c4": "m-3",
-           "fits_delta_gm_coefficients_c5": "m-4", "fits_delta_gm_coefficients_c6": "m-5",
-           "hull_n_stations": "1", "hull_n_waterlines": "1"},
-    long_names={"zeta_mid_m": "wave amplitude at amidships ζ_mid (> 0: trough amidships)", "heel_deg": "heel φ",
-                "tables_gz_m": "GZ in waves of length λ at free sinkage and trim", "tables_sinkage_m": "sinkage",
-                "tables_trim_m": "trim", "tables_gz_calm_m": "GZ in calm water",
-                "tables_gm_m": "upright GM in the wave", "tables_delta_gm_m": "ΔGM(ζ_mid) = GM(ζ_mid) − GM(calm)",
-                "gz_curves_figure_gz_m": "GZ of the figure's curves (calm, crest and trough amidships)",
-                "figure_heel_deg": "heel of the figure's GZ curves",
-                "figure_zeta_mid_m": "ζ_mid of the figure's GZ curves"},
-    coords={"zeta_mid_m": ("m", "wave amplitude at amidships ζ_mid (> 0: trough amidships)"),
-            "heel_deg": ("degree", "heel φ"), "figure_heel_deg": ("degree", "heel of the figure's GZ curves"),
-            "figure_zeta_mid_m": ("m", "ζ_mid of the figure's GZ curves")},
+HYDROSTATICS = (
+    SHIP
+    + PARTICULARS
+    + Layout(
+        arrays={
+            "tables/zeta_mid_m": ("zeta_mid_m",),
+            "tables/heel_deg": ("heel_deg",),
+            "tables/gz_m": HYDRO,
+            "tables/sinkage_m": HYDRO,
+            "tables/trim_m": HYDRO,
+            "tables/gz_calm_m": ("heel_deg",),
+            "tables/gm_m": ("zeta_mid_m",),
+            "tables/delta_gm_m": ("zeta_mid_m",),
+            "gz_curves_figure/heel_deg": ("figure_heel_deg",),
+            "gz_curves_figure/zeta_mid_m": ("figure_zeta_mid_m",),
+            "gz_curves_figure/gz_m": ("figure_zeta_mid_m", "figure_heel_deg"),
+        },
+        names={
+            "tables/zeta_mid_m": "zeta_mid_m",
+            "tables/heel_deg": "heel_deg",
+            "gz_curves_figure/heel_deg": "figure_heel_deg",
+            "gz_curves_figure/zeta_mid_m": "figure_zeta_mid_m",
+        },
+        units={
+            "fits_gz_coefficients_m_g3": "m rad-3",
+            "fits_gz_coefficients_m_g5": "m rad-5",
+            "fits_gz_coefficients_m_g7": "m rad-7",
+            "fits_gz_coefficients_m_g9": "m rad-9",
+            "balance_check_max_relative_volume_error": "1",
+            "balance_check_all_converged": "1",
+            "fits_restoring_a3": "s-2 rad-2",
+            "fits_restoring_a5": "s-2 rad-4",
+            "fits_restoring_a7": "s-2 rad-6",
+            "fits_restoring_a9": "s-2 rad-8",
+            "fits_delta_gm_coefficients_c0": "m",
+            "fits_delta_gm_coefficients_c1": "1",
+            "fits_delta_gm_coefficients_c2": "m-1",
+            "fits_delta_gm_coefficients_c3": "m-2",
+            "fits_delta_gm_coefficients_c4": "m-3",
+            "fits_delta_gm_coefficients_c5": "m-4",
+            "fits_delta_gm_coefficients_c6": "m-5",
+            "hull_n_stations": "1",
+            "hull_n_waterlines": "1",
+        },
+        long_names={
+            "zeta_mid_m": "wave amplitude at amidships ζ_mid (> 0: trough amidships)",
+            "heel_deg": "heel φ",
+            "tables_gz_m": "GZ in waves of length λ at free sinkage and trim",
+            "tables_sinkage_m": "sinkage",
+            "tables_trim_m": "trim",
+            "tables_gz_calm_m": "GZ in calm water",
+            "tables_gm_m": "upright GM in the wave",
+            "tables_delta_gm_m": "ΔGM(ζ_mid) = GM(ζ_mid) − GM(calm)",
+            "gz_curves_figure_gz_m": "GZ of the figure's curves (calm, crest and trough amidships)",
+            "figure_heel_deg": "heel of the figure's GZ curves",
+            "figure_zeta_mid_m": "ζ_mid of the figure's GZ curves",
+        },
+        coords={
+            "zeta_mid_m": ("m", "wave amplitude at amidships ζ_mid (> 0: trough amidships)"),
+            "heel_deg": ("degree", "heel φ"),
+            "figure_heel_deg": ("degree", "heel of the figure's GZ curves"),
+            "figure_zeta_mid_m": ("m", "ζ_mid of the figure's GZ curves"),
+        },
+    )
 )
 
 # --------------------------------------------------------------------------------------------------------------
 # IMO second-generation criteria (ParametricRollAssessment; sgisc.json)
 # --------------------------------------------------------------------------------------------------------------
 
-SGISC = SHIP + PARTICULARS + Layout(
-    labels={"level2_c1/cases": "c1_case", "level2_c2/per_case": "c2_case"},
-    arrays={"level1/gm_waves": ("crest_position",), "damping/amplitudes_deg": ("damping_amplitude",),
-            "damping/b_eq": ("damping_amplitude",), "damping/zeta_eq": ("damping_amplitude",),
-            "damping/b_hat": ("damping_amplitude",), "level2_c2/hs_m": ("c2_hs",), "level2_c2/tz_s": ("c2_tz",),
+SGISC = (
+    SHIP
+    + PARTICULARS
+    + Layout(
+        labels={"level2_c1/cases": "c1_case", "level2_c2/per_case": "c2_case"},
+        arrays={
+            "level1/gm_waves": ("crest_position",),
+            "damping/amplitudes_deg": ("damping_amplitude",),
+            "damping/b_eq": ("damping_amplitude",),
+            "damping/zeta_eq": ("damping_amplitude",),
+            "damping/b_hat": ("damping_amplitude",),
+            "level2_c2/hs_m": ("c2_hs",),
+            "level2_c2/tz_s": ("c2_tz",),
             "level2_c2/effective_wave_height_m": ("c2_hs", "c2_tz"),
             "level2_c2/max_roll_deg": ("c2_case", "c2_hs", "c2_tz"),
-            "level2_c2/roll_versus_speed/*": ("roll_versus_speed",), "kg_max/*": ("kg_max_draught",)},
-    names={"level2_c2/hs_m": "c2_hs_m", "level2_c2/tz_s": "c2_tz_s"},
-    units={"level1_gm": "m", "level1_draught": "m", "level1_draught_high": "m", "level1_draught_low": "m",
-           "level1_reserve_ratio": "1", "level1_delta_gm1_waterplane": "m", "level1_delta_gm1_waves": "m",
-           "level1_gm_waves": "m", "level1_delta_gm1": "m", "level2_c1_c1": "1", "level2_c1_standard": "1",
-           "level2_c1_roll_period": "s", "level2_c1_service_speed": "m s-1", "level2_c1_cases_c": "1",
-           "level2_c1_cases_stable": "1", "level2_c1_cases_resonance_above_service_speed": "1",
-           "damping_b1": "s-1", "damping_b2": "rad-1", "damping_b3": "s rad-2", "damping_fit_rms": "s-1",
-           "damping_b_eq": "s-1", "damping_zeta_eq": "1", "damping_b_hat": "1", "damping_components_at_max_*": "1",
-           "level2_c2_c2": "1", "level2_c2_standard": "1", "level2_c2_per_case_speed_factor": "1",
-           "level2_c2_per_case_c": "1", "kg_max_r_pr": "1"},
-    long_names={"level1_gm_waves": "GM on the wave crest positions (Level 1)",
-                "level2_c2_max_roll_deg": "largest roll per C2 case and sea state (H_s, T_z)",
-                "damping_b_eq": "equivalent linear damping b_eq at each amplitude (simplified Ikeda)"},
-    coords={"c2_hs_m": ("m", "H_s class centre of the scatter table"),
-            "c2_tz_s": ("s", "T_z class centre of the scatter table")},
-    text=("summary",),
+            "level2_c2/roll_versus_speed/*": ("roll_versus_speed",),
+            "kg_max/*": ("kg_max_draught",),
+        },
+        names={"level2_c2/hs_m": "c2_hs_m", "level2_c2/tz_s": "c2_tz_s"},
+        units={
+            "level1_gm": "m",
+            "level1_draught": "m",
+            "level1_draught_high": "m",
+            "level1_draught_low": "m",
+            "level1_reserve_ratio": "1",
+            "level1_delta_gm1_waterplane": "m",
+            "level1_delta_gm1_waves": "m",
+            "level1_gm_waves": "m",
+            "level1_delta_gm1": "m",
+            "level2_c1_c1": "1",
+            "level2_c1_standard": "1",
+            "level2_c1_roll_period": "s",
+            "level2_c1_service_speed": "m s-1",
+            "level2_c1_cases_c": "1",
+            "level2_c1_cases_stable": "1",
+            "level2_c1_cases_resonance_above_service_speed": "1",
+            "damping_b1": "s-1",
+            "damping_b2": "rad-1",
+            "damping_b3": "s rad-2",
+            "damping_fit_rms": "s-1",
+            "damping_b_eq": "s-1",
+            "damping_zeta_eq": "1",
+            "damping_b_hat": "1",
+            "damping_components_at_max_*": "1",
+            "level2_c2_c2": "1",
+            "level2_c2_standard": "1",
+            "level2_c2_per_case_speed_factor": "1",
+            "level2_c2_per_case_c": "1",
+            "kg_max_r_pr": "1",
+        },
+        long_names={
+            "level1_gm_waves": "GM on the wave crest positions (Level 1)",
+            "level2_c2_max_roll_deg": "largest roll per C2 case and sea state (H_s, T_z)",
+            "damping_b_eq": "equivalent linear damping b_eq at each amplitude (simplified Ikeda)",
+        },
+        coords={
+            "c2_hs_m": ("m", "H_s class centre of the scatter table"),
+            "c2_tz_s": ("s", "T_z class centre of the scatter table"),
+        },
+        text=("summary",),
+    )
 )
 
 # --------------------------------------------------------------------------------------------------------------
 # Calibration (DecayFit, CaptiveFit, RollFit, TimeDomainFit; calibration.json)
 # --------------------------------------------------------------------------------------------------------------
 
-_DIAGNOSTICS = {"*diagnostics_condition_number": "1", "*diagnostics_sigma": "residual unit (rad)",
-                "*diagnostics_rss": "residual unit squared (rad2)"}
+_DIAGNOSTICS = {
+    "*diagnostics_condition_number": "1",
+    "*diagnostics_sigma": "residual unit (rad)",
+    "*diagnostics_rss": "residual unit squared (rad2)",
+}
 CALIBRATE_DECAY = SHIP + Layout(
     labels={"estimates": "method"},
     arrays={"estimates/*/damping_covariance": ("parameter", "parameter_2")},
-    units={"estimates_damping_covariance": "products of the parameters' units (b1 s-1, b2 rad-1, b3 s rad-2)",
-           "agreement_z_*": "1",
-           **_DIAGNOSTICS},
+    units={
+        "estimates_damping_covariance": "products of the parameters' units (b1 s-1, b2 rad-1, b3 s rad-2)",
+        "agreement_z_*": "1",
+        **_DIAGNOSTICS,
+    },
     long_names={"estimates_damping_covariance": "covariance of (b1, b2, b3)"},
     coords={"method": (None, "fit (extinction curve or ODE)")},
     index={"parameter": ("b1", "b2", "b3"), "parameter_2": ("b1", "b2", "b3")},
@@ -390,42 +684,76 @@ CALIBRATE_DECAY = SHIP + Layout(
 
 CALIBRATE_CAPTIVE = Layout(
     labels={"estimates/groups": "group"},
-    arrays={"estimates/groups/*/per_record_ratio": ("group_record",),
-            "estimates/polynomial_covariance": ("polynomial_parameter", "polynomial_parameter_2")},
-    units={"estimates_diagnostics_condition_number": "1", "estimates_diagnostics_sigma": "m",
-           "estimates_diagnostics_rss": "m2", "estimates_groups_per_record_ratio": "1",
-           "estimates_polynomial_covariance": "products of the coefficients' units", "written_gm_correction": "1"},
+    arrays={
+        "estimates/groups/*/per_record_ratio": ("group_record",),
+        "estimates/polynomial_covariance": ("polynomial_parameter", "polynomial_parameter_2"),
+    },
+    units={
+        "estimates_diagnostics_condition_number": "1",
+        "estimates_diagnostics_sigma": "m",
+        "estimates_diagnostics_rss": "m2",
+        "estimates_groups_per_record_ratio": "1",
+        "estimates_polynomial_covariance": "products of the coefficients' units",
+        "written_gm_correction": "1",
+    },
     text=("estimates/config",),
 )
 
 CALIBRATE_ROLL_PDF = SHIP + Layout(
     labels={"estimates/sea_states": "sea_state"},
-    arrays={"estimates/covariance": ("parameter", "parameter_2"),
-            "estimates/sea_states/*/bands": ("band_edge",), "estimates/sea_states/*/*_deg": ("estimator_band",)},
-    units={"estimates_covariance": "products of the parameters' units", "estimates_initial_*": "SI unit of the "
-           "parameter (estimates_*_unit)", "estimates_sea_states_bands": "1", "estimates_diagnostics_rss": "1",
-           "estimates_diagnostics_sigma": "1", "estimates_diagnostics_condition_number": "1",
-           "estimates_sea_states_model_capsized_*": "1"},
+    arrays={
+        "estimates/covariance": ("parameter", "parameter_2"),
+        "estimates/sea_states/*/bands": ("band_edge",),
+        "estimates/sea_states/*/*_deg": ("estimator_band",),
+    },
+    units={
+        "estimates_covariance": "products of the parameters' units",
+        "estimates_initial_*": "SI unit of the parameter (estimates_*_unit)",
+        "estimates_sea_states_bands": "1",
+        "estimates_diagnostics_rss": "1",
+        "estimates_diagnostics_sigma": "1",
+        "estimates_diagnostics_condition_number": "1",
+        "estimates_sea_states_model_capsized_*": "1",
+    },
     long_names={"estimates_diagnostics_rss": "sum of squared residuals, each in its own standard errors"},
     text=("estimates/config",),
 )
 
 CALIBRATE_ROLL_TIME_DOMAIN = SHIP + Layout(
     labels={"records": "record"},
-    arrays={"correlation/names": ("parameter",), "correlation/matrix": ("parameter", "parameter_2"),
-            "covariance/names": ("parameter_2",), "covariance/matrix": ("parameter", "parameter_2"),
-            "covariance_model_based": ("parameter", "parameter_2"),
-            "identifiability/names": ("parameter",), "identifiability/correlation": ("parameter", "parameter_2"),
-            "records/*/span_model_s": ("span",)},
-    names={"correlation/names": "parameter", "covariance/names": "parameter_2", "identifiability/names":
-           "identifiability_names"},
-    units={"correlation_matrix": "1", "covariance_matrix": "products of the parameters' units (estimates_*_unit)",
-           "covariance_model_based": "products of the parameters' units (estimates_*_unit)",
-           "identifiability_correlation": "1", "identifiability_variance_inflation_*": "1",
-           "identifiability_relative_se_*": "1", "*condition_number": "1", "windows": "1",
-           "records_extra_nll": "1", "records_extra_normalised_innovation_rms": "1", "records_residual_to_noise": "1",
-           "info_nll": "1", "info_normalised_innovation_rms": "1", "info_rss": "1", "info_sigma": "1",
-           "estimates_*_dof": "1"},
+    arrays={
+        "correlation/names": ("parameter",),
+        "correlation/matrix": ("parameter", "parameter_2"),
+        "covariance/names": ("parameter_2",),
+        "covariance/matrix": ("parameter", "parameter_2"),
+        "covariance_model_based": ("parameter", "parameter_2"),
+        "identifiability/names": ("parameter",),
+        "identifiability/correlation": ("parameter", "parameter_2"),
+        "records/*/span_model_s": ("span",),
+    },
+    names={
+        "correlation/names": "parameter",
+        "covariance/names": "parameter_2",
+        "identifiability/names": "identifiability_names",
+    },
+    units={
+        "correlation_matrix": "1",
+        "covariance_matrix": "products of the parameters' units (estimates_*_unit)",
+        "covariance_model_based": "products of the parameters' units (estimates_*_unit)",
+        "identifiability_correlation": "1",
+        "identifiability_variance_inflation_*": "1",
+        "identifiability_relative_se_*": "1",
+        "*condition_number": "1",
+        "windows": "1",
+        "records_extra_nll": "1",
+        "records_extra_normalised_innovation_rms": "1",
+        "records_residual_to_noise": "1",
+        "info_nll": "1",
+        "info_normalised_innovation_rms": "1",
+        "info_rss": "1",
+        "info_sigma": "1",
+        "estimates_*_dof": "1",
+    },
     skip=("identifiability/names",),
 )
 

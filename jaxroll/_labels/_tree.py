@@ -72,7 +72,9 @@ class Layout:
 
 def _matches(pattern: str, path: tuple[str, ...]) -> bool:
     parts = pattern.split("/")
-    return len(parts) == len(path) and all(fnmatch.fnmatchcase(k, p) for k, p in zip(path, parts, strict=True))
+    return len(parts) == len(path) and all(
+        fnmatch.fnmatchcase(k, p) for k, p in zip(path, parts, strict=True)
+    )
 
 
 def _find(patterns: Mapping[str, Any] | tuple[str, ...], path: tuple[str, ...]):
@@ -149,7 +151,9 @@ class _Builder:
             seen = self.labels.setdefault(dim, {})
             for key, child in keyed:
                 seen.setdefault(str(key), int(key) if dim in self.index_dims else _label(str(key)))
-                self.walk(child, (*path, str(key)), base, (*labels, (dim, str(key))), (*json_path, f"{{{dim}}}"))
+                self.walk(
+                    child, (*path, str(key)), base, (*labels, (dim, str(key))), (*json_path, f"{{{dim}}}")
+                )
             return
         if isinstance(node, Mapping):
             # an estimate {value, std_error, ci95, unit}: its numbers are in `unit`
@@ -170,22 +174,32 @@ class _Builder:
         array_dims = _find(lay.arrays, path) if node is None or not _is_number(node) else None
         if isinstance(node, list | tuple | np.ndarray) or hasattr(node, "__array__"):
             if isinstance(node, list | tuple) and all(isinstance(v, str) for v in node):
-                if array_dims is None or labels:  # text; a coordinate of labels when the layout names its dims
+                if (
+                    array_dims is None or labels
+                ):  # text; a coordinate of labels when the layout names its dims
                     self.add_text(var, labels, list(node), True)
                     return
                 arr = np.asarray(node, dtype=str)
             else:
                 arr = _array(node)
             if arr is None:
-                raise ValueError(f"labelled results: {'/'.join(path)} is neither numbers nor text; give the layout a "
-                                 "`labels` entry for it (a list of records), or store it as `text`.")
-            if array_dims is None and arr.ndim >= 1 and arr.shape[-1] == 2 and path[-1].removesuffix(
-                    "_deg").endswith(("ci95", "_ci")):
+                raise ValueError(
+                    f"labelled results: {'/'.join(path)} is neither numbers nor text; give the layout a "
+                    "`labels` entry for it (a list of records), or store it as `text`."
+                )
+            if (
+                array_dims is None
+                and arr.ndim >= 1
+                and arr.shape[-1] == 2
+                and path[-1].removesuffix("_deg").endswith(("ci95", "_ci"))
+            ):
                 array_dims = (*(f"{var}_axis{i}" for i in range(arr.ndim - 1)), "bound")
                 self.labels.setdefault("bound", {"lower": "lower", "upper": "upper"})
             if array_dims is None or len(array_dims) != arr.ndim:
-                raise ValueError(f"labelled results: the array {'/'.join(path)} (shape {arr.shape}) has no dimension "
-                                 f"names in the layout (`arrays`); got {array_dims}.")
+                raise ValueError(
+                    f"labelled results: the array {'/'.join(path)} (shape {arr.shape}) has no dimension "
+                    f"names in the layout (`arrays`); got {array_dims}."
+                )
             node = arr
         elif not (node is None or _is_number(node)):
             raise ValueError(f"labelled results: {'/'.join(path)} holds a {type(node).__name__}.")
@@ -194,8 +208,10 @@ class _Builder:
         if entry is None:
             entry = self.entries[var] = _Entry(var, json_path, dims, tuple(array_dims or ()))
         elif entry.path != json_path or entry.label_dims != dims:
-            raise ValueError(f"labelled results: two fields map to the variable {var!r}: "
-                             f"{'/'.join(entry.path)} and {'/'.join(json_path)}; name one in the layout (`names`).")
+            raise ValueError(
+                f"labelled results: two fields map to the variable {var!r}: "
+                f"{'/'.join(entry.path)} and {'/'.join(json_path)}; name one in the layout (`names`)."
+            )
         if array_dims is not None and not entry.array_dims:
             entry.array_dims = tuple(array_dims)
         entry.values[tuple(k for _, k in labels)] = node
@@ -238,8 +254,10 @@ def _units(layout: Layout, entry: _Entry) -> str | None:
         if "/" not in pattern and fnmatch.fnmatchcase(entry.name, pattern):
             return value
     if len(entry.unit_texts) > 1:
-        raise ValueError(f"labelled results: {'/'.join(entry.path)} has a unit per label ({sorted(entry.unit_texts)}); "
-                         "give the layout its `units` text.")
+        raise ValueError(
+            f"labelled results: {'/'.join(entry.path)} has a unit per label ({sorted(entry.unit_texts)}); "
+            "give the layout its `units` text."
+        )
     if entry.unit_texts:
         return unit_text(next(iter(entry.unit_texts)))
     leaf = next((p for p in reversed(entry.path) if not p.startswith("{")), entry.name)
@@ -252,7 +270,9 @@ def _long_name(layout: Layout, e: _Entry) -> str:
     if e.name in layout.long_names:
         return layout.long_names[e.name]
     for pattern, value in layout.long_names.items():
-        if ("/" in pattern and _matches(pattern, e.path)) or ("/" not in pattern and fnmatch.fnmatchcase(e.name, pattern)):
+        if ("/" in pattern and _matches(pattern, e.path)) or (
+            "/" not in pattern and fnmatch.fnmatchcase(e.name, pattern)
+        ):
             return value
     return long_name_from_path(tuple(p for p in e.path if not p.startswith("{")))
 
@@ -287,13 +307,18 @@ def tree_to_dataset(tree: Mapping, layout: Layout, *, attrs: Mapping[str, Any] |
             if isinstance(v, np.ndarray):
                 for d, n in zip(e.array_dims, v.shape, strict=True):
                     if sizes.setdefault(d, n) != n:
-                        raise ValueError(f"labelled results: dimension {d!r} is {sizes[d]} long elsewhere but {n} in "
-                                         f"{'/'.join(e.path)}.")
+                        raise ValueError(
+                            f"labelled results: dimension {d!r} is {sizes[d]} long elsewhere but {n} in "
+                            f"{'/'.join(e.path)}."
+                        )
     for name, edges in layout.centres.items():  # bin centres: before the variables, which may be on them
         if edges in b.entries and b.entries[edges].values.get(()) is not None:
             v = np.asarray(b.entries[edges].values[()], dtype=float)
-            coords[name] = xr.Variable((name,), (v[1:] + v[:-1]) / 2, {"units": _units(layout, b.entries[edges]),
-                                                                       "long_name": f"bin centres of {edges}"})
+            coords[name] = xr.Variable(
+                (name,),
+                (v[1:] + v[:-1]) / 2,
+                {"units": _units(layout, b.entries[edges]), "long_name": f"bin centres of {edges}"},
+            )
             sizes[name] = v.size - 1
     variables: dict[str, Any] = {}
     for e in b.entries.values():
@@ -302,20 +327,25 @@ def tree_to_dataset(tree: Mapping, layout: Layout, *, attrs: Mapping[str, Any] |
         kinds = {np.asarray(v).dtype.kind for v in present}
         if kinds == {"U"}:  # labels (a coordinate), no unit
             (v,) = present
-            variables[e.name] = xr.Variable(e.array_dims, v, {"long_name": _long_name(layout, e),
-                                                              "json_path": "/".join(e.path)})
+            variables[e.name] = xr.Variable(
+                e.array_dims, v, {"long_name": _long_name(layout, e), "json_path": "/".join(e.path)}
+            )
             continue
         if unit is None and present and kinds <= {"b"}:
             unit = "1"
         if unit is None:
             if not present:  # a null text field (e.g. `reason: null`): nothing to store
                 continue
-            raise ValueError(f"labelled results: no unit for {'/'.join(e.path)} (variable {e.name!r}); give it in "
-                             "the layout (`units`) or name the field with its unit (`_deg`, `_s`, `_m`, …).")
+            raise ValueError(
+                f"labelled results: no unit for {'/'.join(e.path)} (variable {e.name!r}); give it in "
+                "the layout (`units`) or name the field with its unit (`_deg`, `_s`, `_m`, …)."
+            )
         if any(d not in sizes for d in e.array_dims):  # an array that is null throughout: nothing to store
             continue
         shape_a = tuple(sizes[d] for d in e.array_dims)
-        missing = len(present) < len(e.values) or len(e.values) < int(np.prod([sizes[d] for d in e.label_dims]))
+        missing = len(present) < len(e.values) or len(e.values) < int(
+            np.prod([sizes[d] for d in e.label_dims])
+        )
         if kinds <= {"b"} and not missing:
             dtype, fill = bool, False
         elif kinds <= {"b", "i", "u"} and not missing:
@@ -331,27 +361,38 @@ def tree_to_dataset(tree: Mapping, layout: Layout, *, attrs: Mapping[str, Any] |
             at = tuple(ix[k] for ix, k in zip(index, key, strict=True))
             data[at] = np.asarray(v, dtype=float if dtype is float else None)
         long_name = _long_name(layout, e)
-        variables[e.name] = xr.Variable((*e.label_dims, *e.array_dims), data, {
-            "units": unit, "long_name": long_name, "json_path": "/".join(e.path)})
+        variables[e.name] = xr.Variable(
+            (*e.label_dims, *e.array_dims),
+            data,
+            {"units": unit, "long_name": long_name, "json_path": "/".join(e.path)},
+        )
     for dim, labels in layout.index.items():
         if dim in sizes and dim not in coords and dim not in variables:
-            coords[dim] = xr.Variable((dim,), np.asarray(labels), {"long_name": GLOSSARY.get(dim, dim.replace("_", " "))})
+            coords[dim] = xr.Variable(
+                (dim,), np.asarray(labels), {"long_name": GLOSSARY.get(dim, dim.replace("_", " "))}
+            )
     for name, (unit, long_name) in layout.coords.items():
         if name in variables:
-            variables[name].attrs.update({"long_name": long_name, **({} if unit is None else {"units": unit})})
+            variables[name].attrs.update(
+                {"long_name": long_name, **({} if unit is None else {"units": unit})}
+            )
     text = {k: (v if isinstance(v, str) else json.dumps(v)) for k, v in b.text.items()}
     return xr.Dataset(variables, coords=coords, attrs={**text, **(attrs or {})})
 
 
-def labelled_values(pairs: Mapping[str, tuple], attrs: Mapping[str, Any] | None = None,
-                    coords: Mapping[str, tuple] | None = None):
+def labelled_values(
+    pairs: Mapping[str, tuple],
+    attrs: Mapping[str, Any] | None = None,
+    coords: Mapping[str, tuple] | None = None,
+):
     """A dataset from `{name: (dims, values, units, long_name)}` (and coordinates the same way): the hand-made
     part of a result's dataset (per-trial arrays, histograms, tables). A unit of None: labels (text), no unit."""
     import xarray as xr
 
     make: Callable = lambda d: {  # noqa: E731
         k: xr.Variable(dims, np.asarray(v), {"long_name": ln, **({} if u is None else {"units": u})})
-        for k, (dims, v, u, ln) in d.items()}
+        for k, (dims, v, u, ln) in d.items()
+    }
     return xr.Dataset(make(pairs), coords=make(coords or {}), attrs=dict(attrs or {}))
 
 

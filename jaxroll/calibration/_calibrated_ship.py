@@ -49,10 +49,16 @@ def nonnegative_damping(names, values, covariance) -> tuple[np.ndarray, dict[str
         theta = fitted.copy()
         if free and np.all(np.isfinite(cov)):
             f = np.asarray(free)
-            theta[f] = fitted[f] - cov[np.ix_(f, a)] @ np.linalg.lstsq(cov[np.ix_(a, a)], fitted[a], rcond=None)[0]
+            theta[f] = (
+                fitted[f] - cov[np.ix_(f, a)] @ np.linalg.lstsq(cov[np.ix_(a, a)], fitted[a], rcond=None)[0]
+            )
         theta[a] = 0.0
     changed = {
-        n: {"fitted": float(fitted[i]), "written": float(theta[i]), "std_error": float(math.sqrt(max(cov[i, i], 0)))}
+        n: {
+            "fitted": float(fitted[i]),
+            "written": float(theta[i]),
+            "std_error": float(math.sqrt(max(cov[i, i], 0))),
+        }
         for i, n in enumerate(names)
         if theta[i] != fitted[i]
     }
@@ -80,8 +86,11 @@ def _warn_constrained(what: str, changed: dict[str, dict[str, float]], notes: li
     warnings.warn(
         f"{what}: {', '.join(parts)}: negative damping feeds energy into the roll and a ship file refuses it, so "
         f"the calibrated ship gets {', '.join(f'{n} = 0' for n in negative)}"
-        + (f" and {', '.join(moved)} (the least-squares fit under that constraint, from the fit's covariance)" if moved
-           else "")
+        + (
+            f" and {', '.join(moved)} (the least-squares fit under that constraint, from the fit's covariance)"
+            if moved
+            else ""
+        )
         + f". This warning appears because the unconstrained fit is {why}; calibration.json keeps both values "
         "(`estimates` the fitted ones, `written` the ship's).",
         stacklevel=3,
@@ -127,7 +136,9 @@ def calibrated_ship(
         notes.append(f"{', '.join(names)} from free-running roll records ({roll.method})")
     elif roll is not None:
         names = list(roll.estimates)
-        values, changed = nonnegative_damping(names, [e.value for e in roll.estimates.values()], roll.covariance)
+        values, changed = nonnegative_damping(
+            names, [e.value for e in roll.estimates.values()], roll.covariance
+        )
         _warn_constrained("roll-PDF fit", changed, notes)
         out = _set_params(out, names, [float(v) for v in values])
         notes.append(f"{', '.join(roll.estimates)} from free-running roll PDFs")

@@ -101,10 +101,17 @@ class CaptiveFit:
         """Jupyter's view: σ_obs/σ_thr and the least-squares scale (and the ΔGM polynomial when fitted)."""
         from .._display import estimates_table
 
-        rows = {"σobs/σthr (paper)": self.std_ratio, "least-squares scale": self.ls_scale, **(self.polynomial or {})}
-        return estimates_table("Captive fit: GM correction", rows,
-                               note=f"{sum(g.n_records for g in self.groups)} records in {len(self.groups)} sea-state "
-                               "and heel groups.")
+        rows = {
+            "σobs/σthr (paper)": self.std_ratio,
+            "least-squares scale": self.ls_scale,
+            **(self.polynomial or {}),
+        }
+        return estimates_table(
+            "Captive fit: GM correction",
+            rows,
+            note=f"{sum(g.n_records for g in self.groups)} records in {len(self.groups)} sea-state "
+            "and heel groups.",
+        )
 
     def correction(self, estimator: str = "std_ratio") -> Estimate:
         """The GM correction to put in the ship: "std_ratio" (the paper's σ_obs/σ_thr) or "ls" (the LS
@@ -144,12 +151,27 @@ class CaptiveFit:
             ratios[i, : len(x.per_record_ratio)] = x.per_record_ratio
         col = lambda f: [f(x) for x in self.groups]  # noqa: E731
         extra = {
-            "wave_height_m": (g, col(lambda x: x.wave_height), "m", "significant wave height H1/3 (full scale)"),
+            "wave_height_m": (
+                g,
+                col(lambda x: x.wave_height),
+                "m",
+                "significant wave height H1/3 (full scale)",
+            ),
             "wave_period_s": (g, col(lambda x: x.wave_period), "s", "mean wave period T01 (full scale)"),
             "heel_deg": (g, col(lambda x: x.heel_deg), "degree", "fixed heel of the captive test"),
             "n_records": (g, col(lambda x: x.n_records), "1", "records in the group"),
-            "std_observed_m": (g, col(lambda x: x.std_observed), "m", "pooled standard deviation of the measured ΔGM"),
-            "std_theory_m": (g, col(lambda x: x.std_theory), "m", "pooled standard deviation of the theory's ΔGM"),
+            "std_observed_m": (
+                g,
+                col(lambda x: x.std_observed),
+                "m",
+                "pooled standard deviation of the measured ΔGM",
+            ),
+            "std_theory_m": (
+                g,
+                col(lambda x: x.std_theory),
+                "m",
+                "pooled standard deviation of the theory's ΔGM",
+            ),
             "group_std_ratio": (g, col(lambda x: x.std_ratio.value), "1", "σ_obs/σ_thr of the group"),
             "group_std_ratio_std_error": (g, col(lambda x: x.std_ratio.std_error), "1", "its standard error"),
             "group_ls_scale": (g, col(lambda x: x.ls_scale.value), "1", "least-squares scale of the group"),
@@ -157,8 +179,9 @@ class CaptiveFit:
             "per_record_ratio": (gr, ratios, "1", "σ_obs/σ_thr per record"),
         }
         estimates = {"std_ratio": self.std_ratio, "ls_scale": self.ls_scale}
-        return estimates_dataset(estimates, None, info=self.info, residual_unit="m", extra=extra,
-                                 attrs=config_attrs(self.config))
+        return estimates_dataset(
+            estimates, None, info=self.info, residual_unit="m", extra=extra, attrs=config_attrs(self.config)
+        )
 
 
 def _scale_residual(theta, args):

@@ -155,9 +155,16 @@ class DecayFit:
         """Jupyter's view: the damping and roll period with their standard errors and intervals."""
         from .._display import estimates_table
 
-        rows = {**self.damping, "Tφ": self.roll_period, **{f"extinction {k}": v for k, v in self.extinction.items()}}
-        return estimates_table(f"Decay fit ({self.method})", rows,
-                               note="Tφ: fitted" if self.method == "ode" else "Tφ: the ship's (not fitted)")
+        rows = {
+            **self.damping,
+            "Tφ": self.roll_period,
+            **{f"extinction {k}": v for k, v in self.extinction.items()},
+        }
+        return estimates_table(
+            f"Decay fit ({self.method})",
+            rows,
+            note="Tφ: fitted" if self.method == "ode" else "Tφ: the ship's (not fitted)",
+        )
 
     def to_dict(self) -> dict[str, Any]:
         """The fit as JSON-ready values (the CLI's calibration.json)."""
@@ -179,16 +186,28 @@ class DecayFit:
         from .._labels import config_attrs
         from ._least_squares import estimates_dataset
 
-        extra = {"roll_period_s": ((), self.roll_period.value, "s", "roll period Tφ"),
-                 "roll_period_std_error_s": ((), self.roll_period.std_error, "s", "standard error of Tφ"),
-                 "omega0_rad_s": ((), self.omega0, "rad s-1", "natural roll frequency ω0")}
+        extra = {
+            "roll_period_s": ((), self.roll_period.value, "s", "roll period Tφ"),
+            "roll_period_std_error_s": ((), self.roll_period.std_error, "s", "standard error of Tφ"),
+            "omega0_rad_s": ((), self.omega0, "rad s-1", "natural roll frequency ω0"),
+        }
         for k, e in self.extinction.items():
             unit = {"-": "1", "1/rad": "rad-1", "1/rad^2": "rad-2"}.get(e.unit, e.unit)
-            extra[f"extinction_{k}"] = ((), e.value, unit, f"extinction coefficient {k} (decrement per half cycle)")
+            extra[f"extinction_{k}"] = (
+                (),
+                e.value,
+                unit,
+                f"extinction coefficient {k} (decrement per half cycle)",
+            )
             extra[f"extinction_{k}_std_error"] = ((), e.std_error, unit, f"standard error of {k}")
-        return estimates_dataset(self.damping, self.damping_covariance, info=self.info, residual_unit="rad",
-                                 extra=extra, attrs={"method": self.method,
-                                                     **config_attrs(self.config)})
+        return estimates_dataset(
+            self.damping,
+            self.damping_covariance,
+            info=self.info,
+            residual_unit="rad",
+            extra=extra,
+            attrs={"method": self.method, **config_attrs(self.config)},
+        )
 
 
 def _extinction_residual(theta, args):

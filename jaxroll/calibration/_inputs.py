@@ -52,7 +52,10 @@ def _likely_slip(ratio: float, scale: float) -> str:
         (1e3, "a wave column in mm labelled m (set its unit to mm in `units`)"),
         (1e-3, "a wave column in m labelled mm (set its unit to m in `units`)"),
         (10.0, "a wave column in cm labelled mm, or H1/3 in the header at model scale"),
-        (scale, f"full-scale wave values in a model-scale file (scale λ = {scale:g}): the loader multiplies by λ"),
+        (
+            scale,
+            f"full-scale wave values in a model-scale file (scale λ = {scale:g}): the loader multiplies by λ",
+        ),
         (1 / scale, f"a header H1/3 at model scale (λ = {scale:g}): `wave_height_full_m` is full scale"),
     )
     for factor, words in candidates:
@@ -86,13 +89,17 @@ def check_wave_heights(
         for r in recs:
             t = r.model_time
             tol = 0.5 / float(r.meta["sampling_hz"])
-            keep = (t >= lo - tol) & (t <= hi + tol) if (t[0] <= lo + tol and t[-1] >= hi - tol) else slice(None)
+            keep = (
+                (t >= lo - tol) & (t <= hi + tol) if (t[0] <= lo + tol and t[-1] >= hi - tol) else slice(None)
+            )
             w = np.asarray(r.wave)[keep]
             squares += float(np.sum((w - w.mean()) ** 2))
             count += w.size
         measured = 4 * math.sqrt(squares / max(count, 1))
         ratio = measured / hs
-        where = recs[0].source + (f" (and {len(recs) - 1} other record(s) of this sea state)" if len(recs) > 1 else "")
+        where = recs[0].source + (
+            f" (and {len(recs) - 1} other record(s) of this sea state)" if len(recs) > 1 else ""
+        )
         text = (
             f"{where}: 4σ of the measured wave is {measured:.4g} m (full scale) but the header says H1/3 = {hs:g} m "
             f"(T01 = {t01:g} s): {ratio:.3g} × the header's"
@@ -109,6 +116,13 @@ def check_wave_heights(
                 "(--estimator pdf) and the measured wave elsewhere; check `wave_height_full_m`.",
                 stacklevel=3,
             )
-        out.append({"hs_header_m": hs, "t01_s": t01, "hs_measured_m": measured, "ratio": ratio,
-                    "n_records": len(recs)})
+        out.append(
+            {
+                "hs_header_m": hs,
+                "t01_s": t01,
+                "hs_measured_m": measured,
+                "ratio": ratio,
+                "n_records": len(recs),
+            }
+        )
     return out

@@ -124,7 +124,9 @@ class KalmanObjective(eqx.Module):
                 fj, m = jax.jacfwd(f, has_aux=True)(m)  # the Jacobian and the step itself, in one pass
                 return (m, fj @ pc @ fj.T + qh), None
 
-            def predict(m, pc, pk):  # a loop, not unrolled: `sub` copies of RK4 and its Jacobian compile slowly
+            def predict(
+                m, pc, pk
+            ):  # a loop, not unrolled: `sub` copies of RK4 and its Jacobian compile slowly
                 return jax.lax.scan(substep, (m, pc), pk)[0]
 
             m, pc, ll0, e0, n0 = update(y0, p0, phi[0], mask[0])

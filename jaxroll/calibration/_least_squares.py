@@ -72,8 +72,15 @@ class LeastSquaresInfo:
         return {**dataclasses.asdict(self), "converged": self.converged}
 
 
-def estimates_dataset(estimates: dict, covariance=None, *, info: LeastSquaresInfo | None = None,
-                      residual_unit: str = "1", extra: dict | None = None, attrs: dict | None = None):
+def estimates_dataset(
+    estimates: dict,
+    covariance=None,
+    *,
+    info: LeastSquaresInfo | None = None,
+    residual_unit: str = "1",
+    extra: dict | None = None,
+    attrs: dict | None = None,
+):
     """Fitted parameters as an `xarray.Dataset` on the dimension `parameter` (SI units, each in the coordinate
     `unit`): `estimate`, `std_error`, `ci95` (on `bound`), `covariance` on (`parameter`, `parameter_2`), the
     solver's diagnostics (`info`; `rss` and `sigma` in `residual_unit`²/`residual_unit`), and `extra` variables
@@ -90,20 +97,30 @@ def estimates_dataset(estimates: dict, covariance=None, *, info: LeastSquaresInf
         "ci95": ((*p, "bound"), [list(x.ci95) for x in e], mixed, "95 % interval"),
     }
     if covariance is not None:
-        out["covariance"] = (pp, np.asarray(covariance, dtype=float).reshape(len(names), len(names)),
-                             "mixed: the product of the two parameters' units (unit)", "covariance of the estimates")
+        out["covariance"] = (
+            pp,
+            np.asarray(covariance, dtype=float).reshape(len(names), len(names)),
+            "mixed: the product of the two parameters' units (unit)",
+            "covariance of the estimates",
+        )
     if info is not None:
-        for k, unit, long in (("n_obs", "1", "residuals"), ("n_params", "1", "fitted parameters"),
-                              ("rss", f"({residual_unit})2", "sum of squared residuals"),
-                              ("sigma", residual_unit, "residual standard deviation √(RSS/(n − p))"),
-                              ("num_steps", "1", "solver steps"), ("condition_number", "1", "condition number"),
-                              ("converged", "1", "whether the solver converged")):
+        for k, unit, long in (
+            ("n_obs", "1", "residuals"),
+            ("n_params", "1", "fitted parameters"),
+            ("rss", f"({residual_unit})2", "sum of squared residuals"),
+            ("sigma", residual_unit, "residual standard deviation √(RSS/(n − p))"),
+            ("num_steps", "1", "solver steps"),
+            ("condition_number", "1", "condition number"),
+            ("converged", "1", "whether the solver converged"),
+        ):
             out[f"diagnostics_{k}"] = ((), getattr(info, k), unit, long)
     out.update(extra or {})
-    coords = {"parameter": (p, names, None, "fitted parameter"),
-              "parameter_2": (("parameter_2",), names, None, "fitted parameter (covariance column)"),
-              "bound": (("bound",), ["lower", "upper"], None, "interval bound"),
-              "unit": (p, [x.unit for x in e], None, "SI unit of the parameter")}
+    coords = {
+        "parameter": (p, names, None, "fitted parameter"),
+        "parameter_2": (("parameter_2",), names, None, "fitted parameter (covariance column)"),
+        "bound": (("bound",), ["lower", "upper"], None, "interval bound"),
+        "unit": (p, [x.unit for x in e], None, "SI unit of the parameter"),
+    }
     return labelled_values(out, coords=coords, attrs=attrs)
 
 
@@ -182,7 +199,9 @@ SOLVER_HINT = (
 )
 
 
-def _least_squares(fn, theta0, args, *, max_steps=200, rtol=1e-8, atol=1e-10, stall_steps=None, hint=SOLVER_HINT):
+def _least_squares(
+    fn, theta0, args, *, max_steps=200, rtol=1e-8, atol=1e-10, stall_steps=None, hint=SOLVER_HINT
+):
     """Levenberg–Marquardt (optimistix, forward-mode Jacobian); returns θ̂, J(θ̂), residuals, info.
 
     **Raises:** `FitFailure` (a `ValueError`, so the command line prints it and exits 2) when the model's ODE
@@ -199,7 +218,9 @@ def _least_squares(fn, theta0, args, *, max_steps=200, rtol=1e-8, atol=1e-10, st
             theta, msg, steps = _solve_stepwise(fn, theta0, args, max_steps, rtol, atol, stall_steps)
         res, jac = _residual_and_jacobian(fn, theta, args)
     except eqx.EquinoxRuntimeError as e:
-        raise FitFailure(f"the roll equation could not be integrated during the fit ({error_line(e)}). {hint}") from None
+        raise FitFailure(
+            f"the roll equation could not be integrated during the fit ({error_line(e)}). {hint}"
+        ) from None
     r = np.asarray(res, dtype=float)
     j = np.asarray(jac, dtype=float).reshape(r.size, -1)
     n, p = j.shape

@@ -171,7 +171,9 @@ class _RollObjective(eqx.Module):
                 out.append(_theory_band_means(self.theory, ship, sea, self.grid, self.bands))
             else:
                 out.append(
-                    _model_band_means(ship, prob, self.key, self.num_realizations, self.num_steps, self.observer)[0]
+                    _model_band_means(
+                        ship, prob, self.key, self.num_realizations, self.num_steps, self.observer
+                    )[0]
                 )
         return out
 
@@ -256,9 +258,12 @@ class RollFit:
         """Jupyter's view: the fitted parameters with their standard errors and intervals."""
         from .._display import estimates_table
 
-        return estimates_table("Roll fit (amplitude PDFs)", self.estimates,
-                               note=f"{len(self.comparisons)} sea states; started from "
-                               + ", ".join(f"{k} = {v:.5g}" for k, v in self.initial.items()))
+        return estimates_table(
+            "Roll fit (amplitude PDFs)",
+            self.estimates,
+            note=f"{len(self.comparisons)} sea states; started from "
+            + ", ".join(f"{k} = {v:.5g}" for k, v in self.initial.items()),
+        )
 
     def to_dict(self) -> dict[str, Any]:
         """The fit as JSON-ready values (the CLI's calibration.json)."""
@@ -283,25 +288,60 @@ class RollFit:
         col = lambda f: np.asarray([f(x) for x in self.comparisons])  # noqa: E731
         deg = lambda f: np.degrees(col(f))  # noqa: E731
         extra = {
-            "initial": (("parameter",), [self.initial[k] for k in self.estimates], "mixed: the parameter's unit (unit)",
-                        "value the fit started from"),
-            "wave_height_m": (c, col(lambda x: x.wave_height), "m", "significant wave height H1/3 (full scale)"),
+            "initial": (
+                ("parameter",),
+                [self.initial[k] for k in self.estimates],
+                "mixed: the parameter's unit (unit)",
+                "value the fit started from",
+            ),
+            "wave_height_m": (
+                c,
+                col(lambda x: x.wave_height),
+                "m",
+                "significant wave height H1/3 (full scale)",
+            ),
             "wave_period_s": (c, col(lambda x: x.wave_period), "s", "mean wave period T01 (full scale)"),
             "n_records": (c, col(lambda x: x.n_records), "1", "records of the sea state"),
-            "experiment_band_means_deg": (cb, deg(lambda x: x.experiment_band_means), "degree",
-                                          "the records' mean amplitude per probability band"),
-            "experiment_std_error_deg": (cb, deg(lambda x: np.sqrt(np.diag(x.experiment_covariance))), "degree",
-                                         "its standard error (bootstrap over records)"),
-            "model_band_means_before_deg": (cb, deg(lambda x: x.model_band_means_before), "degree",
-                                            "the model's band means before the fit"),
-            "model_band_means_after_deg": (cb, deg(lambda x: x.model_band_means_after), "degree",
-                                           "the model's band means after the fit"),
-            "model_capsized_before": (c, col(lambda x: x.capsized_before), "1", "model trials capsized before"),
+            "experiment_band_means_deg": (
+                cb,
+                deg(lambda x: x.experiment_band_means),
+                "degree",
+                "the records' mean amplitude per probability band",
+            ),
+            "experiment_std_error_deg": (
+                cb,
+                deg(lambda x: np.sqrt(np.diag(x.experiment_covariance))),
+                "degree",
+                "its standard error (bootstrap over records)",
+            ),
+            "model_band_means_before_deg": (
+                cb,
+                deg(lambda x: x.model_band_means_before),
+                "degree",
+                "the model's band means before the fit",
+            ),
+            "model_band_means_after_deg": (
+                cb,
+                deg(lambda x: x.model_band_means_after),
+                "degree",
+                "the model's band means after the fit",
+            ),
+            "model_capsized_before": (
+                c,
+                col(lambda x: x.capsized_before),
+                "1",
+                "model trials capsized before",
+            ),
             "model_capsized_after": (c, col(lambda x: x.capsized_after), "1", "model trials capsized after"),
         }
-        return estimates_dataset(self.estimates, self.covariance, info=self.info,
-                                 residual_unit="1 (each residual in its standard errors)", extra=extra,
-                                 attrs=config_attrs(self.config))
+        return estimates_dataset(
+            self.estimates,
+            self.covariance,
+            info=self.info,
+            residual_unit="1 (each residual in its standard errors)",
+            extra=extra,
+            attrs=config_attrs(self.config),
+        )
 
 
 def _experiment_samples(records: Sequence[Record], window, hysteresis):

@@ -132,9 +132,11 @@ class TimeDomainFit:
         """Jupyter's view: the fitted parameters with their standard errors and intervals, and the diagnostics."""
         from .._display import estimates_table
 
-        note = (f"{self.method}: {self.n_windows} windows of {self.window_s:.4g} s, residual rms "
-                f"{self.residual_rms_deg:.4f}°, condition number {self.condition_number:.3g}, {self.covariance_kind} "
-                "covariance" + "".join(f"; {w}" for w in self.warnings))
+        note = (
+            f"{self.method}: {self.n_windows} windows of {self.window_s:.4g} s, residual rms "
+            f"{self.residual_rms_deg:.4f}°, condition number {self.condition_number:.3g}, {self.covariance_kind} "
+            "covariance" + "".join(f"; {w}" for w in self.warnings)
+        )
         return estimates_table("Time-domain roll fit", self.estimates, note=note)
 
     def to_dict(self) -> dict[str, Any]:
@@ -173,29 +175,79 @@ class TimeDomainFit:
         ident = self.identifiability
         col = lambda f: [f(x) for x in self.records]  # noqa: E731
         extra = {
-            "dof": (p, [e.dof for e in self.estimates.values()], "1", "degrees of freedom of the 95 % interval"),
-            "covariance_model_based": (pp, np.asarray(self.covariance_model_based, dtype=float),
-                                       "mixed: the product of the two parameters' units (unit)",
-                                       "the other covariance (model-based)"),
-            "correlation": (pp, np.asarray(self.correlation, dtype=float), "1", "correlation of the estimates"),
-            "variance_inflation": (p, [ident.variance_inflation[n] for n in self.names], "1",
-                                   "variance inflation 1/(1 − R²) on the other parameters"),
-            "relative_se": (p, [ident.relative_se[n] for n in self.names], "1", "SE / max(|value|, natural size)"),
+            "dof": (
+                p,
+                [e.dof for e in self.estimates.values()],
+                "1",
+                "degrees of freedom of the 95 % interval",
+            ),
+            "covariance_model_based": (
+                pp,
+                np.asarray(self.covariance_model_based, dtype=float),
+                "mixed: the product of the two parameters' units (unit)",
+                "the other covariance (model-based)",
+            ),
+            "correlation": (
+                pp,
+                np.asarray(self.correlation, dtype=float),
+                "1",
+                "correlation of the estimates",
+            ),
+            "variance_inflation": (
+                p,
+                [ident.variance_inflation[n] for n in self.names],
+                "1",
+                "variance inflation 1/(1 − R²) on the other parameters",
+            ),
+            "relative_se": (
+                p,
+                [ident.relative_se[n] for n in self.names],
+                "1",
+                "SE / max(|value|, natural size)",
+            ),
             "condition_number": ((), self.condition_number, "1", "condition number"),
-            "n_windows": ((), self.n_windows, "1", "shooting windows or Kalman blocks (robust-covariance clusters)"),
+            "n_windows": (
+                (),
+                self.n_windows,
+                "1",
+                "shooting windows or Kalman blocks (robust-covariance clusters)",
+            ),
             "window_s": ((), self.window_s, "s", "window (block) length, full scale"),
             "residual_rms_deg": ((), self.residual_rms_deg, "degree", "residual rms over all records"),
             "record_n_samples": (r, col(lambda x: x.n_samples), "1", "samples of the record"),
             "record_n_windows": (r, col(lambda x: x.n_windows), "1", "windows (blocks) of the record"),
-            "record_residual_rms_deg": (r, col(lambda x: x.residual_rms_deg), "degree", "residual rms of the record"),
-            "record_sensor_noise_deg": (r, col(lambda x: x.sensor_noise_deg), "degree",
-                                        "white sensor noise estimated from the record"),
-            "record_residual_to_noise": (r, col(lambda x: x.residual_to_noise), "1", "residual rms / sensor noise"),
+            "record_residual_rms_deg": (
+                r,
+                col(lambda x: x.residual_rms_deg),
+                "degree",
+                "residual rms of the record",
+            ),
+            "record_sensor_noise_deg": (
+                r,
+                col(lambda x: x.sensor_noise_deg),
+                "degree",
+                "white sensor noise estimated from the record",
+            ),
+            "record_residual_to_noise": (
+                r,
+                col(lambda x: x.residual_to_noise),
+                "1",
+                "residual rms / sensor noise",
+            ),
         }
-        ds = estimates_dataset(self.estimates, self.covariance, extra=extra, attrs={
-            "method": self.method, "covariance_kind": self.covariance_kind, "identifiability": ident.message,
-            "not_identified": json.dumps(list(ident.not_identified)), "warnings": json.dumps(list(self.warnings)),
-            **config_attrs(self.config)})
+        ds = estimates_dataset(
+            self.estimates,
+            self.covariance,
+            extra=extra,
+            attrs={
+                "method": self.method,
+                "covariance_kind": self.covariance_kind,
+                "identifiability": ident.message,
+                "not_identified": json.dumps(list(ident.not_identified)),
+                "warnings": json.dumps(list(self.warnings)),
+                **config_attrs(self.config),
+            },
+        )
         return ds.assign_coords(record_source=(r, col(lambda x: x.source), {"long_name": "record file"}))
 
 

@@ -237,7 +237,9 @@ def virtual_roll_record(
     if not (math.isfinite(moment_std) and moment_std >= 0):
         raise ValueError(f"`moment_std` must be >= 0 [rad/s²]; got {moment_std!r}.")
     if moment_std > 0 and not (0 <= moment_band[0] < moment_band[1]):
-        raise ValueError(f"`moment_band` must be (low, high) [rad/s] with 0 <= low < high; got {moment_band!r}.")
+        raise ValueError(
+            f"`moment_band` must be (low, high) [rad/s] with 0 <= low < high; got {moment_band!r}."
+        )
     record_dt = math.sqrt(scale) / sampling_hz
     n = int(round(duration_model_s * sampling_hz)) + 1
     sub, dt = _integration_grid(record_dt, max_dt)

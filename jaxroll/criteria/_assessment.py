@@ -59,16 +59,30 @@ class ParametricRollAssessment:
         from .._labels import tree_to_dataset
         from .._labels._layouts import SGISC
 
-        tree = {"level1": vars(self.level1), "level2_c1": vars(self.c1), "damping": self.damping,
-                "roll_period_s": self.roll_period, "roll_period_source": self.roll_period_source,
-                "bilge_keel_area_m2": self.bilge_keel_area, "service_speed_m_s": self.service_speed,
-                "verdict": self.verdict, "vulnerable": self.vulnerable, "notes": list(self.notes)}
+        tree = {
+            "level1": vars(self.level1),
+            "level2_c1": vars(self.c1),
+            "damping": self.damping,
+            "roll_period_s": self.roll_period,
+            "roll_period_source": self.roll_period_source,
+            "bilge_keel_area_m2": self.bilge_keel_area,
+            "service_speed_m_s": self.service_speed,
+            "verdict": self.verdict,
+            "vulnerable": self.vulnerable,
+            "notes": list(self.notes),
+        }
         if self.c2 is not None:
             c2 = self.c2
-            tree["level2_c2"] = {"c2": c2.c2, "standard": c2.standard, "vulnerable": c2.vulnerable,
-                                 "per_case": c2.per_case, "hs_m": REC34_HS, "tz_s": REC34_TZ,
-                                 "effective_wave_height_m": c2.effective_wave_height,
-                                 "max_roll_deg": np.degrees(c2.max_roll)}
+            tree["level2_c2"] = {
+                "c2": c2.c2,
+                "standard": c2.standard,
+                "vulnerable": c2.vulnerable,
+                "per_case": c2.per_case,
+                "hs_m": REC34_HS,
+                "tz_s": REC34_TZ,
+                "effective_wave_height_m": c2.effective_wave_height,
+                "max_roll_deg": np.degrees(c2.max_roll),
+            }
         return tree_to_dataset(tree, SGISC)
 
 
@@ -143,7 +157,9 @@ def assess_parametric_roll(
             if not skip_c2:
                 raise
             fit = dict(source=f"not usable: {e}", b1=None, b2=None, b3=None, out_of_range=[])
-            notes.append("C2 skipped; the simplified Ikeda damping is not usable for this hull (see `damping`).")
+            notes.append(
+                "C2 skipped; the simplified Ikeda damping is not usable for this hull (see `damping`)."
+            )
         if fit["out_of_range"]:
             notes.append(
                 f"Ikeda damping: {', '.join(fit['out_of_range'])} outside the regression's range (extrapolated)."
@@ -236,9 +252,19 @@ class KGMaxCurve:
         from .._labels import tree_to_dataset
         from .._labels._layouts import SGISC
 
-        return tree_to_dataset({"kg_max": {"draught_m": self.draught, "km_m": self.km,
-                                           "kg_max_level1_m": self.kg_max_level1, "kg_max_c1_m": self.kg_max_c1,
-                                           "delta_gm1_m": self.delta_gm1, "r_pr": self.r_pr}}, SGISC)
+        return tree_to_dataset(
+            {
+                "kg_max": {
+                    "draught_m": self.draught,
+                    "km_m": self.km,
+                    "kg_max_level1_m": self.kg_max_level1,
+                    "kg_max_c1_m": self.kg_max_c1,
+                    "delta_gm1_m": self.delta_gm1,
+                    "r_pr": self.r_pr,
+                }
+            },
+            SGISC,
+        )
 
 
 def kg_max_curve(

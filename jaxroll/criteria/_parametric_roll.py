@@ -252,7 +252,11 @@ def gm_in_waves(
         zeta = sign[None, :] * hb[:, None] / 2
         lam_b = np.broadcast_to(lb[:, None], shift.shape)
         gm, conv = _gm_positions(
-            _bare(hull), loading, jnp.asarray(shift.ravel()), jnp.asarray(zeta.ravel()), jnp.asarray(lam_b.ravel())
+            _bare(hull),
+            loading,
+            jnp.asarray(shift.ravel()),
+            jnp.asarray(zeta.ravel()),
+            jnp.asarray(lam_b.ravel()),
         )
         out.append(np.asarray(gm).reshape(N_WAVES_BATCH, n_positions)[:n])
         ok.append(np.asarray(conv).reshape(N_WAVES_BATCH, n_positions)[:n])

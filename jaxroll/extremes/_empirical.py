@@ -164,4 +164,3 @@ def _empirical_maxima(xs, edges, levels, n_excluded, confidence):
         pdf_se=jnp.sqrt(counts * (1.0 - counts / n)) / (n * width),
         confidence=confidence,
     )
-

@@ -19,8 +19,6 @@ $\log(1 - \bar F)$ is `logcdf`, computed as `log1p(-F̄)` in the upper tail and 
 that nothing cancels for $N_0 = 10^4 \ldots 10^7$ and nothing underflows before the final `exp`.
 """
 
-
-
 import jax
 import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float
@@ -80,9 +78,7 @@ def max_pdf(dist: AbstractAmplitudeLaw, a: ArrayLike, n0: ArrayLike) -> Float[Ar
     return jnp.exp(max_logpdf(dist, a, n0))
 
 
-def max_pdf_asymptotic(
-    dist: AbstractAmplitudeLaw, a: ArrayLike, n0: ArrayLike
-) -> Float[Array, "..."]:
+def max_pdf_asymptotic(dist: AbstractAmplitudeLaw, a: ArrayLike, n0: ArrayLike) -> Float[Array, "..."]:
     r"""The asymptotic form (docs/maxima.md), $P^* \approx \xi e^{-\xi} [\bar F (1 - \bar F)]^{-1} P$,
     $\xi = N_0 \bar F$ [1/rad].
 
@@ -157,9 +153,7 @@ def _max_quantile(dist, q, n0):
     return _solve_levels(dist, log_c, _log1mexp(log_c))
 
 
-def expected_maximum(
-    dist: AbstractAmplitudeLaw, n0: ArrayLike, *, num_panels: int = 256
-) -> Float[Array, ""]:
+def expected_maximum(dist: AbstractAmplitudeLaw, n0: ArrayLike, *, num_panels: int = 256) -> Float[Array, ""]:
     r"""The expected maximum [rad] of `n0` amplitudes.
 
     $E[A_{\max}] = \int_0^\infty [1 - (1 - \bar F(a))^{N_0}]\,da$ by composite 8-point Gauss–Legendre on the
@@ -240,5 +234,3 @@ def most_probable_maximum(dist: AbstractAmplitudeLaw, n0: ArrayLike) -> Float[Ar
     require_zero_crossing(dist, "`most_probable_maximum`")
     n0 = _count_n0(n0)
     return _most_probable_maximum(dist, n0)
-
-

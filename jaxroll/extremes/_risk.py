@@ -1,6 +1,5 @@
 """Exposure-time risk: the probability of exceeding an angle within an exposure, with confidence intervals."""
 
-
 import equinox as eqx
 import jax
 import jax.numpy as jnp
@@ -103,8 +102,11 @@ def wilson_interval(
         raise ValueError(f"`confidence` must be in (0, 1); got {confidence!r}.")
     k = jnp.asarray(n_exceed, dtype=float)
     n = jnp.asarray(n_total, dtype=float)
-    k = require(k, (n < 1) | (k < 0) | (k > n),
-                 f"need 0 <= successes <= trials and trials >= 1; got {n_exceed!r} of {n_total!r}.")
+    k = require(
+        k,
+        (n < 1) | (k < 0) | (k > n),
+        f"need 0 <= successes <= trials and trials >= 1; got {n_exceed!r} of {n_total!r}.",
+    )
     return _wilson_bounds(k, n, confidence)
 
 
@@ -188,18 +190,33 @@ class ExposureRisk(eqx.Module):
             ("angle", deg(self.angle), "", "deg"),
             ("exposure", float(self.duration) / 3600, "", "h"),
             ("amplitudes in the exposure n", float(self.n_cycles), "", "-"),
-            ("P(A > angle) per amplitude", float(self.exceedance_per_cycle),
-             fmt_interval(self.exceedance_per_cycle_lower, self.exceedance_per_cycle_upper), "-"),
-            ("P(exceeded within the exposure)", float(self.probability),
-             fmt_interval(self.probability_lower, self.probability_upper), "-"),
+            (
+                "P(A > angle) per amplitude",
+                float(self.exceedance_per_cycle),
+                fmt_interval(self.exceedance_per_cycle_lower, self.exceedance_per_cycle_upper),
+                "-",
+            ),
+            (
+                "P(exceeded within the exposure)",
+                float(self.probability),
+                fmt_interval(self.probability_lower, self.probability_upper),
+                "-",
+            ),
             ("  the same, Poisson", float(self.probability_poisson), "", "-"),
             ("most probable largest roll", deg(self.most_probable_largest), "", "deg"),
-            ("characteristic largest roll", deg(self.characteristic_largest),
-             fmt_interval(deg(self.characteristic_largest_lower), deg(self.characteristic_largest_upper)), "deg"),
+            (
+                "characteristic largest roll",
+                deg(self.characteristic_largest),
+                fmt_interval(deg(self.characteristic_largest_lower), deg(self.characteristic_largest_upper)),
+                "deg",
+            ),
             ("expected largest roll", deg(self.expected_largest), "", "deg"),
         ]
-        note = (f"intervals from {float(self.n_amplitudes):.0f} amplitudes" if jnp.isfinite(self.n_amplitudes)
-                else "no sample size given: no intervals")
+        note = (
+            f"intervals from {float(self.n_amplitudes):.0f} amplitudes"
+            if jnp.isfinite(self.n_amplitudes)
+            else "no sample size given: no intervals"
+        )
         return html_table("Exposure risk", rows, header=("", "value", level, "unit"), note=note)
 
     @property
@@ -243,30 +260,43 @@ class ExposureRisk(eqx.Module):
         def host(x, deg=False):
             x = np.asarray(x, dtype=float)
             if x.ndim > 1:
-                raise ValueError(f"`to_xarray` takes one exposure or a batch of one dimension; got shape {x.shape}.")
+                raise ValueError(
+                    f"`to_xarray` takes one exposure or a batch of one dimension; got shape {x.shape}."
+                )
             return np.rad2deg(x) if deg else x
 
         def pair(lo, hi, deg=False):
             return np.stack([host(lo, deg), host(hi, deg)], -1)
 
         tree = {
-            "angle_deg": host(self.angle, True), "duration_s": host(self.duration), "rate_per_s": host(self.rate),
-            "n_amplitudes": host(self.n_amplitudes), "confidence": self.confidence, "n_cycles": host(self.n_cycles),
+            "angle_deg": host(self.angle, True),
+            "duration_s": host(self.duration),
+            "rate_per_s": host(self.rate),
+            "n_amplitudes": host(self.n_amplitudes),
+            "confidence": self.confidence,
+            "n_cycles": host(self.n_cycles),
             "exceedance_per_cycle": host(self.exceedance_per_cycle),
-            "exceedance_per_cycle_ci95": pair(self.exceedance_per_cycle_lower, self.exceedance_per_cycle_upper),
-            "probability": host(self.probability), "probability_poisson": host(self.probability_poisson),
+            "exceedance_per_cycle_ci95": pair(
+                self.exceedance_per_cycle_lower, self.exceedance_per_cycle_upper
+            ),
+            "probability": host(self.probability),
+            "probability_poisson": host(self.probability_poisson),
             "probability_ci95": pair(self.probability_lower, self.probability_upper),
             "most_probable_largest_deg": host(self.most_probable_largest, True),
             "characteristic_largest_deg": host(self.characteristic_largest, True),
-            "characteristic_largest_ci95_deg": pair(self.characteristic_largest_lower,
-                                                    self.characteristic_largest_upper, True),
+            "characteristic_largest_ci95_deg": pair(
+                self.characteristic_largest_lower, self.characteristic_largest_upper, True
+            ),
             "expected_largest_deg": host(self.expected_largest, True),
         }
         from .._labels import Layout
 
         batch = ("case",) if np.ndim(tree["angle_deg"]) == 1 else ()
-        arrays = {k: (*batch, "bound") if k.endswith(("ci95", "ci95_deg")) else batch
-                  for k, v in tree.items() if np.ndim(v) > 0}
+        arrays = {
+            k: (*batch, "bound") if k.endswith(("ci95", "ci95_deg")) else batch
+            for k, v in tree.items()
+            if np.ndim(v) > 0
+        }
         return tree_to_dataset(tree, EXPOSURE + Layout(arrays=arrays, index={"bound": ("lower", "upper")}))
 
 
@@ -378,5 +408,3 @@ def _exposure_risk(dist, angle, n, rate, duration, n_amp, k, confidence):
         n_amplitudes=n_amp,
         confidence=confidence,
     )
-
-

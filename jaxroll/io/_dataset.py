@@ -101,14 +101,29 @@ def output_dataset(command: str, payload: Mapping[str, Any], parts=None, *, warn
     layout = OUTPUTS[command]
     ds = tree_to_dataset({k: v for k, v in payload.items() if k not in _NOT_RESULTS}, layout)
     if parts is not None:
-        for prefix, part in (parts.items() if isinstance(parts, dict) else [("", parts)]):  # a Dataset is a Mapping
+        for prefix, part in (
+            parts.items() if isinstance(parts, dict) else [("", parts)]
+        ):  # a Dataset is a Mapping
             if isinstance(part, list | tuple):  # the maxima of two groups of N0 (other trial counts)
-                part = xr.concat(list(part), dim="n0", data_vars="minimal", coords="minimal", compat="override",
-                                 join="outer", combine_attrs="drop_conflicts")
+                part = xr.concat(
+                    list(part),
+                    dim="n0",
+                    data_vars="minimal",
+                    coords="minimal",
+                    compat="override",
+                    join="outer",
+                    combine_attrs="drop_conflicts",
+                )
             ds = _add_part(ds, part, prefix)
     skipped = {p: "the same numbers as the arrays beside them, one record per point" for p in layout.skip}
-    attrs = {**ds.attrs, **dataset_attrs(payload.get("config"), command=command.split("-")[0],
-                                         json_file=_JSON_FILES.get(command.split("-")[0], f"{command}.json"))}
+    attrs = {
+        **ds.attrs,
+        **dataset_attrs(
+            payload.get("config"),
+            command=command.split("-")[0],
+            json_file=_JSON_FILES.get(command.split("-")[0], f"{command}.json"),
+        ),
+    }
     if skipped:
         attrs["json_fields_not_stored"] = json.dumps(skipped)
     if warnings:
@@ -130,11 +145,22 @@ def _add_part(ds, part, prefix: str):
     import xarray as xr
 
     def same(dim) -> bool:
-        return dim in ds.dims and ds.sizes[dim] == part.sizes[dim] and (
-            dim not in ds.coords or dim not in part.coords or np.array_equal(ds[dim].values, part[dim].values))
+        return (
+            dim in ds.dims
+            and ds.sizes[dim] == part.sizes[dim]
+            and (
+                dim not in ds.coords
+                or dim not in part.coords
+                or np.array_equal(ds[dim].values, part[dim].values)
+            )
+        )
 
     lead = prefix or "part"
-    rename = {d: f"{lead}_{d}" for d in part.dims if not same(d) and (d in ds.dims or (prefix and d not in _SHARED_DIMS))}
+    rename = {
+        d: f"{lead}_{d}"
+        for d in part.dims
+        if not same(d) and (d in ds.dims or (prefix and d not in _SHARED_DIMS))
+    }
     part = part.rename(rename)
     names = {n: (f"{prefix}_{n}" if prefix else n) for n in part.data_vars}
     new = [names[n] for n in part.data_vars if names[n] not in ds.variables]

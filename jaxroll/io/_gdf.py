@@ -90,7 +90,9 @@ def _parse(path: Path) -> tuple[dict, np.ndarray, np.ndarray]:
         )
     counts = _leading_numbers(lines[3])
     if not counts or not math.isfinite(counts[0]) or counts[0] != int(counts[0]) or counts[0] < 1:
-        raise MeshError(f"{path}:4: expected `NPAN` (the number of panels, an integer >= 1); got {lines[3].strip()!r}.")
+        raise MeshError(
+            f"{path}:4: expected `NPAN` (the number of panels, an integer >= 1); got {lines[3].strip()!r}."
+        )
     if len(counts) > 1 and counts[1] != 0:
         raise MeshError(
             f"{path}:4: IGDEF = {counts[1]:g} after the panel count: a higher-order WAMIT geometry (B-splines or "
@@ -131,7 +133,12 @@ def _parse(path: Path) -> tuple[dict, np.ndarray, np.ndarray]:
         k = int(np.argmax(~np.all(np.isfinite(panels), axis=(1, 2))))
         raise MeshError(f"{path}:{where[12 * k]}: panel {k + 1} has a non-finite coordinate (NaN or inf).")
     header = dict(
-        title=lines[0].strip(), ulen=ulen_grav[0], grav=ulen_grav[1], isx=int(sym[0]), isy=int(sym[1]), npan=npan
+        title=lines[0].strip(),
+        ulen=ulen_grav[0],
+        grav=ulen_grav[1],
+        isx=int(sym[0]),
+        isy=int(sym[1]),
+        npan=npan,
     )
     return header, panels, np.asarray(where[::12])
 
@@ -281,7 +288,12 @@ def write_gdf(
     p = np.asarray(panels, dtype=float)
     if p.shape[1:] == (3, 3):
         p = p[:, [0, 1, 2, 2]]
-    lines = [title, f"{ulen!r} {grav!r}   ULEN GRAV", f"{int(isx)} {int(isy)}   ISX ISY", f"{p.shape[0]}   NPAN"]
+    lines = [
+        title,
+        f"{ulen!r} {grav!r}   ULEN GRAV",
+        f"{int(isx)} {int(isy)}   ISX ISY",
+        f"{p.shape[0]}   NPAN",
+    ]
     lines += [" ".join(f"{v:.12g}" for v in q.ravel()) for q in p]
     Path(path).write_text("\n".join(lines) + "\n")
     return Path(path)

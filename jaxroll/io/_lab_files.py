@@ -61,10 +61,18 @@ LAB_UNITS: dict[str, dict[str, tuple[str, float]]] = {
 _QUANTITY = {"time": "time", "roll": "angle", "wave": "length", "delta_gm": "length"}
 _HDF5_MAGIC = b"\x89HDF\r\n\x1a\n"
 _HDF5_SUFFIXES = (".h5", ".hdf5", ".hdf", ".he5", ".mat")
-_DELIMITERS = (";", "\t", ",", "|", " ")  # in order of preference when more than one reads the data consistently
+_DELIMITERS = (
+    ";",
+    "\t",
+    ",",
+    "|",
+    " ",
+)  # in order of preference when more than one reads the data consistently
 _COMMENT = ("#", "%", "//")
 _UNIT_IN_NAME = re.compile(r"^(?P<name>.*?)\s*[\[(]\s*(?P<unit>[^\])]*?)\s*[\])]\s*$")
-_NUMBER = re.compile(r"^[+-]?(\d+([.,]\d*)?|[.,]\d+)([eE][+-]?\d+)?$|^[+-]?(nan|inf|infinity)$", re.IGNORECASE)
+_NUMBER = re.compile(
+    r"^[+-]?(\d+([.,]\d*)?|[.,]\d+)([eE][+-]?\d+)?$|^[+-]?(nan|inf|infinity)$", re.IGNORECASE
+)
 
 
 def _normal_unit(text: str) -> str:
@@ -115,7 +123,9 @@ def _read_text(path: Path) -> tuple[str, str]:
         except (OSError, EOFError) as e:
             raise _err(str(path), None, f"not a readable gzip file ({e}).") from None
     if b"\x00" in data[:4096]:
-        raise _err(str(path), None, "not a text file (it holds NUL bytes); an HDF5 file is read by its datasets.")
+        raise _err(
+            str(path), None, "not a text file (it holds NUL bytes); an HDF5 file is read by its datasets."
+        )
     try:
         return data.decode("utf-8-sig"), "utf-8"
     except UnicodeDecodeError:
@@ -213,7 +223,9 @@ def read_lab_table(
     if skip_rows is not None:
         header_row = skip_rows + 1
     if header_row is not None and header_row > len(lines):
-        raise _err(source, None, f"header row {header_row} is beyond the end of the file ({len(lines)} lines).")
+        raise _err(
+            source, None, f"header row {header_row} is beyond the end of the file ({len(lines)} lines)."
+        )
     delim = delimiter if delimiter is not None else _sniff_delimiter(lines, source)
     split = _splitter(delim)
     fields = split(lines)
@@ -224,8 +236,11 @@ def read_lab_table(
     ncol = max(set(tail), key=tail.count) if tail else 0
 
     def data_like(i: int) -> bool:
-        return bool(lines[i].strip()) and not _is_comment(lines[i]) and len(fields[i]) == ncol and (
-            _numeric_share(fields[i]) > 0.5
+        return (
+            bool(lines[i].strip())
+            and not _is_comment(lines[i])
+            and len(fields[i]) == ncol
+            and (_numeric_share(fields[i]) > 0.5)
         )
 
     units_line = None
@@ -236,13 +251,26 @@ def read_lab_table(
                 first = i
                 break
         if first is None:
-            raise _err(source, None, f"found no data: no run of lines with {ncol} numeric fields (delimiter "
-                       f"{delim!r}); give the delimiter and the header row (CLI --delimiter, --header-row).")
+            raise _err(
+                source,
+                None,
+                f"found no data: no run of lines with {ncol} numeric fields (delimiter "
+                f"{delim!r}); give the delimiter and the header row (CLI --delimiter, --header-row).",
+            )
         header = None
         if header_row is None:
             above = first - 1
-            if above >= 0 and len(fields[above]) == ncol and lines[above].strip() and not _is_comment(lines[above]):
-                if all(_known_unit(f) for f in fields[above]) and above >= 1 and len(fields[above - 1]) == ncol:
+            if (
+                above >= 0
+                and len(fields[above]) == ncol
+                and lines[above].strip()
+                and not _is_comment(lines[above])
+            ):
+                if (
+                    all(_known_unit(f) for f in fields[above])
+                    and above >= 1
+                    and len(fields[above - 1]) == ncol
+                ):
                     units_line, header = above, above - 1
                 else:
                     header = above
@@ -253,7 +281,9 @@ def read_lab_table(
             if all(_known_unit(f) for f in fields[first]):
                 units_line, first = first, first + 1
         if header >= end or not lines[header].strip():
-            raise _err(source, header_row, "the header row is blank; give the line that holds the column names.")
+            raise _err(
+                source, header_row, "the header row is blank; give the line that holds the column names."
+            )
         if len(fields[header]) != ncol:
             raise _err(
                 source,
@@ -291,7 +321,9 @@ def read_lab_table(
                 raise _err(
                     source, lineno, f"truncated file: the last line has {len(fields[i])} of {ncol} columns."
                 )
-            raise _err(source, lineno, f"expected {ncol} columns (delimiter {delim!r}); got {len(fields[i])}.")
+            raise _err(
+                source, lineno, f"expected {ncol} columns (delimiter {delim!r}); got {len(fields[i])}."
+            )
         rows.append(fields[i])
         linenos.append(lineno)
     dec = decimal if decimal is not None else _sniff_decimal(rows, delim, source)
@@ -327,9 +359,12 @@ def _column_index(table: LabTable, spec: str | int, role: str) -> int:
             if len(hits) == 1:
                 return hits[0]
             if len(hits) > 1:
-                raise _err(table.source, table.layout["header_line"],
-                           f"column name {text!r} ({role}) matches columns {', '.join(str(h + 1) for h in hits)}; "
-                           "give the column by number.")
+                raise _err(
+                    table.source,
+                    table.layout["header_line"],
+                    f"column name {text!r} ({role}) matches columns {', '.join(str(h + 1) for h in hits)}; "
+                    "give the column by number.",
+                )
     try:
         number = int(spec)
     except (TypeError, ValueError):
@@ -344,8 +379,9 @@ def _column_index(table: LabTable, spec: str | int, role: str) -> int:
     )
 
 
-def _resolve_unit(role: str, label: str, from_file: str | None, given: str | None, source: str,
-                  line: int | None) -> tuple[str, float, str]:
+def _resolve_unit(
+    role: str, label: str, from_file: str | None, given: str | None, source: str, line: int | None
+) -> tuple[str, float, str]:
     """(the record format's unit, factor to it, the unit as read) of one column."""
     quantity = _QUANTITY[role]
     table = LAB_UNITS[quantity]
@@ -410,17 +446,25 @@ def _hdf5_columns(path: Path, group: str | None, specs: Mapping[str, str]) -> tu
     try:
         f = h5py.File(path, "r")
     except OSError as e:
-        raise _err(str(path), None, f"not a readable HDF5 file ({e}); is it complete (not truncated)?") from None
+        raise _err(
+            str(path), None, f"not a readable HDF5 file ({e}); is it complete (not truncated)?"
+        ) from None
     with f:
         base = f
         if group:
             if group in f and isinstance(f[group], h5py.Dataset):
                 parent, _, name = group.rpartition("/")
-                raise _err(str(path), None, f"{group!r} is a dataset; name the group, {path}:{parent or '/'}, and the "
-                           f"datasets as columns (e.g. roll={name!r}; CLI --roll {name}).")
+                raise _err(
+                    str(path),
+                    None,
+                    f"{group!r} is a dataset; name the group, {path}:{parent or '/'}, and the "
+                    f"datasets as columns (e.g. roll={name!r}; CLI --roll {name}).",
+                )
             if group not in f or not isinstance(f[group], h5py.Group):
                 top = ", ".join(f"/{k}" for k in f.keys())
-                raise _err(str(path), None, f"no group {group!r} in the file (top level: {top or 'nothing'}).")
+                raise _err(
+                    str(path), None, f"no group {group!r} in the file (top level: {top or 'nothing'})."
+                )
             base = f[group]
         out = {}
         for role, spec in specs.items():
@@ -523,11 +567,15 @@ def import_record(
             f"{', '.join(('time',) + wanted)}."
         )
     if not (isinstance(scale, int | float) and math.isfinite(scale) and scale >= 1):
-        raise ValueError(f"scale must be a number >= 1 (λ: model = full/λ; 1 for full-scale data); got {scale!r}.")
+        raise ValueError(
+            f"scale must be a number >= 1 (λ: model = full/λ; 1 for full-scale data); got {scale!r}."
+        )
     if sampling_hz is not None and not (math.isfinite(sampling_hz) and sampling_hz > 0):
         raise ValueError(f"sampling_hz must be > 0 [Hz]; got {sampling_hz!r}.")
     if time is None and sampling_hz is None:
-        raise ValueError("without a time column (time=), give the sampling rate (sampling_hz=; CLI --sampling-hz).")
+        raise ValueError(
+            "without a time column (time=), give the sampling rate (sampling_hz=; CLI --sampling-hz)."
+        )
     if time is None and "time" in units:
         raise ValueError("units for `time` given, but no time column (time=).")
     specs = {r: s for r, s in (("time", time), *((c, given[c]) for c in wanted)) if s is not None}
@@ -553,8 +601,11 @@ def import_record(
             bad = np.nonzero(~np.isfinite(values))[0]
             if bad.size:
                 i = int(bad[0])
-                what = "is NaN (gaps and missing values are not allowed)" if np.isnan(values[i]) else (
-                    f"is not finite ({values[i]})")
+                what = (
+                    "is NaN (gaps and missing values are not allowed)"
+                    if np.isnan(values[i])
+                    else (f"is not finite ({values[i]})")
+                )
                 raise _err(source, i + 1, f"{label} {what}.")
             columns[role], file_units[role], labels[role] = values, unit, label
             names[role] = label.split("`")[1]
@@ -562,8 +613,9 @@ def import_record(
         where = {role: None for role in specs}
         layout = "HDF5"
     else:
-        table = read_lab_table(path, delimiter=delimiter, decimal=decimal, header_row=header_row,
-                               skip_rows=skip_rows)
+        table = read_lab_table(
+            path, delimiter=delimiter, decimal=decimal, header_row=header_row, skip_rows=skip_rows
+        )
         source = table.source
         for role, spec in specs.items():
             j = _column_index(table, spec, role)
@@ -585,15 +637,15 @@ def import_record(
             columns[role] = values
         lines = table.lines
         where = {role: table.layout["header_line"] for role in specs}
-        layout = (
-            f"delimiter {table.layout['delimiter']!r}, decimal {table.layout['decimal']!r}"
-            + (f", header line {table.layout['header_line']}" if table.layout["header_line"] else ", no header")
+        layout = f"delimiter {table.layout['delimiter']!r}, decimal {table.layout['decimal']!r}" + (
+            f", header line {table.layout['header_line']}" if table.layout["header_line"] else ", no header"
         )
     # --- units, scale, sampling ---
     record_units, factors, read_units = {}, {}, {}
     for role in specs:
-        native, factor, read = _resolve_unit(role, f"{labels[role]}", file_units[role], units.get(role), source,
-                                             where[role])
+        native, factor, read = _resolve_unit(
+            role, f"{labels[role]}", file_units[role], units.get(role), source, where[role]
+        )
         record_units[role], factors[role], read_units[role] = native, factor, read
     model = {}
     lam = float(scale)
@@ -602,8 +654,11 @@ def import_record(
         model[role] = v / lam ** _FROUDE_POWER[role] if full_scale and lam != 1.0 else v
     n = next(iter(model.values())).size
     if n < min_samples:
-        raise _err(source, int(lines[-1]) if n else None,
-                   f"too few samples: {n} data rows (at least {min_samples} needed).")
+        raise _err(
+            source,
+            int(lines[-1]) if n else None,
+            f"too few samples: {n} data rows (at least {min_samples} needed).",
+        )
     fs = None if sampling_hz is None else float(sampling_hz) * (math.sqrt(lam) if full_scale else 1.0)
     if "time" in model:
         t = model["time"] * COLUMN_UNITS["time"][record_units["time"]]
@@ -646,11 +701,11 @@ def import_record(
         for j, (name, unit) in enumerate(zip(RECORD_COLUMNS[kind], unit_list))
     }
     if "roll" in full:
-        _check_roll_range(full["roll"], read_units["roll"], source,
-                          "give units={'roll': 'deg'}; CLI --units roll=deg")
+        _check_roll_range(
+            full["roll"], read_units["roll"], source, "give units={'roll': 'deg'}; CLI --units roll=deg"
+        )
     time_full = full.pop("time")
     return Record(kind, time_full, full, lam, header, source, None if hdf5 is not None else lines)
-
 
 
 def describe_lab_file(
@@ -672,16 +727,23 @@ def describe_lab_file(
         try:
             f = h5py.File(file, "r")
         except OSError as e:
-            raise _err(str(file), None, f"not a readable HDF5 file ({e}); is it complete (not truncated)?") from None
+            raise _err(
+                str(file), None, f"not a readable HDF5 file ({e}); is it complete (not truncated)?"
+            ) from None
         out = [f"{file}: HDF5"]
         with f:
             base = f[group] if group and group in f else f
 
             def visit(name, node):
                 if isinstance(node, h5py.Dataset):
-                    unit = next((node.attrs[k] for k in ("units", "unit", "Units", "Unit") if k in node.attrs), None)
+                    unit = next(
+                        (node.attrs[k] for k in ("units", "unit", "Units", "Unit") if k in node.attrs), None
+                    )
                     unit = unit.decode() if isinstance(unit, bytes) else unit
-                    out.append(f"  {node.name}  shape {node.shape}, {node.dtype}" + (f", units {unit}" if unit else ""))
+                    out.append(
+                        f"  {node.name}  shape {node.shape}, {node.dtype}"
+                        + (f", units {unit}" if unit else "")
+                    )
                 else:
                     out.append(f"  {node.name}/")
 

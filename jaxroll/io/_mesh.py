@@ -685,7 +685,9 @@ def read_hull(
     if suffix == ".stl":
         return read_stl_hull(path, units=units, **mesh_kw), {}
     if suffix in MESHIO_SUFFIXES:
-        return hull_from_triangles(read_mesh(path), units=units, source=str(path), name=path.stem, **mesh_kw), {}
+        return hull_from_triangles(
+            read_mesh(path), units=units, source=str(path), name=path.stem, **mesh_kw
+        ), {}
     if suffix == ".gdf":
         from ._gdf import _read_gdf_hull
 

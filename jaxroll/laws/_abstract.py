@@ -86,7 +86,7 @@ class AbstractAmplitudeLaw(eqx.Module):
 
     @property
     def sampling(self) -> str:
-        """"per half cycle" (zero-crossing amplitudes) or "per time sample" (envelope)."""
+        """ "per half cycle" (zero-crossing amplitudes) or "per time sample" (envelope)."""
         return SAMPLING[self.estimator]
 
     def _repr_html_(self) -> str | None:
@@ -99,12 +99,15 @@ class AbstractAmplitudeLaw(eqx.Module):
             exceed = np.asarray(self.sf(np.deg2rad(np.array([10.0, 20.0, 30.0]))))
         except Exception:  # a batch of laws has no single mean: IPython then shows the plain repr
             return None
-        rows = [("estimator", f"{self.estimator} ({self.sampling})", ""),
-                ("mean amplitude", s["mean_amplitude_deg"], "deg")]
+        rows = [
+            ("estimator", f"{self.estimator} ({self.sampling})", ""),
+            ("mean amplitude", s["mean_amplitude_deg"], "deg"),
+        ]
         rows += [(f"{k} % quantile", v, "deg") for k, v in s["quantiles_deg"].items()]
         rows += [(f"P(A > {a:g}°)", p, "-") for a, p in zip((10, 20, 30), exceed, strict=True)]
-        return html_table(f"{type(self).__name__}: law of the roll amplitude A", rows,
-                          header=("", "value", "unit"))
+        return html_table(
+            f"{type(self).__name__}: law of the roll amplitude A", rows, header=("", "value", "unit")
+        )
 
     def logpdf(self, a: ArrayLike) -> Float[Array, "..."]:
         """log P(a), P in [1/rad]; −inf outside the support. `a` [rad], any shape."""
@@ -182,7 +185,6 @@ class AbstractAmplitudeLaw(eqx.Module):
             out["mass_beyond_grid"] = float(self.sf(np.deg2rad(bins[-1])))
         return out
 
-
     def to_xarray(self, amplitude_deg: ArrayLike | None = None):
         """The law as an `xarray.Dataset` on the amplitude grid `amplitude_deg` [deg] (default: 0.1° steps from 0 to
         the end of the support, or to the amplitude exceeded with probability 1e-12 where the support is
@@ -199,17 +201,33 @@ class AbstractAmplitudeLaw(eqx.Module):
         rad = np.deg2rad(grid)
         summary = self.summary()
         text = {k: summary.pop(k) for k in ("estimator", "amplitude_sampling")}
-        ds = tree_to_dataset(summary, Layout(labels={"quantiles_deg": "percentile"},
-                                             coords={"percentile": ("percent", "quantile level")}))
+        ds = tree_to_dataset(
+            summary,
+            Layout(
+                labels={"quantiles_deg": "percentile"}, coords={"percentile": ("percent", "quantile level")}
+            ),
+        )
         a = ("amplitude_deg",)
-        return merge(ds, labelled_values(
-            {"pdf_per_degree": (a, np.asarray(self.pdf(rad)) * np.pi / 180, "degree-1", "PDF of the amplitude per "
-                                "degree"),
-             "sf": (a, np.asarray(self.sf(rad)), "1", "P(A > amplitude)"),
-             "cdf": (a, np.asarray(self.cdf(rad)), "1", "P(A <= amplitude)")},
-            coords={"amplitude_deg": (a, grid, "degree", "roll amplitude A"),
-                    "amplitude_rad": (a, rad, "rad", "roll amplitude A")},
-            attrs={"law": type(self).__name__, **text}))
+        return merge(
+            ds,
+            labelled_values(
+                {
+                    "pdf_per_degree": (
+                        a,
+                        np.asarray(self.pdf(rad)) * np.pi / 180,
+                        "degree-1",
+                        "PDF of the amplitude per degree",
+                    ),
+                    "sf": (a, np.asarray(self.sf(rad)), "1", "P(A > amplitude)"),
+                    "cdf": (a, np.asarray(self.cdf(rad)), "1", "P(A <= amplitude)"),
+                },
+                coords={
+                    "amplitude_deg": (a, grid, "degree", "roll amplitude A"),
+                    "amplitude_rad": (a, rad, "rad", "roll amplitude A"),
+                },
+                attrs={"law": type(self).__name__, **text},
+            ),
+        )
 
 
 def _require_float64(law: AbstractAmplitudeLaw, method: str) -> None:
@@ -284,7 +302,6 @@ def _solve_levels(dist, log_c, log_s):
 _solve_levels_jit = filter_jit(_solve_levels)
 
 
-
 # Levels that bracket the work of `expected_maximum` and `most_probable_maximum`, as (log CDF, log F̄)
 # targets of the per-cycle distribution: the mode scan runs between the 1e-15 and 1 − 1e-12 quantiles of the
 # maximum; the E[max] integrand is 1 to within 1e-30 left of the first end and N0·F̄ < 1e-20 right of the
@@ -315,5 +332,3 @@ def _expected_maximum(dist, n0, num_panels):
     log_c, log_s = _bracket_targets(n0)
     ends = _solve_levels(jax.lax.stop_gradient(dist), log_c[2:], log_s[2:])
     return _expected_in(dist, n0, ends[0], ends[1], num_panels)
-
-

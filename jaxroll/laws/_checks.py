@@ -16,6 +16,7 @@ _DOUBLING_STEPS = 64
 _UPPER_TAIL = 1e-20  # E[max] integrals stop where N0·F̄ has fallen to this
 _GOLDEN = (math.sqrt(5.0) - 1.0) / 2.0
 
+
 def _log1mexp(y):
     """log(1 − e^y) for y ≤ 0, accurate at both ends (Mächler 2012)."""
     y = jnp.minimum(y, 0.0)
@@ -55,9 +56,7 @@ def _count_n0(n0, name: str = "n0"):
 def _probability_levels(q, name: str = "q"):
     arr = jnp.asarray(q, dtype=float)
     shown = "a traced value" if _is_traced(arr) else f"{np.asarray(arr)!r}"
-    return require(
-        arr, ~((arr > 0) & (arr < 1)), f"`{name}` must lie strictly between 0 and 1; got {shown}."
-    )
+    return require(arr, ~((arr > 0) & (arr < 1)), f"`{name}` must lie strictly between 0 and 1; got {shown}.")
 
 
 def _gauss_legendre(f, a, b, num_panels: int):

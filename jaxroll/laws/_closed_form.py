@@ -173,4 +173,3 @@ RobertsLaw.__init__.__doc__ = """**Arguments:**
 - `estimator`: what the amplitudes are: "zero_crossing" (default) or "envelope" (Roberts' stationary law is
   an envelope law; for linear restoring the two coincide).
 """
-

@@ -1,6 +1,5 @@
 """Tabulated amplitude laws: a PDF on a grid, from a theory, a histogram or samples."""
 
-
 import equinox as eqx
 import jax
 import jax.numpy as jnp
@@ -114,7 +113,11 @@ class TabulatedAmplitudeLaw(AbstractAmplitudeLaw):
 
     @classmethod
     def from_logpdf(
-        cls, grid: Float[ArrayLike, " n"], log_pdf: Float[ArrayLike, " n"], *, estimator: str = "zero_crossing"
+        cls,
+        grid: Float[ArrayLike, " n"],
+        log_pdf: Float[ArrayLike, " n"],
+        *,
+        estimator: str = "zero_crossing",
     ) -> "TabulatedAmplitudeLaw":
         """A distribution from log-PDF values on a grid, for tails below the float64 range (`log p = −900`).
 
@@ -273,7 +276,9 @@ or `from_samples`.
 """
 
 
-def law_from_histogram(counts, edges, *, estimator: str, n_samples: int | None = None) -> TabulatedAmplitudeLaw:
+def law_from_histogram(
+    counts, edges, *, estimator: str, n_samples: int | None = None
+) -> TabulatedAmplitudeLaw:
     """The law of a histogram: `counts` in bins with `edges` [rad], PDF at the bin centres (repeated at the two
     outer edges, like `from_samples`), segment masses exact. Counts beyond the last edge must be folded into the
     last bin by the caller (and reported: there is no mass beyond `edges[-1]`).

@@ -66,6 +66,7 @@ class ScatterDiagram:
 
     @property
     def total(self) -> float:
+        """The sum of the occurrences (the table's total count, e.g. 100 000 for Rec. 34) [-]."""
         return float(self.counts.sum())
 
 

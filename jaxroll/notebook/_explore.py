@@ -30,8 +30,12 @@ def _heading(heading_deg: float) -> str | float:
     """What `EffectiveWave`/`RollProblem.from_sea` take for χ [deg] (as the command line passes it): "head" (180°),
     "following" (0°), else χ [rad]."""
     if not 0.0 <= heading_deg <= 180.0:
-        raise ValueError(f"`heading_deg` must be in [0, 180] (0 following, 90 beam, 180 head); got {heading_deg!r}.")
-    return "head" if heading_deg == 180.0 else "following" if heading_deg == 0.0 else math.radians(heading_deg)
+        raise ValueError(
+            f"`heading_deg` must be in [0, 180] (0 following, 90 beam, 180 head); got {heading_deg!r}."
+        )
+    return (
+        "head" if heading_deg == 180.0 else "following" if heading_deg == 0.0 else math.radians(heading_deg)
+    )
 
 
 def _with_correction(ship, gm_correction: float | None):
@@ -42,8 +46,11 @@ def _with_correction(ship, gm_correction: float | None):
     if not (math.isfinite(gm_correction) and gm_correction > 0):
         raise ValueError(f"`gm_correction` (σ_obs/σ_thr) must be a finite number > 0; got {gm_correction!r}.")
     # the ship's own dtype, not a weak type: the theories' stored programs are then the ones already compiled
-    return eqx.tree_at(lambda s: s.gm_correction, ship,
-                       jnp.asarray(float(gm_correction), dtype=jnp.asarray(ship.gm_correction).dtype))
+    return eqx.tree_at(
+        lambda s: s.gm_correction,
+        ship,
+        jnp.asarray(float(gm_correction), dtype=jnp.asarray(ship.gm_correction).dtype),
+    )
 
 
 def explore_curves(
@@ -102,8 +109,14 @@ def explore_monte_carlo(
 
     ship = _with_correction(c11_representative() if ship is None else ship, gm_correction)
     problem = RollProblem.from_sea(ship, ITTC(hs, t01), speed=speed, heading=_heading(heading_deg), dt=dt)
-    return monte_carlo_amplitudes(problem, jax.random.key(seed), num_realizations=num_realizations,
-                                  duration=duration, discard=discard, progress=progress)
+    return monte_carlo_amplitudes(
+        problem,
+        jax.random.key(seed),
+        num_realizations=num_realizations,
+        duration=duration,
+        discard=discard,
+        progress=progress,
+    )
 
 
 def _widgets():
@@ -127,8 +140,21 @@ class Explorer:
     - `curves`: the last `explore_curves` result; `monte_carlo`: the last `AmplitudeStatistics` (or None).
     """
 
-    def __init__(self, ship=None, *, hs=7.0, t01=10.0, heading_deg=180.0, speed=0.0, gm_correction=None,
-                 theories=("envelope_fpk",), num_realizations=200, duration=1800.0, discard=300.0, seed=0):
+    def __init__(
+        self,
+        ship=None,
+        *,
+        hs=7.0,
+        t01=10.0,
+        heading_deg=180.0,
+        speed=0.0,
+        gm_correction=None,
+        theories=("envelope_fpk",),
+        num_realizations=200,
+        duration=1800.0,
+        discard=300.0,
+        seed=0,
+    ):
         w = _widgets()
         import matplotlib.pyplot as plt
 
@@ -144,8 +170,17 @@ class Explorer:
         layout = w.Layout(width="460px")
 
         def slider(description, value, lo, hi, step, fmt):
-            return w.FloatSlider(value=value, min=lo, max=hi, step=step, description=description,
-                                 continuous_update=False, readout_format=fmt, style=style, layout=layout)
+            return w.FloatSlider(
+                value=value,
+                min=lo,
+                max=hi,
+                step=step,
+                description=description,
+                continuous_update=False,
+                readout_format=fmt,
+                style=style,
+                layout=layout,
+            )
 
         self.sliders = {
             "hs": slider("H1/3 [m]", hs, 0.5, 14.0, 0.25, ".2f"),
@@ -154,13 +189,24 @@ class Explorer:
             "speed": slider("speed [m/s]", speed, 0.0, 12.0, 0.5, ".1f"),
             "gm_correction": slider("GM correction σobs/σthr", r0, 0.2, 2.0, 0.05, ".2f"),
         }
-        self.checks = {name: w.Checkbox(value=name in theories, description=_LABELS[name], indent=False,
-                                        layout=w.Layout(width="130px")) for name in EXPLORE_THEORIES}
-        self.log_scale = w.Checkbox(value=False, description="log scale", indent=False, layout=w.Layout(width="110px"))
-        self.realizations = w.BoundedIntText(value=num_realizations, min=2, max=10**6, description="trials",
-                                             layout=w.Layout(width="170px"))
-        self.button = w.Button(description="Monte Carlo", tooltip="a small Monte Carlo for these values",
-                               icon="play")
+        self.checks = {
+            name: w.Checkbox(
+                value=name in theories,
+                description=_LABELS[name],
+                indent=False,
+                layout=w.Layout(width="130px"),
+            )
+            for name in EXPLORE_THEORIES
+        }
+        self.log_scale = w.Checkbox(
+            value=False, description="log scale", indent=False, layout=w.Layout(width="110px")
+        )
+        self.realizations = w.BoundedIntText(
+            value=num_realizations, min=2, max=10**6, description="trials", layout=w.Layout(width="170px")
+        )
+        self.button = w.Button(
+            description="Monte Carlo", tooltip="a small Monte Carlo for these values", icon="play"
+        )
         self.status = w.HTML()
         self.output = w.Output()
         self.mc_options = {"duration": float(duration), "discard": float(discard), "seed": int(seed)}
@@ -170,13 +216,25 @@ class Explorer:
         self._show = in_notebook()
         with plt.ioff():
             self.figure, self.ax = plt.subplots(figsize=(7.0, 3.8))
-        self.widget = w.VBox([
-            w.HBox([w.VBox(list(self.sliders.values())),
-                    w.VBox([w.HBox(list(self.checks.values())[:2]), w.HBox(list(self.checks.values())[2:]),
-                            self.log_scale, w.HBox([self.realizations, self.button])])]),
-            self.status,
-            self.output,
-        ])
+        self.widget = w.VBox(
+            [
+                w.HBox(
+                    [
+                        w.VBox(list(self.sliders.values())),
+                        w.VBox(
+                            [
+                                w.HBox(list(self.checks.values())[:2]),
+                                w.HBox(list(self.checks.values())[2:]),
+                                self.log_scale,
+                                w.HBox([self.realizations, self.button]),
+                            ]
+                        ),
+                    ]
+                ),
+                self.status,
+                self.output,
+            ]
+        )
         for control in (*self.sliders.values(), *self.checks.values()):
             control.observe(lambda change: self.redraw(), names="value")
         self.log_scale.observe(lambda change: self._draw(), names="value")
@@ -198,8 +256,10 @@ class Explorer:
         self.curves = explore_curves(self.ship, theories=self.theories(), **self.values())
         self._draw()
         elapsed = time.perf_counter() - start
-        parts = [f"{_LABELS[n]}: {'no law here — ' + c if isinstance(c, str) else 'mean ' + format(c['mean_amplitude_deg'], '.2f') + '°'}"
-                 for n, c in self.curves.items()]
+        parts = [
+            f"{_LABELS[n]}: {'no law here — ' + c if isinstance(c, str) else 'mean ' + format(c['mean_amplitude_deg'], '.2f') + '°'}"
+            for n, c in self.curves.items()
+        ]
         self.status.value = f"<small>{'; '.join(parts) or 'no theory ticked'} ({elapsed:.2f} s)</small>"
         return elapsed
 
@@ -210,9 +270,13 @@ class Explorer:
         self.status.value = f"<small>Monte Carlo: {self.realizations.value} trials …</small>"
         start = time.perf_counter()
         try:
-            self.monte_carlo = explore_monte_carlo(self.ship, num_realizations=int(self.realizations.value),
-                                                   progress=True if self._show else None, **self.mc_options,
-                                                   **values)
+            self.monte_carlo = explore_monte_carlo(
+                self.ship,
+                num_realizations=int(self.realizations.value),
+                progress=True if self._show else None,
+                **self.mc_options,
+                **values,
+            )
         except ValueError as e:
             self.monte_carlo, self._mc_values = None, None
             self.status.value = f"<small>Monte Carlo: {e}</small>"
@@ -233,15 +297,29 @@ class Explorer:
         centres = 0.5 * (EXPLORE_BINS_DEG[1:] + EXPLORE_BINS_DEG[:-1])
         if self.monte_carlo is not None and self._mc_values == self.values():
             pdf = self.monte_carlo.pdf_per_degree("envelope", EXPLORE_BINS_DEG)
-            ax.step(centres, pdf, where="mid", color="0.3", lw=1.0,
-                    label=f"Monte Carlo ({self.monte_carlo.n_realizations} trials)")
+            ax.step(
+                centres,
+                pdf,
+                where="mid",
+                color="0.3",
+                lw=1.0,
+                label=f"Monte Carlo ({self.monte_carlo.n_realizations} trials)",
+            )
         for name, c in self.curves.items():
             if not isinstance(c, str):
-                ax.plot(centres, c["pdf_per_degree"], color=_COLOURS[name], lw=1.6,
-                        label=f"{_LABELS[name]} (mean {c['mean_amplitude_deg']:.1f}°)")
+                ax.plot(
+                    centres,
+                    c["pdf_per_degree"],
+                    color=_COLOURS[name],
+                    lw=1.6,
+                    label=f"{_LABELS[name]} (mean {c['mean_amplitude_deg']:.1f}°)",
+                )
         v = self.values()
-        ax.set_title(f"ITTC H1/3 = {v['hs']:g} m, T01 = {v['t01']:g} s, χ = {v['heading_deg']:g}°, "
-                     f"U = {v['speed']:g} m/s, r = {v['gm_correction']:g}", fontsize=9)
+        ax.set_title(
+            f"ITTC H1/3 = {v['hs']:g} m, T01 = {v['t01']:g} s, χ = {v['heading_deg']:g}°, "
+            f"U = {v['speed']:g} m/s, r = {v['gm_correction']:g}",
+            fontsize=9,
+        )
         ax.set_xlabel("envelope amplitude [deg]")
         ax.set_ylabel("PDF [1/deg]")
         ax.set_yscale("log" if self.log_scale.value else "linear")

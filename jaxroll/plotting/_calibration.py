@@ -213,7 +213,9 @@ def _segments(fit: TimeDomainFit, record: int):
     """(time, measured, fitted) segments of one record: the shooting windows, or the Kalman filter's record cut
     into blocks of `fit.window_s`."""
     out = []
-    for t, m, f, r in zip(fit.curves["time"], fit.curves["measured"], fit.curves["fitted"], fit.curves["record"]):
+    for t, m, f, r in zip(
+        fit.curves["time"], fit.curves["measured"], fit.curves["fitted"], fit.curves["record"]
+    ):
         if r != record:
             continue
         t, m, f = np.asarray(t), np.asarray(m), np.asarray(f)

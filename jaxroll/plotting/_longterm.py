@@ -51,23 +51,39 @@ def longterm_scatter_figure(ds, angle_index: int = 0):
         shown = np.ma.masked_less_equal(values, 0)
         vmax = float(shown.max()) if shown.count() else 1.0
         norm = LogNorm(vmin=max(vmax * 1e-5, 1e-12), vmax=vmax) if shown.count() else None
-        mesh = ax.pcolormesh(_edges(tz), _edges(hs), shown, cmap="viridis" if ax is axes[0] else "magma_r",
-                             norm=norm, shading="flat")
+        mesh = ax.pcolormesh(
+            _edges(tz),
+            _edges(hs),
+            shown,
+            cmap="viridis" if ax is axes[0] else "magma_r",
+            norm=norm,
+            shading="flat",
+        )
         fig.colorbar(mesh, ax=ax, shrink=0.8)
         big = values >= 0.01 * vmax
         for i, h in enumerate(hs):
             for j, t in enumerate(tz):
                 if values[i, j] > 0 and (big[i, j] or values.size <= 80):
                     dark = (values[i, j] >= 0.05 * vmax) == (ax is axes[1])  # magma_r is dark at the top
-                    ax.text(t, h, fmt.format(values[i, j]), ha="center", va="center", fontsize=5,
-                            color="w" if dark else "k")
+                    ax.text(
+                        t,
+                        h,
+                        fmt.format(values[i, j]),
+                        ha="center",
+                        va="center",
+                        fontsize=5,
+                        color="w" if dark else "k",
+                    )
         ax.set_xlabel("T_z [s] (T01 = 1.0864 T_z)")
         ax.set_title(title, fontsize=9)
     axes[0].set_ylabel("H_s [m]")
     ships = ", ".join(str(s) for s in ds.ship.values)
-    fig.suptitle(f"{ships}: long-term P = {float(ds.longterm_probability[angle_index]):.3g} per exposure "
-                 f"(95 % {float(ds.longterm_probability_ci95[angle_index, 0]):.3g}–"
-                 f"{float(ds.longterm_probability_ci95[angle_index, 1]):.3g})", fontsize=10)
+    fig.suptitle(
+        f"{ships}: long-term P = {float(ds.longterm_probability[angle_index]):.3g} per exposure "
+        f"(95 % {float(ds.longterm_probability_ci95[angle_index, 0]):.3g}–"
+        f"{float(ds.longterm_probability_ci95[angle_index, 1]):.3g})",
+        fontsize=10,
+    )
     return fig
 
 
@@ -91,15 +107,24 @@ def longterm_polar_figure(ds, angle_index: int = 0):
         sel = member == chi
         ww = w[:, :, sel].sum(axis=2)  # weights within the class
         norm = ww.sum(axis=(0, 1, 3))
-        risk[a] = np.where(norm > 0, (ww * p[:, :, sel][:, :, 0]).sum(axis=(0, 1, 3)) / np.where(norm > 0, norm, 1), 0)
-        cap[a] = np.where(norm > 0, (ww * c[:, :, sel][:, :, 0]).sum(axis=(0, 1, 3)) / np.where(norm > 0, norm, 1), 0)
-    fig, axes = plt.subplots(1, 2, subplot_kw={"projection": "polar"}, figsize=(10, 4.8), layout="constrained")
+        risk[a] = np.where(
+            norm > 0, (ww * p[:, :, sel][:, :, 0]).sum(axis=(0, 1, 3)) / np.where(norm > 0, norm, 1), 0
+        )
+        cap[a] = np.where(
+            norm > 0, (ww * c[:, :, sel][:, :, 0]).sum(axis=(0, 1, 3)) / np.where(norm > 0, norm, 1), 0
+        )
+    fig, axes = plt.subplots(
+        1, 2, subplot_kw={"projection": "polar"}, figsize=(10, 4.8), layout="constrained"
+    )
     for ax, values, what in ((axes[0], risk, _angle_label(ds, angle_index)), (axes[1], cap, "P(capsize)")):
         vmax = max(float(values.max()), 1e-12)
         mesh = polar_risk_chart(ax, classes, speeds, values, label=what, vmax=vmax, fmt="{:.2g}")
         fig.colorbar(mesh, ax=ax, shrink=0.6, label="per exposure, given heading and speed")
-    fig.suptitle("long-term risk given heading χ (angle; 180° head seas at the top, port and starboard alike) and "
-                 "speed U [m/s] (radius)", fontsize=9)
+    fig.suptitle(
+        "long-term risk given heading χ (angle; 180° head seas at the top, port and starboard alike) and "
+        "speed U [m/s] (radius)",
+        fontsize=9,
+    )
     return fig
 
 
@@ -123,18 +148,29 @@ def longterm_ci_figure(ds, summary: dict | None = None, angle_index: int = 0):
     if effort:
         n = np.asarray(effort["trials"], float)
         half = np.asarray(effort["sampling_half_width"], float)[:, a]
-        ax.plot(n, half, "o-", color="tab:blue", label="sampling ±1.96 σ (first fraction of each cell's trials)")
+        ax.plot(
+            n, half, "o-", color="tab:blue", label="sampling ±1.96 σ (first fraction of each cell's trials)"
+        )
         more = np.geomspace(n[-1], 100 * n[-1], 20)
         ax.plot(more, half[-1] * np.sqrt(n[-1] / more), "--", color="tab:blue", label="∝ 1/√N beyond")
         if below or above:
-            ax.axhline(max(below, above), color="tab:red", label="model allowance of the theory cells (max side)")
+            ax.axhline(
+                max(below, above), color="tab:red", label="model allowance of the theory cells (max side)"
+            )
         ax.set_xscale("log")
         ax.set_yscale("log")
         ax.set_xlabel("Monte Carlo trials in all cells")
         ax.set_ylabel("half-width of the long-term 95 % interval")
     else:
-        ax.bar([0], [below + above], bottom=[p - below], width=0.4, color="tab:red", alpha=0.4,
-               label="model allowance (theory cells)")
+        ax.bar(
+            [0],
+            [below + above],
+            bottom=[p - below],
+            width=0.4,
+            color="tab:red",
+            alpha=0.4,
+            label="model allowance (theory cells)",
+        )
         ax.plot([0], [p], "ko", label="long-term probability")
         ax.set_xticks([])
         ax.set_ylabel(_angle_label(ds, a))

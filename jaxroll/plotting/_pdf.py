@@ -13,11 +13,20 @@ from dataclasses import dataclass
 import matplotlib.pyplot as plt
 import numpy as np
 
-THEORY_COLOURS = {"roberts": "tab:blue", "esam": "gold", "moment": "purple", "envelope_fpk": "teal",
-                  "first_passage": "tab:orange"}
-THEORY_LABELS = {"roberts": "Roberts (SAM)", "esam": "ESAM", "moment": "moment method",
-                 "envelope_fpk": "envelope FPK (coloured averaging)",
-                 "first_passage": "envelope FPK, first passage (large rolls in groups)"}
+THEORY_COLOURS = {
+    "roberts": "tab:blue",
+    "esam": "gold",
+    "moment": "purple",
+    "envelope_fpk": "teal",
+    "first_passage": "tab:orange",
+}
+THEORY_LABELS = {
+    "roberts": "Roberts (SAM)",
+    "esam": "ESAM",
+    "moment": "moment method",
+    "envelope_fpk": "envelope FPK (coloured averaging)",
+    "first_passage": "envelope FPK, first passage (large rolls in groups)",
+}
 
 
 @dataclass
@@ -39,7 +48,10 @@ def amplitude_curves(summary: dict, *, experiment: dict | None = None) -> list[C
     mc_colours = ("tab:green", "tab:green") if experiment else ("k", "tab:red")
     styles = ("dots", "open") if experiment else ("dots", "dots")
     for (key, name), colour, style in zip(
-        (("pdf_zero_crossing", "zero-crossing"), ("pdf_envelope", "envelope")), mc_colours, styles, strict=True
+        (("pdf_zero_crossing", "zero-crossing"), ("pdf_envelope", "envelope")),
+        mc_colours,
+        styles,
+        strict=True,
     ):
         if summary.get(key) is not None:
             label = f"MCS {name}"
@@ -47,14 +59,21 @@ def amplitude_curves(summary: dict, *, experiment: dict | None = None) -> list[C
                 label += f" (given no capsize: {summary['n_realizations'] - summary['n_capsized']} survivors)"
             curves.append(Curve(centres, np.asarray(summary[key], float), label, style, colour))
     if experiment:
-        for key, name, colour in (("pdf_zero_crossing", "zero-crossing", "k"), ("pdf_envelope", "envelope", "tab:red")):
+        for key, name, colour in (
+            ("pdf_zero_crossing", "zero-crossing", "k"),
+            ("pdf_envelope", "envelope", "tab:red"),
+        ):
             if experiment.get(key) is not None:
-                curves.append(Curve(centres, np.asarray(experiment[key], float), f"experiment {name}", "dots", colour))
+                curves.append(
+                    Curve(centres, np.asarray(experiment[key], float), f"experiment {name}", "dots", colour)
+                )
     for method, result in (summary.get("theory") or {}).items():
         label = THEORY_LABELS.get(method, method)
         if result.get("estimator"):
             label += f" ({result['estimator'].replace('_', '-')})"
-        curves.append(Curve(centres, np.asarray(result["pdf"], float), label, "line", THEORY_COLOURS.get(method, "c")))
+        curves.append(
+            Curve(centres, np.asarray(result["pdf"], float), label, "line", THEORY_COLOURS.get(method, "c"))
+        )
     return curves
 
 
@@ -79,7 +98,9 @@ def plot_amplitude_pdf(curves: Sequence[Curve], *, log: bool = False, ax=None, t
     ax.set_ylabel("probability density [1/deg]")
     if log:
         ax.set_yscale("log")
-        positive = [np.nanmin(np.where(c.density > 0, c.density, np.nan)) for c in curves if np.any(c.density > 0)]
+        positive = [
+            np.nanmin(np.where(c.density > 0, c.density, np.nan)) for c in curves if np.any(c.density > 0)
+        ]
         if positive and ymax > 0:
             ax.set_ylim(max(min(positive) / 2, ymax * 1e-7), ymax * 2)
     else:
@@ -101,22 +122,53 @@ def amplitude_pdf_figures(summary: dict, *, experiment: dict | None = None, titl
         fig, ax = plt.subplots(figsize=(6.0, 4.2))
         plot_amplitude_pdf(curves, log=log, ax=ax, title=title)
         if summary.get("reason"):
-            ax.text(0.5, 0.5, "Monte Carlo: " + summary["reason"], transform=ax.transAxes, ha="center",
-                    va="center", wrap=True, fontsize=8, color="tab:red")
+            ax.text(
+                0.5,
+                0.5,
+                "Monte Carlo: " + summary["reason"],
+                transform=ax.transAxes,
+                ha="center",
+                va="center",
+                wrap=True,
+                fontsize=8,
+                color="tab:red",
+            )
         st = summary.get("stationarity") or {}
-        if st.get("stationary") is False:  # the Monte Carlo's law depends on the initial roll and the duration
-            ax.text(0.99, 0.91, f"Monte Carlo not stationary: mean envelope {st['mean_envelope_first_half_deg']:.3g}° "
-                    f"→ {st['mean_envelope_second_half_deg']:.3g}°\nbetween the halves of the run (see the JSON)",
-                    transform=ax.transAxes, ha="right", va="top", fontsize=7, color="tab:red")
-        if summary.get("theory_left_out"):  # a theory with no law in this sea state: said, not silently missing
+        if (
+            st.get("stationary") is False
+        ):  # the Monte Carlo's law depends on the initial roll and the duration
+            ax.text(
+                0.99,
+                0.91,
+                f"Monte Carlo not stationary: mean envelope {st['mean_envelope_first_half_deg']:.3g}° "
+                f"→ {st['mean_envelope_second_half_deg']:.3g}°\nbetween the halves of the run (see the JSON)",
+                transform=ax.transAxes,
+                ha="right",
+                va="top",
+                fontsize=7,
+                color="tab:red",
+            )
+        if summary.get(
+            "theory_left_out"
+        ):  # a theory with no law in this sea state: said, not silently missing
             names = ", ".join(THEORY_LABELS.get(n, n) for n in summary["theory_left_out"])
-            ax.text(0.99, 0.99, f"no law in this sea state: {names} (see the JSON)", transform=ax.transAxes,
-                    ha="right", va="top", fontsize=7, color="0.35")
+            ax.text(
+                0.99,
+                0.99,
+                f"no law in this sea state: {names} (see the JSON)",
+                transform=ax.transAxes,
+                ha="right",
+                va="top",
+                fontsize=7,
+                color="0.35",
+            )
         figs.append(fig)
     return figs[0], figs[1]
 
 
-def maxima_figures(centres_deg, histograms: dict, *, title: str | None = None, capsize_probability: dict | None = None):
+def maxima_figures(
+    centres_deg, histograms: dict, *, title: str | None = None, capsize_probability: dict | None = None
+):
     """The paper's Figs. 12-13 analogue: Monte Carlo PDFs [1/deg] of the maximum amplitude, one curve per N0.
 
     `capsize_probability` maps N0 to P(capsize before the N0-th amplitude) [-]: the histograms are then defective
@@ -140,16 +192,34 @@ def maxima_figures(centres_deg, histograms: dict, *, title: str | None = None, c
         # beside the axes, not over them: the large-N0 peaks sit at the top right, where a legend inside went
         ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0)
         if capsize_probability and any(capsize_probability.values()):
-            ax.text(1.01, 0.0, "P(capsize): trials that\ncapsized before N0, maxima\nbeyond the vanishing angle\n"
-                    "(not in the curves)", transform=ax.transAxes, fontsize=7, va="bottom", ha="left", color="0.3")
+            ax.text(
+                1.01,
+                0.0,
+                "P(capsize): trials that\ncapsized before N0, maxima\nbeyond the vanishing angle\n"
+                "(not in the curves)",
+                transform=ax.transAxes,
+                fontsize=7,
+                va="bottom",
+                ha="left",
+                color="0.3",
+            )
         if title:
             ax.set_title(title, fontsize=9)
         figs.append(fig)
     return figs[0], figs[1]
 
 
-def maxima_comparison_figure(centres_deg, histogram, grid_deg, curves: dict, n0: int, *, title: str | None = None,
-                             capsize_probability: float = 0.0, n_trials: int | None = None):
+def maxima_comparison_figure(
+    centres_deg,
+    histogram,
+    grid_deg,
+    curves: dict,
+    n0: int,
+    *,
+    title: str | None = None,
+    capsize_probability: float = 0.0,
+    n_trials: int | None = None,
+):
     """The paper's Figs. 14-19 analogue: MCS maxima PDF (dots) vs P*(A_M), exact (solid) and asymptotic (dashed).
 
     `curves` maps a source ("mcs_amplitudes", "moment", "roberts", …) to {"exact": …, "asymptotic": …} [1/deg].
@@ -170,9 +240,20 @@ def maxima_comparison_figure(centres_deg, histogram, grid_deg, curves: dict, n0:
             ax.plot(grid_deg, exact, "-", color=col, lw=2.4, alpha=0.55, label=f"{label}: exact")
             # dashes over the wide, light exact curve: at large N0 the two coincide, and a dashed line drawn under a
             # solid one of the same colour was invisible
-            close = np.nanmax(np.abs(asymptotic - exact)) <= 0.01 * np.nanmax(exact) if np.any(exact > 0) else False
-            ax.plot(grid_deg, asymptotic, "--", color=col, lw=1.0, zorder=3,
-                    label=f"{label}: asymptotic" + (" (= exact within 1 %)" if close else ""))
+            close = (
+                np.nanmax(np.abs(asymptotic - exact)) <= 0.01 * np.nanmax(exact)
+                if np.any(exact > 0)
+                else False
+            )
+            ax.plot(
+                grid_deg,
+                asymptotic,
+                "--",
+                color=col,
+                lw=1.0,
+                zorder=3,
+                label=f"{label}: asymptotic" + (" (= exact within 1 %)" if close else ""),
+            )
         ax.set_xlabel("maximum roll amplitude [deg]")
         ax.set_ylabel("probability density [1/deg]")
         if log:

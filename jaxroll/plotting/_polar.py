@@ -90,7 +90,7 @@ def polar_risk_chart(
                     fontsize=6,
                     color="w" if p[a, b] > 0.5 * vmax else "k",
                 )
-    ax.set_title(label, fontsize=9, pad=12)
+    ax.set_title(label, fontsize=9, pad=26)  # above the two-line "180° head" tick label
     ax.grid(True, alpha=0.4)
     return mesh
 

@@ -8,8 +8,16 @@ import numpy as np
 from ._pdf import THEORY_COLOURS, THEORY_LABELS
 
 
-def risk_figure(angles_deg, direct, curves: dict, *, angle_deg: float, hours: float, capsize_probability: float,
-                title: str | None = None):
+def risk_figure(
+    angles_deg,
+    direct,
+    curves: dict,
+    *,
+    angle_deg: float,
+    hours: float,
+    capsize_probability: float,
+    title: str | None = None,
+):
     """P(max |φ| > x within the exposure) [-] against the angle x [deg], linear and log panels.
 
     - `direct`: the Monte Carlo trials of the exposure's length, P(x) = fraction of trials whose largest roll
@@ -25,24 +33,47 @@ def risk_figure(angles_deg, direct, curves: dict, *, angle_deg: float, hours: fl
     x = np.asarray(angles_deg, float)
     for ax, log in zip(axes, (False, True), strict=True):
         d = np.asarray(direct, float)
-        ax.step(x, np.where(d > 0, d, np.nan) if log else d, "k-", where="post", lw=1.4,
-                label="Monte Carlo, trials of the exposure's length")
+        ax.step(
+            x,
+            np.where(d > 0, d, np.nan) if log else d,
+            "k-",
+            where="post",
+            lw=1.4,
+            label="Monte Carlo, trials of the exposure's length",
+        )
         for name, p in curves.items():
             p = np.asarray(p, float)
-            label = "Monte Carlo amplitudes (independent)" if name == "monte_carlo" else THEORY_LABELS.get(name, name)
-            ax.plot(x, np.where(p > 0, p, np.nan) if log else p, "--" if name == "monte_carlo" else "-",
-                    color="tab:green" if name == "monte_carlo" else THEORY_COLOURS.get(name, "c"), lw=1.3,
-                    label=label)
+            label = (
+                "Monte Carlo amplitudes (independent)"
+                if name == "monte_carlo"
+                else THEORY_LABELS.get(name, name)
+            )
+            ax.plot(
+                x,
+                np.where(p > 0, p, np.nan) if log else p,
+                "--" if name == "monte_carlo" else "-",
+                color="tab:green" if name == "monte_carlo" else THEORY_COLOURS.get(name, "c"),
+                lw=1.3,
+                label=label,
+            )
         if capsize_probability > 0:
-            ax.axhline(capsize_probability, color="tab:red", ls=":", lw=1.0,
-                       label=f"P(capsize) = {capsize_probability:.3g}")
+            ax.axhline(
+                capsize_probability,
+                color="tab:red",
+                ls=":",
+                lw=1.0,
+                label=f"P(capsize) = {capsize_probability:.3g}",
+            )
         ax.axvline(angle_deg, color="0.5", ls="-.", lw=0.8)
         ax.set_xlabel("roll angle x [deg]")
         ax.set_ylabel(f"P(max |φ| > x within {hours:g} h)")
         if log:
             ax.set_yscale("log")
-            finite = [np.nanmin(np.where(np.asarray(c) > 0, c, np.nan)) for c in [direct, *curves.values()]
-                      if np.any(np.asarray(c) > 0)]
+            finite = [
+                np.nanmin(np.where(np.asarray(c) > 0, c, np.nan))
+                for c in [direct, *curves.values()]
+                if np.any(np.asarray(c) > 0)
+            ]
             ax.set_ylim(max(min(finite, default=1e-6), 1e-8) / 2, 1.5)
         ax.grid(True, alpha=0.3)
     axes[0].legend(fontsize=7)

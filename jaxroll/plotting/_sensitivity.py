@@ -10,13 +10,28 @@ import numpy as np
 __all__ = ["sensitivity_bar_chart"]
 
 _THEORY_STYLE = {"roberts": "C1", "esam": "C2", "moment": "C3"}
-_THEORY_NAMES = {"roberts": "Roberts (SAM)", "esam": "ESAM", "moment": "moment method",
-                 "envelope_fpk": "envelope FPK"}
-_STATISTIC_LABELS = {"E_phi2_deg2": "E[φ²] [deg²]", "mean_envelope_deg": "mean envelope amplitude [deg]",
-                     "mean_zero_crossing_deg": "mean zero-crossing amplitude [deg]"}
-_PARAMETER_LABELS = {"gm0": ("GM0", "m"), "b1": ("b1", "1/s"), "b2": ("b2", "1/rad"), "b3": ("b3", "s/rad²"),
-                     "gm_correction": ("r = σ_obs/σ_thr", ""), "hs": ("H1/3", "m"), "t01": ("T01", "s"),
-                     "speed": ("U", "m/s"), **{f"c{k}": (f"C{k} of ΔGM", f"m^{1 - k}") for k in range(7)}}
+_THEORY_NAMES = {
+    "roberts": "Roberts (SAM)",
+    "esam": "ESAM",
+    "moment": "moment method",
+    "envelope_fpk": "envelope FPK",
+}
+_STATISTIC_LABELS = {
+    "E_phi2_deg2": "E[φ²] [deg²]",
+    "mean_envelope_deg": "mean envelope amplitude [deg]",
+    "mean_zero_crossing_deg": "mean zero-crossing amplitude [deg]",
+}
+_PARAMETER_LABELS = {
+    "gm0": ("GM0", "m"),
+    "b1": ("b1", "1/s"),
+    "b2": ("b2", "1/rad"),
+    "b3": ("b3", "s/rad²"),
+    "gm_correction": ("r = σ_obs/σ_thr", ""),
+    "hs": ("H1/3", "m"),
+    "t01": ("T01", "s"),
+    "speed": ("U", "m/s"),
+    **{f"c{k}": (f"C{k} of ΔGM", f"m^{1 - k}") for k in range(7)},
+}
 
 
 def statistic_label(key: str) -> str:
@@ -38,7 +53,9 @@ def parameter_label(name: str, step: float) -> str:
     return f"{words}\n+{step:.3g}{f' {unit}' if unit else ''}"
 
 
-def sensitivity_bar_chart(payload: Mapping, *, statistics: Sequence[str] | None = None, title: str | None = None):
+def sensitivity_bar_chart(
+    payload: Mapping, *, statistics: Sequence[str] | None = None, title: str | None = None
+):
     """Grouped bars of the change of each statistic for a step of each parameter: the Monte Carlo derivative
     (error bar: ± 2 standard errors) and, where present, Roberts', ESAM's and the moment method's.
 
@@ -82,7 +99,7 @@ def sensitivity_bar_chart(payload: Mapping, *, statistics: Sequence[str] | None 
         ax.set_xticks(x, [parameter_label(p, steps[p]) for p in params], fontsize=8)
         ax.set_ylabel(f"Δ {statistic_label(stat)}", fontsize=9)
         ax.grid(axis="y", alpha=0.3)
-    for ax in axes.ravel()[len(names):]:
+    for ax in axes.ravel()[len(names) :]:
         ax.set_visible(False)
     axes.ravel()[0].legend(fontsize=8)
     note = "bars: the change for the step under each parameter (10 % of its value; 1 unit where it is 0)"

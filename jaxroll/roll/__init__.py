@@ -52,9 +52,9 @@ from ._sharding import (
 )
 from ._splitting import (
     DEFAULT_WAVE_WEIGHT as DEFAULT_WAVE_WEIGHT,
-    SplittingResult as SplittingResult,
     monte_carlo_splitting as monte_carlo_splitting,
 )
+from ._splitting_result import SplittingResult as SplittingResult
 from ._statistics import (
     AmplitudeStatistics as AmplitudeStatistics,
     CapsizeCounts as CapsizeCounts,

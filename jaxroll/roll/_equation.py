@@ -168,8 +168,10 @@ class RollProblem(eqx.Module):
             raise ValueError(
                 f"`moment_excitation.dt` ({moment_excitation.dt}) must equal `excitation.dt` ({excitation.dt})."
             )
-        if moment_excitation is not None and isinstance(moment_excitation, FilterExcitation) and (
-            moment_excitation.substeps != excitation.substeps
+        if (
+            moment_excitation is not None
+            and isinstance(moment_excitation, FilterExcitation)
+            and (moment_excitation.substeps != excitation.substeps)
         ):
             raise ValueError(
                 f"`moment_excitation` steps its filter every {moment_excitation.substeps} time steps and "
@@ -318,7 +320,9 @@ def _drive(problem: RollProblem, key, num_steps: int, dtype, per_source_step, in
             (jnp.array(0), carry),
         )[1]
         if rest:
-            carry = jax.lax.cond(done(carry[2]), lambda c: c, lambda c: block(c, jnp.array(num_full), rest)[0], carry)
+            carry = jax.lax.cond(
+                done(carry[2]), lambda c: c, lambda c: block(c, jnp.array(num_full), rest)[0], carry
+            )
         return carry[2], None
     pieces = []
     if num_full:
@@ -365,10 +369,14 @@ def simulate(
     problem = as_dtype(problem, dtype)
     ship, h, m = problem.ship, problem.dt, problem.excitation.substeps
     if not (isinstance(record_every, int) and record_every >= 1 and m % record_every == 0):
-        raise ValueError(f"`record_every` must be a divisor of the excitation's substeps m = {m}; got {record_every!r}.")
+        raise ValueError(
+            f"`record_every` must be a divisor of the excitation's substeps m = {m}; got {record_every!r}."
+        )
     if num_steps >= 2**31:  # the capsize step is kept as an int32
-        raise ValueError(f"at most 2³¹ − 1 time steps per realization; got {num_steps} (shorten the duration or "
-                         f"lengthen dt).")
+        raise ValueError(
+            f"at most 2³¹ − 1 time steps per realization; got {num_steps} (shorten the duration or "
+            f"lengthen dt)."
+        )
     two_sources = problem.moment_excitation is not None
     ragged = num_steps % m != 0  # the last source step runs past num_steps: mask its extra time steps
 
@@ -387,11 +395,15 @@ def simulate(
             alive = alive & ~newly
             phi, dphi = jnp.where(alive, phi1, phi), jnp.where(alive, dphi1, dphi)
             new_obs, out = observe(obs, k + 1, jnp.stack([phi, dphi]), alive)
-            new_obs = jax.tree.map(lambda new, old: new.astype(old.dtype), new_obs, obs)  # the carry keeps its type
+            new_obs = jax.tree.map(
+                lambda new, old: new.astype(old.dtype), new_obs, obs
+            )  # the carry keeps its type
             if ragged:
                 new_obs = jax.tree.map(lambda x, y: jnp.where(inside, x, y), new_obs, obs)
             obs = new_obs
-            if (s + 1) % record_every == 0:  # source steps start at multiples of m: step k + 1 is a multiple of r
+            if (
+                s + 1
+            ) % record_every == 0:  # source steps start at multiples of m: step k + 1 is a multiple of r
                 outs.append(out)
             k = k + 1
         return (phi, dphi, alive, k_cap, obs, k), jax.tree.map(lambda *o: jnp.stack(o), *outs)
@@ -401,8 +413,10 @@ def simulate(
     # batches the loop bodies again on finding it batched, and the nested loops multiply that (lowering the paper's
     # Monte Carlo chunk 0.80 → 0.65 s, the program the same bits). `where(True, x, x)`: the same value, no work.
     same = jr.key_data(key).reshape(-1)[0] == jr.key_data(key).reshape(-1)[0]
-    per_realization = jax.tree.map(lambda x: jnp.where(same, x, x),
-                                   (problem.phi0, problem.dphi0, jnp.array(True), jnp.array(-1, jnp.int32), obs_state))
+    per_realization = jax.tree.map(
+        lambda x: jnp.where(same, x, x),
+        (problem.phi0, problem.dphi0, jnp.array(True), jnp.array(-1, jnp.int32), obs_state),
+    )
     inner = (*per_realization, jnp.array(0))
     done = None if finished is None else (lambda inner: ~inner[2] | finished(inner[4]))
     inner, outs = _drive(problem, key, num_steps, dtype, per_source_step, inner, done)

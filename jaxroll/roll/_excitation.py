@@ -169,7 +169,9 @@ class FilterExcitation(AbstractExcitation):
         if not (isinstance(substeps, int) and not isinstance(substeps, bool) and substeps >= 1):
             raise ValueError(f"`substeps` must be an integer >= 1; got {substeps!r}.")
         self.substeps = substeps
-        self.phi, self.chol, self.stationary_chol, self.bridge = filter_grid(shaping_filter, self.dt, substeps)
+        self.phi, self.chol, self.stationary_chol, self.bridge = filter_grid(
+            shaping_filter, self.dt, substeps
+        )
         self.c = shaping_filter.c
 
     def init(self, key, num_steps, m, dtype):
@@ -250,8 +252,9 @@ def _bridge_errors(shaping_filter: ShapingFilter, dt: float):
     """The largest relative bridge interpolation error variance for each m of `SUBSTEP_CANDIDATES` (one program)."""
     half, _ = shaping_filter.discretise(dt / 2)
     sigma = shaping_filter.stationary_covariance()
-    return jnp.stack([jnp.max(interpolation_error_variance(half, sigma, shaping_filter.c, m))
-                      for m in SUBSTEP_CANDIDATES])
+    return jnp.stack(
+        [jnp.max(interpolation_error_variance(half, sigma, shaping_filter.c, m)) for m in SUBSTEP_CANDIDATES]
+    )
 
 
 def choose_substeps(shaping_filter: ShapingFilter, dt: float, tol: float = COARSE_TOLERANCE) -> int:
@@ -273,8 +276,12 @@ def filter_grid(shaping_filter: ShapingFilter, dt: float, m: int):
     sigma = shaping_filter.stationary_covariance()
     half, _ = shaping_filter.discretise(dt / 2)
     phi = _half_powers(half, m)[2 * m]
-    return phi, psd_sqrt(sigma - phi @ sigma @ phi.T), psd_sqrt(sigma), jnp.stack(
-        bridge_weights(half, sigma, shaping_filter.c, m))
+    return (
+        phi,
+        psd_sqrt(sigma - phi @ sigma @ phi.T),
+        psd_sqrt(sigma),
+        jnp.stack(bridge_weights(half, sigma, shaping_filter.c, m)),
+    )
 
 
 # ----------------------------------------------------------------------------------------------------------------
@@ -313,7 +320,9 @@ class SampledExcitation(AbstractExcitation):
         """**Arguments:** `zeta` [m], `dzeta` [m/s]: 1-D records of equal length; `dt`: their sampling step [s]."""
         zeta, dzeta = jnp.asarray(zeta, dtype=float), jnp.asarray(dzeta, dtype=float)
         if zeta.ndim != 1 or zeta.shape != dzeta.shape:
-            raise ValueError(f"`zeta` and `dzeta` must be 1-D of equal length; got {zeta.shape} and {dzeta.shape}.")
+            raise ValueError(
+                f"`zeta` and `dzeta` must be 1-D of equal length; got {zeta.shape} and {dzeta.shape}."
+            )
         self.zeta, self.dzeta, self.dt = zeta, dzeta, float(dt)
 
     def init(self, key, num_steps, m, dtype):
@@ -352,7 +361,9 @@ class SuperpositionExcitation(AbstractExcitation):
             raise ValueError(
                 f"superposition of {n} samples is too long for one FFT; use the filter method for long trials."
             )
-        zeta, dzeta = (x.astype(dtype) for x in superpose(self.wave, key, n, self.dt))  # synthesised in float64
+        zeta, dzeta = (
+            x.astype(dtype) for x in superpose(self.wave, key, n, self.dt)
+        )  # synthesised in float64
         return (zeta, dzeta), zeta[0]
 
     def block_inputs(self, key, state, index, m):

@@ -117,9 +117,13 @@ def monte_carlo(
         )
     _check_duration(duration)
     num_steps = int(round(duration / problem.dt))
-    chunk_size = chunk_size_for_memory(chunk_size, num_steps, memory_budget,
-                                      observer.bytes_per_realization(num_steps // observer.record_every(problem)),
-                                      devices)
+    chunk_size = chunk_size_for_memory(
+        chunk_size,
+        num_steps,
+        memory_budget,
+        observer.bytes_per_realization(num_steps // observer.record_every(problem)),
+        devices,
+    )
     with progress_bar(progress, num_realizations, "Monte Carlo") as report:
         summed, per = run_chunks(
             simulate_chunk,
@@ -134,8 +138,12 @@ def monte_carlo(
             checkpoint_every=checkpoint_every,
             consistency=observer.consistency,
         )
-    config = {"num_realizations": num_realizations, "duration_s": float(duration), "dt_s": problem.dt,
-              "chunk_size": chunk_size}
+    config = {
+        "num_realizations": num_realizations,
+        "duration_s": float(duration),
+        "dt_s": problem.dt,
+        "chunk_size": chunk_size,
+    }
     return observer.result(summed, per, config)
 
 
@@ -178,7 +186,9 @@ def monte_carlo_amplitudes(
     """
     require_float64("jaxroll.monte_carlo_amplitudes")
     _check_discard(discard, duration, problem.dt)
-    observer = AmplitudeHistogram(float(discard), float(bin_width_deg), float(max_deg), envelope_record_every(problem))
+    observer = AmplitudeHistogram(
+        float(discard), float(bin_width_deg), float(max_deg), envelope_record_every(problem)
+    )
     return monte_carlo(
         problem,
         key,

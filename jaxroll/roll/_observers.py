@@ -159,7 +159,9 @@ class AmplitudeHistogram(AbstractObserver):
         kept = jnp.where(on, amp, 0)
         ended = jnp.where(on, amp, state.pending)
         pending = jnp.where(k % self.every == 0, 0, ended)  # recorded: start afresh
-        new = _HistogramState(zc, pending, state.n + on.astype(state.n.dtype), state.s1 + kept, state.s2 + kept * kept)
+        new = _HistogramState(
+            zc, pending, state.n + on.astype(state.n.dtype), state.s1 + kept, state.s2 + kept * kept
+        )
         return new, (y[0], self._bins(ended))
 
     def reduce(self, problem, states, outputs, end, valid):
@@ -216,11 +218,15 @@ class AmplitudeHistogram(AbstractObserver):
             out.append("a histogram holds negative counts")
         zc = float(np.sum(summed["counts_zero_crossing"])) + float(summed["zero_crossing_merged"])
         if zc != float(np.sum(per["n_zc"])):
-            out.append(f"the zero-crossing histogram holds {zc:.0f} amplitudes (merged included), the realizations "
-                       f"{float(np.sum(per['n_zc'])):.0f}")
+            out.append(
+                f"the zero-crossing histogram holds {zc:.0f} amplitudes (merged included), the realizations "
+                f"{float(np.sum(per['n_zc'])):.0f}"
+            )
         env = float(np.sum(summed["counts_envelope"]))
         if env != float(np.sum(per["n_env"])):
-            out.append(f"the envelope histogram holds {env:.0f} samples, the realizations {float(np.sum(per['n_env'])):.0f}")
+            out.append(
+                f"the envelope histogram holds {env:.0f} samples, the realizations {float(np.sum(per['n_env'])):.0f}"
+            )
         if np.any(np.asarray(per["capsized"]) & (np.asarray(per["n_zc"]) != 0)):
             out.append("a capsized realization has amplitudes")
         return out
@@ -271,7 +277,10 @@ class FirstMaxima(AbstractObserver):
 
     def init(self, problem, key):
         return _MaximaState(
-            zero_crossing_init(problem.phi0), jnp.array(0), jnp.array(0.0), tuple(jnp.array(-1.0) for _ in self.n0)
+            zero_crossing_init(problem.phi0),
+            jnp.array(0),
+            jnp.array(0.0),
+            tuple(jnp.array(-1.0) for _ in self.n0),
         )
 
     def observe(self, problem, state, k, y, alive):
@@ -280,7 +289,9 @@ class FirstMaxima(AbstractObserver):
         counted = (amp > 0) & (k > _steps(self.discard, problem.dt)) & (state.count < n_max) & alive
         count = state.count + counted.astype(state.count.dtype)
         running = jnp.where(counted, jnp.maximum(state.running_max, amp), state.running_max)
-        maxima = tuple(jnp.where(counted & (count == n), running, m) for n, m in zip(self.n0, state.maxima, strict=True))
+        maxima = tuple(
+            jnp.where(counted & (count == n), running, m) for n, m in zip(self.n0, state.maxima, strict=True)
+        )
         return _MaximaState(zc, count, running, maxima), None
 
     def finished(self, problem, state):
@@ -304,7 +315,9 @@ class FirstMaxima(AbstractObserver):
         if np.any((count < 0) | (count > max(self.n0))):
             out.append(f"an amplitude count is outside [0, {max(self.n0)}]")
         if np.any((maxima >= 0) != (count[:, None] >= np.asarray(self.n0)[None, :])):
-            out.append("a maximum is recorded where fewer amplitudes were counted, or missing where enough were")
+            out.append(
+                "a maximum is recorded where fewer amplitudes were counted, or missing where enough were"
+            )
         order = np.argsort(self.n0)
         m = np.where(maxima >= 0, maxima, np.inf)[:, order]
         if np.any(np.diff(m, axis=1) < 0):
@@ -349,7 +362,11 @@ class MaxRoll(AbstractObserver):
             "n_capsized": jnp.sum(capsized, dtype=jnp.int64),
             "n_exceeded": jnp.sum(exceeded, dtype=jnp.int64),
         }
-        per = {"max_abs_phi": jnp.where(valid, states, 0.0), "capsized": capsized, "capsize_time": end.capsize_time}
+        per = {
+            "max_abs_phi": jnp.where(valid, states, 0.0),
+            "capsized": capsized,
+            "capsize_time": end.capsize_time,
+        }
         return summed, per
 
     def consistency(self, summed, per) -> list[str]:
@@ -361,7 +378,9 @@ class MaxRoll(AbstractObserver):
         if int(summed["n_capsized"]) != int(capsized.sum()):
             out.append(f"n_capsized = {int(summed['n_capsized'])}, but {int(capsized.sum())} trials capsized")
         if int(summed["n_exceeded"]) != int(exceeded.sum()):
-            out.append(f"n_exceeded = {int(summed['n_exceeded'])}, but {int(exceeded.sum())} trials exceeded the angle")
+            out.append(
+                f"n_exceeded = {int(summed['n_exceeded'])}, but {int(exceeded.sum())} trials exceeded the angle"
+            )
         return out
 
     def result(self, summed, per, config):

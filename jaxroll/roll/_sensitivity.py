@@ -315,7 +315,9 @@ def sensitivity_problem(
     the sea parameters are tested with `excitation="filter"` (the default); with "superposition" they go through
     √S_G of the FFT synthesis, which has no derivative where S_G = 0 — not supported.
     """
-    options = dict(heading=heading, excitation=excitation, dt=dt, filter_order=filter_order, phi0=phi0, dphi0=dphi0)
+    options = dict(
+        heading=heading, excitation=excitation, dt=dt, filter_order=filter_order, phi0=phi0, dphi0=dphi0
+    )
     sea = ITTC(hs, t01)
     nominal = RollProblem.from_sea(ship, sea, speed=speed, **options)  # every check of the nominal problem
     if excitation == "filter":  # the traced problems step the filter as the nominal one (same random stream)
@@ -375,7 +377,9 @@ def _ratio(num, den):
 def _check_seconds(name, value, *, allow_zero=False):
     ok = isinstance(value, int | float) and not isinstance(value, bool) and math.isfinite(value)
     if not ok or value < 0 or (value == 0 and not allow_zero):
-        raise ValueError(f"`{name}` must be a finite number {'>= 0' if allow_zero else '> 0'} [s]; got {value!r}.")
+        raise ValueError(
+            f"`{name}` must be a finite number {'>= 0' if allow_zero else '> 0'} [s]; got {value!r}."
+        )
 
 
 _PROBLEM_JVP: dict = {}  # problem_fn -> its compiled `_problem_jvp` program (the latest few problem functions)
@@ -583,7 +587,9 @@ def monte_carlo_sensitivity(
                 q = {**base, p: jnp.asarray(params[p] + sign * h)}
                 shifted = _align_square_roots(_problem_parts(problem_fn, q), parts)
                 pair.append(
-                    _chunks(lambda idx: _value_chunk(shifted, key, idx, cfg), num_realizations, chunk_size, None)
+                    _chunks(
+                        lambda idx: _value_chunk(shifted, key, idx, cfg), num_realizations, chunk_size, None
+                    )
                 )
                 keep &= pair[-1][3]
             fd_values.append((h, pair))
@@ -618,7 +624,9 @@ def monte_carlo_sensitivity(
         if not (rho is not None and math.isfinite(rho) and 0 < rho < 0.95):
             # too noisy to see the decay (e.g. only parameters with noisy derivatives): fall back on the typical
             # path's memory, exp(λΔ), which under-corrects somewhat (docs/sensitivity.md)
-            fallback = math.exp(rate * (burns[1] - burns[0]) * dt) if math.isfinite(rate) and rate < 0 else None
+            fallback = (
+                math.exp(rate * (burns[1] - burns[0]) * dt) if math.isfinite(rate) and rate < 0 else None
+            )
             warnings.warn(
                 f"the windowed estimates do not show a geometric decay with the burn-in (ratio {rho}): the burn-in "
                 + (
@@ -647,7 +655,9 @@ def monte_carlo_sensitivity(
             raw_infl = (ip - im) / (2 * h)
             for s, stat in enumerate(stats):
                 raw_gradient.setdefault(stat.name, {})[p] = float(raw_infl[:, s].mean())
-                raw_std_error.setdefault(stat.name, {})[p] = float(raw_infl[:, s].std(ddof=1) / math.sqrt(n_kept))
+                raw_std_error.setdefault(stat.name, {})[p] = float(
+                    raw_infl[:, s].std(ddof=1) / math.sqrt(n_kept)
+                )
         else:
             per_burn = [windowed_influence(dnums[:, j, b].sum(1)) for b in range(dnums.shape[2])]
             late = [windowed_influence(dnums[:, j, b, 1]) for b in range(dnums.shape[2])]
@@ -689,7 +699,9 @@ def monte_carlo_sensitivity(
         influence=influence,
         unsmoothed_gradient=raw_gradient,
         unsmoothed_std_error=raw_std_error,
-        by_burn_in={b: {s.name: {p: d[(s.name, p)] for p in wrt} for s in stats} for b, d in by_burn_in.items()},
+        by_burn_in={
+            b: {s.name: {p: d[(s.name, p)] for p in wrt} for s in stats} for b, d in by_burn_in.items()
+        },
         kept=keep,
         n_realizations=num_realizations,
         n_capsized=int(num_realizations - alive.sum()),

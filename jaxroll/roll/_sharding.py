@@ -70,9 +70,14 @@ def _replicate(tree, mesh):
     them)."""
     sharding = jax.sharding.NamedSharding(mesh, jax.sharding.PartitionSpec())
     leaves, treedef = jax.tree.flatten(tree)
-    moved = [i for i, x in enumerate(leaves)
-             if isinstance(x, jax.Array) and not jnp.issubdtype(x.dtype, jax.dtypes.prng_key)]
-    if not _spans_processes(mesh):  # one batched transfer (leaf by leaf: 7 ms for the paper's problem, every run)
+    moved = [
+        i
+        for i, x in enumerate(leaves)
+        if isinstance(x, jax.Array) and not jnp.issubdtype(x.dtype, jax.dtypes.prng_key)
+    ]
+    if not _spans_processes(
+        mesh
+    ):  # one batched transfer (leaf by leaf: 7 ms for the paper's problem, every run)
         placed = jax.device_put([leaves[i] for i in moved], sharding)
     else:
         placed = [_global_array(np.asarray(leaves[i]), sharding) for i in moved]
@@ -160,8 +165,10 @@ def _load_checkpoint(path: Path, fingerprint: dict[str, str], consistency=None):
             f"checkpoint {path} is unreadable (truncated or corrupted: {type(e).__name__}: {e}). {advice}"
         ) from e
     if digest is None:
-        raise ValueError(f"checkpoint {path} has no content digest: it was written by an older jaxroll, or not by "
-                         f"jaxroll. {advice}")
+        raise ValueError(
+            f"checkpoint {path} has no content digest: it was written by an older jaxroll, or not by "
+            f"jaxroll. {advice}"
+        )
     if digest != _content_digest(contents):
         raise ValueError(
             f"checkpoint {path} has been changed since jaxroll wrote it (its content digest does not match): a "
@@ -176,8 +183,11 @@ def _load_checkpoint(path: Path, fingerprint: dict[str, str], consistency=None):
         raise ValueError(f"checkpoint {path} belongs to a different run: {detail}. {advice}")
     summed = {k[len("summed/") :]: v for k, v in contents.items() if k.startswith("summed/")}
     per = {k[len("per/") :]: v for k, v in contents.items() if k.startswith("per/")}
-    problems = [f"{k} holds {v.size - np.isfinite(v).sum()} non-finite value(s)"
-                for k, v in summed.items() if v.dtype.kind == "f" and not np.isfinite(v).all()]  # counts
+    problems = [
+        f"{k} holds {v.size - np.isfinite(v).sum()} non-finite value(s)"
+        for k, v in summed.items()
+        if v.dtype.kind == "f" and not np.isfinite(v).all()
+    ]  # counts
     if not problems and consistency is not None:
         problems = consistency(summed, per)
     if problems:
@@ -268,8 +278,13 @@ def default_memory_budget(fraction: float | None = None, devices=None) -> float:
         return fraction * 8 * 2**30
 
 
-def chunk_size_for_memory(chunk_size: int, num_steps: int, memory_budget: float | None,
-                          bytes_per_realization: int | None = None, devices=None) -> int:
+def chunk_size_for_memory(
+    chunk_size: int,
+    num_steps: int,
+    memory_budget: float | None,
+    bytes_per_realization: int | None = None,
+    devices=None,
+) -> int:
     """`chunk_size` if its peak memory fits `memory_budget` [bytes] (None: `default_memory_budget(devices=devices)`)
     at `bytes_per_realization` each (None: num_steps × BYTES_PER_REALIZATION_STEP, the whole-series observers'
     figure); else the largest chunk that fits, rounded down to three significant binary digits (a budget that
@@ -277,7 +292,11 @@ def chunk_size_for_memory(chunk_size: int, num_steps: int, memory_budget: float 
     budget = default_memory_budget(devices=devices) if memory_budget is None else float(memory_budget)
     if not (budget > 0):
         raise ValueError(f"`memory_budget` must be > 0 [bytes]; got {memory_budget!r}.")
-    per = max(num_steps, 1) * BYTES_PER_REALIZATION_STEP if bytes_per_realization is None else bytes_per_realization
+    per = (
+        max(num_steps, 1) * BYTES_PER_REALIZATION_STEP
+        if bytes_per_realization is None
+        else bytes_per_realization
+    )
     fit = int(budget // max(per, 1))
     if fit >= chunk_size:
         return int(chunk_size)
@@ -473,8 +492,13 @@ def _compiled(fn, mesh: jax.sharding.Mesh | None = None):
                     summed, per = fn(eqx.combine(arrays, rest), key, indices, valid, *static)
                     return jax.lax.psum(summed, REALIZATION_AXIS), per
 
-                return jax.shard_map(local, mesh=mesh, in_specs=(spec, spec, along, along),
-                                     out_specs=(spec, along), check_vma=False)(arrays, key, indices, valid)
+                return jax.shard_map(
+                    local,
+                    mesh=mesh,
+                    in_specs=(spec, spec, along, along),
+                    out_specs=(spec, along),
+                    check_vma=False,
+                )(arrays, key, indices, valid)
 
             sharded.__module__ = fn.__module__
             sharded.__name__ = sharded.__qualname__ = f"{getattr(fn, '__qualname__', 'chunk_fn')}[sharded]"

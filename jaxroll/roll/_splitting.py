@@ -29,7 +29,7 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import equinox as eqx
 import jax
@@ -52,6 +52,7 @@ from ._sharding import (
     default_chunk_size,
     realization_mesh,
 )
+from ._splitting_result import SplittingResult, _interval, genealogy_relative_variance
 
 #: Source steps simulated between two refills of the lanes (divides `BLOCK`): a lane whose run ended waits at most
 #: this long for its next clone (16 source steps = 32 s at dt 0.5 s, m 4).
@@ -106,8 +107,19 @@ def energy_amplitude(ship, energy, vanishing):
     return a
 
 
-def _lane_segment(problem: RollProblem, importance: Importance, level, angle, final, lane, *, num_steps,
-                  discard_steps, segment, dtype):
+def _lane_segment(
+    problem: RollProblem,
+    importance: Importance,
+    level,
+    angle,
+    final,
+    lane,
+    *,
+    num_steps,
+    discard_steps,
+    segment,
+    dtype,
+):
     """`segment` source steps of one lane (vmapped over the pool). A lane runs while `run` holds; it stops at the
     end of the source step where it reached the stage's level (score `top` ≥ level; the last stage: `hit`) or at
     the end of the exposure, and is then frozen. The arithmetic per source step is `simulate`'s, so stage 0 of a
@@ -145,9 +157,19 @@ def _lane_segment(problem: RollProblem, importance: Importance, level, angle, fi
         hit = hit | ~alive
         top = jnp.where(hit, inf, jnp.where(counted_any, score, -inf))  # the event outranks every level
         done = jnp.where(final, hit, top >= level)
-        new = {"phi": phi, "dphi": dphi, "z": z1, "x": values[-1], "k": k, "alive": alive, "top": top,
-               "hit": hit, "peak": jnp.maximum(c["peak"], top), "success": done,
-               "run": ~done & (k < num_steps)}
+        new = {
+            "phi": phi,
+            "dphi": dphi,
+            "z": z1,
+            "x": values[-1],
+            "k": k,
+            "alive": alive,
+            "top": top,
+            "hit": hit,
+            "peak": jnp.maximum(c["peak"], top),
+            "success": done,
+            "run": ~done & (k < num_steps),
+        }
         return jax.tree.map(lambda a, b: jnp.where(c["run"], a, b), new, c), None
 
     state = {key: lane[key] for key in (*_FIELDS, "peak", "success", "run")}
@@ -165,33 +187,66 @@ def _stage_chunk(args, key, queue, valid, num_steps, discard_steps, lanes, segme
     problem, importance, level, angle, final = as_dtype(args, dtype)
     size = queue["k"].shape[0]
     n = problem.excitation.c.size
-    segment_fn = jax.vmap(lambda lane: _lane_segment(
-        problem, importance, level, angle, final, lane, num_steps=num_steps, discard_steps=discard_steps,
-        segment=segment, dtype=dtype))
+    segment_fn = jax.vmap(
+        lambda lane: _lane_segment(
+            problem,
+            importance,
+            level,
+            angle,
+            final,
+            lane,
+            num_steps=num_steps,
+            discard_steps=discard_steps,
+            segment=segment,
+            dtype=dtype,
+        )
+    )
 
     def clone_key(i):
         return jr.key_data(jr.fold_in(key, i))
 
     def empty_lanes():
         zero = jnp.zeros((lanes,), dtype)
-        return {"phi": zero, "dphi": zero, "z": tuple(zero for _ in range(n)), "x": zero,
-                "k": jnp.zeros((lanes,), jnp.int32), "alive": jnp.ones((lanes,), bool), "top": zero, "hit":
-                jnp.zeros((lanes,), bool), "peak": zero, "success": jnp.zeros((lanes,), bool),
-                "run": jnp.zeros((lanes,), bool), "r": jnp.zeros((lanes,), jnp.int32),
-                "key": jnp.zeros((lanes, 2), jnp.uint32), "id": jnp.full((lanes,), -1, jnp.int32)}
+        return {
+            "phi": zero,
+            "dphi": zero,
+            "z": tuple(zero for _ in range(n)),
+            "x": zero,
+            "k": jnp.zeros((lanes,), jnp.int32),
+            "alive": jnp.ones((lanes,), bool),
+            "top": zero,
+            "hit": jnp.zeros((lanes,), bool),
+            "peak": zero,
+            "success": jnp.zeros((lanes,), bool),
+            "run": jnp.zeros((lanes,), bool),
+            "r": jnp.zeros((lanes,), jnp.int32),
+            "key": jnp.zeros((lanes, 2), jnp.uint32),
+            "id": jnp.full((lanes,), -1, jnp.int32),
+        }
 
     def empty_outputs():
         zero = jnp.zeros((size,), dtype)
-        return {"phi": zero, "dphi": zero, "z": jnp.zeros((size, n), dtype), "x": zero,
-                "k": jnp.zeros((size,), jnp.int32), "alive": jnp.ones((size,), bool), "top": zero,
-                "hit": jnp.zeros((size,), bool), "peak": zero, "success": jnp.zeros((size,), bool)}
+        return {
+            "phi": zero,
+            "dphi": zero,
+            "z": jnp.zeros((size, n), dtype),
+            "x": zero,
+            "k": jnp.zeros((size,), jnp.int32),
+            "alive": jnp.ones((size,), bool),
+            "top": zero,
+            "hit": jnp.zeros((size,), bool),
+            "peak": zero,
+            "success": jnp.zeros((size,), bool),
+        }
 
     def retire(lane, out):
         """Write the lanes whose run ended (id ≥ 0, not running) at their clones' places; empty them."""
         ended = (lane["id"] >= 0) & ~lane["run"]
         where = jnp.where(ended, lane["id"], size)  # out of range: dropped
         values = {key: lane[key] for key in out if key != "z"}
-        out = {key: out[key].at[where].set(values[key], mode="drop") if key != "z" else out[key] for key in out}
+        out = {
+            key: out[key].at[where].set(values[key], mode="drop") if key != "z" else out[key] for key in out
+        }
         out["z"] = out["z"].at[where].set(jnp.stack(lane["z"], -1), mode="drop")
         return {**lane, "id": jnp.where(ended, -1, lane["id"])}, out
 
@@ -203,14 +258,29 @@ def _stage_chunk(args, key, queue, valid, num_steps, discard_steps, lanes, segme
         at = jnp.clip(position, 0, size - 1)
         q = jax.tree.map(lambda a: a[at], queue)
         ok = valid[at]
-        immediate = jnp.where(final, q["hit"], q["top"] >= level)  # the entrance step already reaches the level
+        immediate = jnp.where(
+            final, q["hit"], q["top"] >= level
+        )  # the entrance step already reaches the level
         z = tuple(q["z"][:, i] for i in range(n))
-        loaded = {"phi": q["phi"], "dphi": q["dphi"], "z": z, "x": q["x"], "k": q["k"], "alive": q["alive"],
-                  "top": q["top"], "hit": q["hit"], "peak": q["top"], "success": ok & immediate,
-                  "run": ok & ~immediate & (q["k"] < num_steps), "r": jnp.zeros_like(lane["r"]),
-                  "key": jax.vmap(clone_key)(q["index"]), "id": position.astype(jnp.int32)}
-        lane = jax.tree.map(lambda new, old: jnp.where(take.reshape(-1, *([1] * (old.ndim - 1))), new, old),
-                            loaded, lane)
+        loaded = {
+            "phi": q["phi"],
+            "dphi": q["dphi"],
+            "z": z,
+            "x": q["x"],
+            "k": q["k"],
+            "alive": q["alive"],
+            "top": q["top"],
+            "hit": q["hit"],
+            "peak": q["top"],
+            "success": ok & immediate,
+            "run": ok & ~immediate & (q["k"] < num_steps),
+            "r": jnp.zeros_like(lane["r"]),
+            "key": jax.vmap(clone_key)(q["index"]),
+            "id": position.astype(jnp.int32),
+        }
+        lane = jax.tree.map(
+            lambda new, old: jnp.where(take.reshape(-1, *([1] * (old.ndim - 1))), new, old), loaded, lane
+        )
         return lane, jnp.minimum(following + jnp.sum(empty, dtype=jnp.int32), size)
 
     def body(carry):
@@ -238,8 +308,9 @@ def _stage_chunk(args, key, queue, valid, num_steps, discard_steps, lanes, segme
 class _RollStages:
     """Runs the stages of one roll problem: the initial states and one compiled program per stage shape."""
 
-    def __init__(self, problem, angle_rad, num_steps, discard_steps, lanes, devices, dtype, wave_weight=0.0,
-                 capacity=0):
+    def __init__(
+        self, problem, angle_rad, num_steps, discard_steps, lanes, devices, dtype, wave_weight=0.0, capacity=0
+    ):
         self.problem, self.angle, self.dtype, self.capacity = problem, angle_rad, dtype, capacity
         self.importance = importance_tables(problem, wave_weight)
         self.num_steps, self.discard_steps = num_steps, discard_steps
@@ -255,11 +326,17 @@ class _RollStages:
         """Stage 0's queue: trial i starts from (φ0, φ̇0) and the filter's stationary draw of fold_in(key, i)."""
         z, x = _initial_filter(as_dtype(self.problem, self.dtype), key, num)
         cast = self.dtype
-        return {"phi": np.full(num, np.asarray(self.problem.phi0, cast)),
-                "dphi": np.full(num, np.asarray(self.problem.dphi0, cast)),
-                "z": np.asarray(z), "x": np.asarray(x), "k": np.zeros(num, np.int32),
-                "alive": np.ones(num, bool), "top": np.full(num, -np.inf, cast), "hit": np.zeros(num, bool),
-                "index": np.arange(num, dtype=np.int32)}
+        return {
+            "phi": np.full(num, np.asarray(self.problem.phi0, cast)),
+            "dphi": np.full(num, np.asarray(self.problem.dphi0, cast)),
+            "z": np.asarray(z),
+            "x": np.asarray(x),
+            "k": np.zeros(num, np.int32),
+            "alive": np.ones(num, bool),
+            "top": np.full(num, -np.inf, cast),
+            "hit": np.zeros(num, bool),
+            "index": np.arange(num, dtype=np.int32),
+        }
 
     def run(self, key, queue: dict, level: float, final: bool) -> tuple[dict, int]:
         """One stage: every clone of `queue` until the level (`final`: the event) or the end of the exposure.
@@ -270,7 +347,9 @@ class _RollStages:
         # program.
         order = np.argsort(queue["k"], kind="stable")
         per_device = -(-max(num, self.capacity) // self.devices)
-        if self.lanes is None:  # a few waves a device: lanes freed by runs that end early take the next clones
+        if (
+            self.lanes is None
+        ):  # a few waves a device: lanes freed by runs that end early take the next clones
             lanes = max(MIN_LANES, min(self.lane_cap, -(-per_device // WAVES)))
         else:
             lanes = max(MIN_LANES, min(self.lanes, per_device))
@@ -285,8 +364,17 @@ class _RollStages:
             self.placed = _replicate((self.problem, self.importance), self.mesh)
         settings = (np.asarray(level, float), np.asarray(self.angle, float), np.asarray(final))
         args = (*self.placed, *_replicate(tuple(jnp.asarray(x) for x in settings), self.mesh))
-        summed, out = self.fn(args, key, placed, _global_array(valid, self.sharding), self.num_steps,
-                              self.discard_steps, lanes, SEGMENT, self.dtype)
+        summed, out = self.fn(
+            args,
+            key,
+            placed,
+            _global_array(valid, self.sharding),
+            self.num_steps,
+            self.discard_steps,
+            lanes,
+            SEGMENT,
+            self.dtype,
+        )
         summed, out = _to_host((summed, out))
         back = np.empty(num, int)
         back[layout[valid]] = np.nonzero(valid)[0]
@@ -303,9 +391,13 @@ def importance_tables(problem: RollProblem, wave_weight: float) -> Importance:
     c = np.asarray(exc.c, float)
     chol = np.asarray(exc.stationary_chol, float)
     sigma = math.sqrt(float(c @ chol @ chol.T @ c))
-    return Importance(jnp.asarray(float(problem.capsize_angle)), jnp.asarray(a.T @ c),
-                      jnp.asarray(2 * float(ship.omega0)), jnp.asarray(max(sigma, 1e-300)),
-                      jnp.asarray(float(wave_weight)))
+    return Importance(
+        jnp.asarray(float(problem.capsize_angle)),
+        jnp.asarray(a.T @ c),
+        jnp.asarray(2 * float(ship.omega0)),
+        jnp.asarray(max(sigma, 1e-300)),
+        jnp.asarray(float(wave_weight)),
+    )
 
 
 def _initial_filter(problem: RollProblem, key, num: int):
@@ -352,7 +444,9 @@ def _split(stages, key, num: int, levels: Sequence[float], progress=None) -> dic
     for k in range(num_stages):
         final = k == num_stages - 1
         t0 = time.perf_counter()
-        out, lane_steps = stages.run(_stage_key(key, k), queue, math.inf if final else float(levels[k]), final)
+        out, lane_steps = stages.run(
+            _stage_key(key, k), queue, math.inf if final else float(levels[k]), final
+        )
         success = np.asarray(out["success"], bool)
         steps = int(np.sum(np.maximum(out["k"].astype(np.int64) - queue["k"], 0)))
         records.append(_Stage(int(success.sum()), steps, lane_steps, time.perf_counter() - t0))
@@ -368,32 +462,12 @@ def _split(stages, key, num: int, levels: Sequence[float], progress=None) -> dic
         queue = {f: out[f][parents] for f in _FIELDS}
         queue["index"] = np.arange(num, dtype=np.int32)
         eve = eve[parents]
-    return {"stages": records, "final_eves": final_eves, "capsize_eves": capsize_eves,
-            "num_stages": num_stages}
-
-
-def genealogy_relative_variance(eves, num: int, num_stages: int) -> float:
-    """Estimated relative variance Var(P̂)/P̂² of a fixed-effort splitting estimate from its genealogy (Lee &
-    Whiteley 2018, for an indicator test function): 1 − (N/(N−1))^K (1 − Σ_e c_e²/S²), where c_e is
-    the number of the last stage's successes descending from stage-0 run e, S = Σ c_e, N runs a stage and K stages
-    (K − 1 multinomial resamplings). Unbiased for Var(P̂) once multiplied by P̂²; one stage gives the binomial
-    (1 − p̂)/((N − 1) p̂). 0 when S = 0. [-]"""
-    eves = np.asarray(eves)
-    s = eves.size
-    if s == 0:
-        return 0.0
-    counts = np.bincount(eves).astype(float)
-    concentration = float(np.sum(counts**2)) / s**2
-    return 1.0 - (num / (num - 1)) ** num_stages * (1.0 - concentration)
-
-
-def _interval(estimate: float, relative_variance: float, upper_if_zero: float, z: float = 1.959963984540054):
-    """95 % interval: log-normal, estimate · exp(±z σ), σ² = log(1 + relative variance) (the estimate is a product
-    of stage fractions, skewed to the right: docs/rare_events.md, coverage); [0, upper_if_zero] when it is 0."""
-    if estimate <= 0:
-        return 0.0, upper_if_zero
-    sigma = math.sqrt(math.log1p(max(relative_variance, 0.0)))
-    return estimate * math.exp(-z * sigma), estimate * math.exp(z * sigma)
+    return {
+        "stages": records,
+        "final_eves": final_eves,
+        "capsize_eves": capsize_eves,
+        "num_stages": num_stages,
+    }
 
 
 def _pilot_levels(stages, key, num: int, stage_probability: float, max_levels: int):
@@ -428,71 +502,6 @@ def _pilot_levels(stages, key, num: int, stage_probability: float, max_levels: i
     return levels, records, True  # pragma: no cover
 
 
-@dataclass
-class SplittingResult:
-    """A rare exceedance probability by multilevel splitting (`monte_carlo_splitting`); host values.
-
-    - `probability`: P̂(max |φ| > `angle_deg` within the exposure after the discard, or capsize) [-];
-      `standard_error` [-] (Lee–Whiteley genealogy estimator); `probability_ci95` [-] (log-normal; docs/rare_events.md).
-    - `levels_deg`: the stages' levels [deg], the scores ℓ_1 < … < ℓ_{K−1} (â + κ·ê, so they may pass the
-      angle) and `angle_deg` last (the last stage's target is the event itself);
-      `conditional_probabilities` p̂_k and `n_successes` per stage (NaN and 0 for stages never run: a stage in which
-      no run reached its level ends the estimate at 0).
-    - `capsize_probability`, `capsize_standard_error` [-]: P̂(capsize within the duration), from the same runs
-      (the last stage's capsized runs); `n_capsized`: the last stage's runs that capsized; `n_exceeded`: its runs
-      with the event; `n_ancestors`: the distinct stage-0 runs these descend from.
-    - `relative_variance_independent`: Σ (1 − p̂_k)/(N p̂_k), what the stages would give were they independent
-      (the genealogy's variance divided by this measures the clones' correlation).
-    - Cost: `simulated_seconds` [s] realization-seconds simulated by the estimate's stages (`stage_simulated_seconds`
-      per stage) and `pilot_simulated_seconds` by the pilot run; `lane_seconds` what the lanes of the compiled
-      pools ran, idle ones included; `wall_time_s`, `stage_wall_time_s`, `pilot_wall_time_s` [s].
-    - `config`: the run's settings.
-    """
-
-    probability: float
-    standard_error: float
-    probability_ci95: tuple[float, float]
-    angle_deg: float
-    levels_deg: np.ndarray
-    conditional_probabilities: np.ndarray
-    n_successes: np.ndarray
-    num_trials: int
-    capsize_probability: float
-    capsize_standard_error: float
-    n_capsized: int
-    n_exceeded: int
-    n_ancestors: int
-    relative_variance_independent: float
-    simulated_seconds: float
-    pilot_simulated_seconds: float
-    lane_seconds: float
-    stage_simulated_seconds: np.ndarray
-    stage_wall_time_s: np.ndarray
-    pilot_wall_time_s: float
-    wall_time_s: float
-    config: dict = field(default_factory=dict)
-
-    @property
-    def relative_error(self) -> float:
-        """standard_error / probability [-] (inf when the estimate is 0)."""
-        return self.standard_error / self.probability if self.probability > 0 else math.inf
-
-    @property
-    def total_simulated_seconds(self) -> float:
-        """Realization-seconds of the estimate and its pilot together [s]: the cost to compare with brute force."""
-        return self.simulated_seconds + self.pilot_simulated_seconds
-
-    def to_dict(self) -> dict:
-        """JSON-ready summary (lists and floats)."""
-        out = {}
-        for name in self.__dataclass_fields__:
-            v = getattr(self, name)
-            out[name] = v.tolist() if isinstance(v, np.ndarray) else list(v) if isinstance(v, tuple) else v
-        out["relative_error"] = self.relative_error
-        out["total_simulated_seconds"] = self.total_simulated_seconds
-        return out
-
-
 def _check_levels(levels, angle_deg: float) -> tuple[float, ...]:
     if isinstance(levels, str | bytes):
         raise ValueError(f"`levels` must be None or a sequence of angles [deg]; got {levels!r}.")
@@ -501,8 +510,10 @@ def _check_levels(levels, angle_deg: float) -> tuple[float, ...]:
     except (TypeError, ValueError):
         raise ValueError(f"`levels` must be None or a sequence of angles [deg]; got {levels!r}.") from None
     if not all(math.isfinite(v) and v > 0 for v in values):
-        raise ValueError(f"`levels` must be finite scores > 0 [deg] (the last stage's target is the event itself, "
-                         f"|φ| > {angle_deg:g} deg or a capsize); got {list(values)}.")
+        raise ValueError(
+            f"`levels` must be finite scores > 0 [deg] (the last stage's target is the event itself, "
+            f"|φ| > {angle_deg:g} deg or a capsize); got {list(values)}."
+        )
     if any(b <= a for a, b in zip(values, values[1:])):
         raise ValueError(f"`levels` must be strictly increasing; got {list(values)}.")
     return values
@@ -585,13 +596,19 @@ def monte_carlo_splitting(
             f"which a {type(problem.excitation).__name__} does not have."
         )
     if problem.moment_excitation is not None:
-        raise ValueError("monte_carlo_splitting does not support a moment excitation (M_w); use monte_carlo_max_roll.")
+        raise ValueError(
+            "monte_carlo_splitting does not support a moment excitation (M_w); use monte_carlo_max_roll."
+        )
     capsize_deg = math.degrees(float(problem.capsize_angle))
     if not (isinstance(angle_deg, int | float) and 0 < angle_deg < capsize_deg):
-        raise ValueError(f"`angle_deg` must be in (0, {capsize_deg:.1f}) deg (the angle of vanishing stability); "
-                         f"got {angle_deg!r}.")
+        raise ValueError(
+            f"`angle_deg` must be in (0, {capsize_deg:.1f}) deg (the angle of vanishing stability); "
+            f"got {angle_deg!r}."
+        )
     if not (isinstance(exposure, int | float) and math.isfinite(exposure) and exposure >= problem.dt):
-        raise ValueError(f"`exposure` must be a finite number of seconds >= dt = {problem.dt} s; got {exposure!r}.")
+        raise ValueError(
+            f"`exposure` must be a finite number of seconds >= dt = {problem.dt} s; got {exposure!r}."
+        )
     if not (isinstance(discard, int | float) and math.isfinite(discard) and discard >= 0):
         raise ValueError(f"`discard` must be a finite number >= 0 [s]; got {discard!r}.")
     num_trials = _positive_int("num_trials", num_trials, 2)
@@ -600,7 +617,11 @@ def monte_carlo_splitting(
     max_levels = _positive_int("max_levels", max_levels, 1)
     if not (isinstance(wave_weight, int | float) and math.isfinite(wave_weight) and wave_weight >= 0):
         raise ValueError(f"`wave_weight` must be a finite number >= 0 [deg]; got {wave_weight!r}.")
-    pilot = max(100, num_trials // 10) if pilot_trials is None else _positive_int("pilot_trials", pilot_trials, 10)
+    pilot = (
+        max(100, num_trials // 10)
+        if pilot_trials is None
+        else _positive_int("pilot_trials", pilot_trials, 10)
+    )
     chosen = None if levels is None else _check_levels(levels, float(angle_deg))
     if lanes is not None:
         lanes = _positive_int("lanes", lanes, 1)
@@ -609,15 +630,17 @@ def monte_carlo_splitting(
     dt = problem.dt
     num_steps = int(round((discard + exposure) / dt))
     discard_steps = int(round(discard / dt))
-    stages = _RollStages(problem, math.radians(angle_deg), num_steps, discard_steps, lanes, devices, dtype,
-                         wave_weight, pilot)
+    stages = _RollStages(
+        problem, math.radians(angle_deg), num_steps, discard_steps, lanes, devices, dtype, wave_weight, pilot
+    )
     say = progress or (lambda line: None)
 
     pilot_records: list[_Stage] = []
     capped = False
     if chosen is None:
-        found, pilot_records, capped = _pilot_levels(stages, jr.fold_in(key, PILOT_KEY), pilot,
-                                                     float(stage_probability), max_levels)
+        found, pilot_records, capped = _pilot_levels(
+            stages, jr.fold_in(key, PILOT_KEY), pilot, float(stage_probability), max_levels
+        )
         say(f"pilot: {len(found)} levels from {len(pilot_records)} runs of {pilot} trials")
     else:
         found = list(chosen)
@@ -625,8 +648,10 @@ def monte_carlo_splitting(
     levels_deg = np.array([float(np.asarray(v, dtype)) for v in found])  # as the run compares them
 
     def report(k, total, successes):
-        say(f"stage {k}/{total}: {successes} of {num_trials} runs reached "
-            f"{'the event' if k == total else f'{levels_deg[k - 1]:.2f} deg'}")
+        say(
+            f"stage {k}/{total}: {successes} of {num_trials} runs reached "
+            f"{'the event' if k == total else f'{levels_deg[k - 1]:.2f} deg'}"
+        )
 
     run = _split(stages, key, num_trials, list(levels_deg), report)
     records = run["stages"]
@@ -640,22 +665,35 @@ def monte_carlo_splitting(
     estimate = 0.0 if died else float(np.prod(p_hat))
     relvar = genealogy_relative_variance(run["final_eves"], num_trials, num_stages)
     reached = float(np.prod(p_hat[: len(records) - 1])) if len(records) > 1 else 1.0
-    zero_upper = reached * (1 - 0.05 ** (1 / num_trials))  # 0 of N in the stage that stopped: 95 % binomial bound
+    zero_upper = reached * (
+        1 - 0.05 ** (1 / num_trials)
+    )  # 0 of N in the stage that stopped: 95 % binomial bound
     capsize = 0.0 if died else reached * run["capsize_eves"].size / num_trials
     capsize_relvar = genealogy_relative_variance(run["capsize_eves"], num_trials, num_stages)
     ran = p_hat[~np.isnan(p_hat)]
     independent = float(np.sum((1 - ran) / (num_trials * ran))) if np.all(ran > 0) else math.inf
     steps_s = dt
-    config = {"angle_deg": float(angle_deg), "exposure_s": float(exposure), "discard_s": float(discard),
-              "dt_s": dt, "num_trials": num_trials, "levels": "given" if chosen is not None else "pilot",
-              "stage_probability": float(stage_probability), "pilot_trials": pilot if chosen is None else 0,
-              "max_levels": max_levels, "max_levels_reached": capped, "lanes": "auto" if lanes is None else lanes,
-              "segment_source_steps": SEGMENT, "devices": stages.devices, "dtype": np.dtype(dtype).name,
-              "wave_weight_deg": float(wave_weight),
-              "importance_function": "h = â + wave_weight·ê [deg]: â the energy amplitude, V(â) = φ̇²/2 + V(φ) "
-                                     "(V the calm-water restoring energy), ê the wave envelope at 2ω0 in standard "
-                                     "deviations; +inf at the event",
-              "variance": "Lee & Whiteley (2018) genealogy estimator; 95 % interval log-normal"}
+    config = {
+        "angle_deg": float(angle_deg),
+        "exposure_s": float(exposure),
+        "discard_s": float(discard),
+        "dt_s": dt,
+        "num_trials": num_trials,
+        "levels": "given" if chosen is not None else "pilot",
+        "stage_probability": float(stage_probability),
+        "pilot_trials": pilot if chosen is None else 0,
+        "max_levels": max_levels,
+        "max_levels_reached": capped,
+        "lanes": "auto" if lanes is None else lanes,
+        "segment_source_steps": SEGMENT,
+        "devices": stages.devices,
+        "dtype": np.dtype(dtype).name,
+        "wave_weight_deg": float(wave_weight),
+        "importance_function": "h = â + wave_weight·ê [deg]: â the energy amplitude, V(â) = φ̇²/2 + V(φ) "
+        "(V the calm-water restoring energy), ê the wave envelope at 2ω0 in standard "
+        "deviations; +inf at the event",
+        "variance": "Lee & Whiteley (2018) genealogy estimator; 95 % interval log-normal",
+    }
     return SplittingResult(
         probability=estimate,
         standard_error=estimate * math.sqrt(max(relvar, 0.0)),

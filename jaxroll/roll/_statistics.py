@@ -36,18 +36,32 @@ def quantiles_with_capsizes_deg(values_deg: np.ndarray, capsized: np.ndarray, le
 def _realizations(result) -> dict:
     """The `realization` coordinate (index in the Monte Carlo's order) of a result's per-trial arrays."""
     n = np.asarray(result.capsized).shape[-1]
-    return {"realization": (("realization",), np.arange(n), "1", "realization (trial) index, in the Monte Carlo's "
-                            "order")}
+    return {
+        "realization": (
+            ("realization",),
+            np.arange(n),
+            "1",
+            "realization (trial) index, in the Monte Carlo's order",
+        )
+    }
 
 
 def _per_trial(result, dims=("realization",)) -> dict:
     """`capsized` and `capsize_time_s` per realization (`dims`), for `labelled_values`."""
     shape = tuple(len(result.n0) for _ in dims[:-1]) + (result.n_realizations,)
     return {
-        "capsized": (dims, np.broadcast_to(result.capsized, shape), "1",
-                     "whether the realization capsized (|φ| beyond the angle of vanishing stability, or diverged)"),
-        "capsize_time_s": (dims, np.broadcast_to(result.capsize_time, shape), "s",
-                           "time of the capsize (inf: did not capsize)"),
+        "capsized": (
+            dims,
+            np.broadcast_to(result.capsized, shape),
+            "1",
+            "whether the realization capsized (|φ| beyond the angle of vanishing stability, or diverged)",
+        ),
+        "capsize_time_s": (
+            dims,
+            np.broadcast_to(result.capsize_time, shape),
+            "s",
+            "time of the capsize (inf: did not capsize)",
+        ),
     }
 
 
@@ -103,7 +117,9 @@ def _spread_sparse_bins(counts: np.ndarray, min_count: int) -> np.ndarray:
         if total >= min_count:
             groups.append((i, top))
             total, top = 0.0, i
-    if top > 0:  # the lowest bins hold fewer than min_count: they join the group above them (or form the only one)
+    if (
+        top > 0
+    ):  # the lowest bins hold fewer than min_count: they join the group above them (or form the only one)
         groups[-1:] = [(0, groups[-1][1])] if groups else [(0, top)]
     out = counts.copy()
     for a, b in groups:
@@ -134,16 +150,27 @@ class AmplitudeStatistics(CapsizeCounts):
 
         est = ("zero_crossing", "envelope")
         q = {e: np.rad2deg(self.quantiles(e)) for e in est}
-        rows = [("amplitudes", *(self.n_amplitudes(e) for e in est), "-"),
-                ("mean amplitude", *(np.rad2deg(self.mean(e)) for e in est), "deg")]
-        rows += [(f"{100 * level:g} % quantile", *(q[e][i] for e in est), "deg") for i, level in enumerate(QUANTILE_LEVELS)]
+        rows = [
+            ("amplitudes", *(self.n_amplitudes(e) for e in est), "-"),
+            ("mean amplitude", *(np.rad2deg(self.mean(e)) for e in est), "deg"),
+        ]
+        rows += [
+            (f"{100 * level:g} % quantile", *(q[e][i] for e in est), "deg")
+            for i, level in enumerate(QUANTILE_LEVELS)
+        ]
         c = self.config
-        note = (f"{self.n_realizations} realizations" + (f" of {c['duration_s']:g} s (dt {c['dt_s']:g} s)"
-                                                         if "duration_s" in c and "dt_s" in c else "")
-                + f"; {self.n_capsized} capsized, P = {self.capsize_probability:.4g} "
-                f"(95 % {fmt_interval(*self.capsize_interval())}); amplitude statistics conditional on no capsize.")
-        return html_table("Monte Carlo amplitude statistics", rows,
-                          header=("", "zero-crossing (per half cycle)", "envelope (per time sample)", "unit"), note=note)
+        note = (
+            f"{self.n_realizations} realizations"
+            + (f" of {c['duration_s']:g} s (dt {c['dt_s']:g} s)" if "duration_s" in c and "dt_s" in c else "")
+            + f"; {self.n_capsized} capsized, P = {self.capsize_probability:.4g} "
+            f"(95 % {fmt_interval(*self.capsize_interval())}); amplitude statistics conditional on no capsize."
+        )
+        return html_table(
+            "Monte Carlo amplitude statistics",
+            rows,
+            header=("", "zero-crossing (per half cycle)", "envelope (per time sample)", "unit"),
+            note=note,
+        )
 
     def _counts(self, estimator: str) -> np.ndarray:
         check_estimator(estimator)
@@ -166,7 +193,9 @@ class AmplitudeStatistics(CapsizeCounts):
         name = {1: "sum", 2: "sumsq"}[order]
         return float(self.per_realization[f"{name}_{key}"].sum() / n) if n else float("nan")
 
-    def law(self, estimator: str = "zero_crossing", *, pool: int = 1, min_count: int = 1) -> TabulatedAmplitudeLaw:
+    def law(
+        self, estimator: str = "zero_crossing", *, pool: int = 1, min_count: int = 1
+    ) -> TabulatedAmplitudeLaw:
         """The amplitude law of the histogram (radians), labelled with what it is a law of.
 
         `pool` merges that many fine bins (0.05° each; e.g. 20 → 1° bins): the maximum-value formulas amplify
@@ -184,8 +213,12 @@ class AmplitudeStatistics(CapsizeCounts):
         if not (isinstance(min_count, int) and min_count >= 1):
             raise ValueError(f"`min_count` must be an integer >= 1; got {min_count!r}.")
         counts = _spread_sparse_bins(counts.reshape(-1, pool).sum(1), min_count)
-        return law_from_histogram(counts, np.deg2rad(self.edges_deg[::pool]), estimator=estimator,
-                                  n_samples=int(round(counts.sum())))
+        return law_from_histogram(
+            counts,
+            np.deg2rad(self.edges_deg[::pool]),
+            estimator=estimator,
+            n_samples=int(round(counts.sum())),
+        )
 
     def quantiles(self, estimator: str, levels=QUANTILE_LEVELS) -> np.ndarray:
         """Quantiles [rad] of the amplitude (linear within the fine bins, ±half a fine bin); NaN when none."""
@@ -225,7 +258,9 @@ class AmplitudeStatistics(CapsizeCounts):
         # the envelope's samples: φ recorded every `record_interval_s` (docs/numerics.md; absent: every time step)
         out["envelope_sample_interval_s"] = self.config.get("record_interval_s", self.config.get("dt_s"))
         out["n_amplitudes"] = n
-        out["mean_amplitude_deg"] = {e: None if n[e] == 0 else float(np.rad2deg(self.mean(e))) for e in SAMPLING}
+        out["mean_amplitude_deg"] = {
+            e: None if n[e] == 0 else float(np.rad2deg(self.mean(e))) for e in SAMPLING
+        }
         out["quantiles_deg"] = {
             e: None
             if n[e] == 0
@@ -279,8 +314,14 @@ class AmplitudeStatistics(CapsizeCounts):
         `stationary` is None when it cannot be told (fewer than two surviving realizations, or no amplitude)."""
         pr = self.per_realization
         keep = pr["n_env"] > 0
-        out = {"mean_envelope_first_half_deg": None, "mean_envelope_second_half_deg": None, "relative_change": None,
-               "change_in_standard_errors": None, "stationary": None, "note": None}
+        out = {
+            "mean_envelope_first_half_deg": None,
+            "mean_envelope_second_half_deg": None,
+            "relative_change": None,
+            "change_in_standard_errors": None,
+            "stationary": None,
+            "note": None,
+        }
         if "sum_env_first_half" not in pr or keep.sum() < 2:
             return out
         n, s = pr["n_env"][keep], pr["sum_env"][keep]
@@ -296,9 +337,13 @@ class AmplitudeStatistics(CapsizeCounts):
         z = (m2 - m1) / se if se > 1e-12 * abs(m1) else None
         significant = abs(m2 - m1) > 0 if z is None else abs(z) > STATIONARITY_SE
         stationary = not (abs(change) > STATIONARITY_TOLERANCE and significant)
-        out.update(mean_envelope_first_half_deg=float(np.rad2deg(m1)), mean_envelope_second_half_deg=float(np.rad2deg(m2)),
-                   relative_change=float(change), change_in_standard_errors=None if z is None else float(z),
-                   stationary=stationary)
+        out.update(
+            mean_envelope_first_half_deg=float(np.rad2deg(m1)),
+            mean_envelope_second_half_deg=float(np.rad2deg(m2)),
+            relative_change=float(change),
+            change_in_standard_errors=None if z is None else float(z),
+            stationary=stationary,
+        )
         if not stationary:
             a = float(self.config.get("discard_s", 0.0))
             b = float(self.config.get("duration_s", float("nan")))
@@ -307,9 +352,12 @@ class AmplitudeStatistics(CapsizeCounts):
                 f"the roll is not stationary over the run: the mean envelope amplitude goes from "
                 f"{np.rad2deg(m1):.3g}° ({a:g}–{(a + b) / 2:g} s) to {np.rad2deg(m2):.3g}° ({(a + b) / 2:g}–{b:g} s), "
                 f"{100 * change:+.0f} % ({sig}), so these statistics depend on the initial roll and the duration. "
-                + ("Falling: the roll may be dying out (below the parametric-roll threshold: the theories say "
-                   "whether) or still settling from the initial roll; " if change < 0 else
-                   "Rising: the roll is still building up; ")
+                + (
+                    "Falling: the roll may be dying out (below the parametric-roll threshold: the theories say "
+                    "whether) or still settling from the initial roll; "
+                    if change < 0
+                    else "Rising: the roll is still building up; "
+                )
                 + "lengthen the duration and the discard (--duration, --discard) to see where it settles."
             )
         return out
@@ -342,24 +390,48 @@ class AmplitudeStatistics(CapsizeCounts):
             "sumsq_zc": ("sumsq_zero_crossing_rad2", "rad2", "sum of the squared zero-crossing amplitudes"),
             "n_env": ("n_envelope", "1", "envelope samples after the discard"),
             "sum_env": ("sum_envelope_rad", "rad", "sum of the envelope samples"),
-            "sum_env_first_half": ("sum_envelope_first_half_rad", "rad", "sum of the envelope samples of the first "
-                                   "half of the kept window"),
+            "sum_env_first_half": (
+                "sum_envelope_first_half_rad",
+                "rad",
+                "sum of the envelope samples of the first half of the kept window",
+            ),
             "sumsq_env": ("sumsq_envelope_rad2", "rad2", "sum of the squared envelope samples"),
             "n_samples": ("n_samples", "1", "φ samples after the discard"),
             "sum_phi2": ("sum_phi2_rad2", "rad2", "sum of φ² over the samples"),
             "sum_phi4": ("sum_phi4_rad4", "rad4", "sum of φ⁴ over the samples"),
-            "max_env": ("max_envelope_deg", "degree", "largest envelope amplitude (largest roll) after the discard"),
+            "max_env": (
+                "max_envelope_deg",
+                "degree",
+                "largest envelope amplitude (largest roll) after the discard",
+            ),
         }
-        per = {name: (r, np.rad2deg(pr[k]) if unit == "degree" else pr[k], unit, f"per realization: {long}")
-               for k, (name, unit, long) in sums.items() if k in pr}
+        per = {
+            name: (r, np.rad2deg(pr[k]) if unit == "degree" else pr[k], unit, f"per realization: {long}")
+            for k, (name, unit, long) in sums.items()
+            if k in pr
+        }
         hist = "amplitudes per fine bin (the last bin also holds those beyond the grid)"
-        return merge(ds, labelled_values(
-            {"counts_zero_crossing": (fine, self.counts_zero_crossing, "1", f"zero-crossing {hist}"),
-             "counts_envelope": (fine, self.counts_envelope, "1", f"envelope {hist}"),
-             **_per_trial(self), **per},
-            coords={"fine_amplitude_deg": (fine, (edges[1:] + edges[:-1]) / 2, "degree", "centres of the fine bins"),
-                    **_realizations(self)},
-            attrs=config_attrs(self.config)))
+        return merge(
+            ds,
+            labelled_values(
+                {
+                    "counts_zero_crossing": (fine, self.counts_zero_crossing, "1", f"zero-crossing {hist}"),
+                    "counts_envelope": (fine, self.counts_envelope, "1", f"envelope {hist}"),
+                    **_per_trial(self),
+                    **per,
+                },
+                coords={
+                    "fine_amplitude_deg": (
+                        fine,
+                        (edges[1:] + edges[:-1]) / 2,
+                        "degree",
+                        "centres of the fine bins",
+                    ),
+                    **_realizations(self),
+                },
+                attrs=config_attrs(self.config),
+            ),
+        )
 
 
 @dataclass
@@ -390,14 +462,30 @@ class MaximaStatistics(CapsizeCounts):
         for j, n0 in enumerate(self.n0):
             s = self.summary(j, np.array([0.0, 90.0]))
             quantiles = [fmt(v) if v is not None else "capsize" for v in s["quantiles_deg"].values()]
-            rows.append((n0, s["n_known"], s["n_capsized_before"], s["capsize_probability"],
-                         s["mean_deg_given_no_capsize"], *quantiles))
+            rows.append(
+                (
+                    n0,
+                    s["n_known"],
+                    s["n_capsized_before"],
+                    s["capsize_probability"],
+                    s["mean_deg_given_no_capsize"],
+                    *quantiles,
+                )
+            )
         return html_table(
-            "Monte Carlo maxima of the first N0 amplitudes", rows,
-            header=("N0", "trials known", "capsized before N0", "P(capsize)", "mean given no capsize [deg]",
-                    *(f"{100 * q:g} % [deg]" for q in QUANTILE_LEVELS)),
+            "Monte Carlo maxima of the first N0 amplitudes",
+            rows,
+            header=(
+                "N0",
+                "trials known",
+                "capsized before N0",
+                "P(capsize)",
+                "mean given no capsize [deg]",
+                *(f"{100 * q:g} % [deg]" for q in QUANTILE_LEVELS),
+            ),
             note=f"{self.n_realizations} trials; a capsize before N0 is a maximum beyond the angle of vanishing "
-            "stability (counted in every probability).")
+            "stability (counted in every probability).",
+        )
 
     def valid(self, j: int) -> np.ndarray:
         """Trials whose maximum over their first n0[j] amplitudes is known."""
@@ -440,9 +528,11 @@ class MaximaStatistics(CapsizeCounts):
         known = self.valid(j) | self.capsized
         quantiles = quantiles_with_capsizes_deg(self.maxima_deg[known, j], ~self.valid(j)[known], levels)
         reasons = {
-            key: "no trial reached N0 amplitudes" if not n_known
+            key: "no trial reached N0 amplitudes"
+            if not n_known
             else f"beyond the angle of vanishing stability: P(capsize before N0) = {p_cap:.3g} exceeds 1 - {q:g}"
-            for q, (key, value) in zip(levels, quantiles.items(), strict=True) if value is None
+            for q, (key, value) in zip(levels, quantiles.items(), strict=True)
+            if value is None
         }
         mean = float(x.mean()) if (x.size and not n_cap) else None
         out = {
@@ -462,13 +552,15 @@ class MaximaStatistics(CapsizeCounts):
             "quantiles_deg": quantiles,
         }
         if mean is None:
-            out["mean_reason"] = ("infinite: trials capsized before N0 (their maximum is beyond the angle of "
-                                  "vanishing stability); see mean_deg_given_no_capsize" if n_cap
-                                  else "no trial reached N0 amplitudes")
+            out["mean_reason"] = (
+                "infinite: trials capsized before N0 (their maximum is beyond the angle of "
+                "vanishing stability); see mean_deg_given_no_capsize"
+                if n_cap
+                else "no trial reached N0 amplitudes"
+            )
         if reasons:
             out["quantiles_reason"] = reasons
         return out
-
 
     def to_xarray(self, bins_deg=None):
         """The maxima as an `xarray.Dataset` (docs/outputs.md): `summary(j, bins_deg)` for every N0 (maxima.json's
@@ -483,14 +575,29 @@ class MaximaStatistics(CapsizeCounts):
         ds = tree_to_dataset(tree, MAXIMA_SUMMARY)
         dims = ("n0", "realization")
         n = (len(self.n0), self.n_realizations)
-        return merge(ds, labelled_values(
-            {"maxima_deg": (dims, np.asarray(self.maxima_deg).T, "degree",
-                            "largest of the trial's first N0 zero-crossing amplitudes (NaN: capsized or ended "
-                            "before N0 amplitudes)"),
-             **_per_trial(self, dims),
-             "amplitude_count": (dims, np.broadcast_to(self.count, n), "1",
-                                 "zero-crossing amplitudes the trial recorded (at most max(N0) of its run)")},
-            coords=_realizations(self), attrs=config_attrs(self.config)))
+        return merge(
+            ds,
+            labelled_values(
+                {
+                    "maxima_deg": (
+                        dims,
+                        np.asarray(self.maxima_deg).T,
+                        "degree",
+                        "largest of the trial's first N0 zero-crossing amplitudes (NaN: capsized or ended "
+                        "before N0 amplitudes)",
+                    ),
+                    **_per_trial(self, dims),
+                    "amplitude_count": (
+                        dims,
+                        np.broadcast_to(self.count, n),
+                        "1",
+                        "zero-crossing amplitudes the trial recorded (at most max(N0) of its run)",
+                    ),
+                },
+                coords=_realizations(self),
+                attrs=config_attrs(self.config),
+            ),
+        )
 
 
 @dataclass
@@ -514,14 +621,24 @@ class MaxRollStatistics(CapsizeCounts):
 
         quantiles = self.largest_roll_quantiles_deg()
         rows = [
-            (f"P(max |φ| > {self.angle_deg:g}°, or capsize)", self.exceedance_probability(),
-             fmt_interval(*self.exceedance_interval()), "-"),
+            (
+                f"P(max |φ| > {self.angle_deg:g}°, or capsize)",
+                self.exceedance_probability(),
+                fmt_interval(*self.exceedance_interval()),
+                "-",
+            ),
             ("P(capsize)", self.capsize_probability, fmt_interval(*self.capsize_interval()), "-"),
-        ] + [(f"largest roll, {k} % quantile", fmt(v) if v is not None else "capsize", "", "deg")
-             for k, v in quantiles.items()]
+        ] + [
+            (f"largest roll, {k} % quantile", fmt(v) if v is not None else "capsize", "", "deg")
+            for k, v in quantiles.items()
+        ]
         c = self.config
-        note = f"{self.n_realizations} realizations" + (f" of {c['duration_s']:g} s" if "duration_s" in c else "")
-        return html_table("Monte Carlo largest roll", rows, header=("", "value", "95 % interval", "unit"), note=note)
+        note = f"{self.n_realizations} realizations" + (
+            f" of {c['duration_s']:g} s" if "duration_s" in c else ""
+        )
+        return html_table(
+            "Monte Carlo largest roll", rows, header=("", "value", "95 % interval", "unit"), note=note
+        )
 
     def exceedances(self, angle_deg: float | None = None) -> int:
         """Trials with max |φ| > `angle_deg` [deg] (default: the run's angle) or capsized."""
@@ -533,7 +650,9 @@ class MaxRollStatistics(CapsizeCounts):
         """P(max |φ| > angle within the duration) per trial [-]."""
         return self.exceedances(angle_deg) / self.n_realizations
 
-    def exceedance_interval(self, angle_deg: float | None = None, confidence: float = 0.95) -> tuple[float, float]:
+    def exceedance_interval(
+        self, angle_deg: float | None = None, confidence: float = 0.95
+    ) -> tuple[float, float]:
         """Wilson interval of `exceedance_probability` [-]."""
         lo, hi = wilson_interval(self.exceedances(angle_deg), self.n_realizations, confidence)
         return float(lo), float(hi)
@@ -550,15 +669,33 @@ class MaxRollStatistics(CapsizeCounts):
         from .._labels import config_attrs, labelled_values, merge, tree_to_dataset
         from .._labels._layouts import MAX_ROLL
 
-        tree = {"angle_deg": self.angle_deg, "n_realizations": self.n_realizations, "n_capsized": self.n_capsized,
-                "n_exceeded": self.n_exceeded, "probability": self.exceedance_probability(),
-                "probability_ci95": list(self.exceedance_interval()), "capsize_probability": self.capsize_probability,
-                "capsize_probability_ci95": list(self.capsize_interval()),
-                "largest_roll_quantiles_deg": self.largest_roll_quantiles_deg()}
-        return merge(tree_to_dataset(tree, MAX_ROLL), labelled_values(
-            {"max_abs_phi_deg": (("realization",), self.max_abs_phi_deg, "degree",
-                                 "largest |φ| of the trial after the discard (up to its capsize)"), **_per_trial(self)},
-            coords=_realizations(self), attrs=config_attrs(self.config)))
+        tree = {
+            "angle_deg": self.angle_deg,
+            "n_realizations": self.n_realizations,
+            "n_capsized": self.n_capsized,
+            "n_exceeded": self.n_exceeded,
+            "probability": self.exceedance_probability(),
+            "probability_ci95": list(self.exceedance_interval()),
+            "capsize_probability": self.capsize_probability,
+            "capsize_probability_ci95": list(self.capsize_interval()),
+            "largest_roll_quantiles_deg": self.largest_roll_quantiles_deg(),
+        }
+        return merge(
+            tree_to_dataset(tree, MAX_ROLL),
+            labelled_values(
+                {
+                    "max_abs_phi_deg": (
+                        ("realization",),
+                        self.max_abs_phi_deg,
+                        "degree",
+                        "largest |φ| of the trial after the discard (up to its capsize)",
+                    ),
+                    **_per_trial(self),
+                },
+                coords=_realizations(self),
+                attrs=config_attrs(self.config),
+            ),
+        )
 
 
 @dataclass
@@ -581,12 +718,30 @@ class SweepResult:
         rows = []
         for index in np.ndindex(*p_cap.shape):
             point = [values[i] for values, i in zip(self.grid.values(), index, strict=True)]
-            rows.append((*point, p_cap[index], fmt_interval(*ci_cap[index]), p_exc[index], fmt_interval(*ci_exc[index])))
+            rows.append(
+                (
+                    *point,
+                    p_cap[index],
+                    fmt_interval(*ci_cap[index]),
+                    p_exc[index],
+                    fmt_interval(*ci_exc[index]),
+                )
+            )
         return html_table(
-            "Sweep: capsize and exceedance probabilities", rows,
-            header=("heading", "speed [m/s]", "H1/3 [m]", "T01 [s]", "P(capsize)", f"{self.confidence:.0%} interval",
-                    f"P(roll > {self.angle_deg:g}°)", f"{self.confidence:.0%} interval"),
-            note=f"{self.n_realizations} realizations per grid point (common random numbers).")
+            "Sweep: capsize and exceedance probabilities",
+            rows,
+            header=(
+                "heading",
+                "speed [m/s]",
+                "H1/3 [m]",
+                "T01 [s]",
+                "P(capsize)",
+                f"{self.confidence:.0%} interval",
+                f"P(roll > {self.angle_deg:g}°)",
+                f"{self.confidence:.0%} interval",
+            ),
+            note=f"{self.n_realizations} realizations per grid point (common random numbers).",
+        )
 
     @property
     def capsize_probability(self) -> np.ndarray:
@@ -617,10 +772,17 @@ class SweepResult:
         def degrees(label: str) -> float:
             return float(label[:-3]) if label.endswith("deg") else float(np.rad2deg(heading_angle(label)))
 
-        tree = {"grid": {"axes": list(self.grid), **self.grid},
-                "heading_deg": [degrees(h) for h in self.grid["heading"]], "n_realizations": self.n_realizations,
-                "angle_deg": self.angle_deg, "confidence": self.confidence, "n_capsized": self.n_capsized,
-                "n_exceeded": self.n_exceeded, "capsize_probability": self.capsize_probability,
-                "capsize_ci": self.capsize_interval(), "exceedance_probability": self.exceedance_probability,
-                "exceedance_ci": self.exceedance_interval()}
+        tree = {
+            "grid": {"axes": list(self.grid), **self.grid},
+            "heading_deg": [degrees(h) for h in self.grid["heading"]],
+            "n_realizations": self.n_realizations,
+            "angle_deg": self.angle_deg,
+            "confidence": self.confidence,
+            "n_capsized": self.n_capsized,
+            "n_exceeded": self.n_exceeded,
+            "capsize_probability": self.capsize_probability,
+            "capsize_ci": self.capsize_interval(),
+            "exceedance_probability": self.exceedance_probability,
+            "exceedance_ci": self.exceedance_interval(),
+        }
         return tree_to_dataset(tree, SWEEP)

@@ -117,13 +117,41 @@ def sweep_sea_states(
             where = f"heading {h}, U {u:g} m/s, H1/3 {height:g} m, T01 {period:g} s"
             raise ValueError(f"sea state ({where}): {e}") from e
     with progress_bar(progress, num_realizations * len(problems), "sweep") as report:
-        _run_sweep(problems, axes, shape, key, angle_deg, num_realizations, duration, discard, chunk_size, devices,
-                   checkpoint, report, n_capsized, n_exceeded)
+        _run_sweep(
+            problems,
+            axes,
+            shape,
+            key,
+            angle_deg,
+            num_realizations,
+            duration,
+            discard,
+            chunk_size,
+            devices,
+            checkpoint,
+            report,
+            n_capsized,
+            n_exceeded,
+        )
     return SweepResult(axes, num_realizations, float(angle_deg), confidence, n_capsized, n_exceeded)
 
 
-def _run_sweep(problems, axes, shape, key, angle_deg, num_realizations, duration, discard, chunk_size, devices,
-               checkpoint, progress, n_capsized, n_exceeded) -> None:
+def _run_sweep(
+    problems,
+    axes,
+    shape,
+    key,
+    angle_deg,
+    num_realizations,
+    duration,
+    discard,
+    chunk_size,
+    devices,
+    checkpoint,
+    progress,
+    n_capsized,
+    n_exceeded,
+) -> None:
     """The Monte Carlo at each grid point in turn, its counts into `n_capsized`, `n_exceeded`."""
     done = 0
     for index in np.ndindex(*shape):

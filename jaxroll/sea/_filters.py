@@ -88,7 +88,9 @@ def check_filter_fit(fit: "FilterFit", dt=None) -> list[str]:
 
     f = fit.filter
     errors, warns = [], []
-    var_q, s_match, sigma, phi = jax.device_get(_fit_diagnostics(f, fit.match_frequency, dt))  # numpy; phi may be None
+    var_q, s_match, sigma, phi = jax.device_get(
+        _fit_diagnostics(f, fit.match_frequency, dt)
+    )  # numpy; phi may be None
     var_q = float(var_q)
     var_t = float(fit.variance_target)
     # Beam seas: the target is ζ_G ≡ 0 and the fit a zero-gain filter (output exactly 0).
@@ -106,10 +108,14 @@ def check_filter_fit(fit: "FilterFit", dt=None) -> list[str]:
         f"({off})"
     )
     rel = float(fit.relative_l2_error)
-    (errors if rel > 0.5 else warns if rel > 0.25 else []).append(f"relative L2 error of the fit is {rel:.3g}")
+    (errors if rel > 0.5 else warns if rel > 0.25 else []).append(
+        f"relative L2 error of the fit is {rel:.3g}"
+    )
     ev = np.linalg.eigvalsh(sigma)
     if not (np.all(np.isfinite(ev)) and ev.min() > 0):
-        errors.append(f"stationary covariance not positive definite (eigenvalues {ev.min():.3g} … {ev.max():.3g})")
+        errors.append(
+            f"stationary covariance not positive definite (eigenvalues {ev.min():.3g} … {ev.max():.3g})"
+        )
     if dt is not None and not errors:
         rho = float(np.abs(np.linalg.eigvals(phi)).max())
         if not rho < 1.0:
@@ -120,7 +126,9 @@ def check_filter_fit(fit: "FilterFit", dt=None) -> list[str]:
             errors.append(f"Σ − ΦΣΦᵀ is indefinite (eigenvalues {wq.min():.3g} … {wq.max():.3g})")
     if errors:
         raise ValueError(
-            f"the order-{f.order} shaping-filter fit is not usable: " + "; ".join(errors) + ". A rational filter "
+            f"the order-{f.order} shaping-filter fit is not usable: "
+            + "; ".join(errors)
+            + ". A rational filter "
             "cannot follow every effective-wave spectrum (e.g. following seas at speed, where encounter compresses "
             "it). Use the superposition excitation, which synthesises any spectrum (RollProblem.from_sea(..., "
             "excitation='superposition'); on the command line --method superposition), or another filter order "
@@ -350,4 +358,3 @@ def _fit_filter(wave: EffectiveWave, order: int, match_frequency, match_weight: 
     # Beam seas: every residual is 0 whatever the parameters, so the zero-gain filter is exact.
     result = optx.RESULTS.where(variance > 0, sol.result, optx.RESULTS.successful)
     return FilterFit(f, rel, variance, f.variance(), wm, target_m, f.spectrum(wm), result)
-

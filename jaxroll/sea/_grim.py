@@ -55,7 +55,13 @@ class EffectiveWave(eqx.Module):
     projected: bool = eqx.field(static=True)
 
     def __init__(
-        self, sea: AbstractWaveSpectrum, length, speed=0.0, heading: str | float = "head", *, validate: bool = True
+        self,
+        sea: AbstractWaveSpectrum,
+        length,
+        speed=0.0,
+        heading: str | float = "head",
+        *,
+        validate: bool = True,
     ):
         """**Arguments:** `sea`: one-sided sea spectrum; `length`: L = Lpp [m]; `speed`: U [m/s] ≥ 0;
         `heading`: `"head"`, `"following"` or the angle χ [rad] in [0, π] between the ship's course and the
@@ -66,7 +72,9 @@ class EffectiveWave(eqx.Module):
         self.sea = sea
         length, speed = as_float(length), as_float(speed)
         if validate:
-            length = require(length, ~(array_module(length).asarray(length) > 0), "ship length must be > 0 [m].")
+            length = require(
+                length, ~(array_module(length).asarray(length) > 0), "ship length must be > 0 [m]."
+            )
             speed = require(speed, ~(array_module(speed).asarray(speed) >= 0),
                             "`speed` must be >= 0 [m/s]; use `heading` for direction.")  # fmt: skip
         if validate and is_concrete(sea):

@@ -150,8 +150,13 @@ def sea_steepness(sea: AbstractWaveSpectrum) -> dict[str, float]:
     tp = 2 * math.pi / float(np.asarray(sea.peak_frequency))
     steepness = 2 * math.pi * hs / (GRAVITY * tp**2)
     limit = breaking_steepness(tp)
-    return {"hs_m": hs, "peak_period_s": tp, "steepness": steepness, "limit": limit,
-            "max_hs_m": limit * GRAVITY * tp**2 / (2 * math.pi)}
+    return {
+        "hs_m": hs,
+        "peak_period_s": tp,
+        "steepness": steepness,
+        "limit": limit,
+        "max_hs_m": limit * GRAVITY * tp**2 / (2 * math.pi),
+    }
 
 
 def warn_if_breaking(sea: AbstractWaveSpectrum, stacklevel: int = 2) -> None:

@@ -153,7 +153,9 @@ def _calm_guess(loading, heel):
     return jnp.stack([loading.draught * jnp.cos(heel), jnp.zeros_like(heel)], axis=-1)
 
 
-def _equilibrium_batch(hull, loading, heel, zeta_mid, wavelength, calm: bool = False, guess=None) -> Equilibrium:
+def _equilibrium_batch(
+    hull, loading, heel, zeta_mid, wavelength, calm: bool = False, guess=None
+) -> Equilibrium:
     """Balances at 1-D arrays of heels and amplitudes, one vmapped Newton solve (no throwing), started from `guess`
     (n, 2) (default: `_calm_guess`); `calm=True` where every amplitude is 0 (a hull surface then uses its unsplit
     triangles)."""
@@ -201,7 +203,9 @@ def _by_case(cases: _Cases, fn):
 
 @_entry_point
 def _equilibrium_cases(hull, loading, cases, wavelength, shape):
-    solve = lambda calm, i: _equilibrium_batch(hull, loading, cases.heel[i], cases.zeta_mid[i], wavelength, calm)
+    solve = lambda calm, i: _equilibrium_batch(
+        hull, loading, cases.heel[i], cases.zeta_mid[i], wavelength, calm
+    )
     flat = _by_case(cases, solve)
     return jax.tree_util.tree_map(lambda a: a.reshape(shape + a.shape[1:]), flat)
 
@@ -261,7 +265,9 @@ def _metacentric_cases(hull, loading, cases, wavelength, shape):
     def solve(calm, idx):
         zeta = cases.zeta_mid[idx]
         eq = _equilibrium_batch(hull, loading, jnp.zeros_like(zeta), zeta, wavelength, calm=calm)
-        gm = jax.vmap(lambda s, t, z: _gm_at(hull, loading, s, t, z, wavelength, calm))(eq.sinkage, eq.trim, zeta)
+        gm = jax.vmap(lambda s, t, z: _gm_at(hull, loading, s, t, z, wavelength, calm))(
+            eq.sinkage, eq.trim, zeta
+        )
         return gm, eq.result
 
     gm, result = _by_case(cases, solve)
@@ -272,7 +278,9 @@ def _metacentric_cases(hull, loading, cases, wavelength, shape):
 def _metacentric_traced(hull, loading, zeta_mid, wavelength):
     zeta = jnp.asarray(zeta_mid, dtype=float)
     eq = _equilibrium_batch(hull, loading, jnp.zeros(zeta.size), zeta.ravel(), wavelength)
-    gm = jax.vmap(lambda s, t, z: _gm_at(hull, loading, s, t, z, wavelength))(eq.sinkage, eq.trim, zeta.ravel())
+    gm = jax.vmap(lambda s, t, z: _gm_at(hull, loading, s, t, z, wavelength))(
+        eq.sinkage, eq.trim, zeta.ravel()
+    )
     return gm.reshape(zeta.shape), eq.result
 
 

@@ -143,20 +143,36 @@ class HydrostaticsSolution(eqx.Module):
         tree = {
             "wavelength_m": float(self.wavelength),
             "calm_water": self.particulars.as_dict(),
-            "tables": {"zeta_mid_m": h(self.zeta_mid), "heel_deg": np.degrees(h(self.heels)), "gz_m": h(self.gz),
-                       "sinkage_m": h(self.sinkage), "trim_m": h(self.trim), "gz_calm_m": h(self.gz_calm),
-                       "gm_m": h(self.gm), "delta_gm_m": h(self.delta_gm), "converged": h(self.converged)},
-            "fits": {"gm0_m": float(self.particulars.gm),
-                     "gz_coefficients_m": dict(zip(("g3", "g5", "g7", "g9"), h(self.gz_coefficients).tolist())),
-                     "gz_fit_rms_m": float(self.gz_fit_rms),
-                     "delta_gm_coefficients": {f"c{k}": float(c) for k, c in enumerate(h(self.delta_gm_coefficients))},
-                     "delta_gm_fit_rms_m": float(self.delta_gm_fit_rms)},
-            "balance_check": {"max_relative_volume_error": float(self.max_volume_error),
-                              "max_lcb_minus_lcg_m": float(self.max_lcb_error),
-                              "all_converged": bool(np.all(h(self.converged)))},
+            "tables": {
+                "zeta_mid_m": h(self.zeta_mid),
+                "heel_deg": np.degrees(h(self.heels)),
+                "gz_m": h(self.gz),
+                "sinkage_m": h(self.sinkage),
+                "trim_m": h(self.trim),
+                "gz_calm_m": h(self.gz_calm),
+                "gm_m": h(self.gm),
+                "delta_gm_m": h(self.delta_gm),
+                "converged": h(self.converged),
+            },
+            "fits": {
+                "gm0_m": float(self.particulars.gm),
+                "gz_coefficients_m": dict(zip(("g3", "g5", "g7", "g9"), h(self.gz_coefficients).tolist())),
+                "gz_fit_rms_m": float(self.gz_fit_rms),
+                "delta_gm_coefficients": {
+                    f"c{k}": float(c) for k, c in enumerate(h(self.delta_gm_coefficients))
+                },
+                "delta_gm_fit_rms_m": float(self.delta_gm_fit_rms),
+            },
+            "balance_check": {
+                "max_relative_volume_error": float(self.max_volume_error),
+                "max_lcb_minus_lcg_m": float(self.max_lcb_error),
+                "all_converged": bool(np.all(h(self.converged))),
+            },
         }
-        extra = Layout(arrays={"tables/converged": ("zeta_mid_m", "heel_deg")},
-                       long_names={"tables_converged": "whether the sinkage-and-trim balance converged"})
+        extra = Layout(
+            arrays={"tables/converged": ("zeta_mid_m", "heel_deg")},
+            long_names={"tables_converged": "whether the sinkage-and-trim balance converged"},
+        )
         return tree_to_dataset(tree, HYDROSTATICS + extra)
 
 
@@ -202,7 +218,12 @@ def _hydrostatics_core(hull, loading, zeta, heels, wavelength, curve_heels):
     nc = 0 if curve_heels is None else curve_heels.shape[0]
     zz, pp = jnp.meshgrid(zeta, heels, indexing="ij")
     curve_zeta = jnp.stack([jnp.zeros(()), jnp.min(zeta), jnp.max(zeta)])
-    parts = [(pp.ravel(), zz.ravel()), (jnp.zeros(nz), zeta), (heels, jnp.zeros(nh)), (jnp.zeros(1), jnp.zeros(1))]
+    parts = [
+        (pp.ravel(), zz.ravel()),
+        (jnp.zeros(nz), zeta),
+        (heels, jnp.zeros(nh)),
+        (jnp.zeros(1), jnp.zeros(1)),
+    ]
     if nc:
         parts.append((jnp.tile(curve_heels, 3), jnp.repeat(curve_zeta, nc)))
     eqs = _equilibrium_batch(hull, loading, *(jnp.concatenate(a) for a in zip(*parts)), lam)

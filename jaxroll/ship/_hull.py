@@ -143,11 +143,17 @@ class Datum:
 
         **Raises:** `ValueError` for another name, a z that is not finite, or `"keel"` where no keel line is known."""
         if isinstance(reference, str):
-            named = dict(baseline=self.baseline_file_z, keel=self.keel_line_file_z, lowest=self.lowest_point_file_z)
+            named = dict(
+                baseline=self.baseline_file_z, keel=self.keel_line_file_z, lowest=self.lowest_point_file_z
+            )
             if reference not in named:
-                raise ValueError(f"a height reference is baseline, keel, lowest or a file z [m]; got {reference!r}.")
+                raise ValueError(
+                    f"a height reference is baseline, keel, lowest or a file z [m]; got {reference!r}."
+                )
             if named[reference] is None:
-                raise ValueError("this hull has no keel line (its file gives none): give the reference's file z [m].")
+                raise ValueError(
+                    "this hull has no keel line (its file gives none): give the reference's file z [m]."
+                )
             return float(named[reference])
         if not math.isfinite(reference):
             raise ValueError(f"a height reference's file z must be a finite number [m]; got {reference}.")
@@ -252,9 +258,7 @@ def scale_hull(
     **Returns:** a new `Hull` (no re-validation, so the factors may be JAX tracers, e.g. under `jax.grad`).
     """
     if hull.surface is not None:
-        hull = eqx.tree_at(
-            lambda h: h.surface, hull, scale_surface(hull.surface, length, breadth, height)
-        )
+        hull = eqx.tree_at(lambda h: h.surface, hull, scale_surface(hull.surface, length, breadth, height))
     return eqx.tree_at(
         lambda h: (h.stations, h.lpp, h.half_breadths, h.waterlines, h.depth),
         hull,
@@ -488,4 +492,6 @@ def c11_hull() -> Hull:
 def _c11_hull_path() -> Path:
     """Path of the packaged hull file `jaxroll/data/c11_hull.toml`."""
     return Path(__file__).parents[1] / "data" / "c11_hull.toml"
+
+
 c11_hull_path = _c11_hull_path

@@ -58,7 +58,11 @@ class IkedaRangeError(ValueError):
 def _negative_damping_message(comps, b_eq, amplitudes, values: dict, out_of_range: list) -> str:
     i = int(np.argmin(b_eq))
     c = comps[i]
-    parts = [f"{k} = {values[k]:.3f} (range {VALIDITY[k][0]:g}–{VALIDITY[k][1]:g})" for k in out_of_range if k in values]
+    parts = [
+        f"{k} = {values[k]:.3f} (range {VALIDITY[k][0]:g}–{VALIDITY[k][1]:g})"
+        for k in out_of_range
+        if k in values
+    ]
     where = (
         "outside its validity range: " + ", ".join(parts)
         if parts

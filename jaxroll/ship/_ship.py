@@ -77,7 +77,11 @@ class Ship(eqx.Module):
             if arr.shape != ():
                 raise ValueError(f"Ship `{key}` must be a scalar; got shape {arr.shape}.")
             setattr(self, key, arr)
-        for key, value, size in (("restoring", restoring, 4), ("damping", damping, 3), ("delta_gm", delta_gm, 7)):
+        for key, value, size in (
+            ("restoring", restoring, 4),
+            ("damping", damping, 3),
+            ("delta_gm", delta_gm, 7),
+        ):
             arr = as_float(value)
             if arr.shape != (size,):
                 raise ValueError(f"Ship `{key}` must have shape ({size},); got {arr.shape}.")
@@ -94,18 +98,27 @@ class Ship(eqx.Module):
             return None
         f = lambda x: float(x)  # noqa: E731
         rows = [
-            ("Lpp, B, D, d", ", ".join(f"{f(getattr(self, k)):g}" for k in ("lpp", "breadth", "depth", "draught")), "m"),
+            (
+                "Lpp, B, D, d",
+                ", ".join(f"{f(getattr(self, k)):g}" for k in ("lpp", "breadth", "depth", "draught")),
+                "m",
+            ),
             ("displacement mass", f(self.displacement), "kg"),
             ("block coefficient Cb", f(self.block_coefficient), "-"),
             ("GM0", f(self.gm0), "m"),
             ("natural roll period Tφ", f(self.roll_period), "s"),
             ("damping b1, b2, b3", ", ".join(f"{float(b):.5g}" for b in self.damping), "1/s, 1/rad, s/rad²"),
-            ("restoring a3, a5, a7, a9 (a1 = ω0²)", ", ".join(f"{float(a):.5g}" for a in self.restoring),
-             "1/s² · rad^(1−n)"),
+            (
+                "restoring a3, a5, a7, a9 (a1 = ω0²)",
+                ", ".join(f"{float(a):.5g}" for a in self.restoring),
+                "1/s² · rad^(1−n)",
+            ),
             ("ΔGM(ζ) C0 … C6", ", ".join(f"{float(c):.4g}" for c in self.delta_gm), "m · m^−k"),
             ("GM correction σobs/σthr", f(self.gm_correction), "-"),
         ]
-        return html_table(f"Ship: {self.name}", rows, header=("", "value", "unit"), note=self.provenance or None)
+        return html_table(
+            f"Ship: {self.name}", rows, header=("", "value", "unit"), note=self.provenance or None
+        )
 
     @property
     def omega0(self) -> Float[Array, ""]:
@@ -222,7 +235,9 @@ def validate_ship(ship: Ship) -> None:
         elif not 3.0 <= period <= 60.0:
             import warnings
 
-            warnings.warn(f"ship {ship.name!r}: roll period {period:g} s is unusual (ships: ~5-60 s).", stacklevel=2)
+            warnings.warn(
+                f"ship {ship.name!r}: roll period {period:g} s is unusual (ships: ~5-60 s).", stacklevel=2
+            )
     if not problems:
         problems = _impossible(d)
     if not problems:
@@ -309,7 +324,13 @@ def implausible(d: dict[str, dict[str, float]], vanishing_angle: float) -> list[
     from ._hydrostatics import GRAVITY, SEAWATER_DENSITY
 
     p, a, b, c = d["particulars"], d["restoring"], d["damping"], d["delta_gm"]
-    lpp, beam, draught, gm0, period = p["lpp_m"], p["breadth_m"], p["draught_m"], p["gm0_m"], p["roll_period_s"]
+    lpp, beam, draught, gm0, period = (
+        p["lpp_m"],
+        p["breadth_m"],
+        p["draught_m"],
+        p["gm0_m"],
+        p["roll_period_s"],
+    )
     out = []
     if lpp < PLAUSIBLE["lpp_m"][0]:
         out.append(

@@ -128,7 +128,9 @@ def hull_surface(triangles: np.ndarray, *, strips: int = DEFAULT_WAVE_STRIPS) ->
     bounds = np.stack([edges[k], edges[k + 1]], axis=1)
     n, m = bucket_size(tri.shape[0]), bucket_size(wave.shape[0])
     pad_bounds = np.concatenate([bounds, np.tile([[0.0, 1.0]], (m - bounds.shape[0], 1))])
-    soa = lambda t: jax.device_put(np.ascontiguousarray(np.transpose(t, (2, 1, 0))))  # placed, nothing compiled
+    soa = lambda t: jax.device_put(
+        np.ascontiguousarray(np.transpose(t, (2, 1, 0)))
+    )  # placed, nothing compiled
     return HullSurface(
         vertices=soa(_pad(tri, n)),
         wave_vertices=soa(_pad(wave, m)),
@@ -154,7 +156,11 @@ def scale_surface(surface: HullSurface, length, breadth, height) -> HullSurface:
     return eqx.tree_at(
         lambda s: (s.vertices, s.wave_vertices, s.wave_strips),
         surface,
-        (surface.vertices * f[:, None, None], surface.wave_vertices * f[:, None, None], surface.wave_strips * f[0]),
+        (
+            surface.vertices * f[:, None, None],
+            surface.wave_vertices * f[:, None, None],
+            surface.wave_strips * f[0],
+        ),
     )
 
 
@@ -281,12 +287,16 @@ def _moments_jvp(calm, primals, tangents):
     t_other = jax.tree.leaves((tangents[0], *tangents[4:]))
     if all(_known_zero(t) for t in t_other):
         verts, h, tau = _heights(surface, sinkage, trim, zeta_mid, wavelength, amidships, lpp, calm)
-        groups = [(t, g) for t, g in zip(tangents[1:4], (_HEEL_SLOPES, _SLOPES[:4], _SLOPES[4:])) if not _known_zero(t)]
+        groups = [
+            (t, g)
+            for t, g in zip(tangents[1:4], (_HEEL_SLOPES, _SLOPES[:4], _SLOPES[4:]))
+            if not _known_zero(t)
+        ]
         out = _clipped(verts, h, tau, heel, _MOMENTS + sum((g for _, g in groups), ()))
         vol, mx, mu, ww, mh = out[:5]
         mz = mh - ww / 2
         tangent, k = jnp.zeros(4), 5
-        for (t, g) in groups:
+        for t, g in groups:
             d = out[k : k + 4]
             d = [d[0], d[1], mz + d[2], -mu + d[3]] if g is _HEEL_SLOPES else d
             tangent, k = tangent + jnp.stack(d) * t, k + 4
@@ -325,12 +335,15 @@ def _balance_jvp(calm, primals, tangents):
 _balance.defjvp(_balance_jvp, symbolic_zeros=True)
 
 
-def balance_integrals(surface: HullSurface, heel, sinkage, trim, zeta_mid, wavelength, amidships, lpp, *,
-                      calm: bool = False):
+def balance_integrals(
+    surface: HullSurface, heel, sinkage, trim, zeta_mid, wavelength, amidships, lpp, *, calm: bool = False
+):
     """(volume [m³], ∫x dV [m⁴]) as [`surface_integrals`][] gives them, computing only these two (the balance's
     residual; its sinkage and trim derivatives are closed-form)."""
     f = lambda v: jnp.asarray(v, dtype=float)
-    out = _balance(calm, surface, f(heel), f(sinkage), f(trim), f(zeta_mid), f(wavelength), f(amidships), f(lpp))
+    out = _balance(
+        calm, surface, f(heel), f(sinkage), f(trim), f(zeta_mid), f(wavelength), f(amidships), f(lpp)
+    )
     return out[0], out[1]
 
 
@@ -346,19 +359,23 @@ def _is_zero(t) -> bool:
 
 def _instantiate(t, p):
     sz = jax.custom_derivatives.SymbolicZero
-    return jax.tree.map(lambda a, b: jnp.zeros_like(b) if isinstance(a, sz) else a, t, p,
-                        is_leaf=lambda v: isinstance(v, sz))
+    return jax.tree.map(
+        lambda a, b: jnp.zeros_like(b) if isinstance(a, sz) else a, t, p, is_leaf=lambda v: isinstance(v, sz)
+    )
 
 
-def surface_integrals(surface: HullSurface, heel, sinkage, trim, zeta_mid, wavelength, amidships, lpp, *,
-                      calm: bool = False):
+def surface_integrals(
+    surface: HullSurface, heel, sinkage, trim, zeta_mid, wavelength, amidships, lpp, *, calm: bool = False
+):
     """(volume, ∫x dV, ∫u dV, ∫Z dV) [m³, m⁴] of the hull below the water surface h(x) = s + t (x − L/2)/L + η(x),
     η = −ζ_mid cos(2π (x − L/2)/λ) (L²-projected on linear functions in each strip), at heel φ; Z = h − w is the
     earth-vertical height above the baseline point on the centre plane. `calm=True` uses the unsplit triangles
     (η ignored: only where ζ_mid is 0). Differentiable in every argument; the sinkage and trim derivatives are
     closed-form integrals (cheap Newton Jacobians)."""
     f = lambda v: jnp.asarray(v, dtype=float)
-    out = _moments(calm, surface, f(heel), f(sinkage), f(trim), f(zeta_mid), f(wavelength), f(amidships), f(lpp))
+    out = _moments(
+        calm, surface, f(heel), f(sinkage), f(trim), f(zeta_mid), f(wavelength), f(amidships), f(lpp)
+    )
     return out[0], out[1], out[2], out[3]
 
 

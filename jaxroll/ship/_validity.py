@@ -76,13 +76,15 @@ def validity_warnings(validity: dict[str, float], theories=()) -> list[str]:
             f"{v['stiffness_variation']:.3g} of its mean (mean GM {1 + v['mean_gm_shift']:.3g} × GM0), above "
             f"{AVERAGING_LIMIT:g}. This warning appears because stochastic averaging treats the parametric "
             "excitation as a small perturbation of the restoring (first order in ε; ε = 0.33 in the paper's 7 m "
-            "sea), so these laws are not reliable here: trust the Monte Carlo (docs/theory.md, \"Where the "
-            "theories hold\")."
+            'sea), so these laws are not reliable here: trust the Monte Carlo (docs/theory.md, "Where the '
+            'theories hold").'
         )
     return out
 
 
-def warn_outside_validity(ship: Ship, wave: EffectiveWave, theories=(), stacklevel: int = 2) -> dict[str, float]:
+def warn_outside_validity(
+    ship: Ship, wave: EffectiveWave, theories=(), stacklevel: int = 2
+) -> dict[str, float]:
     """`excitation_validity(ship, wave)`, with a `UserWarning` for each of its `validity_warnings`."""
     v = excitation_validity(ship, wave)
     for message in validity_warnings(v, theories):

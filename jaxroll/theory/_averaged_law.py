@@ -275,4 +275,3 @@ def _build_pdf(s, log_unnorm, nu0, exists, parameters, method, estimator) -> Ave
         method=method,
         estimator=estimator,
     )
-

@@ -172,8 +172,7 @@ def _as_spectrum(ship: Ship, wave) -> ParametricSpectrum:
     if isinstance(wave, EffectiveWave):
         return parametric_spectrum(ship, wave)
     raise TypeError(
-        "`wave` must be a `jaxroll.EffectiveWave` or a `ParametricSpectrum`; "
-        f"got {type(wave).__name__}."
+        f"`wave` must be a `jaxroll.EffectiveWave` or a `ParametricSpectrum`; got {type(wave).__name__}."
     )
 
 
@@ -648,4 +647,3 @@ def esam_additive_pdf(
     require_float64("jaxroll.theory.esam_additive_pdf")
     check_estimator(estimator)
     return _esam_additive(ship, intensity, estimator, num, max_amplitude, num_theta)
-

@@ -269,7 +269,9 @@ def _build_model(
         grid=grid,
     )
     if not amplitude:
-        return _Model(**phase, **dict.fromkeys(("se", "sc", "ds", "lower", "upper", "diag_s", "vp", "vm", "i_norm")))
+        return _Model(
+            **phase, **dict.fromkeys(("se", "sc", "ds", "lower", "upper", "diag_s", "vp", "vm", "i_norm"))
+        )
     # s: F_{i+1/2} = v⁺ q_i + v⁻ q_{i+1}, v = −δ(e^s) + ξ at the interior faces; zero at both ends (reflecting)
     se = _amplitude_edges(vanishing_angle(ship), grid, snap)
     sc = (se[1:] + se[:-1]) / 2

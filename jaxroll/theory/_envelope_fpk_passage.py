@@ -167,7 +167,9 @@ def _model(ship, wave, excitation, grid: _Grid, levels: tuple):
 
 
 @filter_jit
-def _passage(ship, wave, excitation, grid: _Grid, levels: tuple, durations, num_iterations: int, observe: str):
+def _passage(
+    ship, wave, excitation, grid: _Grid, levels: tuple, durations, num_iterations: int, observe: str
+):
     """One grid's first-order solution. `levels`: static (fine-edge index, angle [rad]) pairs in increasing angle,
     the grid's edge moved onto each."""
     md, exc = _model(ship, wave, excitation, grid, levels)
@@ -186,8 +188,9 @@ def _passage(ship, wave, excitation, grid: _Grid, levels: tuple, durations, num_
     # state when the exposure starts. Inverse iteration from any positive start converges at the ratio of the
     # capsize rate to the relaxation rate (< 1e-3 wherever capsize is rarer than once a few hours).
     guess = jnp.ones((ns, md.m)) * md.ds[:, None]
-    (_, _, capsize_rate, _), p = _survival_moments(md, _concat(below, upper), guess / jnp.sum(guess),
-                                                   num_iterations)
+    (_, _, capsize_rate, _), p = _survival_moments(
+        md, _concat(below, upper), guess / jnp.sum(guess), num_iterations
+    )
     amplitude_rate = jnp.sum(p * peaks)
 
     def level(face):
@@ -216,11 +219,19 @@ def _extrapolated(coarse: dict, fine: dict) -> dict:
     probability (first-order upwind in s errs by O(Δs) in the log of a tail quantity): log x = 2 log x_fine −
     log x_coarse. Zeros (no sustained roll) stay zero."""
     out = dict(fine)
-    for name in ("hazard", "capsize_hazard", "cluster_rate", "mean_passage_time", "start_exceedance",
-                 "exceedance_per_cycle"):
+    for name in (
+        "hazard",
+        "capsize_hazard",
+        "cluster_rate",
+        "mean_passage_time",
+        "start_exceedance",
+        "exceedance_per_cycle",
+    ):
         c, f = coarse[name], fine[name]
         ok = (c > 0) & (f > 0) & jnp.isfinite(c) & jnp.isfinite(f)
-        out[name] = jnp.where(ok, jnp.exp(2 * jnp.log(jnp.where(ok, f, 1.0)) - jnp.log(jnp.where(ok, c, 1.0))), f)
+        out[name] = jnp.where(
+            ok, jnp.exp(2 * jnp.log(jnp.where(ok, f, 1.0)) - jnp.log(jnp.where(ok, c, 1.0))), f
+        )
     return out
 
 
@@ -279,7 +290,9 @@ def passage_risk(
     angles = np.atleast_1d(np.asarray(angles, dtype=float))
     durations = jnp.atleast_1d(jnp.asarray(durations, dtype=float))
     if angles.ndim != 1 or durations.ndim != 1:
-        raise ValueError(f"`angles` and `durations` must be 1-D; got shapes {angles.shape} and {durations.shape}.")
+        raise ValueError(
+            f"`angles` and `durations` must be 1-D; got shapes {angles.shape} and {durations.shape}."
+        )
     if int(num_iterations) < 2:
         raise ValueError(f"`num_iterations` must be >= 2; got {num_iterations!r}.")
     if not isinstance(durations, jax.core.Tracer) and not bool(jnp.all(durations > 0)):
@@ -317,15 +330,16 @@ def passage_risk(
         amplitude_rate=r["amplitude_rate"],
         exceedance_per_cycle=unless_dies_out(sf)[back],
         independent_probability=unless_dies_out(
-            -jnp.expm1((r["amplitude_rate"] * durations)[None, :] * jnp.log1p(-sf)[:, None]))[back],
+            -jnp.expm1((r["amplitude_rate"] * durations)[None, :] * jnp.log1p(-sf)[:, None])
+        )[back],
         extremal_index=(r["cluster_rate"] / (r["amplitude_rate"] * sf))[back],
         lyapunov_exponent=r["lyapunov_exponent"],
         exists=exists,
         hazard=r["hazard"][back],
         capsize_hazard=r["capsize_hazard"],
         excitation=r["excitation"],
-        grid=grid.record()[:-1] + (("num_iterations", num_iterations), ("observe", observe),
-                                   ("extrapolate", extrapolate)),
+        grid=grid.record()[:-1]
+        + (("num_iterations", num_iterations), ("observe", observe), ("extrapolate", extrapolate)),
     )
 
 
@@ -353,8 +367,9 @@ def _levels(ship, grid: _Grid, angles: list[float]) -> tuple:
             "deg. The capsize probability is `capsize_probability`."
         )
     width = (math.log(top) - math.log(grid.a_fine)) / grid.num_s
-    levels = sorted((min(max(round((math.log(a) - math.log(grid.a_fine)) / width), 1), grid.num_s - 1), a)
-                    for a in angles)
+    levels = sorted(
+        (min(max(round((math.log(a) - math.log(grid.a_fine)) / width), 1), grid.num_s - 1), a) for a in angles
+    )
     for (i, a), (j, b) in zip(levels, levels[1:]):
         if i == j:
             raise ValueError(
@@ -362,4 +377,3 @@ def _levels(ship, grid: _Grid, angles: list[float]) -> tuple:
                 f"{100 * math.expm1(width):.1f} % in amplitude): give them in separate calls or raise `num_s`."
             )
     return tuple(levels)
-

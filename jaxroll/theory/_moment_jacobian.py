@@ -93,7 +93,9 @@ def rhs_with_fast_jacobian(tables: _Tables):
         f, jac = _rhs_and_jacobian(tables, arr, sde, u, kappa)
         t = jnp.zeros_like(f) if isinstance(du, zero) else jac @ du
         rest = (sde, kappa), (dsde, dkappa)
-        if not all(isinstance(x, zero) for x in jax.tree.leaves(rest[1], is_leaf=lambda x: isinstance(x, zero))):
+        if not all(
+            isinstance(x, zero) for x in jax.tree.leaves(rest[1], is_leaf=lambda x: isinstance(x, zero))
+        ):
             # the coefficients' share (under jax.grad; zero in the Newton solves' Jacobians, then skipped)
             rest = jax.tree.map(
                 lambda p, d: jnp.zeros_like(p) if isinstance(d, zero) else d, *rest,

@@ -246,6 +246,7 @@ def _solve_impl(
         first = optx.root_find(fn, newton, y0, args=(sde_c, kappa_c), max_steps=30, throw=False)
         y1 = first.value
         first_ok = _newton_start_ok(first.result, y1, y0, jax.jacfwd(fn)(y1, (sde_c, kappa_c)), lead_pos)
+
         # The relaxation as a loop that runs at most once, while it is needed, rather than a `lax.cond`: vmapped
         # (a sweep over sea states or ships), a cond runs both branches for every member, so every member paid
         # for the relaxation; a loop runs it only when some member's Newton failed (unbatched, the two are the
@@ -412,7 +413,9 @@ def stationary_moments(
         if low.equations.tables.dim != sde.dim:
             raise ValueError("`initial` belongs to a system of another dimension.")
         start, relax_fallback = ("lift", (low.equations.tables, low.full)), False
-    elif isinstance(initial, tuple) and initial[0] == "gaussian-newton":  # Newton from the Gaussian start only
+    elif (
+        isinstance(initial, tuple) and initial[0] == "gaussian-newton"
+    ):  # Newton from the Gaussian start only
         v = jnp.asarray(initial[1], dtype=float)
         start, relax_fallback = ("gaussian", v), False
     elif initial is not None:

@@ -265,8 +265,9 @@ class MomentSolution(AbstractAmplitudeLaw):
             "closure_fallback": self.closure_fallback,
             "closure_fallback_reason": self.fallback_reason or None,
             # why, in a word: the closure has no stable fixed point, or its moments fit no law of the family
-            "closure_fallback_cause": None if not self.closure_fallback else (
-                "amplitude_family" if fit_failed(self.fallback_reason) else "no_stable_fixed_point"),
+            "closure_fallback_cause": None
+            if not self.closure_fallback
+            else ("amplitude_family" if fit_failed(self.fallback_reason) else "no_stable_fixed_point"),
             "filter_order": self.filter_order,
             "damping_closure": self.damping,
             "envelope": self.envelope,
@@ -356,7 +357,15 @@ def roll_moments(
     """
     require_float64("jaxroll.theory.roll_moments")
     return _roll_moments(
-        ship, wave, shaping_filter, filter_order, closure_order, damping, initial_roll_deg, throw, lift_relax=True
+        ship,
+        wave,
+        shaping_filter,
+        filter_order,
+        closure_order,
+        damping,
+        initial_roll_deg,
+        throw,
+        lift_relax=True,
     )
 
 
@@ -533,8 +542,9 @@ def moment_pdf_first_stable(
 
 def with_requested_order(law: MomentSolution, requested: int, error: Exception | None) -> MomentSolution:
     """`law` labelled with the closure order asked for and, where that order gave no law (`error`), why."""
-    return dataclasses.replace(law, requested_closure_order=requested,
-                               fallback_reason="" if error is None else error_line(error))
+    return dataclasses.replace(
+        law, requested_closure_order=requested, fallback_reason="" if error is None else error_line(error)
+    )
 
 
 def roll_not_sustained_error(lyapunov_exponent, law=None) -> ValueError:
@@ -549,8 +559,12 @@ def roll_not_sustained_error(lyapunov_exponent, law=None) -> ValueError:
             "artefacts (docs/theory.md, 'Below the threshold'). Roberts' criterion (K against b1/2, `roberts_pdf`) "
             "tells whether the roll is sustained."
         )
-    found = (f" (the closure's non-trivial fixed point here, mean {math.degrees(float(law.mean())):.2f}°, is an "
-             "artefact of the closure: the Monte Carlo decays)" if law is not None else "")
+    found = (
+        f" (the closure's non-trivial fixed point here, mean {math.degrees(float(law.mean())):.2f}°, is an "
+        "artefact of the closure: the Monte Carlo decays)"
+        if law is not None
+        else ""
+    )
     return ValueError(
         "moment method: no stationary law: the roll dies out. The linearised roll under the coloured excitation "
         f"has Lyapunov exponent λ = {float(lyapunov_exponent):.3g} 1/s <= 0 (`envelope_lyapunov_exponent`), so "

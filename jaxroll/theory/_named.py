@@ -62,7 +62,10 @@ from ._moments import (
 )
 
 THEORIES = ("roberts", "esam", "moment", "envelope_fpk")
-MOMENT_CLOSURE_ORDERS = (6, 4)  # the moment method's closure orders, tried in turn (`moment_pdf_first_stable`)
+MOMENT_CLOSURE_ORDERS = (
+    6,
+    4,
+)  # the moment method's closure orders, tried in turn (`moment_pdf_first_stable`)
 
 
 def _law(name, ship, wave, sde, filter_order, estimator, closure_order, lift_relax):
@@ -91,7 +94,9 @@ def _program(name, ship, wave, moment, estimator, closure_order, lift_relax, arr
         sde = _roll_sde(ship, moment[0], "cubic", moment[1])
         tables = [moment_equations(sde, k).tables for k in closure_sequence(closure_order)]
     with tables_as_inputs(tables, arrays):
-        law = _law(name, ship, wave, sde, 0 if moment is None else moment[2], estimator, closure_order, lift_relax)
+        law = _law(
+            name, ship, wave, sde, 0 if moment is None else moment[2], estimator, closure_order, lift_relax
+        )
     if edges is None:
         return law, None
     return law, _summary_numbers(law, edges, levels)
@@ -109,7 +114,9 @@ def _averaging_program(ship, wave, estimator, edges, levels):
     shape, so the summary is traced once and vmapped over the two — one program to trace and compile on a cold run
     instead of two (≈ 0.8 s of CPU), with the numbers of `_program` (tests/test_averaging.py)."""
     laws = tuple(_law(name, ship, wave, None, 0, estimator, 0, True) for name in _SMALL)
-    tables = [dataclasses.replace(law, parameters={}, method="") for law in laws]  # the summary needs the table only
+    tables = [
+        dataclasses.replace(law, parameters={}, method="") for law in laws
+    ]  # the summary needs the table only
     stacked = jax.tree.map(lambda *x: jnp.stack(x), *tables)
     return laws, jax.vmap(lambda law: _summary_numbers(law, edges, levels))(stacked)
 
@@ -121,10 +128,14 @@ def _summary_numbers(law, edges, levels):
     two: a smaller program, faster to compile and to load)."""
     q = jnp.asarray(levels, dtype=float)  # checked on the host (`law.quantile` would check it in the program)
     log_c, log_s = jnp.log(q), jnp.log1p(-q)
-    if type(law).mean is AbstractAmplitudeLaw.mean:  # `_expected_maximum(law, 1, 256)`, its bracket solved here
+    if (
+        type(law).mean is AbstractAmplitudeLaw.mean
+    ):  # `_expected_maximum(law, 1, 256)`, its bracket solved here
         one = jnp.asarray(1.0)
         bracket_c, bracket_s = _bracket_targets(one)
-        x = _solve_levels(law, jnp.concatenate([bracket_c[2:], log_c]), jnp.concatenate([bracket_s[2:], log_s]))
+        x = _solve_levels(
+            law, jnp.concatenate([bracket_c[2:], log_c]), jnp.concatenate([bracket_s[2:], log_s])
+        )
         mean, quantiles = _expected_in(law, one, x[0], x[1], 256), x[2:]
     else:  # a law with its own mean (the envelope FPK's, exact)
         mean, quantiles = law.mean(), _solve_levels(law, log_c, log_s)
@@ -145,15 +156,18 @@ def _check(name: str, law) -> None:
 def _filter(shaping_filter) -> ShapingFilter | concurrent.futures.Future | None:
     if isinstance(shaping_filter, FilterFit):
         return shaping_filter.filter
-    if shaping_filter is not None and not isinstance(shaping_filter, (ShapingFilter, concurrent.futures.Future)):
+    if shaping_filter is not None and not isinstance(
+        shaping_filter, (ShapingFilter, concurrent.futures.Future)
+    ):
         raise TypeError(
             f"`shaping_filter` must be a ShapingFilter or FilterFit; got {type(shaping_filter).__name__}."
         )
     return shaping_filter
 
 
-def _start(name, ship, wave, shaping_filter, filter_order, estimator, edges, levels, warn=True,
-           traced=None) -> Callable:
+def _start(
+    name, ship, wave, shaping_filter, filter_order, estimator, edges, levels, warn=True, traced=None
+) -> Callable:
     """Dispatch theory `name`'s program (JAX runs it asynchronously) and return `finish() -> (law, numbers)`, which
     waits for it and makes the checks of the named public function (the moment method: Newton only, from the
     Gaussian start at order 4 and the lifted order-4 solution at order 6; its fallbacks, each a program of its own:
@@ -353,7 +367,9 @@ def iter_theory_summaries(
     check_estimator(estimator)
     shaping_filter = _filter(shaping_filter)
     if not is_concrete((ship, wave, shaping_filter)):
-        raise ValueError("`theory_summary` needs concrete inputs (use `theory_law(...).summary(...)` when traced).")
+        raise ValueError(
+            "`theory_summary` needs concrete inputs (use `theory_law(...).summary(...)` when traced)."
+        )
     bins = np.asarray(bins_deg, dtype=float)
     levels = tuple(float(q) for q in np.ravel(np.asarray(levels, dtype=float)))
     if not all(0 < q < 1 for q in levels):
@@ -363,13 +379,18 @@ def iter_theory_summaries(
     # Each theory's program is traced (or loaded) and compiled in a thread of its own: XLA compiles without the
     # GIL, so one theory's compilation overlaps another's tracing and the caller's own work (`jaxroll pdf`: the
     # Monte Carlo's).
-    pool = concurrent.futures.ThreadPoolExecutor(max_workers=max(len(names), 1), thread_name_prefix="jaxroll-theory")
+    pool = concurrent.futures.ThreadPoolExecutor(
+        max_workers=max(len(names), 1), thread_name_prefix="jaxroll-theory"
+    )
     pending = {}
     if "moment" in names:
         traced = threading.Event() if isinstance(shaping_filter, concurrent.futures.Future) else None
-        pending["moment"] = pool.submit(_start, "moment", ship, wave, shaping_filter, filter_order, estimator, edges,
-                                        levels, warn, traced).result
-        if traced is not None:  # the longest chain (trace, then the longest compilation) first, alone on the GIL
+        pending["moment"] = pool.submit(
+            _start, "moment", ship, wave, shaping_filter, filter_order, estimator, edges, levels, warn, traced
+        ).result
+        if (
+            traced is not None
+        ):  # the longest chain (trace, then the longest compilation) first, alone on the GIL
             traced.wait()
     if all(name in names for name in _SMALL):  # Roberts and ESAM: one program
         both = pool.submit(_start_averaging, ship, wave, estimator, edges, levels)

@@ -114,7 +114,9 @@ def theory_sensitivities(
 
             x0 = jnp.asarray([params[p] for p in wrt])
             gradient = jax.jacfwd(lambda x: (lambda r: (r[0], r))(values(x)), has_aux=True)
-            jac, (vals, exists) = compiled_with(gradient, (x0,), SOLVER_PROGRAM)(x0)  # run once: the solvers' options
+            jac, (vals, exists) = compiled_with(gradient, (x0,), SOLVER_PROGRAM)(
+                x0
+            )  # run once: the solvers' options
             if not bool(exists):  # the law's own error, from a concrete call at the nominal parameters
                 nominal = problem_fn(params)
                 law(nominal.ship, nominal.wave, "envelope", throw=True)

@@ -1,0 +1,98 @@
+"""What a multilevel splitting run estimates and how sure it is: the genealogy variance of the estimate (Lee and
+Whiteley), its log-normal 95 % interval, and `SplittingResult` (the estimate, its stages, its cost)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+
+def genealogy_relative_variance(eves, num: int, num_stages: int) -> float:
+    """Estimated relative variance Var(P̂)/P̂² of a fixed-effort splitting estimate from its genealogy (Lee &
+    Whiteley 2018, for an indicator test function): 1 − (N/(N−1))^K (1 − Σ_e c_e²/S²), where c_e is
+    the number of the last stage's successes descending from stage-0 run e, S = Σ c_e, N runs a stage and K stages
+    (K − 1 multinomial resamplings). Unbiased for Var(P̂) once multiplied by P̂²; one stage gives the binomial
+    (1 − p̂)/((N − 1) p̂). 0 when S = 0. [-]"""
+    eves = np.asarray(eves)
+    s = eves.size
+    if s == 0:
+        return 0.0
+    counts = np.bincount(eves).astype(float)
+    concentration = float(np.sum(counts**2)) / s**2
+    return 1.0 - (num / (num - 1)) ** num_stages * (1.0 - concentration)
+
+
+def _interval(estimate: float, relative_variance: float, upper_if_zero: float, z: float = 1.959963984540054):
+    """95 % interval: log-normal, estimate · exp(±z σ), σ² = log(1 + relative variance) (the estimate is a product
+    of stage fractions, skewed to the right: docs/rare_events.md, coverage); [0, upper_if_zero] when it is 0."""
+    if estimate <= 0:
+        return 0.0, upper_if_zero
+    sigma = math.sqrt(math.log1p(max(relative_variance, 0.0)))
+    return estimate * math.exp(-z * sigma), estimate * math.exp(z * sigma)
+
+
+@dataclass
+class SplittingResult:
+    """A rare exceedance probability by multilevel splitting (`monte_carlo_splitting`); host values.
+
+    - `probability`: P̂(max |φ| > `angle_deg` within the exposure after the discard, or capsize) [-];
+      `standard_error` [-] (Lee–Whiteley genealogy estimator); `probability_ci95` [-] (log-normal; docs/rare_events.md).
+    - `levels_deg`: the stages' levels [deg], the scores ℓ_1 < … < ℓ_{K−1} (â + κ·ê, so they may pass the
+      angle) and `angle_deg` last (the last stage's target is the event itself);
+      `conditional_probabilities` p̂_k and `n_successes` per stage (NaN and 0 for stages never run: a stage in which
+      no run reached its level ends the estimate at 0).
+    - `capsize_probability`, `capsize_standard_error` [-]: P̂(capsize within the duration), from the same runs
+      (the last stage's capsized runs); `n_capsized`: the last stage's runs that capsized; `n_exceeded`: its runs
+      with the event; `n_ancestors`: the distinct stage-0 runs these descend from.
+    - `relative_variance_independent`: Σ (1 − p̂_k)/(N p̂_k), what the stages would give were they independent
+      (the genealogy's variance divided by this measures the clones' correlation).
+    - Cost: `simulated_seconds` [s] realization-seconds simulated by the estimate's stages (`stage_simulated_seconds`
+      per stage) and `pilot_simulated_seconds` by the pilot run; `lane_seconds` what the lanes of the compiled
+      pools ran, idle ones included; `wall_time_s`, `stage_wall_time_s`, `pilot_wall_time_s` [s].
+    - `config`: the run's settings.
+    """
+
+    probability: float
+    standard_error: float
+    probability_ci95: tuple[float, float]
+    angle_deg: float
+    levels_deg: np.ndarray
+    conditional_probabilities: np.ndarray
+    n_successes: np.ndarray
+    num_trials: int
+    capsize_probability: float
+    capsize_standard_error: float
+    n_capsized: int
+    n_exceeded: int
+    n_ancestors: int
+    relative_variance_independent: float
+    simulated_seconds: float
+    pilot_simulated_seconds: float
+    lane_seconds: float
+    stage_simulated_seconds: np.ndarray
+    stage_wall_time_s: np.ndarray
+    pilot_wall_time_s: float
+    wall_time_s: float
+    config: dict = field(default_factory=dict)
+
+    @property
+    def relative_error(self) -> float:
+        """standard_error / probability [-] (inf when the estimate is 0)."""
+        return self.standard_error / self.probability if self.probability > 0 else math.inf
+
+    @property
+    def total_simulated_seconds(self) -> float:
+        """Realization-seconds of the estimate and its pilot together [s]: the cost to compare with brute force."""
+        return self.simulated_seconds + self.pilot_simulated_seconds
+
+    def to_dict(self) -> dict:
+        """JSON-ready summary (lists and floats)."""
+        out = {}
+        for name in self.__dataclass_fields__:
+            v = getattr(self, name)
+            out[name] = v.tolist() if isinstance(v, np.ndarray) else list(v) if isinstance(v, tuple) else v
+        out["relative_error"] = self.relative_error
+        out["total_simulated_seconds"] = self.total_simulated_seconds
+        return out
