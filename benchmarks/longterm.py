@@ -12,10 +12,12 @@ cold on a 2-core machine.
   them (`--full-baseline` loops over every cell).
 
 `jaxroll.longterm` saves on the baseline by (1) the Lyapunov screen: cells with λ <= 0 are 0 exactly, one small
-vmapped solve each, and (2) at zero speed computing χ and 180° − χ once (one problem). Both are exact.
+vmapped solve each, and (2) at zero speed computing χ and 180° − χ once (one problem). Both are exact. (3) The
+two passes (`--refine-delta` δ): one grid everywhere, the Richardson step only on the cells carrying 1 − δ of
+the one-grid Σ w P per heading class and speed (docs/longterm.md, "Cost").
 
 Usage: python benchmarks/longterm.py [--headings 12] [--speeds 0,4,8,12] [--sample 24] [--full-baseline]
-                                     [--skip-cold]
+                                     [--skip-cold] [--refine-delta 0.01]
 """
 
 from __future__ import annotations
@@ -37,7 +39,8 @@ jaxroll.configure()
 jaxroll.enable_compilation_cache()
 args = json.loads(sys.argv[1])
 kw = dict(headings=[math.radians(h) for h in args["headings"]], speeds=args["speeds"],
-          angles=[math.radians(a) for a in args["angles"]], exposure=args["hours"] * 3600.0, method="theory")
+          angles=[math.radians(a) for a in args["angles"]], exposure=args["hours"] * 3600.0, method="theory",
+          refine_delta=args["refine_delta"])
 t1 = time.time()
 ds = jaxroll.longterm("rec34", **kw)
 t2 = time.time()
@@ -46,7 +49,9 @@ t3 = time.time()
 m = ds.method.values
 print(json.dumps({"import_s": t1 - t0, "cold_s": t2 - t1, "warm_s": t3 - t2,
                   "p_lt": ds.longterm_probability.values.tolist(),
-                  "theory_cells": int((m == 4).sum()),  # METHODS.index("theory") "live": int((ds.lyapunov_exponent.values > 0).sum())}))
+                  "theory_cells": int((m == 4).sum()),  # METHODS.index("theory")
+                  "live": int((ds.lyapunov_exponent.values > 0).sum()),
+                  "refined": int(ds.theory_refined.values.sum())}))
 """
 
 
@@ -59,6 +64,7 @@ def main() -> None:
     ap.add_argument("--sample", type=int, default=24, help="baseline cells timed (extrapolated)")
     ap.add_argument("--full-baseline", action="store_true")
     ap.add_argument("--skip-cold", action="store_true")
+    ap.add_argument("--refine-delta", type=float, default=0.01, help="the theory's two-pass δ (0: every cell refined)")
     a = ap.parse_args()
     headings = [360.0 * i / a.headings for i in range(a.headings)]
     speeds = [float(x) for x in a.speeds.split(",")]
@@ -72,13 +78,15 @@ def main() -> None:
             env = {**os.environ, "JAXROLL_CACHE_DIR": cache}
             t = time.time()
             out = subprocess.run([sys.executable, "-c", CHILD, json.dumps({"headings": headings, "speeds": speeds,
-                                                                           "angles": angles, "hours": a.hours})],
+                                                                           "angles": angles, "hours": a.hours,
+                                                                           "refine_delta": a.refine_delta})],
                                  env=env, capture_output=True, text=True, check=True)
             wall = time.time() - t
         r = json.loads(out.stdout.strip().splitlines()[-1])
         print(f"longterm_cold_s={r['cold_s']:.1f} (import {r['import_s']:.1f} s; process {wall:.1f} s)")
         print(f"longterm_warm_s={r['warm_s']:.1f}")
-        print(f"theory_cells={r['theory_cells']} (dataset cells), lambda_positive_cells={r['live']}")
+        print(f"theory_cells={r['theory_cells']} (dataset cells), lambda_positive_cells={r['live']}, "
+              f"refined_cells={r['refined']} (refine_delta {a.refine_delta:g})")
         print(f"p_lt={r['p_lt']}")
 
     # ---- baseline: today's per-cell route, looped -------------------------------------------------------------

@@ -143,6 +143,7 @@ BAD_OPTIONS = [
     (["--estimator", "magic"], "--estimator must be one of brute-force"),
     (["--model-factor", "0.5"], "--model-factor must be >= 1"),
     (["--skip-weight", "1"], "--skip-weight must be in [0, 1)"),
+    (["--refine-delta", "-0.1"], "--refine-delta must be in [0, 1)"),
 ]
 
 
@@ -226,12 +227,13 @@ def test_class_theory_is_passage_risk_cell_by_cell(monkeypatch):
     seen = []
     solve = _theory.passage_risk
 
-    def counting(ship, wave, angles, durations):
+    def counting(ship, wave, angles, durations, **kw):
         seen.append(float(wave.sea.hs))
-        return solve(ship, wave, angles, durations)
+        return solve(ship, wave, angles, durations, **kw)
 
     monkeypatch.setattr(_theory, "passage_risk", counting)
-    r = class_theory(SHIP, class_template(SHIP, 0.0, 180.0), hs, t01, np.asarray(ANGLES), 1800.0)
+    r = class_theory(SHIP, class_template(SHIP, 0.0, 180.0), hs, t01, np.asarray(ANGLES), 1800.0,
+                     refine_delta=0.0)
     assert r["lyapunov_exponent"][1] < 0 < min(r["lyapunov_exponent"][0], r["lyapunov_exponent"][2])
     assert seen == [6.0, 7.0]
     for i in range(3):
@@ -243,6 +245,50 @@ def test_class_theory_is_passage_risk_cell_by_cell(monkeypatch):
         if i == 1:
             assert not bool(one.exists)
     assert np.all(r["probability"][1] == 0) and r["probability"][0, 0] > 0
+
+
+def test_two_pass_theory_refines_the_cells_the_rule_names():
+    """Two passes (`refine_delta` δ): pass 1 is `passage_risk(extrapolate=False)` everywhere λ > 0, pass 2 the
+    extrapolated one on the smallest set carrying 1 − δ of Σ w P1 per angle; the long-term value lies within the
+    stated bound of the all-refined one (cells left at pass 1 carry ≤ δ of Σ w P1 and lie in [0, r·P1])."""
+    from jaxroll.longterm._theory import refine_set
+
+    hs = np.array([6.0, 1.5, 7.0, 4.5, 5.5, 3.5])
+    t01 = np.array([10.0, 10.0, 9.0, 10.0, 8.0, 11.0])
+    w = np.array([0.05, 0.3, 0.02, 0.3, 0.03, 0.3])
+    tm = class_template(SHIP, 0.0, 180.0)
+    delta = 0.2
+    two = class_theory(SHIP, tm, hs, t01, np.asarray(ANGLES), 1800.0, weight=w, refine_delta=delta)
+    full = class_theory(SHIP, tm, hs, t01, np.asarray(ANGLES), 1800.0, weight=w, refine_delta=0.0)
+    live = full["lyapunov_exponent"] > 0
+    np.testing.assert_array_equal(two["lyapunov_exponent"] > 0, live)
+    assert np.all(full["refined"] == live)
+    # the rule, by hand: per angle, largest w·P1 first until 1 − δ of the sum
+    expect = np.zeros(hs.size, bool)
+    for a in range(len(ANGLES)):
+        c = w * two["pass1_probability"][:, a]
+        order = np.argsort(-c, kind="stable")
+        k = int(np.searchsorted(np.cumsum(c[order]), (1 - delta) * c.sum() * (1 - 1e-12))) + 1
+        expect[order[:k]] = True
+    np.testing.assert_array_equal(two["refined"], expect & live)
+    np.testing.assert_array_equal(refine_set(w, two["pass1_probability"], live, delta), two["refined"])
+    rough = live & ~two["refined"]
+    assert rough.any() and two["refined"].any()  # both kinds of cell in this example
+    # refined cells: the extrapolated value; the others: pass 1
+    np.testing.assert_allclose(two["probability"][two["refined"]], full["probability"][two["refined"]], rtol=1e-9)
+    np.testing.assert_array_equal(two["probability"][rough], two["pass1_probability"][rough])
+    for a in range(len(ANGLES)):
+        s1 = np.sum(w * two["pass1_probability"][:, a])
+        assert np.sum((w * two["pass1_probability"][:, a])[rough]) <= delta * s1 * (1 + 1e-12)
+        lt_two, lt_full = np.sum(w * two["probability"][:, a]), np.sum(w * full["probability"][:, a])
+        # the stated bound: |ΔP_LT| <= max(1, r − 1) · Σ_rough w P1 <= max(1, r − 1) · δ · Σ w P1
+        r = two["pass_ratio"][0]
+        assert abs(lt_two - lt_full) <= max(1.0, r - 1.0) * delta * s1
+        # and the all-refined value inside the two-pass allowance [Σ w P − Σ_rough w P1, Σ w P + (r − 1) Σ_rough w P1]
+        rough_sum = np.sum((w * two["pass1_probability"][:, a])[rough])
+        assert lt_two - rough_sum <= lt_full <= lt_two + (r - 1) * rough_sum + 1e-300
+    # pass 1 (one grid, first order in Δs) lies above pass 2 wherever they differ (the allowance's premise)
+    assert np.all(two["pass1_probability"][live] >= full["probability"][live] * (1 - 1e-6))
 
 
 def test_zero_speed_headings_mirror():

@@ -128,6 +128,13 @@ def register(sub) -> None:
         default=0.0,
         help="leave out the lightest cells up to this total weight (a bound added to the interval; 0)",
     )
+    r.add_argument(
+        "--refine-delta",
+        type=float,
+        default=0.01,
+        help="theory in two passes: the cells outside the smallest set carrying 1 - δ of the one-grid sum w·P per "
+        "heading class and speed keep the one-grid value (0: every cell refined; 0.01)",
+    )
     r.add_argument("--estimator", default="brute-force", help="per-cell Monte Carlo estimator (brute-force)")
     n = p.add_argument_group("numerics")
     n.add_argument("--dt", type=float, default=0.5, help="time step [s] (default 0.5)")
@@ -250,6 +257,8 @@ def check_args(args):
         )
     if not 0 <= args.skip_weight < 1:
         raise CLIError(f"--skip-weight must be in [0, 1); got {args.skip_weight}.")
+    if not (math.isfinite(args.refine_delta) and 0 <= args.refine_delta < 1):
+        raise CLIError(f"--refine-delta must be in [0, 1); got {args.refine_delta}.")
     if not 3 <= args.filter_order <= MAX_FILTER_ORDER:
         raise CLIError(
             f"--filter-order must be between 3 and {MAX_FILTER_ORDER} (4 recommended); "
@@ -334,6 +343,7 @@ def check_args(args):
         auto_tolerance=args.auto_tolerance,
         model_factor=args.model_factor,
         skip_weight=args.skip_weight,
+        refine_delta=args.refine_delta,
         estimator=estimator,
         part=part,
         checkpoint=args.checkpoint,

@@ -92,6 +92,9 @@ def build_dataset(grid, cells: dict, config: dict, attrs: dict):
                             "does not fit)"}),
         "theory_doubtful": (CELL_DIMS, to_cells(cells["theory_doubtful"]).astype(bool),
                             {"units": "1", "long_name": "the theory fails a validity check (docs/longterm.md)"}),
+        "theory_refined": (CELL_DIMS, to_cells(cells["theory_refined"]).astype(bool),
+                           {"units": "1", "long_name": "the theory's second pass (Richardson-extrapolated) was run; "
+                            "else its one-grid first pass (docs/longterm.md, Cost)"}),
     }
     if "computed" in cells:
         data["computed"] = (CELL_DIMS, to_cells(cells["computed"]).astype(bool),

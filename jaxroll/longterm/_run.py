@@ -30,7 +30,7 @@ from ._dataset import METHODS, UNCERTAINTY, add_longterm, build_dataset
 from ._monte_carlo import CELL_ESTIMATORS, EFFORT_FRACTIONS, cell_problem, neyman_allocation
 from ._risk import AUTO_SHARE, AUTO_TOLERANCE, MODEL_FACTOR, auto_cells, doubtful
 from ._scatter import ScatterDiagram, scatter_diagram
-from ._theory import class_template, class_theory
+from ._theory import REFINE_DELTA, class_template, class_theory
 
 METHOD_NAMES = ("theory", "monte-carlo", "auto")
 #: What the theory cells are computed with (recorded in the configuration).
@@ -126,6 +126,7 @@ def longterm(
     auto_tolerance: float = AUTO_TOLERANCE,
     model_factor: float = MODEL_FACTOR,
     skip_weight: float = 0.0,
+    refine_delta: float = REFINE_DELTA,
     estimator: str = "brute_force",
     part=None,
     checkpoint: str | os.PathLike | None = None,
@@ -152,6 +153,9 @@ def longterm(
       `discard` + `exposure` s, `realizations` per cell) or `"auto"` (theory everywhere, Monte Carlo on the cells
       that dominate P_LT — the smallest set carrying `auto_share` of it — and on material cells failing a
       validity check (`auto_tolerance`), with `realizations` × their number trials shared by Neyman allocation).
+    - `refine_delta`: δ of the theory's two passes: per heading class and speed, the cells outside the smallest
+      set carrying 1 − δ of the one-grid Σ w P keep that value (no Richardson step), with a widened allowance
+      (docs/longterm.md, "Cost"); 0: every cell refined.
     - `model_factor`: the theory cells' allowance [P/f, f·P] in the long-term interval. `skip_weight`: leave out
       the lightest cells up to this total weight (a bound on their contribution, added to the interval).
     - Monte Carlo: `dt` [s], `excitation` ("filter" | "superposition"), `filter_order`, `phi0` [rad], `seed` (cell
@@ -204,6 +208,8 @@ def longterm(
     _check(None, auto_tolerance >= 0, f"`auto_tolerance` must be >= 0; got {auto_tolerance!r}.")
     _check(None, model_factor >= 1, f"`model_factor` must be >= 1; got {model_factor!r}.")
     _check(None, 0 <= skip_weight < 1, f"`skip_weight` must be in [0, 1); got {skip_weight!r}.")
+    _check(None, isinstance(refine_delta, int | float) and 0 <= refine_delta < 1,
+           f"`refine_delta` must be in [0, 1); got {refine_delta!r}.")
     _check(None, int(np.prod(grid.shape)) < SEED_STRIDE,
            f"{int(np.prod(grid.shape))} computation cells: more than the seeds' stride {SEED_STRIDE}.")
     part = parse_part(part)
@@ -254,12 +260,15 @@ def longterm(
             spec = {"kind": "theory", "theory": THEORY, "ship": ship_to_dict(ships[s]),
                     "heading_deg": float(grid.classes_deg[k]), "speed": float(grid.speeds[u]), "hs": hs.tolist(),
                     "t01": t01.tolist(), "angles_deg": angles_deg.tolist(),
-                    "exposure": float(exposure), "version": _version()}
+                    "exposure": float(exposure), "refine_delta": float(refine_delta), "version": _version()}
             name = f"theory_{_hash(spec)}"
             r = _load_unit(checkpoint, name)
             if r is None:
                 template = class_template(ships[s], float(grid.speeds[u]), float(grid.classes_deg[k]))
-                r = class_theory(ships[s], template, hs, t01, np.radians(angles_deg), float(exposure), tick)
+                w_unit = np.sum([np.where(needed[s, k2, u], comp_w[s, k2, u], 0.0) for k2 in (k, *twins[j])],
+                                axis=0)[ij[:, 0], ij[:, 1]]
+                r = class_theory(ships[s], template, hs, t01, np.radians(angles_deg), float(exposure), tick,
+                                 weight=w_unit, refine_delta=float(refine_delta))
                 _save_unit(checkpoint, name, r)
             else:
                 tick(len(ij))
@@ -368,16 +377,18 @@ def longterm(
             not_mine = (needed | is_mc) & ~mine
             for k in ("probability", "probability_lower", "probability_upper", "variance", "capsize_probability",
                       "capsize_lower", "capsize_upper", "capsize_variance", "theory_probability",
-                      "theory_capsize_probability", "lyapunov_exponent", "envelope_gamma"):
+                      "theory_capsize_probability", "lyapunov_exponent", "envelope_gamma",
+                      "theory_pass1_probability", "theory_pass1_capsize_probability"):
                 extra = (1,) * (cells[k].ndim - len(shape))
                 cells[k] = np.where(not_mine.reshape(shape + extra), np.nan, cells[k])
-            for k in ("realizations", "n_capsized", "n_exceeded", "n_exceeded_effort", "theory_doubtful"):
+            for k in ("realizations", "n_capsized", "n_exceeded", "n_exceeded_effort", "theory_doubtful",
+                      "theory_refined"):
                 extra = (1,) * (cells[k].ndim - len(shape))
                 cells[k] = np.where(not_mine.reshape(shape + extra), 0, cells[k]).astype(cells[k].dtype)
             cells["method"] = np.where(not_mine, METHODS.index("not_computed"), cells["method"])
     config = _config(grid, files, angles_deg, exposure, method, realizations, discard, dt, excitation,
                      filter_order, phi0, seed, hours_per_year, auto_share, auto_tolerance, model_factor, skip_weight,
-                     estimator)
+                     estimator, refine_delta)
     attrs = dataset_attrs(config, **({} if part is None else {"part": f"{i_part}/{n_part}"}))
     ds = build_dataset(grid, cells, config, attrs)
     return add_longterm(ds)
@@ -385,7 +396,10 @@ def longterm(
 
 #: The theory's per-cell arrays: the cells' name → `class_theory`'s.
 _THEORY_KEYS = {"theory_probability": "probability", "theory_capsize_probability": "capsize_probability",
-                "lyapunov_exponent": "lyapunov_exponent", "envelope_gamma": "envelope_gamma"}
+                "lyapunov_exponent": "lyapunov_exponent", "envelope_gamma": "envelope_gamma",
+                "theory_pass1_probability": "pass1_probability",
+                "theory_pass1_capsize_probability": "pass1_capsize_probability", "theory_refined": "refined",
+                "theory_pass_ratio": "pass_ratio", "theory_pass_capsize_ratio": "pass_capsize_ratio"}
 
 
 def _twin(grid, k: int, u: int) -> int:
@@ -428,7 +442,9 @@ def _empty(shape, n_angles) -> dict:
         "capsize_upper": f(), "capsize_variance": np.zeros(shape), "realizations": z(), "n_capsized": z(),
         "n_exceeded": z(n_angles), "n_exceeded_effort": z(len(EFFORT_FRACTIONS), n_angles),
         "theory_probability": f(n_angles), "theory_capsize_probability": f(), "lyapunov_exponent": f(),
-        "envelope_gamma": f(), "theory_doubtful": np.zeros(shape, bool), "method": z(), "uncertainty": z(),
+        "envelope_gamma": f(), "theory_doubtful": np.zeros(shape, bool), "theory_pass1_probability": f(n_angles),
+        "theory_pass1_capsize_probability": f(), "theory_refined": np.zeros(shape, bool),
+        "theory_pass_ratio": np.ones(shape), "theory_pass_capsize_ratio": np.ones(shape), "method": z(), "uncertainty": z(),
     }
 
 
@@ -456,6 +472,18 @@ def _fill(cells, shape, method, comp_w, beam, left_out, needed, is_mc, factor) -
         cells["probability_upper"][th] = np.where(doubt[:, None], 1.0, np.minimum(1.0, p * factor))
         cells["capsize_lower"][th] = np.where(doubt, 0.0, c / factor)
         cells["capsize_upper"][th] = np.where(doubt, 1.0, np.minimum(1.0, c * factor))
+        # cells left at pass 1 (two passes): [0, min(1, f·r·P1)], r the largest pass-2/pass-1 ratio of the refined
+        # cells of the cell's unit (at least 1; pass 1 was measured above pass 2 wherever they differ):
+        # docs/longterm.md, "Cost"
+        rough = th & ~cells["theory_refined"] & (cells["lyapunov_exponent"] > 0)
+        if rough.any():
+            doubt_r = cells["theory_doubtful"][rough]
+            cells["probability_lower"][rough] = 0.0
+            cells["probability_upper"][rough] = np.where(doubt_r[:, None], 1.0, np.minimum(
+                1.0, factor * cells["theory_pass_ratio"][rough][:, None] * cells["theory_probability"][rough]))
+            cells["capsize_lower"][rough] = 0.0
+            cells["capsize_upper"][rough] = np.where(doubt_r, 1.0, np.minimum(
+                1.0, factor * cells["theory_pass_capsize_ratio"][rough] * cells["theory_capsize_probability"][rough]))
         unc[th] = np.where(doubt, UNCERTAINTY.index("unknown"), UNCERTAINTY.index("model_factor"))
     m[is_mc] = METHODS.index("monte_carlo")
     unc[is_mc] = UNCERTAINTY.index("sampling")
@@ -482,7 +510,8 @@ def _check_time_steps(grid, mask, dt: float) -> None:
 
 
 def _config(grid, files, angles_deg, exposure, method, realizations, discard, dt, excitation, filter_order, phi0,
-            seed, hours_per_year, auto_share, auto_tolerance, model_factor, skip_weight, estimator) -> dict:
+            seed, hours_per_year, auto_share, auto_tolerance, model_factor, skip_weight, estimator,
+            refine_delta) -> dict:
     """The whole configuration (JSON-able): what the dataset's `config_json` attribute holds."""
     from ..io import to_jsonable
 
@@ -503,7 +532,7 @@ def _config(grid, files, angles_deg, exposure, method, realizations, discard, dt
         "excitation": excitation, "filter_order": int(filter_order), "phi0_deg": math.degrees(phi0),
         "seed": int(seed), "cell_seed_rule": f"s_c = {SEED_STRIDE}·seed + c + 1 (c: the computation cell's index)",
         "auto_share": float(auto_share), "auto_tolerance": float(auto_tolerance), "model_factor": float(model_factor),
-        "skip_weight": float(skip_weight), "estimator": estimator, "beam_deg": BEAM_DEG,
+        "skip_weight": float(skip_weight), "refine_delta": float(refine_delta), "estimator": estimator, "beam_deg": BEAM_DEG,
     })
 
 

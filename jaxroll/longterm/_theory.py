@@ -10,6 +10,14 @@ wave misses the roll's parametric resonance, cost one small solve each; `passage
 in H_s here — between solved cells of one column it fell by up to 0.999 with rising H_s (Rec. 34 rows 4.5–9.5 m,
 T_z 7.5–10.5 s, headings 0/150/180°, 0 and 4 m/s; probably the mean GM rising with the sea, ΔGM's even terms,
 detuning the resonance), and at a 2 % tolerance it saved 6 of 105 solves.)
+
+**Two passes** (`refine_delta` δ): pass 1 solves every λ > 0 cell on one grid (`extrapolate=False`, a third of
+the work); pass 2 runs the Richardson-extrapolated `passage_risk` (its `num_s` grid reused from pass 1: twice
+the work of one grid) only on the smallest set of cells that carries at
+least 1 − δ of the unit's Σ_c w_c P1_c for each angle (largest w_c P1_c first, `auto_cells`' rule). The other
+cells keep P1 (together at most δ of the pass-1 sum); the long-term interval widens their allowance by the
+pass-2/pass-1 ratios measured on the refined cells (`_run._fill`, docs/longterm.md). δ = 0: every λ > 0 cell
+by the extrapolated `passage_risk` (one pass).
 """
 
 from __future__ import annotations
@@ -24,11 +32,14 @@ import numpy as np
 from .._compiled import SOLVER_PROGRAM, cached_program
 from ..sea import ITTC, EffectiveWave
 from ..theory import envelope_lyapunov_exponent, passage_risk
+from ._risk import auto_cells
 
 #: Sea states per compiled batch of the Lyapunov screen (one (ρ, θ) solve each).
 SCREEN_BATCH = 64
 #: `passage_risk`'s (ρ, θ) grid (its defaults): the screen's λ is the one `passage_risk` tests for `exists`.
 NUM_RHO, NUM_THETA = 8, 12
+#: δ: the cells left at pass 1 carry at most this share of a unit's pass-1 Σ w P per angle (module docstring).
+REFINE_DELTA = 0.01
 
 
 @cached_program(compiler_options=SOLVER_PROGRAM)
@@ -55,10 +66,10 @@ def class_template(ship, speed: float, heading_deg: float) -> EffectiveWave:
     return EffectiveWave(ITTC(1.0, 10.0), ship.lpp, speed, math.radians(heading_deg))
 
 
-def _solve(ship, template, hs, t01, cells, angles, durations, devices) -> dict:
+def _solve(ship, template, hs, t01, cells, angles, durations, devices, extrapolate: bool, coarse=None) -> dict:
     """`passage_risk` of the cells `cells` (indices into `hs`, `t01`), dispatched in turn to the devices (one
-    sea state per call: a vmapped batch ran slower per cell on a CPU). **Returns:** {cell: (P per angle, capsize
-    P)}."""
+    sea state per call: a vmapped batch ran slower per cell on a CPU); `coarse`: {cell: its one-grid result},
+    reused by the extrapolation. **Returns:** {cell: (P per angle, capsize P, the `PassageRisk`)}."""
     fixed = [jax.device_put((ship, template), d) for d in devices]
     pending = []
     for n, c in enumerate(cells):
@@ -66,20 +77,17 @@ def _solve(ship, template, hs, t01, cells, angles, durations, devices) -> dict:
         sh, tm = fixed[d]
         sea = eqx.tree_at(lambda s: (s.hs, s.t01), ITTC(1.0, 10.0), (jnp.asarray(hs[c]), jnp.asarray(t01[c])))
         wave = eqx.tree_at(lambda w: w.sea, tm, jax.device_put(sea, devices[d]))
-        pending.append((c, passage_risk(sh, wave, angles, durations)))
-    return {c: (np.asarray(r.probability)[:, 0], float(np.asarray(r.capsize_probability)[0])) for c, r in pending}
+        kw = {} if coarse is None else {"coarse": jax.device_put(coarse[c], devices[d])}
+        pending.append((c, passage_risk(sh, wave, angles, durations, extrapolate=extrapolate, **kw)))
+    return {c: (np.asarray(r.probability)[:, 0], float(np.asarray(r.capsize_probability)[0]), r)
+            for c, r in pending}
 
 
-def class_theory(ship, template: EffectiveWave, hs, t01, angles, exposure: float, progress=None) -> dict:
-    """Theory for the cells (`hs` [m], `t01` [s], 1-D) of one heading class and speed (`template`).
-
-    **Returns:** dict of host arrays per cell: `lyapunov_exponent` [1/s], `envelope_gamma` [1/s], `probability`
-    [-] (cells, angles), `capsize_probability` [-]. `progress(n)` is called with the cells done.
-    """
+def screen(ship, template: EffectiveWave, hs, t01) -> tuple[np.ndarray, np.ndarray]:
+    """(λ [1/s], envelope γ [1/s]) of the sea states (`hs` [m], `t01` [s], 1-D) of one heading class and speed,
+    vmapped in batches of `SCREEN_BATCH`."""
     hs, t01 = np.asarray(hs, float), np.asarray(t01, float)
     n = hs.size
-    angles = jnp.asarray(angles, float)
-    durations = jnp.asarray([exposure], float)
     lam, gamma = np.zeros(n), np.zeros(n)
     for start in range(0, n, SCREEN_BATCH):
         idx = np.arange(start, start + SCREEN_BATCH)
@@ -87,12 +95,71 @@ def class_theory(ship, template: EffectiveWave, hs, t01, angles, exposure: float
         m = min(SCREEN_BATCH, n - start)
         out = _screen_batch(ship, _seas(hs[take], t01[take]), template)
         lam[idx[:m]], gamma[idx[:m]] = (np.asarray(x)[:m] for x in out)
-    prob, cap = np.zeros((n, int(angles.size))), np.zeros(n)
-    live = np.flatnonzero(lam > 0)  # λ ≤ 0: the theory's probability is 0 exactly (its `exists` is λ > 0)
-    if progress is not None and n - live.size:
-        progress(n - live.size)
-    for c, (p, cp) in _solve(ship, template, hs, t01, live, angles, durations, jax.local_devices()).items():
+    return lam, gamma
+
+
+def refine_set(weight, p1, live, delta: float) -> np.ndarray:
+    """The cells pass 2 refines: for each angle the smallest set of `live` cells whose w·P1 add up to at least
+    1 − `delta` of their sum (largest first); all `live` cells where `delta` is 0. `weight` (cells,), `p1`
+    (cells, angles). **Returns:** a mask (cells,)."""
+    live = np.asarray(live, bool)
+    if delta <= 0:
+        return live.copy()
+    p1 = np.asarray(p1, float)
+    dominant, _ = auto_cells(weight, p1, np.zeros(live.size, bool), live, share=1.0 - delta, tolerance=1.0)
+    return dominant & live & np.any(p1 > 0, axis=1)
+
+
+def class_theory(ship, template: EffectiveWave, hs, t01, angles, exposure: float, progress=None, weight=None,
+                 refine_delta: float = REFINE_DELTA) -> dict:
+    """Theory for the cells (`hs` [m], `t01` [s], 1-D) of one heading class and speed (`template`), in two
+    passes (module docstring): `weight` the cells' weights (default equal), `refine_delta` δ.
+
+    **Returns:** dict of host arrays per cell: `lyapunov_exponent` [1/s], `envelope_gamma` [1/s], `probability`
+    [-] (cells, angles; pass 2 where refined, else pass 1), `capsize_probability` [-], `pass1_probability`
+    (cells, angles) and `pass1_capsize_probability` (NaN where δ = 0: no pass 1), `refined` (bool),
+    `pass_ratio`, `pass_capsize_ratio` (the unit's `pass_ratio`, per cell). `progress(n)`
+    is called with the cells done (a cell counts when its last pass is done).
+    """
+    hs, t01 = np.asarray(hs, float), np.asarray(t01, float)
+    n = hs.size
+    weight = np.ones(n) if weight is None else np.asarray(weight, float)
+    angles = jnp.asarray(angles, float)
+    durations = jnp.asarray([exposure], float)
+    lam, gamma = screen(ship, template, hs, t01)
+    n_a = int(angles.size)
+    prob, cap = np.zeros((n, n_a)), np.zeros(n)
+    live = lam > 0  # λ ≤ 0: the theory's probability is 0 exactly (its `exists` is λ > 0)
+    if progress is not None and n - live.sum():
+        progress(int(n - live.sum()))
+    devices = jax.local_devices()
+    p1, c1 = np.full((n, n_a), np.nan), np.full(n, np.nan)
+    first = None
+    if refine_delta > 0:
+        p1[~live], c1[~live] = 0.0, 0.0
+        first = _solve(ship, template, hs, t01, np.flatnonzero(live), angles, durations, devices, False)
+        for c, (p, cp, _) in first.items():
+            p1[c], c1[c] = p, cp
+        prob[:], cap[:] = p1, c1
+        first = {c: r for c, (_, _, r) in first.items()}
+    refined = refine_set(weight, np.nan_to_num(p1), live, refine_delta)
+    if progress is not None and live.sum() - refined.sum():
+        progress(int(live.sum() - refined.sum()))
+    for c, (p, cp, _) in _solve(ship, template, hs, t01, np.flatnonzero(refined), angles, durations, devices,
+                                True, first).items():
         prob[c], cap[c] = p, cp
-    if progress is not None and live.size:
-        progress(int(live.size))
-    return {"lyapunov_exponent": lam, "envelope_gamma": gamma, "probability": prob, "capsize_probability": cap}
+    if progress is not None and refined.sum():
+        progress(int(refined.sum()))
+    ones = np.ones(n)
+    return {"lyapunov_exponent": lam, "envelope_gamma": gamma, "probability": prob, "capsize_probability": cap,
+            "pass1_probability": p1, "pass1_capsize_probability": c1, "refined": refined,
+            "pass_ratio": pass_ratio(prob[refined], p1[refined]) * ones,
+            "pass_capsize_ratio": pass_ratio(cap[refined], c1[refined]) * ones}
+
+
+def pass_ratio(p2, p1) -> float:
+    """The largest ratio pass 2 / pass 1 over refined cells where both are > 0 (at least 1; 1 where there are
+    none): the factor by which a cell left at pass 1 is allowed to lie above its value."""
+    p2, p1 = np.asarray(p2, float).ravel(), np.asarray(p1, float).ravel()
+    ok = (p1 > 0) & (p2 > 0) & np.isfinite(p1) & np.isfinite(p2)
+    return float(max(1.0, np.max(p2[ok] / p1[ok]))) if ok.any() else 1.0

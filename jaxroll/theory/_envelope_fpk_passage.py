@@ -85,6 +85,8 @@ class PassageRisk(eqx.Module):
       `exceedance_probability` gives); `extremal_index` [-] (`n_a`): θ = λ_1 / (rate · F̄), 1/θ the mean number of
       amplitudes above the angle per cluster.
     - `lyapunov_exponent` λ [1/s] and `exists` (λ > 0): where the roll dies out (λ ≤ 0) every probability is 0.
+    - `hazard` [-] (`n_a`, `n_T`) and `capsize_hazard` [-] (`n_T`): −ln S(T) of the solution, before the λ ≤ 0
+      mask (what `passage_risk(coarse=…)` extrapolates from).
     - `excitation`: the fitted envelope; `grid`: the numerical settings.
     """
 
@@ -101,6 +103,8 @@ class PassageRisk(eqx.Module):
     extremal_index: Float[Array, " n_a"]
     lyapunov_exponent: Float[Array, ""]
     exists: Bool[Array, ""]
+    hazard: Float[Array, "n_a n_T"]
+    capsize_hazard: Float[Array, " n_T"]
     excitation: EnvelopeExcitation
     grid: tuple = eqx.field(static=True)
 
@@ -248,6 +252,7 @@ def passage_risk(
     num_iterations: int = 5,
     observe: str = "peaks",
     extrapolate: bool = True,
+    coarse: PassageRisk | None = None,
 ) -> PassageRisk:
     """Probability that the roll exceeds each angle within each exposure, with large rolls in groups: the envelope
     Fokker–Planck model followed through the exposure (module docstring; docs/theory.md, "Exposure risk when large
@@ -269,6 +274,9 @@ def passage_risk(
     - `observe`: `"peaks"` (the roll's peaks, what a record shows) or `"continuous"` (the envelope watched
       continuously: every excursion above the angle counts; an upper bound).
     - `extrapolate`: Richardson extrapolation over `num_s` and 2 `num_s` fine cells (3× the work of one grid).
+    - `coarse`: this call's own one-grid result (`extrapolate=False`, the same ship, wave and arguments), reused as
+      the extrapolation's `num_s` grid: only the 2 `num_s` grid is solved (2× the work of one grid; the same
+      result). `jaxroll longterm`'s two passes use it.
 
     **Returns:** `PassageRisk`. jit-able, vmappable over sea states (`eqx.filter_vmap` over waves of the same
     heading class) and differentiable in the ship's and the sea's parameters. Where the roll dies out
@@ -293,19 +301,15 @@ def passage_risk(
         raise ValueError(f"`observe` must be 'peaks' or 'continuous'; got {observe!r}.")
     order = np.argsort(angles, kind="stable")
     grids = [grid, dataclasses.replace(grid, num_s=2 * grid.num_s)] if extrapolate else [grid]
-    solved = [
-        _passage(
-            ship,
-            wave,
-            excitation,
-            g,
-            _levels(ship, g, [float(a) for a in angles]),
-            durations,
-            int(num_iterations),
-            observe,
-        )
-        for g in grids
-    ]
+    reuse = coarse is not None and extrapolate
+    if reuse and (dict(coarse.grid).get("extrapolate", True) or coarse.grid[:-1] != grid.record()[:-1] + (
+            ("num_iterations", num_iterations), ("observe", observe)) or not np.array_equal(coarse.angles, angles)
+            or coarse.probability.shape != (angles.size, durations.size)):
+        raise ValueError("`coarse` must be this call's one-grid result: passage_risk(..., extrapolate=False) with "
+                         "the same grid, angles and durations.")
+    solved = [_unsolved(coarse, order) if reuse and n == 0 else
+              _passage(ship, wave, excitation, g, _levels(ship, g, [float(a) for a in angles]), durations,
+                       int(num_iterations), observe) for n, g in enumerate(grids)]
     r = _extrapolated(*solved) if extrapolate else solved[0]
     exists = r["lyapunov_exponent"] > 0
 
@@ -331,10 +335,22 @@ def passage_risk(
         extremal_index=(r["cluster_rate"] / (r["amplitude_rate"] * sf))[back],
         lyapunov_exponent=r["lyapunov_exponent"],
         exists=exists,
+        hazard=r["hazard"][back],
+        capsize_hazard=r["capsize_hazard"],
         excitation=r["excitation"],
         grid=grid.record()[:-1]
         + (("num_iterations", num_iterations), ("observe", observe), ("extrapolate", extrapolate)),
     )
+
+
+def _unsolved(coarse: PassageRisk, order) -> dict:
+    """A one-grid `PassageRisk` as `_passage`'s dict (levels by increasing angle, `order`) for `_extrapolated`:
+    the quantities it extrapolates (those masked where λ ≤ 0 are 0 or ∞ there, which it passes over as it does
+    a zero)."""
+    return dict(hazard=coarse.hazard[order], capsize_hazard=coarse.capsize_hazard,
+                cluster_rate=coarse.cluster_rate[order], mean_passage_time=coarse.mean_passage_time[order],
+                start_exceedance=coarse.start_exceedance[order],
+                exceedance_per_cycle=coarse.exceedance_per_cycle[order])
 
 
 def _levels(ship, grid: _Grid, angles: list[float]) -> tuple:
