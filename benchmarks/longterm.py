@@ -64,29 +64,51 @@ def main() -> None:
     ap.add_argument("--sample", type=int, default=24, help="baseline cells timed (extrapolated)")
     ap.add_argument("--full-baseline", action="store_true")
     ap.add_argument("--skip-cold", action="store_true")
-    ap.add_argument("--refine-delta", type=float, default=0.01, help="the theory's two-pass δ (0: every cell refined)")
+    ap.add_argument(
+        "--refine-delta", type=float, default=0.01, help="the theory's two-pass δ (0: every cell refined)"
+    )
     a = ap.parse_args()
     headings = [360.0 * i / a.headings for i in range(a.headings)]
     speeds = [float(x) for x in a.speeds.split(",")]
     angles = [float(x) for x in a.angles.split(",")]
     print(f"load_average={os.getloadavg()[0]:.2f}")
-    print(f"problem=rec34 x {len(headings)} headings x {len(speeds)} speeds, angles {angles} deg, {a.hours:g} h")
+    print(
+        f"problem=rec34 x {len(headings)} headings x {len(speeds)} speeds, angles {angles} deg, {a.hours:g} h"
+    )
 
     # ---- jaxroll.longterm, cold and warm, in a fresh process with an empty cache -------------------------------
     if not a.skip_cold:
         with tempfile.TemporaryDirectory() as cache:
             env = {**os.environ, "JAXROLL_CACHE_DIR": cache}
             t = time.time()
-            out = subprocess.run([sys.executable, "-c", CHILD, json.dumps({"headings": headings, "speeds": speeds,
-                                                                           "angles": angles, "hours": a.hours,
-                                                                           "refine_delta": a.refine_delta})],
-                                 env=env, capture_output=True, text=True, check=True)
+            out = subprocess.run(
+                [
+                    sys.executable,
+                    "-c",
+                    CHILD,
+                    json.dumps(
+                        {
+                            "headings": headings,
+                            "speeds": speeds,
+                            "angles": angles,
+                            "hours": a.hours,
+                            "refine_delta": a.refine_delta,
+                        }
+                    ),
+                ],
+                env=env,
+                capture_output=True,
+                text=True,
+                check=True,
+            )
             wall = time.time() - t
         r = json.loads(out.stdout.strip().splitlines()[-1])
         print(f"longterm_cold_s={r['cold_s']:.1f} (import {r['import_s']:.1f} s; process {wall:.1f} s)")
         print(f"longterm_warm_s={r['warm_s']:.1f}")
-        print(f"theory_cells={r['theory_cells']} (dataset cells), lambda_positive_cells={r['live']}, "
-              f"refined_cells={r['refined']} (refine_delta {a.refine_delta:g})")
+        print(
+            f"theory_cells={r['theory_cells']} (dataset cells), lambda_positive_cells={r['live']}, "
+            f"refined_cells={r['refined']} (refine_delta {a.refine_delta:g})"
+        )
         print(f"p_lt={r['p_lt']}")
 
     # ---- baseline: today's per-cell route, looped -------------------------------------------------------------
@@ -103,17 +125,24 @@ def main() -> None:
     grid = make_grid(scatter, [ship], ["c11"], None, [math.radians(h) for h in headings], None, speeds, None)
     needed = (grid.comp_weight > 0) & ~grid.beam[None, :, None, None, None]
     cells = np.argwhere(needed)
-    print(f"computation_cells={len(cells)} (distinct problems: port/starboard once, beam seas and empty sea states "
-          "left out)")
+    print(
+        f"computation_cells={len(cells)} (distinct problems: port/starboard once, beam seas and empty sea states "
+        "left out)"
+    )
     rng = np.random.default_rng(0)
-    take = cells if a.full_baseline else cells[rng.choice(len(cells), min(a.sample, len(cells)), replace=False)]
+    take = (
+        cells if a.full_baseline else cells[rng.choice(len(cells), min(a.sample, len(cells)), replace=False)]
+    )
     rad = np.radians(angles)
 
     def per_cell(c):
         _, k, u, i, j = c
-        sea = jaxroll.ITTC(jax.numpy.asarray(scatter.hs[i]), jax.numpy.asarray(scatter.t01[j]))  # arrays: one program
-        wave = jaxroll.EffectiveWave(sea, ship.lpp,
-                                     float(grid.speeds[u]), math.radians(float(grid.classes_deg[k])))
+        sea = jaxroll.ITTC(
+            jax.numpy.asarray(scatter.hs[i]), jax.numpy.asarray(scatter.t01[j])
+        )  # arrays: one program
+        wave = jaxroll.EffectiveWave(
+            sea, ship.lpp, float(grid.speeds[u]), math.radians(float(grid.classes_deg[k]))
+        )
         return np.asarray(jaxroll.theory.passage_risk(ship, wave, rad, [a.hours * 3600.0]).probability)
 
     per_cell(take[0])  # compile
@@ -122,8 +151,10 @@ def main() -> None:
         per_cell(c)
     base = time.time() - t
     scale = len(cells) / len(take)
-    print(f"baseline_s={base * scale:.1f} ({'all cells' if a.full_baseline else f'{len(take)} cells timed, x{scale:.1f}'}"
-          f"; {base / len(take):.3f} s per cell)")
+    print(
+        f"baseline_s={base * scale:.1f} ({'all cells' if a.full_baseline else f'{len(take)} cells timed, x{scale:.1f}'}"
+        f"; {base / len(take):.3f} s per cell)"
+    )
 
     print(f"load_average_end={os.getloadavg()[0]:.2f}")
 

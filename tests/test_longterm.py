@@ -75,7 +75,9 @@ def test_t01_over_tz_of_the_ittc_spectrum():
     assert T01_OVER_TZ == pytest.approx(1.0864348, abs=1e-7)
     sea = jxr.ITTC(4.0, 9.0)
     s = lambda w: float(sea(jnp.asarray(w)))  # noqa: E731
-    m = [quad(lambda w, n=n: w**n * s(w), 0.0, np.inf, limit=400, epsabs=0, epsrel=1e-11)[0] for n in range(3)]
+    m = [
+        quad(lambda w, n=n: w**n * s(w), 0.0, np.inf, limit=400, epsabs=0, epsrel=1e-11)[0] for n in range(3)
+    ]
     t01 = 2 * math.pi * m[0] / m[1]
     tz = 2 * math.pi * math.sqrt(m[0] / m[2])
     assert t01 == pytest.approx(9.0, rel=1e-8)
@@ -189,8 +191,12 @@ def test_long_term_integral_interval_and_per_year():
     lt = longterm_probability(w, p, var, lo, hi)
     np.testing.assert_allclose(lt["probability"], (w[..., None] * p).sum(axis=(0, 1)), rtol=1e-14, atol=0)
     sd = np.sqrt((w[..., None] ** 2 * var).sum(axis=(0, 1)))
-    np.testing.assert_allclose(lt["upper"], lt["probability"] + 1.959963984540054 * sd + (w[..., None] * (hi - p)).sum(
-        axis=(0, 1)), rtol=1e-14, atol=0)
+    np.testing.assert_allclose(
+        lt["upper"],
+        lt["probability"] + 1.959963984540054 * sd + (w[..., None] * (hi - p)).sum(axis=(0, 1)),
+        rtol=1e-14,
+        atol=0,
+    )
     ny = 1000.0
     yr = annual(w, p, var, lo, hi, ny)
     direct = 1 - np.prod((1 - p) ** (ny * w[..., None]), axis=(0, 1))
@@ -232,16 +238,20 @@ def test_class_theory_is_passage_risk_cell_by_cell(monkeypatch):
         return solve(ship, wave, angles, durations, **kw)
 
     monkeypatch.setattr(_theory, "passage_risk", counting)
-    r = class_theory(SHIP, class_template(SHIP, 0.0, 180.0), hs, t01, np.asarray(ANGLES), 1800.0,
-                     refine_delta=0.0)
+    r = class_theory(
+        SHIP, class_template(SHIP, 0.0, 180.0), hs, t01, np.asarray(ANGLES), 1800.0, refine_delta=0.0
+    )
     assert r["lyapunov_exponent"][1] < 0 < min(r["lyapunov_exponent"][0], r["lyapunov_exponent"][2])
     assert seen == [6.0, 7.0]
     for i in range(3):
         wave = jxr.EffectiveWave(jxr.ITTC(float(hs[i]), float(t01[i])), SHIP.lpp, 0.0, "head")
         one = solve(SHIP, wave, np.asarray(ANGLES), jnp.asarray([1800.0]))
-        np.testing.assert_allclose(r["probability"][i], np.asarray(one.probability)[:, 0], rtol=1e-10, atol=1e-300)
-        np.testing.assert_allclose(r["capsize_probability"][i], float(one.capsize_probability[0]), rtol=1e-10,
-                                   atol=1e-300)
+        np.testing.assert_allclose(
+            r["probability"][i], np.asarray(one.probability)[:, 0], rtol=1e-10, atol=1e-300
+        )
+        np.testing.assert_allclose(
+            r["capsize_probability"][i], float(one.capsize_probability[0]), rtol=1e-10, atol=1e-300
+        )
         if i == 1:
             assert not bool(one.exists)
     assert np.all(r["probability"][1] == 0) and r["probability"][0, 0] > 0
@@ -275,7 +285,9 @@ def test_two_pass_theory_refines_the_cells_the_rule_names():
     rough = live & ~two["refined"]
     assert rough.any() and two["refined"].any()  # both kinds of cell in this example
     # refined cells: the extrapolated value; the others: pass 1
-    np.testing.assert_allclose(two["probability"][two["refined"]], full["probability"][two["refined"]], rtol=1e-9)
+    np.testing.assert_allclose(
+        two["probability"][two["refined"]], full["probability"][two["refined"]], rtol=1e-9
+    )
     np.testing.assert_array_equal(two["probability"][rough], two["pass1_probability"][rough])
     for a in range(len(ANGLES)):
         s1 = np.sum(w * two["pass1_probability"][:, a])
@@ -306,8 +318,14 @@ def test_zero_speed_headings_mirror():
 @pytest.fixture(scope="module")
 def theory_run(small_csv):
     h = [math.radians(x) for x in (180.0, 150.0, 210.0, 90.0)]
-    return jxr.longterm(small_csv, headings=h, heading_weights=[4, 2, 1, 1], angles=ANGLES, exposure=1800.0,
-                        hours_per_year=5000.0)
+    return jxr.longterm(
+        small_csv,
+        headings=h,
+        heading_weights=[4, 2, 1, 1],
+        angles=ANGLES,
+        exposure=1800.0,
+        hours_per_year=5000.0,
+    )
 
 
 def test_longterm_by_theory(theory_run):
@@ -315,39 +333,60 @@ def test_longterm_by_theory(theory_run):
     assert ds.probability.dims == ("hs", "tz", "heading", "speed", "ship", "angle")
     w, p = ds.weight.values, ds.probability.values
     np.testing.assert_allclose(w.sum(), 1.0, rtol=1e-14, atol=0)
-    np.testing.assert_allclose(ds.longterm_probability.values, np.nansum(w[..., None] * p, axis=(0, 1, 2, 3, 4)),
-                               rtol=1e-13, atol=0)
+    np.testing.assert_allclose(
+        ds.longterm_probability.values, np.nansum(w[..., None] * p, axis=(0, 1, 2, 3, 4)), rtol=1e-13, atol=0
+    )
     np.testing.assert_array_equal(p[:, :, 1], p[:, :, 2])  # 150° and 210°: one problem
     beam = ds.sel(heading=90.0)
-    assert np.all(beam.probability.sel(hs=5.5).values == 0) and np.all(beam.capsize_probability.sel(hs=5.5) == 0)
+    assert np.all(beam.probability.sel(hs=5.5).values == 0) and np.all(
+        beam.capsize_probability.sel(hs=5.5) == 0
+    )
     assert np.all(beam.method.sel(hs=5.5).values == METHODS.index("no_excitation"))
     empty = ds.sel(hs=7.5, tz=9.5)
-    assert np.all(np.isnan(empty.probability.values)) and np.all(empty.method.values == METHODS.index("zero_weight"))
+    assert np.all(np.isnan(empty.probability.values)) and np.all(
+        empty.method.values == METHODS.index("zero_weight")
+    )
     assert np.all(ds.method.sel(hs=5.5, heading=[180.0, 150.0, 210.0]).values == METHODS.index("theory"))
     # theory cells: the interval is the model allowance [P/1.25, 1.25 P] (none is doubtful here)
     assert not ds.theory_doubtful.values.any()
     pt = ds.probability.sel(hs=5.5, heading=180.0).values
-    np.testing.assert_allclose(ds.probability_lower.sel(hs=5.5, heading=180.0).values, pt / 1.25, rtol=1e-15, atol=0)
+    np.testing.assert_allclose(
+        ds.probability_lower.sel(hs=5.5, heading=180.0).values, pt / 1.25, rtol=1e-15, atol=0
+    )
     lt = ds.longterm_probability.values
-    np.testing.assert_allclose(ds.longterm_probability_ci95.values[:, 0], lt - ds.longterm_model_below.values,
-                               rtol=1e-14, atol=0)
+    np.testing.assert_allclose(
+        ds.longterm_probability_ci95.values[:, 0], lt - ds.longterm_model_below.values, rtol=1e-14, atol=0
+    )
     assert np.all(ds.longterm_sampling_sd.values == 0)
     ny = 5000.0 * 3600 / 1800.0
     q = np.nan_to_num(p)
-    np.testing.assert_allclose(ds.longterm_per_year_probability.values,
-                               1 - np.prod((1 - q) ** (ny * w[..., None]), axis=(0, 1, 2, 3, 4)), rtol=1e-12, atol=0)
+    np.testing.assert_allclose(
+        ds.longterm_per_year_probability.values,
+        1 - np.prod((1 - q) ** (ny * w[..., None]), axis=(0, 1, 2, 3, 4)),
+        rtol=1e-12,
+        atol=0,
+    )
     np.testing.assert_allclose(ds.longterm_per_year_rate.values, ny * lt, rtol=1e-14, atol=0)
     cfg = json.loads(ds.attrs["config_json"])
     assert cfg["heading_classes_deg"] == [180.0, 150.0, 90.0] and ds.attrs["jax_version"] == jax.__version__
     summary = jxr.longterm_summary(ds)
     top = summary["longterm"]["25"]["dominating_cells"]
-    assert top[0]["share"] >= top[1]["share"] and sum(c["share"] for c in top) == pytest.approx(1.0, rel=1e-12)
+    assert top[0]["share"] >= top[1]["share"] and sum(c["share"] for c in top) == pytest.approx(
+        1.0, rel=1e-12
+    )
 
 
 def test_skipped_weight_is_a_bound_in_the_interval(small_csv, theory_run):
     h = [math.radians(x) for x in (180.0, 150.0, 210.0, 90.0)]
-    ds = jxr.longterm(small_csv, headings=h, heading_weights=[4, 2, 1, 1], angles=ANGLES, exposure=1800.0,
-                      hours_per_year=5000.0, skip_weight=0.06)
+    ds = jxr.longterm(
+        small_csv,
+        headings=h,
+        heading_weights=[4, 2, 1, 1],
+        angles=ANGLES,
+        exposure=1800.0,
+        hours_per_year=5000.0,
+        skip_weight=0.06,
+    )
     left = ds.method.values == METHODS.index("left_out")
     assert left.any() and 0 < float(ds.left_out_weight) <= 0.06
     np.testing.assert_allclose(float(ds.left_out_weight), ds.weight.values[left].sum(), rtol=1e-14, atol=0)
@@ -366,8 +405,9 @@ def test_monte_carlo_cell_is_jaxroll_risk_trial_for_trial(tmp_path):
     counts at every effort fraction are those of `monte_carlo_max_roll` with the cell's seed, trial by trial."""
     csv = tmp_path / "one.csv"
     csv.write_text("hs_m,8.5\n7.5,1\n")
-    ds = jxr.longterm(csv, angles=ANGLES, exposure=360.0, discard=100.0, method="monte-carlo", realizations=16,
-                      seed=4)
+    ds = jxr.longterm(
+        csv, angles=ANGLES, exposure=360.0, discard=100.0, method="monte-carlo", realizations=16, seed=4
+    )
     cell = ds.isel(hs=0, tz=0, heading=0, speed=0, ship=0)
     seed = int(cell.seed)
     assert seed == 4_000_001
@@ -375,8 +415,9 @@ def test_monte_carlo_cell_is_jaxroll_risk_trial_for_trial(tmp_path):
     command = next(iter(summary["longterm"].values()))["dominating_cells"][0]["risk_command"]
     assert f"--seed {seed - 1}" in command
     problem = jxr.RollProblem.from_sea(SHIP, jxr.ITTC(7.5, float(cell.t01)), heading="head")
-    stats = jxr.monte_carlo_max_roll(problem, jax.random.key(seed), angle_deg=25.0, num_realizations=16,
-                                     duration=460.0, discard=100.0)
+    stats = jxr.monte_carlo_max_roll(
+        problem, jax.random.key(seed), angle_deg=25.0, num_realizations=16, duration=460.0, discard=100.0
+    )
     for e, f in enumerate(EFFORT_FRACTIONS):
         m = max(1, round(f * 16))
         for a, angle in enumerate((25.0, 35.0)):
@@ -396,8 +437,14 @@ def test_auto_lies_within_the_brute_force_interval(tmp_path):
     cells) against every cell by Monte Carlo, seeded; tolerance from both standard errors and auto's allowance."""
     csv = tmp_path / "three.csv"
     csv.write_text("hs_m,8.5,9.5,10.5\n4.5,30,40,20\n5.5,20,30,20\n6.5,8,12,8\n")
-    kw = dict(headings=[math.pi, math.radians(150), math.radians(210)], angles=ANGLES, exposure=900.0,
-              discard=300.0, realizations=200, seed=1)
+    kw = dict(
+        headings=[math.pi, math.radians(150), math.radians(210)],
+        angles=ANGLES,
+        exposure=900.0,
+        discard=300.0,
+        realizations=200,
+        seed=1,
+    )
     brute = jxr.longterm(csv, method="monte-carlo", **kw)
     auto = jxr.longterm(csv, method="auto", **kw)
     n_mc = int((auto.method.values == METHODS.index("monte_carlo")).sum())
@@ -437,9 +484,16 @@ def test_two_parts_merged_equal_one_run(method, small_csv, tmp_path):
     # auto computes every cell's theory in each part (to choose its Monte Carlo cells): two heading classes keep
     # its three runs short; the other methods split the four
     headings = (180.0, 90.0) if method == "auto" else (180.0, 150.0, 210.0, 90.0)
-    kw = dict(headings=[math.radians(x) for x in headings], heading_weights=[4, 2, 1, 1][: len(headings)],
-              angles=ANGLES, exposure=1800.0, hours_per_year=5000.0, method=method, realizations=6,
-              discard=100.0)
+    kw = dict(
+        headings=[math.radians(x) for x in headings],
+        heading_weights=[4, 2, 1, 1][: len(headings)],
+        angles=ANGLES,
+        exposure=1800.0,
+        hours_per_year=5000.0,
+        method=method,
+        realizations=6,
+        discard=100.0,
+    )
     whole = jxr.longterm(small_csv, **kw)
     parts = [_roundtrip(jxr.longterm(small_csv, part=f"{i}/2", **kw), tmp_path / f"p{i}.nc") for i in (2, 1)]
     assert parts[0].attrs["part"] == "2/2" and parts[0].computed.values.any()
@@ -451,8 +505,21 @@ def test_two_parts_merged_equal_one_run(method, small_csv, tmp_path):
 
 
 def test_cli_parts_merge_and_outputs(small_csv, tmp_path, capsys):
-    common = ["--scatter", str(small_csv), "--heading", "180,150,210,90", "--heading-weights", "4,2,1,1",
-              "--angle", "25,35", "--hours", "0.5", "--hours-per-year", "5000", "--quiet"]
+    common = [
+        "--scatter",
+        str(small_csv),
+        "--heading",
+        "180,150,210,90",
+        "--heading-weights",
+        "4,2,1,1",
+        "--angle",
+        "25,35",
+        "--hours",
+        "0.5",
+        "--hours-per-year",
+        "5000",
+        "--quiet",
+    ]
     assert main(["longterm", *common, "--out", str(tmp_path / "whole")]) == 0
     for i in (1, 2):
         assert main(["longterm", *common, "--part", f"{i}/2", "--out", str(tmp_path / "parts")]) == 0
@@ -464,7 +531,12 @@ def test_cli_parts_merge_and_outputs(small_csv, tmp_path, capsys):
         assert (tmp_path / "whole" / name).is_file()
     payload = json.loads((tmp_path / "whole" / "longterm.json").read_text())
     assert payload["config"]["method"] == "theory" and list(payload["longterm"]) == ["25", "35"]
-    assert set(payload["longterm"]["25"]) >= {"probability", "probability_ci95", "per_year", "dominating_cells"}
+    assert set(payload["longterm"]["25"]) >= {
+        "probability",
+        "probability_ci95",
+        "per_year",
+        "dominating_cells",
+    }
     assert "per_year_assumptions" in payload and payload["versions"]["jax_version"] == jax.__version__
     assert_labelled_output(tmp_path / "whole", "longterm")
     capsys.readouterr()
@@ -481,15 +553,42 @@ def _free_port() -> int:
 def test_two_processes_equal_one(small_csv, tmp_path):
     """`jaxroll longterm --distributed` in 2 localhost processes writes the dataset of one process, bit for bit
     (Monte Carlo cells shared among the processes, each on its own devices)."""
-    argv = ["longterm", "--scatter", str(small_csv), "--heading", "180,150", "--angle", "25,35", "--hours", "0.1",
-            "--discard", "60", "--method", "monte-carlo", "--realizations", "6", "--quiet"]
+    argv = [
+        "longterm",
+        "--scatter",
+        str(small_csv),
+        "--heading",
+        "180,150",
+        "--angle",
+        "25,35",
+        "--hours",
+        "0.1",
+        "--discard",
+        "60",
+        "--method",
+        "monte-carlo",
+        "--realizations",
+        "6",
+        "--quiet",
+    ]
     assert main([*argv, "--out", str(tmp_path / "one")]) == 0
     env = {k: v for k, v in os.environ.items() if k != "JAX_NUM_CPU_DEVICES"}
-    env.update(JAX_NUM_CPU_DEVICES="1", JAX_PLATFORMS="cpu", JAXROLL_NUM_PROCESSES="2",
-               JAX_COORDINATOR_ADDRESS=f"localhost:{_free_port()}")
-    procs = [subprocess.Popen([sys.executable, "-m", "jaxroll", *argv, "--distributed", "--out",
-                               str(tmp_path / "two")], env={**env, "JAXROLL_PROCESS_ID": str(pid)},
-                              stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True) for pid in (0, 1)]
+    env.update(
+        JAX_NUM_CPU_DEVICES="1",
+        JAX_PLATFORMS="cpu",
+        JAXROLL_NUM_PROCESSES="2",
+        JAX_COORDINATOR_ADDRESS=f"localhost:{_free_port()}",
+    )
+    procs = [
+        subprocess.Popen(
+            [sys.executable, "-m", "jaxroll", *argv, "--distributed", "--out", str(tmp_path / "two")],
+            env={**env, "JAXROLL_PROCESS_ID": str(pid)},
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
+        for pid in (0, 1)
+    ]
     for p in procs:
         _, err = p.communicate(timeout=600)
         assert p.returncode == 0, err[-3000:]
@@ -501,8 +600,14 @@ class Interrupt(Exception):
 
 
 def test_checkpoint_resumes_cell_by_cell(small_csv, tmp_path):
-    kw = dict(headings=[math.pi, math.radians(150)], angles=ANGLES, exposure=360.0, discard=60.0,
-              method="monte-carlo", realizations=6)
+    kw = dict(
+        headings=[math.pi, math.radians(150)],
+        angles=ANGLES,
+        exposure=360.0,
+        discard=60.0,
+        method="monte-carlo",
+        realizations=6,
+    )
     whole = jxr.longterm(small_csv, **kw)
     calls = []
 
@@ -515,7 +620,9 @@ def test_checkpoint_resumes_cell_by_cell(small_csv, tmp_path):
         jxr.longterm(small_csv, checkpoint=tmp_path / "ck", progress=stop_after_first_cell, **kw)
     assert len(list((tmp_path / "ck").glob("mc_*.npz"))) == 1
     seen = []
-    resumed = jxr.longterm(small_csv, checkpoint=tmp_path / "ck", progress=lambda d, t, p: seen.append(d), **kw)
+    resumed = jxr.longterm(
+        small_csv, checkpoint=tmp_path / "ck", progress=lambda d, t, p: seen.append(d), **kw
+    )
     _assert_same(resumed, whole)
     assert seen[0] == 6  # the first cell came from the checkpoint
 

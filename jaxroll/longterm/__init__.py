@@ -5,7 +5,7 @@ Stage files in data-flow order: `_scatter.py` (scatter diagrams, IACS Rec. 34), 
 weights and seeds, heading symmetry, parts), `_theory.py` (short-term risk by theory, batched per heading class),
 `_monte_carlo.py` (short-term risk by Monte Carlo per cell, Neyman allocation), `_risk.py` (the long-term integral,
 its interval, the per-year conversion, the `auto` rule), `_dataset.py` (the `xarray.Dataset`, merge, summary),
-`_run.py` (`longterm`, the work units over parts and processes, checkpoints).
+`_units.py` (the work units: which cells a part computes, checkpoint files, gathering across processes), `_run.py` (`longterm`).
 
 `jaxroll.longterm` is the function (`jaxroll/__init__.py` re-exports it and the names below); this package's
 names are also re-exported at the top level (`jaxroll.read_scatter`, …).

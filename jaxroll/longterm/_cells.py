@@ -78,26 +78,41 @@ class CellGrid:
     def weight(self) -> np.ndarray:
         """w [-] of every cell, dims (hs, tz, heading, speed, ship); sums to 1."""
         p = self.scatter.probability
-        return (p[:, :, None, None, None] * self.heading_weights[None, None, :, None, None]
-                * self.speed_weights[None, None, None, :, None] * self.ship_weights[None, None, None, None, :])
+        return (
+            p[:, :, None, None, None]
+            * self.heading_weights[None, None, :, None, None]
+            * self.speed_weights[None, None, None, :, None]
+            * self.ship_weights[None, None, None, None, :]
+        )
 
     @property
     def class_weights(self) -> np.ndarray:
         """Heading probability of each class [-] (the sum over its headings), shape (classes,)."""
-        return np.array([self.heading_weights[self.heading_class == k].sum() for k in range(self.classes_deg.size)])
+        return np.array(
+            [self.heading_weights[self.heading_class == k].sum() for k in range(self.classes_deg.size)]
+        )
 
     @property
     def shape(self) -> tuple[int, int, int, int, int]:
         """(ships, classes, speeds, hs, tz): the computation cells."""
-        return (len(self.ships), self.classes_deg.size, self.speeds.size, self.scatter.hs.size,
-                self.scatter.tz.size)
+        return (
+            len(self.ships),
+            self.classes_deg.size,
+            self.speeds.size,
+            self.scatter.hs.size,
+            self.scatter.tz.size,
+        )
 
     @property
     def comp_weight(self) -> np.ndarray:
         """w [-] of every computation cell, shape `shape` (a class carries its headings' weight)."""
         p = self.scatter.probability
-        return (self.ship_weights[:, None, None, None, None] * self.class_weights[None, :, None, None, None]
-                * self.speed_weights[None, None, :, None, None] * p[None, None, None, :, :])
+        return (
+            self.ship_weights[:, None, None, None, None]
+            * self.class_weights[None, :, None, None, None]
+            * self.speed_weights[None, None, :, None, None]
+            * p[None, None, None, :, :]
+        )
 
     @property
     def beam(self) -> np.ndarray:
@@ -110,8 +125,16 @@ class CellGrid:
         return SEED_STRIDE * int(seed) + 1 + np.arange(n, dtype=np.int64).reshape(self.shape)
 
 
-def make_grid(scatter: ScatterDiagram, ships: Sequence, ship_names: Sequence[str], ship_weights, headings_rad,
-              heading_weights, speeds, speed_weights) -> CellGrid:
+def make_grid(
+    scatter: ScatterDiagram,
+    ships: Sequence,
+    ship_names: Sequence[str],
+    ship_weights,
+    headings_rad,
+    heading_weights,
+    speeds,
+    speed_weights,
+) -> CellGrid:
     """Check and assemble a `CellGrid`. Headings χ [rad] in [0, 2π) (0 following, π/2 beam, π head), speeds [m/s].
 
     **Raises:** `ValueError` for empty, repeated or out-of-range headings and speeds, and for bad weights.
@@ -119,13 +142,17 @@ def make_grid(scatter: ScatterDiagram, ships: Sequence, ship_names: Sequence[str
     if not ships:
         raise ValueError("`ships` must name at least one ship.")
     if len(ship_names) != len(ships) or len(set(ship_names)) != len(ship_names):
-        raise ValueError(f"`ship_names` must give each of the {len(ships)} ships a distinct name; got {list(ship_names)}.")
+        raise ValueError(
+            f"`ship_names` must give each of the {len(ships)} ships a distinct name; got {list(ship_names)}."
+        )
     headings_rad = [float(h) for h in np.atleast_1d(np.asarray(headings_rad, dtype=float))]
     if not headings_rad:
         raise ValueError("`headings` must hold at least one heading.")
     for h in headings_rad:
         if not (math.isfinite(h) and 0.0 <= h < 2 * math.pi):
-            raise ValueError(f"`headings` must be angles χ in [0, 2π) rad (0 following, π/2 beam, π head); got {h!r}.")
+            raise ValueError(
+                f"`headings` must be angles χ in [0, 2π) rad (0 following, π/2 beam, π head); got {h!r}."
+            )
     deg = np.array([canonical_heading_deg(h) for h in headings_rad])
     if len(set(deg.tolist())) != deg.size:
         raise ValueError(f"`headings` repeats a heading: {deg.tolist()} deg.")
@@ -179,7 +206,9 @@ def parse_part(part) -> tuple[int, int] | None:
         try:
             i, n = (int(x) for x in part.split("/"))
         except ValueError:
-            raise ValueError(f"`part` must be 'i/N' with integers 1 <= i <= N (e.g. 2/8); got {part!r}.") from None
+            raise ValueError(
+                f"`part` must be 'i/N' with integers 1 <= i <= N (e.g. 2/8); got {part!r}."
+            ) from None
     else:
         i, n = part
     if not (isinstance(i, int) and isinstance(n, int) and 1 <= i <= n):

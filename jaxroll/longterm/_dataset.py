@@ -19,11 +19,22 @@ CELL_DIMS = ("hs", "tz", "heading", "speed", "ship")
 METHODS = ("not_computed", "zero_weight", "left_out", "no_excitation", "theory", "monte_carlo")
 #: `uncertainty` flag values: what a cell's interval is.
 UNCERTAINTY = ("none", "sampling", "model_factor", "unknown")
-_LONGTERM_VARS = ("longterm_probability", "longterm_probability_ci95", "longterm_sampling_sd",
-                  "longterm_model_below", "longterm_model_above", "longterm_per_year_probability",
-                  "longterm_per_year_probability_ci95", "longterm_per_year_rate", "longterm_per_year_rate_ci95",
-                  "longterm_capsize_probability", "longterm_capsize_probability_ci95", "longterm_capsize_per_year",
-                  "left_out_weight", "exposures_per_year")
+_LONGTERM_VARS = (
+    "longterm_probability",
+    "longterm_probability_ci95",
+    "longterm_sampling_sd",
+    "longterm_model_below",
+    "longterm_model_above",
+    "longterm_per_year_probability",
+    "longterm_per_year_probability_ci95",
+    "longterm_per_year_rate",
+    "longterm_per_year_rate_ci95",
+    "longterm_capsize_probability",
+    "longterm_capsize_probability_ci95",
+    "longterm_capsize_per_year",
+    "left_out_weight",
+    "exposures_per_year",
+)
 #: The interval's ends (the `bound` dimension, as every `*_ci95` of the labelled outputs).
 BOUNDS = ("lower", "upper")
 
@@ -45,78 +56,180 @@ def build_dataset(grid, cells: dict, config: dict, attrs: dict):
 
     angle_dims = (*CELL_DIMS, "angle")
     data = {
-        "weight": (CELL_DIMS, grid.weight, {"units": "1", "long_name": "cell weight: occurrence × heading × speed "
-                                            "× loading probability (sums to 1)"}),
-        "probability": (angle_dims, to_cells(cells["probability"]),
-                        {"units": "1", "long_name": "short-term P(max |roll| > angle within the exposure), capsizes "
-                         "included (NaN: not computed)"}),
-        "probability_lower": (angle_dims, to_cells(cells["probability_lower"]),
-                              {"units": "1", "long_name": "95 % interval, lower (Monte Carlo: Wilson; theory: model "
-                               "allowance)"}),
-        "probability_upper": (angle_dims, to_cells(cells["probability_upper"]),
-                              {"units": "1", "long_name": "95 % interval, upper"}),
-        "probability_variance": (angle_dims, to_cells(cells["variance"]),
-                                 {"units": "1", "long_name": "sampling variance of the estimate (0: theory)"}),
-        "capsize_probability": (CELL_DIMS, to_cells(cells["capsize_probability"]),
-                                {"units": "1", "long_name": "short-term P(capsize within the exposure)"}),
-        "capsize_probability_lower": (CELL_DIMS, to_cells(cells["capsize_lower"]),
-                                      {"units": "1", "long_name": "95 % interval of the capsize probability, lower"}),
-        "capsize_probability_upper": (CELL_DIMS, to_cells(cells["capsize_upper"]),
-                                      {"units": "1", "long_name": "95 % interval of the capsize probability, upper"}),
-        "capsize_probability_variance": (CELL_DIMS, to_cells(cells["capsize_variance"]),
-                                         {"units": "1", "long_name": "sampling variance of the capsize estimate"}),
-        "method": (CELL_DIMS, to_cells(cells["method"]).astype(np.int8),
-                   {"units": "1", "long_name": "how the cell's probability was obtained", **_flags(METHODS)}),
-        "uncertainty": (CELL_DIMS, to_cells(cells["uncertainty"]).astype(np.int8),
-                        {"units": "1", "long_name": "what the cell's interval is", **_flags(UNCERTAINTY)}),
-        "realizations": (CELL_DIMS, to_cells(cells["realizations"]).astype(np.int64),
-                         {"units": "1", "long_name": "Monte Carlo trials (0: none)"}),
-        "n_exceeded": (angle_dims, to_cells(cells["n_exceeded"]).astype(np.int64),
-                       {"units": "1", "long_name": "Monte Carlo trials beyond the angle or capsized"}),
-        "n_capsized": (CELL_DIMS, to_cells(cells["n_capsized"]).astype(np.int64),
-                       {"units": "1", "long_name": "Monte Carlo trials that capsized"}),
-        "n_exceeded_effort": ((*CELL_DIMS, "effort", "angle"), to_cells(cells["n_exceeded_effort"]).astype(np.int64),
-                              {"units": "1", "long_name": "trials beyond the angle among the first effort × realizations"}),
-        "seed": (CELL_DIMS, to_cells(cells["seed"]).astype(np.int64),
-                 {"units": "1", "long_name": "the cell's Monte Carlo seed s: jax.random.key(s); `jaxroll risk --seed s-1` "
-                  "reproduces it"}),
-        "theory_probability": (angle_dims, to_cells(cells["theory_probability"]),
-                               {"units": "1", "long_name": "the theory's probability (NaN: not evaluated)"}),
-        "theory_capsize_probability": (CELL_DIMS, to_cells(cells["theory_capsize_probability"]),
-                                       {"units": "1", "long_name": "the theory's capsize probability"}),
-        "lyapunov_exponent": (CELL_DIMS, to_cells(cells["lyapunov_exponent"]),
-                              {"units": "1/s", "long_name": "envelope FPK Lyapunov exponent λ of the linearised "
-                               "roll (λ <= 0: the roll dies out)"}),
-        "envelope_gamma": (CELL_DIMS, to_cells(cells["envelope_gamma"]),
-                           {"units": "1/s", "long_name": "fitted envelope decay rate γ (<= 0: the envelope model "
-                            "does not fit)"}),
-        "theory_doubtful": (CELL_DIMS, to_cells(cells["theory_doubtful"]).astype(bool),
-                            {"units": "1", "long_name": "the theory fails a validity check (docs/longterm.md)"}),
-        "theory_refined": (CELL_DIMS, to_cells(cells["theory_refined"]).astype(bool),
-                           {"units": "1", "long_name": "the theory's second pass (Richardson-extrapolated) was run; "
-                            "else its one-grid first pass (docs/longterm.md, Cost)"}),
+        "weight": (
+            CELL_DIMS,
+            grid.weight,
+            {
+                "units": "1",
+                "long_name": "cell weight: occurrence × heading × speed × loading probability (sums to 1)",
+            },
+        ),
+        "probability": (
+            angle_dims,
+            to_cells(cells["probability"]),
+            {
+                "units": "1",
+                "long_name": "short-term P(max |roll| > angle within the exposure), capsizes "
+                "included (NaN: not computed)",
+            },
+        ),
+        "probability_lower": (
+            angle_dims,
+            to_cells(cells["probability_lower"]),
+            {
+                "units": "1",
+                "long_name": "95 % interval, lower (Monte Carlo: Wilson; theory: model allowance)",
+            },
+        ),
+        "probability_upper": (
+            angle_dims,
+            to_cells(cells["probability_upper"]),
+            {"units": "1", "long_name": "95 % interval, upper"},
+        ),
+        "probability_variance": (
+            angle_dims,
+            to_cells(cells["variance"]),
+            {"units": "1", "long_name": "sampling variance of the estimate (0: theory)"},
+        ),
+        "capsize_probability": (
+            CELL_DIMS,
+            to_cells(cells["capsize_probability"]),
+            {"units": "1", "long_name": "short-term P(capsize within the exposure)"},
+        ),
+        "capsize_probability_lower": (
+            CELL_DIMS,
+            to_cells(cells["capsize_lower"]),
+            {"units": "1", "long_name": "95 % interval of the capsize probability, lower"},
+        ),
+        "capsize_probability_upper": (
+            CELL_DIMS,
+            to_cells(cells["capsize_upper"]),
+            {"units": "1", "long_name": "95 % interval of the capsize probability, upper"},
+        ),
+        "capsize_probability_variance": (
+            CELL_DIMS,
+            to_cells(cells["capsize_variance"]),
+            {"units": "1", "long_name": "sampling variance of the capsize estimate"},
+        ),
+        "method": (
+            CELL_DIMS,
+            to_cells(cells["method"]).astype(np.int8),
+            {"units": "1", "long_name": "how the cell's probability was obtained", **_flags(METHODS)},
+        ),
+        "uncertainty": (
+            CELL_DIMS,
+            to_cells(cells["uncertainty"]).astype(np.int8),
+            {"units": "1", "long_name": "what the cell's interval is", **_flags(UNCERTAINTY)},
+        ),
+        "realizations": (
+            CELL_DIMS,
+            to_cells(cells["realizations"]).astype(np.int64),
+            {"units": "1", "long_name": "Monte Carlo trials (0: none)"},
+        ),
+        "n_exceeded": (
+            angle_dims,
+            to_cells(cells["n_exceeded"]).astype(np.int64),
+            {"units": "1", "long_name": "Monte Carlo trials beyond the angle or capsized"},
+        ),
+        "n_capsized": (
+            CELL_DIMS,
+            to_cells(cells["n_capsized"]).astype(np.int64),
+            {"units": "1", "long_name": "Monte Carlo trials that capsized"},
+        ),
+        "n_exceeded_effort": (
+            (*CELL_DIMS, "effort", "angle"),
+            to_cells(cells["n_exceeded_effort"]).astype(np.int64),
+            {"units": "1", "long_name": "trials beyond the angle among the first effort × realizations"},
+        ),
+        "seed": (
+            CELL_DIMS,
+            to_cells(cells["seed"]).astype(np.int64),
+            {
+                "units": "1",
+                "long_name": "the cell's Monte Carlo seed s: jax.random.key(s); `jaxroll risk --seed s-1` "
+                "reproduces it",
+            },
+        ),
+        "theory_probability": (
+            angle_dims,
+            to_cells(cells["theory_probability"]),
+            {"units": "1", "long_name": "the theory's probability (NaN: not evaluated)"},
+        ),
+        "theory_capsize_probability": (
+            CELL_DIMS,
+            to_cells(cells["theory_capsize_probability"]),
+            {"units": "1", "long_name": "the theory's capsize probability"},
+        ),
+        "lyapunov_exponent": (
+            CELL_DIMS,
+            to_cells(cells["lyapunov_exponent"]),
+            {
+                "units": "1/s",
+                "long_name": "envelope FPK Lyapunov exponent λ of the linearised "
+                "roll (λ <= 0: the roll dies out)",
+            },
+        ),
+        "envelope_gamma": (
+            CELL_DIMS,
+            to_cells(cells["envelope_gamma"]),
+            {
+                "units": "1/s",
+                "long_name": "fitted envelope decay rate γ (<= 0: the envelope model does not fit)",
+            },
+        ),
+        "theory_doubtful": (
+            CELL_DIMS,
+            to_cells(cells["theory_doubtful"]).astype(bool),
+            {"units": "1", "long_name": "the theory fails a validity check (docs/longterm.md)"},
+        ),
+        "theory_refined": (
+            CELL_DIMS,
+            to_cells(cells["theory_refined"]).astype(bool),
+            {
+                "units": "1",
+                "long_name": "the theory's second pass (Richardson-extrapolated) was run; "
+                "else its one-grid first pass (docs/longterm.md, Cost)",
+            },
+        ),
     }
     if "computed" in cells:
-        data["computed"] = (CELL_DIMS, to_cells(cells["computed"]).astype(bool),
-                            {"units": "1", "long_name": "computed by this part"})
+        data["computed"] = (
+            CELL_DIMS,
+            to_cells(cells["computed"]).astype(bool),
+            {"units": "1", "long_name": "computed by this part"},
+        )
     coords = {
         "hs": ("hs", grid.scatter.hs, {"units": "m", "long_name": "significant wave height H_s"}),
         "tz": ("tz", grid.scatter.tz, {"units": "s", "long_name": "zero-upcrossing period T_z"}),
         "t01": ("tz", grid.scatter.t01, {"units": "s", "long_name": "mean period T01 = 1.0864 T_z (ITTC)"}),
-        "heading": ("heading", grid.headings_deg, {"units": "degree", "long_name": "heading χ: 0 following, 90 "
-                                                   "beam, 180 head"}),
-        "heading_class": ("heading", grid.classes_deg[k], {"units": "degree", "long_name": "computed at χ' = "
-                                                           "min(χ, 360 − χ) (port/starboard symmetry)"}),
+        "heading": (
+            "heading",
+            grid.headings_deg,
+            {"units": "degree", "long_name": "heading χ: 0 following, 90 beam, 180 head"},
+        ),
+        "heading_class": (
+            "heading",
+            grid.classes_deg[k],
+            {"units": "degree", "long_name": "computed at χ' = min(χ, 360 − χ) (port/starboard symmetry)"},
+        ),
         "speed": ("speed", grid.speeds, {"units": "m/s", "long_name": "ship speed U"}),
         "ship": ("ship", np.array(grid.ship_names, dtype=object), {"long_name": "loading condition (ship)"}),
-        "angle": ("angle", np.asarray(config["angles_deg"], float), {"units": "degree",
-                                                                      "long_name": "roll angle"}),
+        "angle": (
+            "angle",
+            np.asarray(config["angles_deg"], float),
+            {"units": "degree", "long_name": "roll angle"},
+        ),
         "bound": ("bound", np.array(BOUNDS), {"long_name": "end of the interval"}),
-        "effort": ("effort", np.array(EFFORT_FRACTIONS), {"units": "1", "long_name": "fraction of each Monte Carlo "
-                                                                        "cell's trials"}),
+        "effort": (
+            "effort",
+            np.array(EFFORT_FRACTIONS),
+            {"units": "1", "long_name": "fraction of each Monte Carlo cell's trials"},
+        ),
     }
-    ds = xr.Dataset({k_: xr.Variable(*v) for k_, v in data.items()},
-                    coords={k_: xr.Variable(*v) for k_, v in coords.items()})
+    ds = xr.Dataset(
+        {k_: xr.Variable(*v) for k_, v in data.items()},
+        coords={k_: xr.Variable(*v) for k_, v in coords.items()},
+    )
     ds.attrs.update(attrs)  # `dataset_attrs(config, …)`: versions, backend, the configuration as JSON text
     return ds
 
@@ -145,8 +258,12 @@ def add_longterm(ds):
     c = ds["capsize_probability"].values
     c0 = np.where(np.isnan(c), 0.0, c)[..., None]
     cvar = np.where(np.isnan(c), 0.0, ds["capsize_probability_variance"].values)[..., None]
-    clo, chi = model_bounds(c0, kind, ds["capsize_probability_lower"].values[..., None],
-                            ds["capsize_probability_upper"].values[..., None])
+    clo, chi = model_bounds(
+        c0,
+        kind,
+        ds["capsize_probability_lower"].values[..., None],
+        ds["capsize_probability_upper"].values[..., None],
+    )
     cap = longterm_probability(w, c0, cvar, clo, chi)
     per_year = cfg["hours_per_year"] * 3600.0 / cfg["exposure_s"]
     yr = annual(w, p0, var, lo, hi, per_year)
@@ -154,34 +271,72 @@ def add_longterm(ds):
     one = {"units": "1"}
     ci = lambda r, lo, hi: np.stack([r[lo], r[hi]], axis=-1)  # noqa: E731
     new = {
-        "longterm_probability": (("angle",), lt["probability"], {**one, "long_name": "P(max |roll| > angle within "
-                                                                 "one exposure), the cells' weighted mean"}),
-        "longterm_probability_ci95": (("angle", "bound"), ci(lt, "lower", "upper"),
-                                      {**one, "long_name": "95 % interval of the long-term probability (sampling "
-                                       "and model allowance)"}),
+        "longterm_probability": (
+            ("angle",),
+            lt["probability"],
+            {**one, "long_name": "P(max |roll| > angle within one exposure), the cells' weighted mean"},
+        ),
+        "longterm_probability_ci95": (
+            ("angle", "bound"),
+            ci(lt, "lower", "upper"),
+            {**one, "long_name": "95 % interval of the long-term probability (sampling and model allowance)"},
+        ),
         "longterm_sampling_sd": (("angle",), lt["sampling_sd"], {**one, "long_name": "(Σ w² Var P)^1/2"}),
-        "longterm_model_below": (("angle",), lt["model_below"], {**one, "long_name": "model allowance below"}),
-        "longterm_model_above": (("angle",), lt["model_above"], {**one, "long_name": "model allowance above"}),
-        "longterm_per_year_probability": (("angle",), yr["probability"],
-                                          {**one, "long_name": "P(at least one exceedance in a year) = 1 − Π (1 − "
-                                           "P)^(w N_y)"}),
-        "longterm_per_year_probability_ci95": (("angle", "bound"), ci(yr, "lower", "upper"),
-                                               {**one, "long_name": "95 % interval of the per-year probability"}),
-        "longterm_per_year_rate": (("angle",), yr["rate"], {"units": "year-1", "long_name": "expected exposures "
-                                                            "with an exceedance per year, N_y P_LT"}),
-        "longterm_per_year_rate_ci95": (("angle", "bound"), ci(yr, "rate_lower", "rate_upper"),
-                                        {"units": "year-1", "long_name": "95 % interval of the per-year rate"}),
-        "longterm_capsize_probability": ((), cap["probability"][0], {**one, "long_name": "P(capsize within one "
-                                                                     "exposure), the cells' weighted mean"}),
-        "longterm_capsize_probability_ci95": (("bound",), np.array([cap["lower"][0], cap["upper"][0]]),
-                                              {**one, "long_name": "95 % interval of the long-term capsize "
-                                               "probability"}),
-        "longterm_capsize_per_year": ((), cyr["probability"][0], {**one, "long_name": "P(at least one capsize in "
-                                                                  "a year)"}),
-        "left_out_weight": ((), float(np.where(ds["method"].values == METHODS.index("left_out"), w, 0.0).sum()),
-                            {**one, "long_name": "weight of the cells left out (a bound on their contribution)"}),
-        "exposures_per_year": ((), per_year, {"units": "year-1", "long_name": "exposures per year N_y = hours at "
-                                              "sea per year / exposure"}),
+        "longterm_model_below": (
+            ("angle",),
+            lt["model_below"],
+            {**one, "long_name": "model allowance below"},
+        ),
+        "longterm_model_above": (
+            ("angle",),
+            lt["model_above"],
+            {**one, "long_name": "model allowance above"},
+        ),
+        "longterm_per_year_probability": (
+            ("angle",),
+            yr["probability"],
+            {**one, "long_name": "P(at least one exceedance in a year) = 1 − Π (1 − P)^(w N_y)"},
+        ),
+        "longterm_per_year_probability_ci95": (
+            ("angle", "bound"),
+            ci(yr, "lower", "upper"),
+            {**one, "long_name": "95 % interval of the per-year probability"},
+        ),
+        "longterm_per_year_rate": (
+            ("angle",),
+            yr["rate"],
+            {"units": "year-1", "long_name": "expected exposures with an exceedance per year, N_y P_LT"},
+        ),
+        "longterm_per_year_rate_ci95": (
+            ("angle", "bound"),
+            ci(yr, "rate_lower", "rate_upper"),
+            {"units": "year-1", "long_name": "95 % interval of the per-year rate"},
+        ),
+        "longterm_capsize_probability": (
+            (),
+            cap["probability"][0],
+            {**one, "long_name": "P(capsize within one exposure), the cells' weighted mean"},
+        ),
+        "longterm_capsize_probability_ci95": (
+            ("bound",),
+            np.array([cap["lower"][0], cap["upper"][0]]),
+            {**one, "long_name": "95 % interval of the long-term capsize probability"},
+        ),
+        "longterm_capsize_per_year": (
+            (),
+            cyr["probability"][0],
+            {**one, "long_name": "P(at least one capsize in a year)"},
+        ),
+        "left_out_weight": (
+            (),
+            float(np.where(ds["method"].values == METHODS.index("left_out"), w, 0.0).sum()),
+            {**one, "long_name": "weight of the cells left out (a bound on their contribution)"},
+        ),
+        "exposures_per_year": (
+            (),
+            per_year,
+            {"units": "year-1", "long_name": "exposures per year N_y = hours at sea per year / exposure"},
+        ),
     }
     ds = ds.drop_vars([v for v in _LONGTERM_VARS if v in ds])
     ds = ds.assign({k: xr.Variable(*v) for k, v in new.items()})
@@ -202,14 +357,18 @@ def merge_parts(datasets):
         parts.append(tuple(int(x) for x in str(ds.attrs["part"]).split("/")))
     n = parts[0][1]
     if any(q[1] != n for q in parts) or sorted(q[0] for q in parts) != list(range(1, n + 1)):
-        raise ValueError(f"the datasets are parts {sorted(f'{a}/{b}' for a, b in parts)}; the merge needs each "
-                         f"part 1/{n} … {n}/{n} exactly once.")
+        raise ValueError(
+            f"the datasets are parts {sorted(f'{a}/{b}' for a, b in parts)}; the merge needs each "
+            f"part 1/{n} … {n}/{n} exactly once."
+        )
     ref = datasets[0]
     for ds in datasets[1:]:
         if ds.attrs["config_json"] != ref.attrs["config_json"]:
             a, b = config_of(ref), config_of(ds)
             differ = sorted(k for k in set(a) | set(b) if a.get(k) != b.get(k))
-            raise ValueError(f"the parts come from different runs (configurations differ in {', '.join(differ)}).")
+            raise ValueError(
+                f"the parts come from different runs (configurations differ in {', '.join(differ)})."
+            )
     count = sum(ds["computed"].values.astype(int) for ds in datasets)
     trivial = ref["method"].values != METHODS.index("not_computed")  # the same in every part (no computation)
     if np.any(count > 1) or np.any((count == 0) & ~trivial):
@@ -232,12 +391,21 @@ def risk_command(ds, index: dict) -> str:
     cfg = config_of(ds)
     cell = ds.isel(index)
     ship_file = cfg["ships"][index["ship"]]["file"]
-    parts = ["jaxroll risk", f"--hs {float(cell.hs)!r}", f"--t01 {float(cell.t01)!r}",
-             f"--heading {float(cell.heading_class):g}", f"--speed {float(cell.speed)!r}",
-             f"--hours {cfg['exposure_s'] / 3600.0!r}", f"--discard {cfg['discard_s']!r}",
-             f"--realizations {int(cell.realizations)}", f"--seed {int(cell.seed) - 1}",
-             f"--angle {float(ds.angle[0]):g}", f"--dt {cfg['dt_s']!r}", f"--method {cfg['excitation']}",
-             f"--filter-order {cfg['filter_order']}"]
+    parts = [
+        "jaxroll risk",
+        f"--hs {float(cell.hs)!r}",
+        f"--t01 {float(cell.t01)!r}",
+        f"--heading {float(cell.heading_class):g}",
+        f"--speed {float(cell.speed)!r}",
+        f"--hours {cfg['exposure_s'] / 3600.0!r}",
+        f"--discard {cfg['discard_s']!r}",
+        f"--realizations {int(cell.realizations)}",
+        f"--seed {int(cell.seed) - 1}",
+        f"--angle {float(ds.angle[0]):g}",
+        f"--dt {cfg['dt_s']!r}",
+        f"--method {cfg['excitation']}",
+        f"--filter-order {cfg['filter_order']}",
+    ]
     if ship_file:
         parts.append(f"--ship {ship_file}")
     return " ".join(parts)
@@ -256,13 +424,22 @@ def dominating_cells(ds, angle_index: int = 0, top: int = 10) -> list[dict]:
         cell = ds.isel({k: int(v) for k, v in idx.items()})
         method = METHODS[int(cell.method)]
         row = {
-            "hs_m": float(cell.hs), "tz_s": float(cell.tz), "t01_s": float(cell.t01),
-            "heading_deg": float(cell.heading), "speed_m_s": float(cell.speed), "ship": str(cell.ship.values),
-            "weight": float(cell.weight), "probability": float(cell.probability[angle_index]),
-            "probability_ci95": [float(cell.probability_lower[angle_index]),
-                                 float(cell.probability_upper[angle_index])],
-            "contribution": float(contrib.reshape(-1)[flat]), "share": float(contrib.reshape(-1)[flat] / total),
-            "method": method, "theory_probability": float(cell.theory_probability[angle_index]),
+            "hs_m": float(cell.hs),
+            "tz_s": float(cell.tz),
+            "t01_s": float(cell.t01),
+            "heading_deg": float(cell.heading),
+            "speed_m_s": float(cell.speed),
+            "ship": str(cell.ship.values),
+            "weight": float(cell.weight),
+            "probability": float(cell.probability[angle_index]),
+            "probability_ci95": [
+                float(cell.probability_lower[angle_index]),
+                float(cell.probability_upper[angle_index]),
+            ],
+            "contribution": float(contrib.reshape(-1)[flat]),
+            "share": float(contrib.reshape(-1)[flat] / total),
+            "method": method,
+            "theory_probability": float(cell.theory_probability[angle_index]),
         }
         if method == "monte_carlo":
             row["realizations"] = int(cell.realizations)
@@ -318,20 +495,27 @@ def longterm_summary(ds, top: int = 10) -> dict:
         "exposure_hours": hours,
         "exposures_per_year": float(ds.exposures_per_year),
         "longterm": per_angle,
-        "longterm_capsize": {"probability": float(ds.longterm_capsize_probability),
-                             "probability_ci95": [float(x) for x in ds.longterm_capsize_probability_ci95],
-                             "per_year": float(ds.longterm_capsize_per_year)},
+        "longterm_capsize": {
+            "probability": float(ds.longterm_capsize_probability),
+            "probability_ci95": [float(x) for x in ds.longterm_capsize_probability_ci95],
+            "per_year": float(ds.longterm_capsize_per_year),
+        },
         "per_year_assumptions": (
             f"{cfg['hours_per_year']:g} h at sea per year = {float(ds.exposures_per_year):g} exposures of "
             f"{hours:g} h, spread over the cells in proportion to their weights and independent of each other: "
             "P_year = 1 − Π_c (1 − P_c)^(w_c N_y); `rate` = N_y P_LT, the expected number of exposures with an "
-            "exceedance per year (P_year's small-probability limit)."),
+            "exceedance per year (P_year's small-probability limit)."
+        ),
         "left_out_weight": float(ds.left_out_weight),
         "cells": methods,
         "ci_against_effort": _ci_effort(ds),
-        "interval": ("95 %: ±1.96 (Σ w² Var P)^1/2 over the Monte Carlo cells, plus the model allowance added "
-                     f"linearly: theory cells within [P/{cfg['model_factor']:g}, {cfg['model_factor']:g} P], "
-                     "doubtful theory cells not simulated and left-out cells within [0, 1]"),
-        "probability_definition": ("P(max |roll| > angle within one exposure, or capsize), for an exposure taken "
-                                   "at random from the cells' distribution"),
+        "interval": (
+            "95 %: ±1.96 (Σ w² Var P)^1/2 over the Monte Carlo cells, plus the model allowance added "
+            f"linearly: theory cells within [P/{cfg['model_factor']:g}, {cfg['model_factor']:g} P], "
+            "doubtful theory cells not simulated and left-out cells within [0, 1]"
+        ),
+        "probability_definition": (
+            "P(max |roll| > angle within one exposure, or capsize), for an exposure taken "
+            "at random from the cells' distribution"
+        ),
     }

@@ -64,13 +64,28 @@ def _interval(k, n):
     return np.asarray(lo, float), np.asarray(hi, float)
 
 
-def brute_force_cell(problem: RollProblem, key, *, angles_deg, exposure: float, discard: float,
-                     num_realizations: int, **run_options) -> CellEstimate:
+def brute_force_cell(
+    problem: RollProblem,
+    key,
+    *,
+    angles_deg,
+    exposure: float,
+    discard: float,
+    num_realizations: int,
+    **run_options,
+) -> CellEstimate:
     """Direct Monte Carlo of a cell: `num_realizations` trials of `discard + exposure` [s]; exceedance of each angle
     [deg] = max |φ| after the discard above it, or a capsize. Intervals: Wilson (95 %)."""
     angles_deg = np.asarray(angles_deg, float)
-    stats = monte_carlo_max_roll(problem, key, angle_deg=float(angles_deg.min()), num_realizations=num_realizations,
-                                 duration=discard + exposure, discard=discard, **run_options)
+    stats = monte_carlo_max_roll(
+        problem,
+        key,
+        angle_deg=float(angles_deg.min()),
+        num_realizations=num_realizations,
+        duration=discard + exposure,
+        discard=discard,
+        **run_options,
+    )
     n = stats.n_realizations
     k = np.array([stats.exceedances(float(a)) for a in angles_deg], np.int64)
     lo, hi = _interval(k, n)
@@ -82,9 +97,17 @@ def brute_force_cell(problem: RollProblem, key, *, angles_deg, exposure: float, 
         beyond = stats.capsized[:m, None] | (stats.max_abs_phi_deg[:m, None] > angles_deg[None, :])
         effort.append(beyond.sum(axis=0))
     return CellEstimate(
-        probability=k / n, lower=lo, upper=hi, variance=binomial_variance(k, n),
-        capsize_probability=kc / n, capsize_lower=float(clo), capsize_upper=float(chi),
-        capsize_variance=float(binomial_variance(kc, n)), n_realizations=n, n_exceeded=k, n_capsized=kc,
+        probability=k / n,
+        lower=lo,
+        upper=hi,
+        variance=binomial_variance(k, n),
+        capsize_probability=kc / n,
+        capsize_lower=float(clo),
+        capsize_upper=float(chi),
+        capsize_variance=float(binomial_variance(kc, n)),
+        n_realizations=n,
+        n_exceeded=k,
+        n_capsized=kc,
         n_exceeded_effort=np.array(effort, np.int64),
     )
 
@@ -93,12 +116,30 @@ def brute_force_cell(problem: RollProblem, key, *, angles_deg, exposure: float, 
 CELL_ESTIMATORS = {"brute_force": brute_force_cell}
 
 
-def cell_problem(ship, hs: float, t01: float, speed: float, heading_deg: float, *, excitation: str, dt: float,
-                 filter_order: int, phi0: float) -> RollProblem:
+def cell_problem(
+    ship,
+    hs: float,
+    t01: float,
+    speed: float,
+    heading_deg: float,
+    *,
+    excitation: str,
+    dt: float,
+    filter_order: int,
+    phi0: float,
+) -> RollProblem:
     """The cell's `RollProblem`, built as `jaxroll risk` builds it (the same floats: H_s [m], T01 [s], U [m/s],
     χ = radians(heading_deg))."""
-    return RollProblem.from_sea(ship, ITTC(hs, t01), speed=speed, heading=math.radians(heading_deg),
-                                excitation=excitation, dt=dt, filter_order=filter_order, phi0=phi0)
+    return RollProblem.from_sea(
+        ship,
+        ITTC(hs, t01),
+        speed=speed,
+        heading=math.radians(heading_deg),
+        excitation=excitation,
+        dt=dt,
+        filter_order=filter_order,
+        phi0=phi0,
+    )
 
 
 def neyman_allocation(weight, p_design, total: int, minimum: int) -> np.ndarray:

@@ -42,12 +42,16 @@ CAPSIZE_DOUBT = 0.01
 def doubtful(lyapunov, gamma, capsize_probability, exposure: float) -> np.ndarray:
     """The theory's validity checks per cell (module constants): True where the theory is not to be trusted."""
     lam = np.asarray(lyapunov, float)
-    return ((np.asarray(gamma, float) <= 0) | (np.abs(lam) * exposure < NEAR_THRESHOLD)
-            | ((lam > 0) & (np.asarray(capsize_probability, float) >= CAPSIZE_DOUBT)))
+    return (
+        (np.asarray(gamma, float) <= 0)
+        | (np.abs(lam) * exposure < NEAR_THRESHOLD)
+        | ((lam > 0) & (np.asarray(capsize_probability, float) >= CAPSIZE_DOUBT))
+    )
 
 
-def auto_cells(weight, p_theory, doubt, needed, share: float = AUTO_SHARE,
-               tolerance: float = AUTO_TOLERANCE) -> tuple[np.ndarray, np.ndarray]:
+def auto_cells(
+    weight, p_theory, doubt, needed, share: float = AUTO_SHARE, tolerance: float = AUTO_TOLERANCE
+) -> tuple[np.ndarray, np.ndarray]:
     """The Monte Carlo cells of `method="auto"`: (dominant, doubtful-and-material) masks over the cells.
 
     - dominant: for each angle, the smallest set of cells whose theory contributions w·P add up to at least
@@ -97,9 +101,14 @@ def longterm_probability(weight, p, variance, lo_model, hi_model) -> dict:
     sd = np.sqrt((w**2 * variance).sum(axis=axes))
     below = (w * (p - lo_model)).sum(axis=axes)
     above = (w * (hi_model - p)).sum(axis=axes)
-    return {"probability": est, "lower": np.clip(est - Z95 * sd - below, 0.0, 1.0),
-            "upper": np.clip(est + Z95 * sd + above, 0.0, 1.0), "sampling_sd": sd, "model_below": below,
-            "model_above": above}
+    return {
+        "probability": est,
+        "lower": np.clip(est - Z95 * sd - below, 0.0, 1.0),
+        "upper": np.clip(est + Z95 * sd + above, 0.0, 1.0),
+        "sampling_sd": sd,
+        "model_below": below,
+        "model_above": above,
+    }
 
 
 def annual(weight, p, variance, lo_model, hi_model, exposures_per_year: float) -> dict:
@@ -119,6 +128,12 @@ def annual(weight, p, variance, lo_model, hi_model, exposures_per_year: float) -
     grad = np.where(p < 1, (1 - y) * ny * w / np.where(p < 1, 1 - p, 1.0), 0.0)
     sd = np.sqrt((grad**2 * variance).sum(axis=axes))
     lt = longterm_probability(weight, p, variance, lo_model, hi_model)
-    return {"probability": y, "lower": np.clip(year(lo_model) - Z95 * sd, 0.0, 1.0),
-            "upper": np.clip(year(hi_model) + Z95 * sd, 0.0, 1.0), "sampling_sd": sd,
-            "rate": ny * lt["probability"], "rate_lower": ny * lt["lower"], "rate_upper": ny * lt["upper"]}
+    return {
+        "probability": y,
+        "lower": np.clip(year(lo_model) - Z95 * sd, 0.0, 1.0),
+        "upper": np.clip(year(hi_model) + Z95 * sd, 0.0, 1.0),
+        "sampling_sd": sd,
+        "rate": ny * lt["probability"],
+        "rate_lower": ny * lt["lower"],
+        "rate_upper": ny * lt["upper"],
+    }

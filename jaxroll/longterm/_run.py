@@ -8,12 +8,8 @@ one (`checkpoint`: a directory; a rerun resumes, a Monte Carlo cell also within 
 
 from __future__ import annotations
 
-import hashlib
-import io
-import json
 import math
 import os
-import tempfile
 import warnings
 from collections.abc import Callable, Sequence
 from pathlib import Path
@@ -31,11 +27,14 @@ from ._monte_carlo import CELL_ESTIMATORS, EFFORT_FRACTIONS, cell_problem, neyma
 from ._risk import AUTO_SHARE, AUTO_TOLERANCE, MODEL_FACTOR, auto_cells, doubtful
 from ._scatter import ScatterDiagram, scatter_diagram
 from ._theory import REFINE_DELTA, class_template, class_theory
+from ._units import _gather, _hash, _load_unit, _responsible_cells, _save_unit, _twin
 
 METHOD_NAMES = ("theory", "monte-carlo", "auto")
 #: What the theory cells are computed with (recorded in the configuration).
-THEORY = ("jaxroll.theory.passage_risk: the envelope FPK model followed through the exposure (large rolls in "
-          "groups); cells with λ <= 0 are 0 exactly")
+THEORY = (
+    "jaxroll.theory.passage_risk: the envelope FPK model followed through the exposure (large rolls in "
+    "groups); cells with λ <= 0 are 0 exactly"
+)
 #: Hours in a year: the default `hours_per_year` (a ship at sea all year: the conservative end).
 HOURS_PER_YEAR = 8766.0
 
@@ -44,60 +43,6 @@ def _check(value, ok: bool, message: str):
     if not ok:
         raise ValueError(message)
     return value
-
-
-def _hash(spec: dict) -> str:
-    return hashlib.sha256(json.dumps(spec, sort_keys=True, default=str).encode()).hexdigest()[:20]
-
-
-def _load_unit(checkpoint, name: str):
-    if checkpoint is None:
-        return None
-    path = Path(checkpoint) / f"{name}.npz"
-    if not path.exists():
-        return None
-    try:
-        with np.load(path, allow_pickle=False) as data:
-            return {k: data[k] for k in data.files}
-    except Exception as e:  # a truncated file: the unit is computed again
-        warnings.warn(f"checkpoint file {path} is unreadable ({type(e).__name__}); computing that unit again.",
-                      stacklevel=3)
-        return None
-
-
-def _save_unit(checkpoint, name: str, arrays: dict) -> None:
-    if checkpoint is None:
-        return
-    folder = Path(checkpoint)
-    folder.mkdir(parents=True, exist_ok=True)
-    buf = io.BytesIO()
-    np.savez(buf, **arrays)
-    fd, tmp = tempfile.mkstemp(dir=folder, prefix=f".{name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "wb") as f:
-            f.write(buf.getvalue())
-            f.flush()
-            os.fsync(f.fileno())
-        os.replace(tmp, folder / f"{name}.npz")
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-
-
-def _gather(arrays: dict, mine: np.ndarray) -> dict:
-    """Across processes (`jax.distributed`): each entry taken from the process that computed the cell (`mine`,
-    over the leading cell axes). One process: unchanged."""
-    if jax.process_count() == 1:
-        return arrays
-    from jax.experimental import multihost_utils
-
-    masks = np.asarray(multihost_utils.process_allgather(mine.astype(np.int8)))
-    out = {}
-    for k, v in arrays.items():
-        allv = np.asarray(multihost_utils.process_allgather(v))
-        m = masks.reshape(masks.shape + (1,) * (allv.ndim - masks.ndim)).astype(bool)
-        out[k] = np.where(m, allv, 0).sum(axis=0).astype(v.dtype) if v.dtype != bool else (m & allv).any(axis=0)
-    return out
 
 
 def longterm(
@@ -185,33 +130,60 @@ def longterm(
     names = list(ship_names) if ship_names is not None else [s.name for s in ships]
     files = list(ship_files) if ship_files is not None else [None] * len(ships)
     grid = make_grid(scatter, ships, names, ship_weights, headings, heading_weights, speeds, speed_weights)
-    _check(method, method in METHOD_NAMES, f"`method` must be one of {', '.join(METHOD_NAMES)}; got {method!r}.")
-    _check(estimator, estimator in CELL_ESTIMATORS,
-           f"`estimator` must be one of {', '.join(CELL_ESTIMATORS)}; got {estimator!r}.")
+    _check(
+        method, method in METHOD_NAMES, f"`method` must be one of {', '.join(METHOD_NAMES)}; got {method!r}."
+    )
+    _check(
+        estimator,
+        estimator in CELL_ESTIMATORS,
+        f"`estimator` must be one of {', '.join(CELL_ESTIMATORS)}; got {estimator!r}.",
+    )
     angles_deg = np.array([math.degrees(float(a)) for a in np.atleast_1d(np.asarray(angles, dtype=float))])
-    _check(None, angles_deg.size > 0 and len(set(angles_deg.tolist())) == angles_deg.size,
-           f"`angles` must be distinct angles [rad]; got {np.radians(angles_deg).tolist()}.")
+    _check(
+        None,
+        angles_deg.size > 0 and len(set(angles_deg.tolist())) == angles_deg.size,
+        f"`angles` must be distinct angles [rad]; got {np.radians(angles_deg).tolist()}.",
+    )
     for ship in ships:
         vanish = math.degrees(float(vanishing_angle(ship)))
         bad = [a for a in angles_deg if not (0 < a < vanish)]
-        _check(None, not bad, f"`angles` must be in (0, {vanish:.1f})° (the angle of vanishing stability of "
-               f"{ship.name}); got {bad}° (capsizes are counted apart, and in every exceedance).")
+        _check(
+            None,
+            not bad,
+            f"`angles` must be in (0, {vanish:.1f})° (the angle of vanishing stability of "
+            f"{ship.name}); got {bad}° (capsizes are counted apart, and in every exceedance).",
+        )
     for name, value in (("exposure", exposure), ("hours_per_year", hours_per_year), ("dt", dt)):
-        _check(None, isinstance(value, int | float) and math.isfinite(value) and value > 0,
-               f"`{name}` must be a finite number > 0; got {value!r}.")
-    _check(None, isinstance(discard, int | float) and math.isfinite(discard) and discard >= 0,
-           f"`discard` must be a finite number >= 0 [s]; got {discard!r}.")
-    _check(None, isinstance(realizations, int) and realizations >= 1,
-           f"`realizations` must be an integer >= 1; got {realizations!r}.")
+        _check(
+            None,
+            isinstance(value, int | float) and math.isfinite(value) and value > 0,
+            f"`{name}` must be a finite number > 0; got {value!r}.",
+        )
+    _check(
+        None,
+        isinstance(discard, int | float) and math.isfinite(discard) and discard >= 0,
+        f"`discard` must be a finite number >= 0 [s]; got {discard!r}.",
+    )
+    _check(
+        None,
+        isinstance(realizations, int) and realizations >= 1,
+        f"`realizations` must be an integer >= 1; got {realizations!r}.",
+    )
     _check(None, isinstance(seed, int) and seed >= 0, f"`seed` must be an integer >= 0; got {seed!r}.")
     _check(None, 0 < auto_share <= 1, f"`auto_share` must be in (0, 1]; got {auto_share!r}.")
     _check(None, auto_tolerance >= 0, f"`auto_tolerance` must be >= 0; got {auto_tolerance!r}.")
     _check(None, model_factor >= 1, f"`model_factor` must be >= 1; got {model_factor!r}.")
     _check(None, 0 <= skip_weight < 1, f"`skip_weight` must be in [0, 1); got {skip_weight!r}.")
-    _check(None, isinstance(refine_delta, int | float) and 0 <= refine_delta < 1,
-           f"`refine_delta` must be in [0, 1); got {refine_delta!r}.")
-    _check(None, int(np.prod(grid.shape)) < SEED_STRIDE,
-           f"{int(np.prod(grid.shape))} computation cells: more than the seeds' stride {SEED_STRIDE}.")
+    _check(
+        None,
+        isinstance(refine_delta, int | float) and 0 <= refine_delta < 1,
+        f"`refine_delta` must be in [0, 1); got {refine_delta!r}.",
+    )
+    _check(
+        None,
+        int(np.prod(grid.shape)) < SEED_STRIDE,
+        f"{int(np.prod(grid.shape))} computation cells: more than the seeds' stride {SEED_STRIDE}.",
+    )
     part = parse_part(part)
 
     shape = grid.shape
@@ -232,17 +204,37 @@ def longterm(
     # ---- theory --------------------------------------------------------------------------------------------
     cells = _empty(shape, n_angles)
     cells["seed"] = seeds
-    units = [(s, k, u) for s in range(shape[0]) for k in range(shape[1]) for u in range(shape[2])
-             if needed[s, k, u].any() and _twin(grid, k, u) == k]
+    units = [
+        (s, k, u)
+        for s in range(shape[0])
+        for k in range(shape[1])
+        for u in range(shape[2])
+        if needed[s, k, u].any() and _twin(grid, k, u) == k
+    ]
     if run_theory:
         # `auto` needs every cell's theory to choose its Monte Carlo cells: each part computes all of it (shared
         # among the part's processes); `theory` shares the units among all workers.
-        mine_units = [j for j in range(len(units))
-                      if (j % n_proc == proc if method == "auto" else worker_of(j, workers) == me)]
-        twins = {j: [k2 for k2 in range(shape[1]) if k2 != units[j][1] and _twin(grid, k2, units[j][2]) == units[j][1]
-                     and needed[units[j][0], k2, units[j][2]].any()] for j in mine_units}
-        total = int(sum(np.any([needed[s, k2, u] for k2 in (k, *twins[j])], axis=0).sum()
-                        for j, (s, k, u) in ((j, units[j]) for j in mine_units)))
+        mine_units = [
+            j
+            for j in range(len(units))
+            if (j % n_proc == proc if method == "auto" else worker_of(j, workers) == me)
+        ]
+        twins = {
+            j: [
+                k2
+                for k2 in range(shape[1])
+                if k2 != units[j][1]
+                and _twin(grid, k2, units[j][2]) == units[j][1]
+                and needed[units[j][0], k2, units[j][2]].any()
+            ]
+            for j in mine_units
+        }
+        total = int(
+            sum(
+                np.any([needed[s, k2, u] for k2 in (k, *twins[j])], axis=0).sum()
+                for j, (s, k, u) in ((j, units[j]) for j in mine_units)
+            )
+        )
         done = [0]
 
         def tick(n):
@@ -257,18 +249,37 @@ def longterm(
             mask = np.any([needed[s, k2, u] for k2 in (k, *twins[j])], axis=0)
             ij = np.argwhere(mask)
             hs, t01 = grid.scatter.hs[ij[:, 0]], grid.scatter.t01[ij[:, 1]]
-            spec = {"kind": "theory", "theory": THEORY, "ship": ship_to_dict(ships[s]),
-                    "heading_deg": float(grid.classes_deg[k]), "speed": float(grid.speeds[u]), "hs": hs.tolist(),
-                    "t01": t01.tolist(), "angles_deg": angles_deg.tolist(),
-                    "exposure": float(exposure), "refine_delta": float(refine_delta), "version": _version()}
+            spec = {
+                "kind": "theory",
+                "theory": THEORY,
+                "ship": ship_to_dict(ships[s]),
+                "heading_deg": float(grid.classes_deg[k]),
+                "speed": float(grid.speeds[u]),
+                "hs": hs.tolist(),
+                "t01": t01.tolist(),
+                "angles_deg": angles_deg.tolist(),
+                "exposure": float(exposure),
+                "refine_delta": float(refine_delta),
+                "version": _version(),
+            }
             name = f"theory_{_hash(spec)}"
             r = _load_unit(checkpoint, name)
             if r is None:
                 template = class_template(ships[s], float(grid.speeds[u]), float(grid.classes_deg[k]))
-                w_unit = np.sum([np.where(needed[s, k2, u], comp_w[s, k2, u], 0.0) for k2 in (k, *twins[j])],
-                                axis=0)[ij[:, 0], ij[:, 1]]
-                r = class_theory(ships[s], template, hs, t01, np.radians(angles_deg), float(exposure), tick,
-                                 weight=w_unit, refine_delta=float(refine_delta))
+                w_unit = np.sum(
+                    [np.where(needed[s, k2, u], comp_w[s, k2, u], 0.0) for k2 in (k, *twins[j])], axis=0
+                )[ij[:, 0], ij[:, 1]]
+                r = class_theory(
+                    ships[s],
+                    template,
+                    hs,
+                    t01,
+                    np.radians(angles_deg),
+                    float(exposure),
+                    tick,
+                    weight=w_unit,
+                    refine_delta=float(refine_delta),
+                )
                 _save_unit(checkpoint, name, r)
             else:
                 tick(len(ij))
@@ -283,10 +294,17 @@ def longterm(
         gathered = _gather({k: np.nan_to_num(cells[k], nan=0.0) for k in theory_keys}, computed_here)
         have = _gather({"c": computed_here}, computed_here)["c"] if n_proc > 1 else computed_here
         for k in theory_keys:
-            cells[k] = np.where(have.reshape(have.shape + (1,) * (gathered[k].ndim - have.ndim)), gathered[k],
-                                np.nan if cells[k].dtype.kind == "f" else 0).astype(cells[k].dtype)
-        cells["theory_doubtful"] = have & doubtful(cells["lyapunov_exponent"], cells["envelope_gamma"],
-                                                   cells["theory_capsize_probability"], float(exposure))
+            cells[k] = np.where(
+                have.reshape(have.shape + (1,) * (gathered[k].ndim - have.ndim)),
+                gathered[k],
+                np.nan if cells[k].dtype.kind == "f" else 0,
+            ).astype(cells[k].dtype)
+        cells["theory_doubtful"] = have & doubtful(
+            cells["lyapunov_exponent"],
+            cells["envelope_gamma"],
+            cells["theory_capsize_probability"],
+            float(exposure),
+        )
 
     # ---- which cells get a Monte Carlo, and how many trials -------------------------------------------------
     trials = np.zeros(shape, np.int64)
@@ -294,13 +312,23 @@ def longterm(
         trials[needed] = realizations
     elif method == "auto":
         flat = lambda a: a.reshape(int(np.prod(shape)), *a.shape[5:])  # noqa: E731
-        dominant, material = auto_cells(flat(comp_w), flat(np.nan_to_num(cells["theory_probability"])),
-                                        flat(cells["theory_doubtful"]), flat(needed), auto_share, auto_tolerance)
+        dominant, material = auto_cells(
+            flat(comp_w),
+            flat(np.nan_to_num(cells["theory_probability"])),
+            flat(cells["theory_doubtful"]),
+            flat(needed),
+            auto_share,
+            auto_tolerance,
+        )
         chosen = (dominant | material).reshape(shape)
         if chosen.any():
             _check_time_steps(grid, chosen, dt)
-            n = neyman_allocation(comp_w[chosen], cells["theory_probability"][chosen][:, 0],
-                                  realizations * int(chosen.sum()), max(2, realizations // 4))
+            n = neyman_allocation(
+                comp_w[chosen],
+                cells["theory_probability"][chosen][:, 0],
+                realizations * int(chosen.sum()),
+                max(2, realizations // 4),
+            )
             trials[chosen] = n
 
     # ---- Monte Carlo, one cell at a time --------------------------------------------------------------------
@@ -317,27 +345,66 @@ def longterm(
         s, k, u, i, jj = c
         ship, hs, t01 = ships[s], float(grid.scatter.hs[i]), float(grid.scatter.t01[jj])
         speed, heading = float(grid.speeds[u]), float(grid.classes_deg[k])
-        spec = {"kind": "monte_carlo", "estimator": estimator, "ship": ship_to_dict(ship), "heading_deg": heading,
-                "speed": speed, "hs": hs, "t01": t01, "angles_deg": angles_deg.tolist(), "exposure": float(exposure),
-                "discard": float(discard), "n": int(trials[c]), "seed": int(seeds[c]), "dt": float(dt),
-                "excitation": excitation, "filter_order": int(filter_order), "phi0": float(phi0),
-                "version": _version()}
+        spec = {
+            "kind": "monte_carlo",
+            "estimator": estimator,
+            "ship": ship_to_dict(ship),
+            "heading_deg": heading,
+            "speed": speed,
+            "hs": hs,
+            "t01": t01,
+            "angles_deg": angles_deg.tolist(),
+            "exposure": float(exposure),
+            "discard": float(discard),
+            "n": int(trials[c]),
+            "seed": int(seeds[c]),
+            "dt": float(dt),
+            "excitation": excitation,
+            "filter_order": int(filter_order),
+            "phi0": float(phi0),
+            "version": _version(),
+        }
         name = f"mc_{_hash(spec)}"
         r = _load_unit(checkpoint, name)
         base = done_trials[0]
         if r is None:
-            problem = cell_problem(ship, hs, t01, speed, heading, excitation=excitation, dt=dt,
-                                   filter_order=filter_order, phi0=phi0)
-            inner = None if progress is None else (lambda n, base=base: progress(base + n, total, "monte_carlo"))
+            problem = cell_problem(
+                ship,
+                hs,
+                t01,
+                speed,
+                heading,
+                excitation=excitation,
+                dt=dt,
+                filter_order=filter_order,
+                phi0=phi0,
+            )
+            inner = (
+                None if progress is None else (lambda n, base=base: progress(base + n, total, "monte_carlo"))
+            )
             est = CELL_ESTIMATORS[estimator](
-                problem, jax.random.key(int(seeds[c])), angles_deg=angles_deg, exposure=float(exposure),
-                discard=float(discard), num_realizations=int(trials[c]), progress=inner,
-                checkpoint=None if checkpoint is None else Path(checkpoint) / name, **run_options)
-            r = {"probability": est.probability, "lower": est.lower, "upper": est.upper, "variance": est.variance,
-                 "capsize": np.array([est.capsize_probability, est.capsize_lower, est.capsize_upper,
-                                      est.capsize_variance]),
-                 "n": np.array([est.n_realizations, est.n_capsized]), "n_exceeded": est.n_exceeded,
-                 "n_exceeded_effort": est.n_exceeded_effort}
+                problem,
+                jax.random.key(int(seeds[c])),
+                angles_deg=angles_deg,
+                exposure=float(exposure),
+                discard=float(discard),
+                num_realizations=int(trials[c]),
+                progress=inner,
+                checkpoint=None if checkpoint is None else Path(checkpoint) / name,
+                **run_options,
+            )
+            r = {
+                "probability": est.probability,
+                "lower": est.lower,
+                "upper": est.upper,
+                "variance": est.variance,
+                "capsize": np.array(
+                    [est.capsize_probability, est.capsize_lower, est.capsize_upper, est.capsize_variance]
+                ),
+                "n": np.array([est.n_realizations, est.n_capsized]),
+                "n_exceeded": est.n_exceeded,
+                "n_exceeded_effort": est.n_exceeded_effort,
+            }
             _save_unit(checkpoint, name, r)
         done_trials[0] = base + int(trials[c])
         if progress is not None:
@@ -345,15 +412,30 @@ def longterm(
         cells["probability"][c] = r["probability"]
         cells["probability_lower"][c], cells["probability_upper"][c] = r["lower"], r["upper"]
         cells["variance"][c] = r["variance"]
-        (cells["capsize_probability"][c], cells["capsize_lower"][c], cells["capsize_upper"][c],
-         cells["capsize_variance"][c]) = r["capsize"]
+        (
+            cells["capsize_probability"][c],
+            cells["capsize_lower"][c],
+            cells["capsize_upper"][c],
+            cells["capsize_variance"][c],
+        ) = r["capsize"]
         cells["realizations"][c], cells["n_capsized"][c] = r["n"]
         cells["n_exceeded"][c] = r["n_exceeded"]
         cells["n_exceeded_effort"][c] = r["n_exceeded_effort"]
         mc_here[c] = True
-    mc_keys = ("probability", "probability_lower", "probability_upper", "variance", "capsize_probability",
-               "capsize_lower", "capsize_upper", "capsize_variance", "realizations", "n_capsized", "n_exceeded",
-               "n_exceeded_effort")
+    mc_keys = (
+        "probability",
+        "probability_lower",
+        "probability_upper",
+        "variance",
+        "capsize_probability",
+        "capsize_lower",
+        "capsize_upper",
+        "capsize_variance",
+        "realizations",
+        "n_capsized",
+        "n_exceeded",
+        "n_exceeded_effort",
+    )
     if n_proc > 1:
         got = _gather({k: np.nan_to_num(cells[k], nan=0.0) for k in mc_keys}, mc_here)
         have = _gather({"c": mc_here}, mc_here)["c"]
@@ -367,64 +449,82 @@ def longterm(
     if part is not None or n_proc > 1:
         if part is not None:
             mine = np.zeros(shape, bool)
-            mine[is_mc] = np.isin(np.arange(len(mc_cells)) % workers,
-                                  [(i_part - 1) * n_proc + q for q in range(n_proc)])
+            mine[is_mc] = np.isin(
+                np.arange(len(mc_cells)) % workers, [(i_part - 1) * n_proc + q for q in range(n_proc)]
+            )
             if method == "theory":
                 mine |= _responsible_cells(grid, units, needed, workers, i_part, n_proc)
             elif method == "auto":
                 mine |= _responsible_cells(grid, units, needed & ~is_mc, workers, i_part, n_proc)
             cells["computed"] = mine
             not_mine = (needed | is_mc) & ~mine
-            for k in ("probability", "probability_lower", "probability_upper", "variance", "capsize_probability",
-                      "capsize_lower", "capsize_upper", "capsize_variance", "theory_probability",
-                      "theory_capsize_probability", "lyapunov_exponent", "envelope_gamma",
-                      "theory_pass1_probability", "theory_pass1_capsize_probability"):
+            for k in (
+                "probability",
+                "probability_lower",
+                "probability_upper",
+                "variance",
+                "capsize_probability",
+                "capsize_lower",
+                "capsize_upper",
+                "capsize_variance",
+                "theory_probability",
+                "theory_capsize_probability",
+                "lyapunov_exponent",
+                "envelope_gamma",
+                "theory_pass1_probability",
+                "theory_pass1_capsize_probability",
+            ):
                 extra = (1,) * (cells[k].ndim - len(shape))
                 cells[k] = np.where(not_mine.reshape(shape + extra), np.nan, cells[k])
-            for k in ("realizations", "n_capsized", "n_exceeded", "n_exceeded_effort", "theory_doubtful",
-                      "theory_refined"):
+            for k in (
+                "realizations",
+                "n_capsized",
+                "n_exceeded",
+                "n_exceeded_effort",
+                "theory_doubtful",
+                "theory_refined",
+            ):
                 extra = (1,) * (cells[k].ndim - len(shape))
                 cells[k] = np.where(not_mine.reshape(shape + extra), 0, cells[k]).astype(cells[k].dtype)
             cells["method"] = np.where(not_mine, METHODS.index("not_computed"), cells["method"])
-    config = _config(grid, files, angles_deg, exposure, method, realizations, discard, dt, excitation,
-                     filter_order, phi0, seed, hours_per_year, auto_share, auto_tolerance, model_factor, skip_weight,
-                     estimator, refine_delta)
+    config = _config(
+        grid,
+        files,
+        angles_deg,
+        exposure,
+        method,
+        realizations,
+        discard,
+        dt,
+        excitation,
+        filter_order,
+        phi0,
+        seed,
+        hours_per_year,
+        auto_share,
+        auto_tolerance,
+        model_factor,
+        skip_weight,
+        estimator,
+        refine_delta,
+    )
     attrs = dataset_attrs(config, **({} if part is None else {"part": f"{i_part}/{n_part}"}))
     ds = build_dataset(grid, cells, config, attrs)
     return add_longterm(ds)
 
 
 #: The theory's per-cell arrays: the cells' name → `class_theory`'s.
-_THEORY_KEYS = {"theory_probability": "probability", "theory_capsize_probability": "capsize_probability",
-                "lyapunov_exponent": "lyapunov_exponent", "envelope_gamma": "envelope_gamma",
-                "theory_pass1_probability": "pass1_probability",
-                "theory_pass1_capsize_probability": "pass1_capsize_probability", "theory_refined": "refined",
-                "theory_pass_ratio": "pass_ratio", "theory_pass_capsize_ratio": "pass_capsize_ratio"}
-
-
-def _twin(grid, k: int, u: int) -> int:
-    """The heading class whose theory unit computes class `k` at speed `u`: itself, or at zero speed the class
-    180° − χ' where the grid has it (with no forward speed the encounter frequency is the wave's, and Grim's
-    effective wave depends on the heading through cos²-even terms only, so χ' and 180° − χ' are one problem; the
-    class with the smaller heading computes it)."""
-    if grid.speeds[u] != 0.0:
-        return k
-    mirror = round(180.0 - float(grid.classes_deg[k]), 9)
-    hit = np.flatnonzero(grid.classes_deg == mirror)
-    return int(hit[0]) if hit.size and mirror < grid.classes_deg[k] else k
-
-
-def _responsible_cells(grid, units, cells_mask, workers, i_part, n_proc) -> np.ndarray:
-    """Cells of `cells_mask` in theory units this part (any of its processes) is responsible for (with the
-    classes a unit computes as well, `_twin`)."""
-    out = np.zeros(cells_mask.shape, bool)
-    ours = {(i_part - 1) * n_proc + q for q in range(n_proc)}
-    for j, (s, k, u) in enumerate(units):
-        if worker_of(j, workers) in ours:
-            for k2 in range(cells_mask.shape[1]):
-                if _twin(grid, k2, u) == k:
-                    out[s, k2, u] = cells_mask[s, k2, u]
-    return out
+_THEORY_KEYS = {
+    "theory_probability": "probability",
+    "theory_capsize_probability": "capsize_probability",
+    "lyapunov_exponent": "lyapunov_exponent",
+    "envelope_gamma": "envelope_gamma",
+    "theory_pass1_probability": "pass1_probability",
+    "theory_pass1_capsize_probability": "pass1_capsize_probability",
+    "theory_refined": "refined",
+    "theory_pass_ratio": "pass_ratio",
+    "theory_pass_capsize_ratio": "pass_capsize_ratio",
+}
 
 
 def _version() -> str:
@@ -437,14 +537,30 @@ def _empty(shape, n_angles) -> dict:
     f = lambda *extra: np.full(shape + extra, np.nan)  # noqa: E731
     z = lambda *extra: np.zeros(shape + extra, np.int64)  # noqa: E731
     return {
-        "probability": f(n_angles), "probability_lower": f(n_angles), "probability_upper": f(n_angles),
-        "variance": np.zeros(shape + (n_angles,)), "capsize_probability": f(), "capsize_lower": f(),
-        "capsize_upper": f(), "capsize_variance": np.zeros(shape), "realizations": z(), "n_capsized": z(),
-        "n_exceeded": z(n_angles), "n_exceeded_effort": z(len(EFFORT_FRACTIONS), n_angles),
-        "theory_probability": f(n_angles), "theory_capsize_probability": f(), "lyapunov_exponent": f(),
-        "envelope_gamma": f(), "theory_doubtful": np.zeros(shape, bool), "theory_pass1_probability": f(n_angles),
-        "theory_pass1_capsize_probability": f(), "theory_refined": np.zeros(shape, bool),
-        "theory_pass_ratio": np.ones(shape), "theory_pass_capsize_ratio": np.ones(shape), "method": z(), "uncertainty": z(),
+        "probability": f(n_angles),
+        "probability_lower": f(n_angles),
+        "probability_upper": f(n_angles),
+        "variance": np.zeros(shape + (n_angles,)),
+        "capsize_probability": f(),
+        "capsize_lower": f(),
+        "capsize_upper": f(),
+        "capsize_variance": np.zeros(shape),
+        "realizations": z(),
+        "n_capsized": z(),
+        "n_exceeded": z(n_angles),
+        "n_exceeded_effort": z(len(EFFORT_FRACTIONS), n_angles),
+        "theory_probability": f(n_angles),
+        "theory_capsize_probability": f(),
+        "lyapunov_exponent": f(),
+        "envelope_gamma": f(),
+        "theory_doubtful": np.zeros(shape, bool),
+        "theory_pass1_probability": f(n_angles),
+        "theory_pass1_capsize_probability": f(),
+        "theory_refined": np.zeros(shape, bool),
+        "theory_pass_ratio": np.ones(shape),
+        "theory_pass_capsize_ratio": np.ones(shape),
+        "method": z(),
+        "uncertainty": z(),
     }
 
 
@@ -479,11 +595,25 @@ def _fill(cells, shape, method, comp_w, beam, left_out, needed, is_mc, factor) -
         if rough.any():
             doubt_r = cells["theory_doubtful"][rough]
             cells["probability_lower"][rough] = 0.0
-            cells["probability_upper"][rough] = np.where(doubt_r[:, None], 1.0, np.minimum(
-                1.0, factor * cells["theory_pass_ratio"][rough][:, None] * cells["theory_probability"][rough]))
+            cells["probability_upper"][rough] = np.where(
+                doubt_r[:, None],
+                1.0,
+                np.minimum(
+                    1.0,
+                    factor * cells["theory_pass_ratio"][rough][:, None] * cells["theory_probability"][rough],
+                ),
+            )
             cells["capsize_lower"][rough] = 0.0
-            cells["capsize_upper"][rough] = np.where(doubt_r, 1.0, np.minimum(
-                1.0, factor * cells["theory_pass_capsize_ratio"][rough] * cells["theory_capsize_probability"][rough]))
+            cells["capsize_upper"][rough] = np.where(
+                doubt_r,
+                1.0,
+                np.minimum(
+                    1.0,
+                    factor
+                    * cells["theory_pass_capsize_ratio"][rough]
+                    * cells["theory_capsize_probability"][rough],
+                ),
+            )
         unc[th] = np.where(doubt, UNCERTAINTY.index("unknown"), UNCERTAINTY.index("model_factor"))
     m[is_mc] = METHODS.index("monte_carlo")
     unc[is_mc] = UNCERTAINTY.index("sampling")
@@ -498,42 +628,92 @@ def _check_time_steps(grid, mask, dt: float) -> None:
         if key in seen:
             continue
         seen.add(key)
-        wave = EffectiveWave(ITTC(float(grid.scatter.hs[i]), float(grid.scatter.t01[j])), grid.ships[s].lpp,
-                             float(grid.speeds[u]), math.radians(float(grid.classes_deg[k])))
+        wave = EffectiveWave(
+            ITTC(float(grid.scatter.hs[i]), float(grid.scatter.t01[j])),
+            grid.ships[s].lpp,
+            float(grid.speeds[u]),
+            math.radians(float(grid.classes_deg[k])),
+        )
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             try:
                 check_time_step(dt, grid.ships[s], wave)
             except ValueError as e:
-                raise ValueError(f"sea state H_s {grid.scatter.hs[i]:g} m, T_z {grid.scatter.tz[j]:g} s, heading "
-                                 f"{grid.classes_deg[k]:g}°, U {grid.speeds[u]:g} m/s: {e}") from None
+                raise ValueError(
+                    f"sea state H_s {grid.scatter.hs[i]:g} m, T_z {grid.scatter.tz[j]:g} s, heading "
+                    f"{grid.classes_deg[k]:g}°, U {grid.speeds[u]:g} m/s: {e}"
+                ) from None
 
 
-def _config(grid, files, angles_deg, exposure, method, realizations, discard, dt, excitation, filter_order, phi0,
-            seed, hours_per_year, auto_share, auto_tolerance, model_factor, skip_weight, estimator,
-            refine_delta) -> dict:
+def _config(
+    grid,
+    files,
+    angles_deg,
+    exposure,
+    method,
+    realizations,
+    discard,
+    dt,
+    excitation,
+    filter_order,
+    phi0,
+    seed,
+    hours_per_year,
+    auto_share,
+    auto_tolerance,
+    model_factor,
+    skip_weight,
+    estimator,
+    refine_delta,
+) -> dict:
     """The whole configuration (JSON-able): what the dataset's `config_json` attribute holds."""
     from ..io import to_jsonable
 
     sc = grid.scatter
-    return to_jsonable({
-        "scatter": {"name": sc.name, "source": sc.source, "hs_m": sc.hs, "tz_s": sc.tz, "counts": sc.counts,
-                    "total": sc.total, "t01_over_tz": float(sc.t01[0] / sc.tz[0])},
-        "ships": [{"name": n, "file": f, "weight": float(w), "coefficients": ship_to_dict(s)}
-                  for n, f, w, s in zip(grid.ship_names, files, grid.ship_weights, grid.ships, strict=True)],
-        "headings_deg": grid.headings_deg, "heading_weights": grid.heading_weights,
-        "heading_classes_deg": grid.classes_deg,
-        "heading_convention": "χ between the course and the wave direction: 0° following, 90° beam, 180° head; χ and "
-                              "360° − χ computed once (port/starboard symmetry)",
-        "speeds_m_s": grid.speeds, "speed_weights": grid.speed_weights,
-        "angles_deg": angles_deg, "exposure_s": float(exposure), "hours_per_year": float(hours_per_year),
-        "method": method, "theory": THEORY if method != "monte-carlo" else None,
-        "realizations": int(realizations), "discard_s": float(discard), "dt_s": float(dt),
-        "excitation": excitation, "filter_order": int(filter_order), "phi0_deg": math.degrees(phi0),
-        "seed": int(seed), "cell_seed_rule": f"s_c = {SEED_STRIDE}·seed + c + 1 (c: the computation cell's index)",
-        "auto_share": float(auto_share), "auto_tolerance": float(auto_tolerance), "model_factor": float(model_factor),
-        "skip_weight": float(skip_weight), "refine_delta": float(refine_delta), "estimator": estimator, "beam_deg": BEAM_DEG,
-    })
+    return to_jsonable(
+        {
+            "scatter": {
+                "name": sc.name,
+                "source": sc.source,
+                "hs_m": sc.hs,
+                "tz_s": sc.tz,
+                "counts": sc.counts,
+                "total": sc.total,
+                "t01_over_tz": float(sc.t01[0] / sc.tz[0]),
+            },
+            "ships": [
+                {"name": n, "file": f, "weight": float(w), "coefficients": ship_to_dict(s)}
+                for n, f, w, s in zip(grid.ship_names, files, grid.ship_weights, grid.ships, strict=True)
+            ],
+            "headings_deg": grid.headings_deg,
+            "heading_weights": grid.heading_weights,
+            "heading_classes_deg": grid.classes_deg,
+            "heading_convention": "χ between the course and the wave direction: 0° following, 90° beam, 180° head; χ and "
+            "360° − χ computed once (port/starboard symmetry)",
+            "speeds_m_s": grid.speeds,
+            "speed_weights": grid.speed_weights,
+            "angles_deg": angles_deg,
+            "exposure_s": float(exposure),
+            "hours_per_year": float(hours_per_year),
+            "method": method,
+            "theory": THEORY if method != "monte-carlo" else None,
+            "realizations": int(realizations),
+            "discard_s": float(discard),
+            "dt_s": float(dt),
+            "excitation": excitation,
+            "filter_order": int(filter_order),
+            "phi0_deg": math.degrees(phi0),
+            "seed": int(seed),
+            "cell_seed_rule": f"s_c = {SEED_STRIDE}·seed + c + 1 (c: the computation cell's index)",
+            "auto_share": float(auto_share),
+            "auto_tolerance": float(auto_tolerance),
+            "model_factor": float(model_factor),
+            "skip_weight": float(skip_weight),
+            "refine_delta": float(refine_delta),
+            "estimator": estimator,
+            "beam_deg": BEAM_DEG,
+        }
+    )
 
 
 def merge_longterm(datasets):

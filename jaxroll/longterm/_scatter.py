@@ -106,7 +106,9 @@ def parse_scatter(text: str, source: str) -> ScatterDiagram:
             )
     if len(set(tz.tolist())) != tz.size:
         dup = sorted({t for t in tz.tolist() if tz.tolist().count(t) > 1})
-        raise ScatterError(f"{source}:{n0}: T_z {', '.join(f'{t:g}' for t in dup)} s appears in more than one column.")
+        raise ScatterError(
+            f"{source}:{n0}: T_z {', '.join(f'{t:g}' for t in dup)} s appears in more than one column."
+        )
     if len(rows) < 2:
         raise ScatterError(f"{source}: no H_s row after the header ({layout}).")
     hs, counts, lines = [], [], {}
@@ -119,17 +121,24 @@ def parse_scatter(text: str, source: str) -> ScatterDiagram:
             )
         h = _number(parts[0], where, "the H_s")
         if not (0 < h <= HS_MAX):
-            raise ScatterError(f"{where}: H_s = {h:g} m is outside (0, {HS_MAX:g}] m (significant wave heights in "
-                               "metres).")
+            raise ScatterError(
+                f"{where}: H_s = {h:g} m is outside (0, {HS_MAX:g}] m (significant wave heights in metres)."
+            )
         if h in lines:
-            raise ScatterError(f"{where}: H_s = {h:g} m repeats the row of line {lines[h]}; give each H_s once.")
+            raise ScatterError(
+                f"{where}: H_s = {h:g} m repeats the row of line {lines[h]}; give each H_s once."
+            )
         lines[h] = n
         row = np.array([_number(f, where, "the count") for f in parts[1:]])
         for t, c in zip(tz, row, strict=True):
             if not math.isfinite(c):
-                raise ScatterError(f"{where}: the count of T_z = {t:g} s is {c}; counts must be finite numbers >= 0.")
+                raise ScatterError(
+                    f"{where}: the count of T_z = {t:g} s is {c}; counts must be finite numbers >= 0."
+                )
             if c < 0:
-                raise ScatterError(f"{where}: the count of T_z = {t:g} s is negative ({c:g}); counts must be >= 0.")
+                raise ScatterError(
+                    f"{where}: the count of T_z = {t:g} s is negative ({c:g}); counts must be >= 0."
+                )
             steepness = 2 * math.pi * h / (GRAVITY * t * t)
             if c > 0 and steepness >= MAX_STEEPNESS:
                 raise ScatterError(
@@ -141,7 +150,9 @@ def parse_scatter(text: str, source: str) -> ScatterDiagram:
         counts.append(row)
     counts = np.array(counts)
     if not counts.sum() > 0:
-        raise ScatterError(f"{source}: every count is zero: the scatter diagram gives no sea state any weight.")
+        raise ScatterError(
+            f"{source}: every count is zero: the scatter diagram gives no sea state any weight."
+        )
     i, j = np.argsort(hs), np.argsort(tz)
     return ScatterDiagram(np.asarray(hs)[i], tz[j], counts[np.ix_(i, j)], Path(source).stem, source)
 
@@ -166,7 +177,9 @@ def rec34_scatter() -> ScatterDiagram:
     16.5 m × T_z 1.5 … 18.5 s (the packaged `jaxroll/data/scatter/rec34.csv`, whose header cites the source)."""
     path = Path(__file__).resolve().parents[1] / "data" / "scatter" / _PACKAGED[REC34]
     d = parse_scatter(path.read_text(encoding="utf-8"), str(path))
-    return dataclasses.replace(d, name=REC34, source="IACS Recommendation No. 34 (Rev.1, Corr. Nov. 2001), Table 1")
+    return dataclasses.replace(
+        d, name=REC34, source="IACS Recommendation No. 34 (Rev.1, Corr. Nov. 2001), Table 1"
+    )
 
 
 def scatter_diagram(name_or_path: str | os.PathLike | ScatterDiagram) -> ScatterDiagram:

@@ -47,8 +47,9 @@ def _screen_batch(ship, seas, template):
     """(λ [1/s], fitted envelope decay γ [1/s]) of each sea state of the batch `seas` (an `ITTC` with arrays)."""
 
     def one(sea):
-        lam, exc = envelope_lyapunov_exponent(ship, eqx.tree_at(lambda w: w.sea, template, sea), num_rho=NUM_RHO,
-                                              num_theta=NUM_THETA)
+        lam, exc = envelope_lyapunov_exponent(
+            ship, eqx.tree_at(lambda w: w.sea, template, sea), num_rho=NUM_RHO, num_theta=NUM_THETA
+        )
         return lam, exc.gamma
 
     return jax.vmap(one)(seas)
@@ -58,7 +59,9 @@ def _seas(hs: np.ndarray, t01: np.ndarray) -> ITTC:
     """One `ITTC` whose fields hold the arrays `hs` [m] and `t01` [s] (checked here, > 0 and finite): the batch."""
     if not (np.all(np.isfinite(hs)) and np.all(hs > 0) and np.all(np.isfinite(t01)) and np.all(t01 > 0)):
         raise ValueError("sea states need finite H_s > 0 and T01 > 0.")
-    return eqx.tree_at(lambda s: (s.hs, s.t01), ITTC(1.0, 10.0), (jnp.asarray(hs, float), jnp.asarray(t01, float)))
+    return eqx.tree_at(
+        lambda s: (s.hs, s.t01), ITTC(1.0, 10.0), (jnp.asarray(hs, float), jnp.asarray(t01, float))
+    )
 
 
 def class_template(ship, speed: float, heading_deg: float) -> EffectiveWave:
@@ -66,7 +69,9 @@ def class_template(ship, speed: float, heading_deg: float) -> EffectiveWave:
     return EffectiveWave(ITTC(1.0, 10.0), ship.lpp, speed, math.radians(heading_deg))
 
 
-def _solve(ship, template, hs, t01, cells, angles, durations, devices, extrapolate: bool, coarse=None) -> dict:
+def _solve(
+    ship, template, hs, t01, cells, angles, durations, devices, extrapolate: bool, coarse=None
+) -> dict:
     """`passage_risk` of the cells `cells` (indices into `hs`, `t01`), dispatched in turn to the devices (one
     sea state per call: a vmapped batch ran slower per cell on a CPU); `coarse`: {cell: its one-grid result},
     reused by the extrapolation. **Returns:** {cell: (P per angle, capsize P, the `PassageRisk`)}."""
@@ -79,8 +84,10 @@ def _solve(ship, template, hs, t01, cells, angles, durations, devices, extrapola
         wave = eqx.tree_at(lambda w: w.sea, tm, jax.device_put(sea, devices[d]))
         kw = {} if coarse is None else {"coarse": jax.device_put(coarse[c], devices[d])}
         pending.append((c, passage_risk(sh, wave, angles, durations, extrapolate=extrapolate, **kw)))
-    return {c: (np.asarray(r.probability)[:, 0], float(np.asarray(r.capsize_probability)[0]), r)
-            for c, r in pending}
+    return {
+        c: (np.asarray(r.probability)[:, 0], float(np.asarray(r.capsize_probability)[0]), r)
+        for c, r in pending
+    }
 
 
 def screen(ship, template: EffectiveWave, hs, t01) -> tuple[np.ndarray, np.ndarray]:
@@ -110,8 +117,17 @@ def refine_set(weight, p1, live, delta: float) -> np.ndarray:
     return dominant & live & np.any(p1 > 0, axis=1)
 
 
-def class_theory(ship, template: EffectiveWave, hs, t01, angles, exposure: float, progress=None, weight=None,
-                 refine_delta: float = REFINE_DELTA) -> dict:
+def class_theory(
+    ship,
+    template: EffectiveWave,
+    hs,
+    t01,
+    angles,
+    exposure: float,
+    progress=None,
+    weight=None,
+    refine_delta: float = REFINE_DELTA,
+) -> dict:
     """Theory for the cells (`hs` [m], `t01` [s], 1-D) of one heading class and speed (`template`), in two
     passes (module docstring): `weight` the cells' weights (default equal), `refine_delta` δ.
 
@@ -145,16 +161,24 @@ def class_theory(ship, template: EffectiveWave, hs, t01, angles, exposure: float
     refined = refine_set(weight, np.nan_to_num(p1), live, refine_delta)
     if progress is not None and live.sum() - refined.sum():
         progress(int(live.sum() - refined.sum()))
-    for c, (p, cp, _) in _solve(ship, template, hs, t01, np.flatnonzero(refined), angles, durations, devices,
-                                True, first).items():
+    for c, (p, cp, _) in _solve(
+        ship, template, hs, t01, np.flatnonzero(refined), angles, durations, devices, True, first
+    ).items():
         prob[c], cap[c] = p, cp
     if progress is not None and refined.sum():
         progress(int(refined.sum()))
     ones = np.ones(n)
-    return {"lyapunov_exponent": lam, "envelope_gamma": gamma, "probability": prob, "capsize_probability": cap,
-            "pass1_probability": p1, "pass1_capsize_probability": c1, "refined": refined,
-            "pass_ratio": pass_ratio(prob[refined], p1[refined]) * ones,
-            "pass_capsize_ratio": pass_ratio(cap[refined], c1[refined]) * ones}
+    return {
+        "lyapunov_exponent": lam,
+        "envelope_gamma": gamma,
+        "probability": prob,
+        "capsize_probability": cap,
+        "pass1_probability": p1,
+        "pass1_capsize_probability": c1,
+        "refined": refined,
+        "pass_ratio": pass_ratio(prob[refined], p1[refined]) * ones,
+        "pass_capsize_ratio": pass_ratio(cap[refined], c1[refined]) * ones,
+    }
 
 
 def pass_ratio(p2, p1) -> float:

@@ -302,14 +302,31 @@ def passage_risk(
     order = np.argsort(angles, kind="stable")
     grids = [grid, dataclasses.replace(grid, num_s=2 * grid.num_s)] if extrapolate else [grid]
     reuse = coarse is not None and extrapolate
-    if reuse and (dict(coarse.grid).get("extrapolate", True) or coarse.grid[:-1] != grid.record()[:-1] + (
-            ("num_iterations", num_iterations), ("observe", observe)) or not np.array_equal(coarse.angles, angles)
-            or coarse.probability.shape != (angles.size, durations.size)):
-        raise ValueError("`coarse` must be this call's one-grid result: passage_risk(..., extrapolate=False) with "
-                         "the same grid, angles and durations.")
-    solved = [_unsolved(coarse, order) if reuse and n == 0 else
-              _passage(ship, wave, excitation, g, _levels(ship, g, [float(a) for a in angles]), durations,
-                       int(num_iterations), observe) for n, g in enumerate(grids)]
+    if reuse and (
+        dict(coarse.grid).get("extrapolate", True)
+        or coarse.grid[:-1] != grid.record()[:-1] + (("num_iterations", num_iterations), ("observe", observe))
+        or not np.array_equal(coarse.angles, angles)
+        or coarse.probability.shape != (angles.size, durations.size)
+    ):
+        raise ValueError(
+            "`coarse` must be this call's one-grid result: passage_risk(..., extrapolate=False) with "
+            "the same grid, angles and durations."
+        )
+    solved = [
+        _unsolved(coarse, order)
+        if reuse and n == 0
+        else _passage(
+            ship,
+            wave,
+            excitation,
+            g,
+            _levels(ship, g, [float(a) for a in angles]),
+            durations,
+            int(num_iterations),
+            observe,
+        )
+        for n, g in enumerate(grids)
+    ]
     r = _extrapolated(*solved) if extrapolate else solved[0]
     exists = r["lyapunov_exponent"] > 0
 
@@ -347,10 +364,14 @@ def _unsolved(coarse: PassageRisk, order) -> dict:
     """A one-grid `PassageRisk` as `_passage`'s dict (levels by increasing angle, `order`) for `_extrapolated`:
     the quantities it extrapolates (those masked where λ ≤ 0 are 0 or ∞ there, which it passes over as it does
     a zero)."""
-    return dict(hazard=coarse.hazard[order], capsize_hazard=coarse.capsize_hazard,
-                cluster_rate=coarse.cluster_rate[order], mean_passage_time=coarse.mean_passage_time[order],
-                start_exceedance=coarse.start_exceedance[order],
-                exceedance_per_cycle=coarse.exceedance_per_cycle[order])
+    return dict(
+        hazard=coarse.hazard[order],
+        capsize_hazard=coarse.capsize_hazard,
+        cluster_rate=coarse.cluster_rate[order],
+        mean_passage_time=coarse.mean_passage_time[order],
+        start_exceedance=coarse.start_exceedance[order],
+        exceedance_per_cycle=coarse.exceedance_per_cycle[order],
+    )
 
 
 def _levels(ship, grid: _Grid, angles: list[float]) -> tuple:
