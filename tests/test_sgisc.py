@@ -181,6 +181,15 @@ def test_kg_max_level1_is_the_closed_form(box):
     assert curve.kg_max_c1[0] <= km
 
 
+def test_kg_max_curve_names_the_draught_that_fails(box):
+    """A draught of the curve that cannot be loaded is named (it is not the assessed loading's draught)."""
+    hull, _ = box
+    with pytest.raises(
+        ValueError, match=rf"^KGmax curve at the draught {1.5 * D:.4g} m above the baseline: "
+    ):
+        cr.kg_max_curve(hull, [d, 1.5 * D], service_speed=5.0, kg_step=0.05)
+
+
 # ---------------------------------------------------------------------------------------------------------------
 # C2 mechanics (on the default ship: no hull hydrostatics to compile)
 # ---------------------------------------------------------------------------------------------------------------

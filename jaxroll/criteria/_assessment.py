@@ -296,10 +296,13 @@ def kg_max_curve(
     out = {k: [] for k in ("km", "l1", "c1", "dgm1", "rpr")}
     lam, h = C1_WAVE_CASES[:, 1], C1_WAVE_CASES[:, 2]
     for d in ds:
-        probe = loading_condition(hull, kg=0.0, draught=float(d))
-        r1 = level1(hull, probe, bilge_keel_area=bilge_keel_area, sharp_bilge=sharp_bilge)
-        km = r1.gm  # KG = 0
-        km_waves = gm_in_waves(hull, probe, wavelengths=lam, heights=h)
+        try:
+            probe = loading_condition(hull, kg=0.0, draught=float(d))
+            r1 = level1(hull, probe, bilge_keel_area=bilge_keel_area, sharp_bilge=sharp_bilge)
+            km = r1.gm  # KG = 0
+            km_waves = gm_in_waves(hull, probe, wavelengths=lam, heights=h)
+        except ValueError as e:  # say which point of the curve: its draughts are not the assessed loading's
+            raise ValueError(f"KGmax curve at the draught {float(d):.4g} m above the baseline: {e}") from None
         calm = _calm(hull, probe)
         breadth = float(calm.waterline_breadth)
         rpr = r_pr(
