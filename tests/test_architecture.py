@@ -56,6 +56,7 @@ def test_imports_run_downward(stage):
             if target[1] in (
                 "__version__",
                 "_atomic",
+                "_cache_files",
                 "_compiled",
                 "_display",
                 "_labels",

@@ -625,6 +625,18 @@ def test_checkpoint_resumes_cell_by_cell(small_csv, tmp_path):
     )
     _assert_same(resumed, whole)
     assert seen[0] == 6  # the first cell came from the checkpoint
+    # an edited unit file changes nothing: its digest fails, it is said and the unit computed again
+    unit = sorted((tmp_path / "ck").glob("mc_*.npz"))[0]
+    with np.load(unit, allow_pickle=False) as z:
+        members = {k: z[k] for k in z.files}
+    name = next(k for k in members if k != "__meta__" and members[k].dtype.kind == "f" and members[k].size)
+    members[name] = members[name] + 1.0
+    np.savez(unit, **members)
+    with pytest.warns(
+        UserWarning, match=r"checkpoint file .*mc_.*\.npz is unreadable, changed since jaxroll"
+    ):
+        again = jxr.longterm(small_csv, checkpoint=tmp_path / "ck", **kw)
+    _assert_same(again, whole)
 
 
 # ----------------------------------------------------------------------------------------------------------

@@ -5,7 +5,6 @@ results gathered across processes (`_gather`)."""
 from __future__ import annotations
 
 import hashlib
-import io
 import json
 import warnings
 from pathlib import Path
@@ -13,6 +12,7 @@ from pathlib import Path
 import jax
 import numpy as np
 
+from .. import _cache_files as files
 from .._atomic import atomic_write_bytes
 from ._cells import worker_of
 
@@ -22,28 +22,29 @@ def _hash(spec: dict) -> str:
 
 
 def _load_unit(checkpoint, name: str):
+    """The arrays a unit saved under `name` in the `checkpoint` folder, or None: no checkpoint, or none for this unit
+    yet, or — with a warning, the unit then computed again — a file that is unreadable, edited (its digest), of
+    another unit or other jaxroll/JAX versions, or writable by others (`_cache_files.read_entry`)."""
     if checkpoint is None:
         return None
     path = Path(checkpoint) / f"{name}.npz"
     if not path.exists():
         return None
-    try:
-        with np.load(path, allow_pickle=False) as data:
-            return {k: data[k] for k in data.files}
-    except Exception as e:  # a truncated file: the unit is computed again
+    members = files.read_entry(path, name)
+    if members is None:
         warnings.warn(
-            f"checkpoint file {path} is unreadable ({type(e).__name__}); computing that unit again.",
+            f"checkpoint file {path} is unreadable, changed since jaxroll wrote it, written by other jaxroll/JAX "
+            "versions or writable by others; computing that unit again.",
             stacklevel=3,
         )
-        return None
+    return members
 
 
 def _save_unit(checkpoint, name: str, arrays: dict) -> None:
+    """Save a unit's arrays as a verified entry (digest, unit name, versions; `_cache_files.entry_bytes`)."""
     if checkpoint is None:
         return
-    buf = io.BytesIO()
-    np.savez(buf, **arrays)
-    atomic_write_bytes(Path(checkpoint) / f"{name}.npz", buf.getvalue())
+    atomic_write_bytes(Path(checkpoint) / f"{name}.npz", files.entry_bytes(name, arrays))
 
 
 def _gather(arrays: dict, mine: np.ndarray) -> dict:
