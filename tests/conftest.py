@@ -43,28 +43,31 @@ jax.config.update("jax_numpy_dtype_promotion", "strict")
 # Under xdist each worker runs whole files (`--dist loadfile`), handed out in collection order
 # (`--no-loadscope-reorder`, pyproject.toml): the files that take longest go first, so the two workers finish
 # together (longest processing time first) instead of one waiting on a large file handed out last. Worker seconds
-# per file measured on the 2-core machine (session 12, `pytest --durations=0`); files not listed follow, in name
-# order.
+# per file (the sum of its 120 slowest entries) measured on the 2-core machine under a load of ~7 (session 19,
+# `pytest --durations=120`; about 3x the idle figures); files not listed follow, in name order.
 SLOWEST_FILES_FIRST = (
-    "test_cli.py",  # 132 s
-    "test_calibration.py",  # 132
-    "test_moments.py",  # 125
-    "test_dynamics.py",  # 62
-    "test_sensitivity.py",  # 53
-    "test_time_domain.py",  # 42
-    "test_averaging.py",  # 41
-    "test_scaling.py",  # 39
-    "test_effective_wave.py",  # 38
-    "test_envelope_fpk.py",  # 38
-    "test_sgisc.py",  # 38
-    "test_hydrostatics.py",  # 37
-    "test_laws.py",  # 36
-    "test_notebooks.py",  # 31
-    "test_maxima.py",  # 29
-    "test_extremes.py",  # 29
-    "test_kernel.py",  # 27
-    "test_compiled.py",  # 26
-    "test_heading.py",  # 20
+    "test_longterm.py",  # 549 s
+    "test_cli.py",  # 347
+    "test_moments.py",  # 326
+    "test_envelope_fpk.py",  # 253
+    "test_sgisc.py",  # 232
+    "test_passage.py",  # 190
+    "test_calibration.py",  # 166
+    "test_notebooks.py",  # 163
+    "test_scaling.py",  # 147
+    "test_hydrostatics.py",  # 143
+    "test_docs.py",  # 141
+    "test_effective_wave.py",  # 125
+    "test_maxima.py",  # 120
+    "test_sensitivity.py",  # 117
+    "test_mesh.py",  # 105
+    "test_time_domain.py",  # 102
+    "test_jupyter.py",  # 95
+    "test_laws.py",  # 94
+    "test_kernel.py",  # 88
+    "test_dynamics.py",  # 83
+    "test_compiled.py",  # 79
+    "test_heading.py",  # 62
 )
 
 
