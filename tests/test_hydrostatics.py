@@ -565,6 +565,19 @@ def test_cli_end_to_end_c11(tmp_path, c11_solution, capsys):
     assert_labelled_output(out, "hydrostatics")
 
 
+def test_cli_balance_that_fails_is_an_error_line(tmp_path, capsys):
+    """A loading no trim can balance (LCG at the FP): one line and exit 2, nothing written (the same program as
+    `test_cli_end_to_end_c11`'s: no compilation)."""
+    from jaxroll._cli import main
+
+    out = tmp_path / "hs"
+    assert main(["hydrostatics", "c11", "--lcg", "262", "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert "jaxroll hydrostatics: error: the quasi-static balance (sinkage and trim) did not converge for " in err
+    assert "of the 195 (ζ_mid, φ) cases" in err and "--lcg" in err and "Traceback" not in err
+    assert not out.exists() or not any(out.iterdir())
+
+
 def test_cli_errors(tmp_path, box, capsys):
     from jaxroll._cli import main
 

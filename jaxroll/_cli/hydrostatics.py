@@ -5,7 +5,15 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-from ._common import CLIError, OutputFolder, atomic_write_text, save_figure, write_json, write_netcdf
+from ._common import (
+    CLIError,
+    OutputFolder,
+    atomic_write_text,
+    import_output_libraries,
+    save_figure,
+    write_json,
+    write_netcdf,
+)
 from ._sea import check_positive
 from .sgisc import (
     MESH_SUFFIXES,
@@ -157,7 +165,19 @@ def run(args) -> int:
     # them every 5°, computed with the table (one program, one batch)
     beyond = np.radians(np.arange(args.heel_max_deg + 5.0, 90.0 + 1e-9, 5.0))
     sol = hull_hydrostatics(hull, loading, zeta_mid=zeta, heels=heels, wavelength=args.wavelength,
-                            curve_heels=beyond if beyond.size else None)  # fmt: skip
+                            curve_heels=beyond if beyond.size else None, throw=False)  # fmt: skip
+    # JAX has dispatched the table: XLA computes it in its own threads while this one imports what the figures and
+    # the netCDF file need (≈ 0.4 s that would otherwise follow the computation)
+    import_output_libraries()
+    converged = np.asarray(sol.converged)
+    if not converged.all():
+        iz, ih = np.nonzero(~converged)
+        raise CLIError(
+            f"the quasi-static balance (sinkage and trim) did not converge for {iz.size} of the {converged.size} "
+            f"(ζ_mid, φ) cases (e.g. ζ_mid = {zeta[iz[0]]:g} m at {math.degrees(heels[ih[0]]):g}°): the hull "
+            "cannot float there (deck or keel far out of the water) or the loading is inconsistent. Reduce "
+            "--zeta-max or --heel-max-deg, or check the loading (--draught/--displacement, --kg, --lcg)."
+        )
     ship = ship_from_hydrostatics(
         sol,
         hull,
