@@ -8,6 +8,7 @@ exits with code 130 (nothing has been written yet). `python -m jaxroll` imports 
 guard during that import.
 """
 
+import gc
 import os
 import signal
 import sys
@@ -27,6 +28,7 @@ def main() -> None:
     Ctrl-C ignored (a background job of a script) keeps ignoring it."""
     if signal.getsignal(signal.SIGINT) is not signal.SIG_IGN:
         signal.signal(signal.SIGINT, _interrupted)
+    gc.disable()  # the imports make almost no garbage; `console` turns collection back on when the command runs
     from jaxroll._cli import console
 
     console()

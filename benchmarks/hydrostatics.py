@@ -13,10 +13,14 @@ of about 3 500 triangles (tests/hull_meshes.py), each run a fresh process, cold 
 default) beside the sliced 61 × 41 offsets of jaxroll 0.1 (`--sliced`) and `jaxroll hydrostatics c11`, with wall
 and CPU time and the load average (the machine is shared: compare CPU times and ratios within one run);
 `--baseline-tree DIR` adds the exact surface run by another source tree (the code before a change:
-`git archive COMMIT | tar -x -C DIR`); and the calm GZ of both against the exact answer at 0–70°.
+`git archive COMMIT | tar -x -C DIR`); and the calm GZ of both against the exact answer at 0–70°. Each process
+imports jaxroll from bytecode, as an installed jaxroll does (pip compiles it; here the
+`__pycache__` folders beside each tree's sources, compiled before the cold runs, also where PYTHONDONTWRITEBYTECODE
+is set, as on this project's machines): `--no-bytecode` removes them and compiles jaxroll's sources in every
+process instead (≈ 0.2–0.5 s more a run).
 
 Run: `python benchmarks/hydrostatics.py [--n-zeta 13] [--n-heel 15] [--repeat 10] [--mesh] [--mesh-only]
-[--warm-rounds 3] [--baseline-tree DIR]`.
+[--warm-rounds 3] [--baseline-tree DIR] [--no-bytecode]`.
 Output: `name=value` lines.
 """
 
@@ -25,6 +29,7 @@ from __future__ import annotations
 import argparse
 import os
 import resource
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -56,9 +61,14 @@ def main() -> None:
         metavar="DIR",
         help="also time the exact surface with the jaxroll source tree in DIR (e.g. the code before a change)",
     )
+    parser.add_argument(
+        "--no-bytecode",
+        action="store_true",
+        help="compile jaxroll's sources in every process (its __pycache__ folders removed, none written)",
+    )
     args = parser.parse_args()
     if args.mesh or args.mesh_only:
-        mesh_benchmark(args.warm_rounds, args.baseline_tree)
+        mesh_benchmark(args.warm_rounds, args.baseline_tree, bytecode=not args.no_bytecode)
     if args.mesh_only:
         return
 
@@ -121,12 +131,13 @@ def _cli_run(argv, env, cwd=None) -> tuple[float, float]:
     return wall, (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
 
 
-def mesh_benchmark(warm_rounds: int = 3, baseline_tree: str | None = None) -> None:
+def mesh_benchmark(warm_rounds: int = 3, baseline_tree: str | None = None, bytecode: bool = True) -> None:
     """`jaxroll hydrostatics` on the frigate STL, each run a fresh process: the exact surface, the sliced offsets
     (`--sliced`) and `jaxroll hydrostatics c11`, and optionally the exact surface of another source tree (e.g. the
     code before a change, `git archive COMMIT | tar -x -C DIR`), each with its own compilation cache: cold once, then
     `warm_rounds` warm runs taken in turn (so that every variant sees the same machine load). Prints wall and CPU
-    time (user + system of the process) and the load average."""
+    time (user + system of the process) and the load average. `bytecode`: the processes import jaxroll from
+    bytecode compiled before the cold runs (as pip leaves an installed package), in each tree's `__pycache__`."""
     sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
     import hull_meshes
 
@@ -143,10 +154,20 @@ def mesh_benchmark(warm_rounds: int = 3, baseline_tree: str | None = None) -> No
             variants["baseline_exact"] = (argv, str(Path(baseline_tree).resolve()))
         envs, cwds = {}, {}
         here = str(Path(__file__).resolve().parents[1])
+        print(f"bytecode={'compiled before the runs' if bytecode else 'none (sources compiled in every run)'}")
         for label, (cmd, tree) in variants.items():
             env = {**os.environ, "JAXROLL_CACHE_DIR": str(Path(tmp) / f"cache-{label}")}
             # `python -m` imports from the working folder first: run each tree's jaxroll from its own root
             env["PYTHONPATH"] = tree or here
+            if bytecode:  # as installed: jaxroll's bytecode beside its sources (__pycache__), compiled before the runs
+                env.pop("PYTHONDONTWRITEBYTECODE", None)
+                env.pop("PYTHONPYCACHEPREFIX", None)  # (a prefix would also miss the libraries' own bytecode)
+                subprocess.run([sys.executable, "-m", "compileall", "-q", str(Path(tree or here) / "jaxroll")],
+                               env=env, check=True, capture_output=True)  # fmt: skip
+            else:  # the sources compiled in every process: no bytecode of jaxroll to read, none written
+                env["PYTHONDONTWRITEBYTECODE"] = "1"
+                for cache in (Path(tree or here) / "jaxroll").rglob("__pycache__"):
+                    shutil.rmtree(cache)
             envs[label], cwds[label] = env, tree or here
             wall, cpu = _cli_run([*cmd, "--out", str(Path(tmp) / f"out-{label}")], env, cwds[label])
             print(f"cli_{label}_cold_s={wall:.2f} cpu={cpu:.2f} load={os.getloadavg()[0]:.1f}")

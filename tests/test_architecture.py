@@ -100,3 +100,56 @@ def test_notebooks_configure_jaxroll_first():
     for nb in sorted((ROOT / "notebooks").glob("*.ipynb")):
         first = next(c for c in json.loads(nb.read_text())["cells"] if c["cell_type"] == "code")
         assert ".configure()" in "".join(first["source"]), nb.name
+
+
+def test_lazy_names_are_the_typed_imports():
+    """`import jaxroll` imports its names on first use (`jaxroll._NAMES`); the `if TYPE_CHECKING:` block of
+    jaxroll/__init__.py writes the same imports out for type checkers and the documentation. Both list the same
+    names from the same modules, and every name resolves to the object its module defines."""
+    import importlib
+
+    import jaxroll
+
+    tree = ast.parse((PKG / "__init__.py").read_text())
+    block = next(n for n in tree.body if isinstance(n, ast.If) and getattr(n.test, "id", "") == "TYPE_CHECKING")
+    typed, modules = {}, set()
+    for node in block.body:
+        for alias in node.names:
+            assert alias.asname == alias.name, f"re-export {alias.name} as itself"
+            if node.module is None:  # `from . import theory as theory`: a subpackage
+                modules.add(alias.name)
+            else:
+                typed[alias.name] = node.module
+    assert typed == jaxroll._LAZY
+    assert modules <= set(jaxroll._SUBPACKAGES)
+    for name, module in jaxroll._LAZY.items():
+        assert getattr(jaxroll, name) is getattr(importlib.import_module(f"jaxroll.{module}"), name), name
+    for name in set(jaxroll._SUBPACKAGES) - {"longterm"}:  # `jaxroll.longterm` is the function
+        assert getattr(jaxroll, name) is importlib.import_module(f"jaxroll.{name}"), name
+    assert set(jaxroll._LAZY) | set(jaxroll._SUBPACKAGES) <= set(dir(jaxroll))
+    with pytest.raises(AttributeError, match="has no attribute 'no_such_name'"):
+        jaxroll.no_such_name  # noqa: B018
+
+
+def test_the_hydrostatics_command_imports_only_what_it_uses():
+    """`import jaxroll` and the `jaxroll hydrostatics` command's modules leave the Monte Carlo, the theories, the
+    calibration, the criteria and the long-term stage unimported, and the libraries only they use (issue 36: the
+    command's fixed cost); `jaxroll.longterm` stays the function when its subpackage is imported later."""
+    import subprocess
+    import sys
+
+    code = """
+import sys
+import jaxroll
+from jaxroll._cli import build_parser
+build_parser("hydrostatics")
+import jaxroll.io, jaxroll.plotting, jaxroll.ship
+stages = ("roll", "theory", "calibration", "criteria", "longterm", "extremes", "laws", "notebook")
+print(sorted(m for m in sys.modules if m.split(".")[0] in ("diffrax", "matplotlib", "xarray", "pandas")
+             or m.split(".")[:2] in [["jaxroll", s] for s in stages]))
+import jaxroll.longterm
+print(callable(jaxroll.longterm), jaxroll.longterm is sys.modules["jaxroll.longterm"].longterm)
+"""
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT, timeout=300)
+    assert out.returncode == 0, out.stderr[-2000:]
+    assert out.stdout.split("\n")[:2] == ["[]", "True True"]

@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import math
 import tomllib
+from pathlib import Path
 
 import jax
 import jax.numpy as jnp
@@ -563,6 +564,45 @@ def test_cli_end_to_end_c11(tmp_path, c11_solution, capsys):
     assert set(data["fits"]["delta_gm_coefficients"]) == {f"c{k}" for k in range(7)}
     close(data["calm_water"]["gm_m"], c11_solution.gm0, rtol=1e-12, atol=0)
     assert_labelled_output(out, "hydrostatics")
+
+
+def test_cli_table_worker_imports_nothing(tmp_path):
+    """`jaxroll hydrostatics` loads and dispatches the table in a worker thread while its main thread imports
+    matplotlib and xarray: the worker must import no module (two threads importing at once can wait on each other's
+    import locks). In a fresh process (the program stored by `test_cli_end_to_end_c11`), every import made by
+    another thread than the main one is recorded."""
+    import subprocess
+    import sys
+
+    code = f"""
+import sys, threading
+imported = []
+class Spy:
+    def find_spec(self, name, path=None, target=None):
+        if threading.current_thread() is not threading.main_thread():
+            imported.append(name)
+sys.meta_path.insert(0, Spy())
+from jaxroll._cli import main
+code = main(["hydrostatics", "c11", "--out", {str(tmp_path / "hs")!r}])
+print(code, imported)
+"""
+    root = Path(__file__).resolve().parents[1]
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=600, cwd=root)
+    assert out.returncode == 0, out.stderr[-2000:]
+    assert out.stdout.strip().splitlines()[-1] == "0 []"
+
+
+def test_cli_balance_that_fails_is_an_error_line(tmp_path, capsys):
+    """A loading no trim can balance (LCG at the FP): one line and exit 2, nothing written (the same program as
+    `test_cli_end_to_end_c11`'s: no compilation)."""
+    from jaxroll._cli import main
+
+    out = tmp_path / "hs"
+    assert main(["hydrostatics", "c11", "--lcg", "262", "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert "jaxroll hydrostatics: error: the quasi-static balance (sinkage and trim) did not converge for " in err
+    assert "of the 195 (ζ_mid, φ) cases" in err and "--lcg" in err and "Traceback" not in err
+    assert not out.exists() or not any(out.iterdir())
 
 
 def test_cli_errors(tmp_path, box, capsys):

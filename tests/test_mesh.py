@@ -646,3 +646,46 @@ def test_cli_datum_options_contradicting_the_hull_exit_2_before_computing(tmp_pa
         "--kg-datum: give baseline, keel, lowest or a file z [m, full scale]; got 'deck'"
         in capsys.readouterr().err
     )
+
+
+def test_fast_mesh_geometry_is_the_loop_it_replaced(monkeypatch):
+    """The section bottoms computed for spanning (station, triangle) pairs only, and the orientation of a surface
+    whose normals already agree found without the breadth-first search (issue 36: 40 → 2 ms and 37 → 9 ms of a
+    3 500-triangle STL's reading), give the same numbers as the per-station loop and the search: exact equality,
+    on hulls with a sonar dome, flat ends, a surface turned inward, two parts (one inward) and 50 flipped facets."""
+    import hull_meshes as hm
+
+    from jaxroll.io import _mesh_geometry as geometry
+
+    def bottoms_by_loop(tri, stations):
+        lo = tri.reshape(-1, 3).min(axis=0)
+        segs = [geometry._section_segments(tri, x, strict=x <= lo[0]) for x in stations]
+        return np.array([s[..., 1].min() if s.shape[0] else np.nan for s in segs])
+
+    def orient_by_search(tri):
+        with monkeypatch.context() as m:
+            m.setattr(geometry, "_consistent_parts", lambda faces: None)
+            return geometry.orient_consistently(tri)
+
+    frigate = hm.frigate(dome=3.0)
+    flipped = frigate.copy()
+    pick = np.random.default_rng(0).choice(len(frigate), 50, replace=False)
+    flipped[pick] = flipped[pick][:, ::-1]
+    meshes = {
+        "frigate": frigate, "box": hm.box(), "wigley": hm.wigley(), "inward": frigate[:, ::-1],
+        "two parts": np.concatenate([hm.box(), hm.box()[:, ::-1] + np.array([300.0, 0.0, 0.0])]), "flipped": flipped,
+    }  # fmt: skip
+    for name, tri in meshes.items():
+        lo, hi = tri.reshape(-1, 3).min(axis=0), tri.reshape(-1, 3).max(axis=0)
+        stations = np.concatenate(
+            [np.linspace(lo[0] - 1, hi[0] + 1, 203), [lo[0], hi[0]], np.unique(tri[:, :, 0])[::7]]
+        )
+        np.testing.assert_array_equal(
+            geometry.section_bottoms(tri, stations), bottoms_by_loop(tri, stations), err_msg=name
+        )
+        fast, search = geometry.orient_consistently(tri), orient_by_search(tri)
+        np.testing.assert_array_equal(fast[0], search[0], err_msg=name)
+        assert fast[1] == search[1], name
+    assert geometry._consistent_parts(geometry._welded_faces(flipped)) is None  # searched
+    parts = geometry._consistent_parts(geometry._welded_faces(meshes["two parts"]))
+    assert len(np.unique(parts)) == 2 and orient_by_search(meshes["two parts"])[1] == hm.box().shape[0]

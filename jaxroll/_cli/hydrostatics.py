@@ -2,10 +2,19 @@
 
 from __future__ import annotations
 
+import concurrent.futures
 import math
 from pathlib import Path
 
-from ._common import CLIError, OutputFolder, atomic_write_text, save_figure, write_json, write_netcdf
+from ._common import (
+    CLIError,
+    OutputFolder,
+    atomic_write_text,
+    import_output_libraries,
+    save_figure,
+    write_json,
+    write_netcdf,
+)
 from ._sea import check_positive
 from .sgisc import (
     MESH_SUFFIXES,
@@ -156,8 +165,25 @@ def run(args) -> int:
     # The figure's GZ curves (calm, crest and trough of the largest amplitude) to 90°: the table's heels, and beyond
     # them every 5°, computed with the table (one program, one batch)
     beyond = np.radians(np.arange(args.heel_max_deg + 5.0, 90.0 + 1e-9, 5.0))
-    sol = hull_hydrostatics(hull, loading, zeta_mid=zeta, heels=heels, wavelength=args.wavelength,
-                            curve_heels=beyond if beyond.size else None)  # fmt: skip
+    # The table's program is loaded (compiled, on a cold run) and dispatched in a worker thread, and computed in
+    # XLA's threads, while this one imports what the figures and the netCDF file need (≈ 0.5 s that would otherwise
+    # follow): the worker imports no module (tests/test_hydrostatics.py checks it), so the two never wait on each
+    # other's imports
+    with concurrent.futures.ThreadPoolExecutor(1) as worker:
+        pending = worker.submit(hull_hydrostatics, hull, loading, zeta_mid=zeta, heels=heels,
+                                wavelength=args.wavelength, curve_heels=beyond if beyond.size else None,
+                                throw=False)  # fmt: skip
+        import_output_libraries()
+        sol = pending.result()
+    converged = np.asarray(sol.converged)
+    if not converged.all():
+        iz, ih = np.nonzero(~converged)
+        raise CLIError(
+            f"the quasi-static balance (sinkage and trim) did not converge for {iz.size} of the {converged.size} "
+            f"(ζ_mid, φ) cases (e.g. ζ_mid = {zeta[iz[0]]:g} m at {math.degrees(heels[ih[0]]):g}°): the hull "
+            "cannot float there (deck or keel far out of the water) or the loading is inconsistent. Reduce "
+            "--zeta-max or --heel-max-deg, or check the loading (--draught/--displacement, --kg, --lcg)."
+        )
     ship = ship_from_hydrostatics(
         sol,
         hull,

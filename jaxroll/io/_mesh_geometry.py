@@ -76,14 +76,33 @@ def slice_offsets(
 
 
 def section_bottoms(triangles: np.ndarray, stations: np.ndarray) -> np.ndarray:
-    """Lowest z [m] of each section x = stations[i] of a body-frame mesh (NaN where a plane misses the mesh)."""
+    """Lowest z [m] of each section x = stations[i] of a body-frame mesh (NaN where a plane misses the mesh).
+
+    The cut points of `_section_segments` (the same arithmetic, so the same numbers), computed for the pairs of a
+    station and a triangle that spans it only (a loop over 201 stations, each over every triangle, took 40 ms of a
+    3 500-triangle STL's reading)."""
     tri = np.asarray(triangles, dtype=float)
     lo = tri.reshape(-1, 3).min(axis=0)
-    out = []
-    for x in np.asarray(stations, dtype=float):
-        seg = _section_segments(tri, x, strict=x <= lo[0])
-        out.append(float(seg[..., 1].min()) if seg.shape[0] else math.nan)
-    return np.asarray(out)
+    xs = np.asarray(stations, dtype=float)
+    x3, z3 = tri[:, :, 0], tri[:, :, 2]
+    order = np.argsort(xs, kind="stable")
+    first = np.searchsorted(xs[order], x3.min(axis=1), side="left")  # the stations within each triangle's x span
+    last = np.searchsorted(xs[order], x3.max(axis=1), side="right")
+    count = last - first
+    tri_of = np.repeat(np.arange(tri.shape[0]), count)
+    station = order[np.repeat(first, count) + np.arange(count.sum()) - np.repeat(np.cumsum(count) - count, count)]
+    x = xs[station][:, None]
+    xt, zt = x3[tri_of], z3[tri_of]
+    side = np.where(x <= lo[0], xt > x, xt >= x)  # as `_section_segments`: strict at the aft end
+    cut = side.any(axis=1) & ~side.all(axis=1)
+    lowest = np.full(cut.shape, np.inf)
+    for a, b in ((0, 1), (1, 2), (2, 0)):
+        crosses = cut & (side[:, a] != side[:, b])
+        frac = np.where(crosses, (x[:, 0] - xt[:, a]) / np.where(crosses, xt[:, b] - xt[:, a], 1.0), 0.0)
+        lowest = np.where(crosses, np.minimum(lowest, zt[:, a] + frac * (zt[:, b] - zt[:, a])), lowest)
+    out = np.full(xs.shape, np.inf)
+    np.minimum.at(out, station, lowest)
+    return np.where(np.isinf(out), math.nan, out)
 
 
 # --------------------------------------------------------------------------------------------------------------
@@ -103,10 +122,20 @@ def orient_consistently(triangles: np.ndarray) -> tuple[np.ndarray, int]:
     by its two triangles) and the enclosed volume positive (normals outward), and how many were reversed.
 
     Each connected part is oriented like its first triangle (breadth-first over shared edges), then reversed as a
-    whole where its signed volume is negative."""
+    whole where its signed volume is negative. A closed surface whose orientations already agree (every edge
+    traversed once each way, the usual export) skips the search: only its parts are found (`_consistent_parts`)."""
     tri = np.asarray(triangles, dtype=float).copy()
     faces = _welded_faces(tri)
     n = faces.shape[0]
+    part = _consistent_parts(faces)
+    if part is not None:
+        flip = np.zeros(n, dtype=bool)
+        vol = np.einsum("ij,ij->i", tri[:, 0], np.cross(tri[:, 1], tri[:, 2])) / 6
+        for p in np.unique(part):
+            if vol[part == p].sum() < 0:
+                tri[part == p] = tri[part == p][:, ::-1]
+                flip[part == p] = ~flip[part == p]
+        return tri, int(min(flip.sum(), n - flip.sum()))
     edge_faces: dict = {}
     for f in range(n):
         for k in range(3):
@@ -140,6 +169,34 @@ def orient_consistently(triangles: np.ndarray) -> tuple[np.ndarray, int]:
             tri[part == p] = tri[part == p][:, ::-1]
             flip[part == p] = ~flip[part == p]
     return tri, int(min(flip.sum(), n - flip.sum()))
+
+
+def _consistent_parts(faces: np.ndarray) -> np.ndarray | None:
+    """For welded faces (n, 3) of a closed surface whose orientations agree — three distinct vertices a face, every
+    directed edge once and its reverse once — the connected part of each face (a label per face); None otherwise
+    (`orient_consistently` then searches)."""
+    if np.any((faces[:, 0] == faces[:, 1]) | (faces[:, 1] == faces[:, 2]) | (faces[:, 0] == faces[:, 2])):
+        return None
+    n, big = faces.shape[0], int(faces.max()) + 1
+    a = np.concatenate([faces[:, 0], faces[:, 1], faces[:, 2]]).astype(np.int64)
+    b = np.concatenate([faces[:, 1], faces[:, 2], faces[:, 0]]).astype(np.int64)
+    code, twin = a * big + b, b * big + a
+    order = np.argsort(code, kind="stable")
+    sorted_code = code[order]
+    if np.any(sorted_code[1:] == sorted_code[:-1]):
+        return None  # an edge traversed twice the same way
+    at = np.minimum(np.searchsorted(sorted_code, twin), code.size - 1)
+    if not np.array_equal(sorted_code[at], twin):
+        return None  # an edge without its reverse: open or inconsistent
+    f, g = np.arange(code.size) % n, order[at] % n  # the two faces of each edge
+    parent = np.arange(n)
+    while True:  # hook each edge's larger root under its smaller one, then point every face at its root
+        pf, pg = parent[f], parent[g]
+        if np.array_equal(pf, pg):
+            return parent
+        np.minimum.at(parent, np.maximum(pf, pg), np.minimum(pf, pg))
+        while not np.array_equal(parent[parent], parent):
+            parent = parent[parent]
 
 
 def _inconsistent_edges(tri: np.ndarray) -> int:

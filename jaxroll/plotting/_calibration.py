@@ -7,10 +7,12 @@ figures). Angles are shown in degrees, times at full scale.
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..calibration import CaptiveFit, DecayFit, RollFit, SeaStateComparison, TimeDomainFit
+if TYPE_CHECKING:  # imported where used: `import jaxroll.plotting` does not load the calibration
+    from ..calibration import CaptiveFit, DecayFit, RollFit, SeaStateComparison, TimeDomainFit
 
 
 def _axes(ax, figsize=(6.0, 4.0)):
@@ -25,6 +27,8 @@ def _axes(ax, figsize=(6.0, 4.0)):
 def plot_extinction(fits: DecayFit | Sequence[DecayFit], *, ax=None):
     """Extinction curve: decrement per half swing Δφ against the mean amplitude φ_m [deg], the measured points
     (from the first fit that has them) and the curve aφ_m + bφ_m² + cφ_m³ of every fit."""
+    from ..calibration import DecayFit
+
     fits = [fits] if isinstance(fits, DecayFit) else list(fits)
     ax = _axes(ax)
     x_max = 0.0

@@ -10,7 +10,6 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-import matplotlib.pyplot as plt
 import numpy as np
 
 THEORY_COLOURS = {
@@ -83,6 +82,8 @@ def plot_amplitude_pdf(curves: Sequence[Curve], *, log: bool = False, ax=None, t
     **Returns:** the matplotlib `Axes`.
     """
     if ax is None:
+        import matplotlib.pyplot as plt  # imported where used: `import jaxroll.plotting` loads no pyplot
+
         _, ax = plt.subplots(figsize=(6.0, 4.2))
     ymax = 0.0
     for c in curves:
@@ -117,6 +118,8 @@ def plot_amplitude_pdf(curves: Sequence[Curve], *, log: bool = False, ax=None, t
 def amplitude_pdf_figures(summary: dict, *, experiment: dict | None = None, title: str | None = None):
     """Linear and log figures of a `pdf.json`-like summary. **Returns:** `(fig_linear, fig_log)`."""
     curves = amplitude_curves(summary, experiment=experiment)
+    import matplotlib.pyplot as plt
+
     figs = []
     for log in (False, True):
         fig, ax = plt.subplots(figsize=(6.0, 4.2))
@@ -176,6 +179,8 @@ def maxima_figures(
     **Returns:** `(fig_linear, fig_log)`.
     """
     capsize_probability = capsize_probability or {}
+    import matplotlib.pyplot as plt
+
     figs = []
     for log in (False, True):
         fig, ax = plt.subplots(figsize=(7.6, 4.2))
@@ -227,6 +232,8 @@ def maxima_comparison_figure(
     histogram's missing mass) and `n_trials` are stated on the figure.
     **Returns:** the figure (linear and log panels).
     """
+    import matplotlib.pyplot as plt
+
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.2))
     colours = {"mcs_amplitudes": "tab:green", **THEORY_COLOURS}
     labels = {"mcs_amplitudes": "P from MCS amplitudes", **THEORY_LABELS}

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import matplotlib.pyplot as plt
 import numpy as np
 
 from ._pdf import THEORY_COLOURS, THEORY_LABELS
@@ -29,6 +28,8 @@ def risk_figure(
 
     **Returns:** the figure.
     """
+    import matplotlib.pyplot as plt  # imported where used: `import jaxroll.plotting` loads no pyplot
+
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.2))
     x = np.asarray(angles_deg, float)
     for ax, log in zip(axes, (False, True), strict=True):
