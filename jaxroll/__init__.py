@@ -107,6 +107,7 @@ from .roll import (
     RollProblem as RollProblem,
     SampledExcitation as SampledExcitation,
     SensitivityResult as SensitivityResult,
+    SplittingPilot as SplittingPilot,
     SplittingResult as SplittingResult,
     SuperpositionExcitation as SuperpositionExcitation,
     SweepResult as SweepResult,
@@ -123,6 +124,7 @@ from .roll import (
     monte_carlo_maxima as monte_carlo_maxima,
     monte_carlo_sensitivity as monte_carlo_sensitivity,
     monte_carlo_splitting as monte_carlo_splitting,
+    monte_carlo_splitting_angles as monte_carlo_splitting_angles,
     realization_mesh as realization_mesh,
     roll_acceleration as roll_acceleration,
     roll_time_series as roll_time_series,
@@ -130,6 +132,7 @@ from .roll import (
     sensitivity_problem as sensitivity_problem,
     simulate as simulate,
     simulate_chunk as simulate_chunk,
+    splitting_pilot as splitting_pilot,
     sweep_sea_states as sweep_sea_states,
     zero_crossing_amplitudes as zero_crossing_amplitudes,
 )
