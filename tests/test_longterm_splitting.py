@@ -84,6 +84,13 @@ def test_splitting_cell_agrees_with_brute_force_and_is_marked(split_run):
         se = math.sqrt(var + pb * (1 - pb) / bf.n_realizations)
         assert abs(ps - pb) < 4 * se, (angle, ps, pb, se)
     assert float(rare.probability[1]) < float(rare.probability[0])
+    # the cell is `monte_carlo_splitting_angles` with the cell's seed, bit for bit
+    direct = jxr.monte_carlo_splitting_angles(
+        problem, jax.random.key(int(rare.seed)), angles_deg=[25.0, 30.0], exposure=900.0, discard=200.0,
+        num_trials=100,
+    )  # fmt: skip
+    assert [r.probability for r in direct] == rare.probability.values.tolist()
+    assert [r.standard_error**2 for r in direct] == rare.probability_variance.values.tolist()
     # no capsize at 5 m: an estimate of 0 whose interval and variance still say how sure it is
     assert float(rare.capsize_probability) == 0.0 and float(rare.capsize_probability_upper) > 0
     assert float(rare.capsize_probability_variance) > 0

@@ -454,7 +454,9 @@ def longterm(
         cells["realizations"][c], cells["n_capsized"][c] = r["n"]
         cells["n_exceeded"][c] = r["n_exceeded"]
         cells["n_exceeded_effort"][c] = r["n_exceeded_effort"]
-        cells["estimator"][c], cells["cost_trials"][c] = r["estimator"], r["cost_trials"]
+        # (a unit saved before the estimators were recorded is a brute-force one)
+        cells["estimator"][c] = r.get("estimator", ESTIMATORS.index("brute_force"))
+        cells["cost_trials"][c] = r.get("cost_trials", r["n"][0])
         mc_here[c] = True
     mc_keys = (
         "probability",

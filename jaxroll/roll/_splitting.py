@@ -364,8 +364,8 @@ def monte_carlo_splitting_angles(
     The stages climb to the event of the first angle (the levels before it counting that event as +∞), then on
     from those runs to the second angle's event, and so on; each angle's estimate is the product of the stage
     fractions up to its event's stage, exactly the one-angle estimator for that angle (the stopping times stay
-    nested: docs/rare_events.md, "Several angles"). A lower angle costs the run one stage (its event's), not a
-    run of its own.
+    nested: docs/rare_events.md, "Several angles from one run"). A lower angle costs the run one stage (its
+    event's), not a run of its own.
 
     **Arguments:** as `monte_carlo_splitting`, and `levels`: None (a pilot run: `splitting_pilot`), a
     `SplittingPilot` of the same angles, or one sequence of score levels [deg] per angle (each strictly

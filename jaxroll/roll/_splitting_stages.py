@@ -343,13 +343,14 @@ class _RollStages:
         num = queue["k"].size
         # Longest remaining time first (the pool's tail is then short), dealt round-robin to the devices; padded to
         # the run's capacity, so that the stages of the estimate (or of the pilot), intermediate or last, are one
-        # program.
+        # program, and a device's share to a power of two, so that runs of other sizes (the cells of
+        # `jaxroll.longterm`, Neyman-allocated) share programs too (a padded slot costs its lane one segment).
         order = np.argsort(queue["k"], kind="stable")
-        per_device = -(-max(num, self.capacity) // self.devices)
+        per_device = _power_of_two(-(-max(num, self.capacity) // self.devices))
         if (
             self.lanes is None
         ):  # a few waves a device: lanes freed by runs that end early take the next clones
-            lanes = max(MIN_LANES, min(self.lane_cap, -(-per_device // WAVES)))
+            lanes = max(MIN_LANES, min(self.lane_cap, per_device // WAVES))
         else:
             lanes = max(MIN_LANES, min(self.lanes, per_device))
         padded = per_device * self.devices
@@ -400,9 +401,15 @@ def importance_tables(problem: RollProblem, wave_weight: float) -> Importance:
     )
 
 
+def _power_of_two(n: int) -> int:
+    return 1 << max(0, int(n) - 1).bit_length()
+
+
 def _initial_filter(problem: RollProblem, key, num: int):
-    """The filter's stationary start of trials 0 … num − 1 (as `simulate` draws it) and ζ_G there."""
-    return _initial_filter_program(problem, key, jnp.arange(num, dtype=jnp.int32))
+    """The filter's stationary start of trials 0 … num − 1 (as `simulate` draws it) and ζ_G there (computed for a
+    power of two of trials: one program for runs of several sizes)."""
+    z, x = _initial_filter_program(problem, key, jnp.arange(_power_of_two(num), dtype=jnp.int32))
+    return z[:num], x[:num]
 
 
 @eqx.filter_jit
