@@ -13,7 +13,7 @@ K × the trials, to compare the interval at a larger effort.
 
 Usage: python benchmarks/longterm_splitting.py [--realizations 1000] [--rare-below 1e-3] [--bf-factor 0]
                                                [--hours 1] [--headings 180,150] [--angles 30,40,50]
-                                               [--auto-share 0.99]
+                                               [--auto-share 0.99] [--rows 3.5,4.5,5.5,6.5]
 """
 
 from __future__ import annotations
@@ -79,7 +79,10 @@ def main() -> None:
     ap.add_argument("--headings", default="180,150")
     ap.add_argument("--angles", default="30,40,50")
     ap.add_argument("--auto-share", type=float, default=0.99)
+    ap.add_argument("--rows", default="3.5,4.5,5.5,6.5", help="H_s rows of Rec. 34 [m]")
     a = ap.parse_args()
+    global ROWS
+    ROWS = tuple(float(x) for x in a.rows.split(","))
     jaxroll.configure()
     angles = [float(x) for x in a.angles.split(",")]
     kw = dict(
