@@ -118,6 +118,7 @@ if TYPE_CHECKING:
         RollProblem as RollProblem,
         SampledExcitation as SampledExcitation,
         SensitivityResult as SensitivityResult,
+        SplittingPilot as SplittingPilot,
         SplittingResult as SplittingResult,
         SuperpositionExcitation as SuperpositionExcitation,
         SweepResult as SweepResult,
@@ -134,6 +135,7 @@ if TYPE_CHECKING:
         monte_carlo_maxima as monte_carlo_maxima,
         monte_carlo_sensitivity as monte_carlo_sensitivity,
         monte_carlo_splitting as monte_carlo_splitting,
+        monte_carlo_splitting_angles as monte_carlo_splitting_angles,
         realization_mesh as realization_mesh,
         roll_acceleration as roll_acceleration,
         roll_time_series as roll_time_series,
@@ -141,6 +143,7 @@ if TYPE_CHECKING:
         sensitivity_problem as sensitivity_problem,
         simulate as simulate,
         simulate_chunk as simulate_chunk,
+        splitting_pilot as splitting_pilot,
         sweep_sea_states as sweep_sea_states,
         zero_crossing_amplitudes as zero_crossing_amplitudes,
     )
@@ -207,11 +210,12 @@ _NAMES = {  # subpackage (or private module) -> the names `jaxroll` takes from i
         "DEFAULT_SENSITIVITY_STATISTICS SENSITIVITY_PARAMETERS AbstractExcitation AbstractObserver "
         "AmplitudeHistogram AmplitudeStatistics CapsizeCounts FilterExcitation FirstMaxima MaximaStatistics "
         "MaxRoll MaxRollStatistics RealizationEnd RollProblem SampledExcitation SensitivityResult "
-        "SplittingResult SuperpositionExcitation SweepResult amplitude_samples check_time_step "
+        "SplittingPilot SplittingResult SuperpositionExcitation SweepResult amplitude_samples check_time_step "
         "default_chunk_size default_duration default_memory_budget envelope_record_every hilbert_envelope "
         "monte_carlo monte_carlo_amplitudes monte_carlo_max_roll monte_carlo_maxima monte_carlo_sensitivity "
-        "monte_carlo_splitting realization_mesh roll_acceleration roll_time_series roll_vector_field "
-        "sensitivity_problem simulate simulate_chunk sweep_sea_states zero_crossing_amplitudes"
+        "monte_carlo_splitting monte_carlo_splitting_angles realization_mesh roll_acceleration roll_time_series "
+        "roll_vector_field sensitivity_problem simulate simulate_chunk splitting_pilot sweep_sea_states "
+        "zero_crossing_amplitudes"
     ),
     "sea": (
         "ITTC JONSWAP AbstractWaveSpectrum EffectiveWave FilterFit ShapingFilter breaking_steepness "

@@ -26,7 +26,8 @@ def sea5():
 
 class Walk:
     """X_{t+1} = X_t ± 1 (up with probability q), X_0 = 0, t ≤ T; the event X_t ≥ b; the score is X itself.
-    Implements the stage interface `_split` drives (`initial`, `run`), with numpy noise from each stage's key."""
+    Implements the stage interface `_split` drives (`initial`, `run`; no capsizes), with numpy noise from each
+    stage's key; the score and the reach of a step are X."""
 
     def __init__(self, q: float, horizon: int, b: int):
         self.q, self.horizon, self.b = q, horizon, b
@@ -55,27 +56,30 @@ class Walk:
             "x": zero.copy(),
             "k": np.zeros(num, np.int32),
             "alive": np.ones(num, bool),
-            "top": np.full(num, -np.inf),
-            "hit": np.zeros(num, bool),
+            "score": np.full(num, -np.inf),
+            "reach": np.zeros(num),
             "index": np.arange(num, dtype=np.int32),
         }
 
-    def run(self, key, queue, level, final):
+    def run(self, key, queue, level, final, angle=None):
         num = queue["k"].size
         rng = np.random.default_rng(np.asarray(jax.random.key_data(key)))
         x, k = queue["phi"].copy(), queue["k"].copy()
-        top, hit = queue["top"].copy(), queue["hit"].copy()
+        score, reach = queue["score"].copy(), queue["reach"].copy()
+
+        def target(score, reach):  # the event X >= b outranks every level
+            top = np.where(reach >= self.b, np.inf, score)
+            return top, (reach >= self.b) if final else top >= level
+
+        top, success = target(score, reach)
         peak = top.copy()
-        success = hit.copy() if final else top >= level
         running = ~success & (k < self.horizon)
         while running.any():
             x = np.where(running, x + np.where(rng.random(num) < self.q, 1.0, -1.0), x)
             k = np.where(running, k + 1, k)
-            h = x >= self.b
-            top = np.where(running, np.where(h, np.inf, x), top)
-            hit = np.where(running, h, hit)
-            peak = np.maximum(peak, top)
-            done = h if final else top >= level
+            score, reach = np.where(running, x, score), np.where(running, x, reach)
+            top, done = target(score, reach)
+            peak = np.where(running, np.maximum(peak, top), peak)
             success = np.where(running, done, success)
             running = running & ~done & (k < self.horizon)
         out = {
@@ -85,8 +89,8 @@ class Walk:
             "x": 0 * x,
             "k": k,
             "alive": np.ones(num, bool),
-            "top": top,
-            "hit": hit,
+            "score": score,
+            "reach": reach,
             "peak": peak,
             "success": success,
         }
@@ -98,7 +102,7 @@ def _replicas(walk, levels, num, reps):
     exact = walk.exact()
     for r in range(reps):
         key = jax.random.key(r)
-        run = sp._split(walk, key, num, levels)
+        run = sp._split(walk, key, num, [(lv, 0) for lv in levels] + [(None, 0)])
         p = [s.n_success / num for s in run["stages"]]
         z = float(np.prod(p)) if len(p) == run["num_stages"] else 0.0
         relvar = sp.genealogy_relative_variance(run["final_eves"], num, run["num_stages"])
@@ -172,24 +176,33 @@ def test_restoring_potential_and_energy_amplitude():
 
 def test_one_stage_is_brute_force_trial_for_trial():
     # levels=[]: stage 0 alone is monte_carlo_max_roll's Monte Carlo, trial for trial (the same noise, the same
-    # arithmetic, the same exceedances and capsizes), the standard error the binomial one.
-    problem = default_problem(7.0)
+    # arithmetic, the same exceedances), the standard error the binomial one; and the runs that reached the angle,
+    # continued from where they stopped with their own noise, capsize exactly where the brute force's trials did.
+    problem = default_problem(8.0)
     key = jax.random.key(3)
     kw = dict(angle_deg=15.0, discard=100.0)
-    bf = jxr.monte_carlo_max_roll(problem, key, num_realizations=64, duration=500.0, **kw)
-    r = jxr.monte_carlo_splitting(problem, key, num_trials=64, exposure=400.0, levels=[], **kw)
-    assert 0 < bf.n_exceeded < 64
+    bf = jxr.monte_carlo_max_roll(problem, key, num_realizations=64, duration=1000.0, **kw)
+    r = jxr.monte_carlo_splitting(problem, key, num_trials=64, exposure=900.0, levels=[], **kw)
+    assert 0 < bf.n_exceeded < 64 and bf.n_capsized > 0
     assert r.n_exceeded == bf.n_exceeded and r.n_capsized == bf.n_capsized
     assert r.probability == bf.exceedance_probability()
+    assert r.capsize_probability == bf.n_capsized / 64
     p = r.probability
     np.testing.assert_allclose(r.standard_error, math.sqrt(p * (1 - p) / 63), rtol=1e-12, atol=0)
     assert r.levels_deg.tolist() == [15.0] and r.conditional_probabilities.tolist() == [p]
     # per trial: the stage program's successes are exactly the brute force's exceedances
-    stages = sp._RollStages(problem, math.radians(15.0), 1000, 200, 16, None, jnp.float32)
-    out, _ = stages.run(key, stages.initial(key, 64), math.inf, True)
+    stages = sp._RollStages(problem, math.radians(15.0), 2000, 200, 16, None, jnp.float32)
+    queue = stages.initial(key, 64)
+    out, _ = stages.run(key, queue, math.inf, True)
     exceeded = bf.capsized | (bf.max_abs_phi_deg > 15.0)
     np.testing.assert_array_equal(out["success"], exceeded)
-    assert r.simulated_seconds == pytest.approx(float(np.sum(out["k"])) * problem.dt, rel=1e-12)
+    # ... and their continuations capsize as the brute force's trials did, trial for trial
+    following = stages.continuation(queue, out, exceeded)
+    end, _ = stages.run(key, following, math.inf, True, stages.capsize_angle)
+    np.testing.assert_array_equal(end["success"], bf.capsized[exceeded])
+    stage = float(np.sum(out["k"])) * problem.dt
+    assert r.stage_simulated_seconds.tolist() == [stage] and r.continuation_simulated_seconds > 0
+    assert r.simulated_seconds == stage + r.continuation_simulated_seconds
 
 
 def test_results_do_not_depend_on_the_pool(sea5):

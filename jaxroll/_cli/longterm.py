@@ -135,7 +135,21 @@ def register(sub) -> None:
         help="theory in two passes: the cells outside the smallest set carrying 1 - δ of the one-grid sum w·P per "
         "heading class and speed keep the one-grid value (0: every cell refined; 0.01)",
     )
-    r.add_argument("--estimator", default="brute-force", help="per-cell Monte Carlo estimator (brute-force)")
+    r.add_argument(
+        "--estimator",
+        default="brute-force",
+        help="per-cell Monte Carlo estimator: brute-force (default), or splitting: the rare Monte Carlo cells "
+        "(P < --rare-below) by multilevel splitting, every angle from one run, the others by brute force "
+        "(docs/longterm.md, Rare cells)",
+    )
+    r.add_argument(
+        "--rare-below",
+        type=float,
+        default=1e-3,
+        metavar="P",
+        help="--estimator splitting: a Monte Carlo cell is rare where its probability at the largest angle is "
+        "below P — the theory's with --method auto, its splitting pilot's with --method monte-carlo (1e-3)",
+    )
     n = p.add_argument_group("numerics")
     n.add_argument("--dt", type=float, default=0.5, help="time step [s] (default 0.5)")
     n.add_argument(
@@ -275,6 +289,16 @@ def check_args(args):
             f"--estimator must be one of {', '.join(e.replace('_', '-') for e in CELL_ESTIMATORS)}; got "
             f"{args.estimator!r}."
         )
+    if not (math.isfinite(args.rare_below) and 0 < args.rare_below <= 1):
+        raise CLIError(
+            f"--rare-below must be a probability in (0, 1] (a Monte Carlo cell is rare, and estimated by "
+            f"splitting, where its probability is below it); got {args.rare_below}."
+        )
+    if estimator == "splitting" and args.excitation != "filter":
+        raise CLIError(
+            "--estimator splitting needs --excitation filter (splitting restarts runs from the shaping filter's "
+            f"state); got --excitation {args.excitation}."
+        )
     check_chunk_size(args)
     budget = memory_budget(args)
     part = None
@@ -345,6 +369,7 @@ def check_args(args):
         skip_weight=args.skip_weight,
         refine_delta=args.refine_delta,
         estimator=estimator,
+        rare_below=args.rare_below,
         part=part,
         checkpoint=args.checkpoint,
         chunk_size=args.chunk_size,
@@ -399,13 +424,19 @@ def print_summary(summary: dict, out: Path) -> None:
         for cell in row["dominating_cells"][:3]:
             print(
                 f"  {cell['share']:6.1%}  H_s {cell['hs_m']:g} m, T_z {cell['tz_s']:g} s, χ {cell['heading_deg']:g}°, "
-                f"U {cell['speed_m_s']:g} m/s, {cell['ship']}: P = {cell['probability']:.3g} ({cell['method']})"
+                f"U {cell['speed_m_s']:g} m/s, {cell['ship']}: P = {cell['probability']:.3g} "
+                f"({'splitting' if cell.get('estimator') == 'splitting' else cell['method']})"
             )
     c = summary["longterm_capsize"]
     print(
         f"P(capsize within {hours:g} h) = {c['probability']:.3g} (95 % {c['probability_ci95'][0]:.3g}–"
         f"{c['probability_ci95'][1]:.3g}); cells: "
         + ", ".join(f"{k} {v}" for k, v in summary["cells"].items() if v)
+        + (
+            f" (splitting {summary['monte_carlo_estimators']['splitting']})"
+            if summary.get("monte_carlo_estimators", {}).get("splitting")
+            else ""
+        )
     )
     print(
         f"wrote {out}/longterm.json, longterm.nc, longterm_scatter.png, longterm_polar.png, longterm_ci.png"

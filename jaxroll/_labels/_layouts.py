@@ -379,10 +379,16 @@ SWEEP = Layout(
 
 _DOMINATING = "longterm_dominating_cells"
 LONGTERM = Layout(
-    labels={"longterm": "angle", "longterm/*/dominating_cells": "rank", "cells": "cell_method"},
+    labels={
+        "longterm": "angle",
+        "longterm/*/dominating_cells": "rank",
+        "cells": "cell_method",
+        "monte_carlo_estimators": "mc_estimator",
+    },
     arrays={
         "ci_against_effort/trials": ("effort",),
         "ci_against_effort/sampling_half_width": ("effort", "angle"),
+        "ci_against_effort/splitting_half_width": ("angle",),
     },
     units={
         "exposure_hours": "h",
@@ -391,8 +397,11 @@ LONGTERM = Layout(
         "longterm_per_year_rate_ci95": "year-1",
         "left_out_weight": "1",
         "cells": "1",
+        "monte_carlo_estimators": "1",
         "ci_against_effort_trials": "1",
         "ci_against_effort_sampling_half_width": "1",
+        "ci_against_effort_splitting_cells": "1",
+        "ci_against_effort_splitting_half_width": "1",
         **{
             f"{_DOMINATING}_{k}": "1"
             for k in (
@@ -439,14 +448,18 @@ LONGTERM = Layout(
         "longterm_capsize_per_year": "P(at least one capsize in a year)",
         "left_out_weight": "weight of the cells left out (a bound on their contribution)",
         "cells": "number of cells by method",
-        "ci_against_effort_trials": "Monte Carlo trials at each effort",
+        "monte_carlo_estimators": "number of Monte Carlo cells by estimator",
+        "ci_against_effort_trials": "Monte Carlo trials at each effort (splitting cells: their cost in trials)",
         "ci_against_effort_sampling_half_width": "half width of the sampling interval at each effort",
+        "ci_against_effort_splitting_cells": "Monte Carlo cells by splitting (whole runs at every effort)",
+        "ci_against_effort_splitting_half_width": "the splitting cells' part of the half width",
         f"{_DOMINATING}_*": "the cells with the largest contributions w·P, largest first (rank 0)",
     },
     coords={
         "angle": ("degree", "roll angle"),
         "rank": ("1", "rank of the cell by contribution"),
         "cell_method": (None, "how a cell's probability was obtained"),
+        "mc_estimator": (None, "the estimator of a Monte Carlo cell"),
     },
 )
 

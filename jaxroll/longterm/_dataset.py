@@ -11,7 +11,7 @@ import json
 
 import numpy as np
 
-from ._monte_carlo import EFFORT_FRACTIONS, Z95, binomial_variance
+from ._monte_carlo import EFFORT_FRACTIONS, ESTIMATORS, Z95, binomial_variance
 from ._risk import annual, longterm_probability
 
 CELL_DIMS = ("hs", "tz", "heading", "speed", "ship")
@@ -124,22 +124,46 @@ def build_dataset(grid, cells: dict, config: dict, attrs: dict):
         "realizations": (
             CELL_DIMS,
             to_cells(cells["realizations"]).astype(np.int64),
-            {"units": "1", "long_name": "Monte Carlo trials (0: none)"},
+            {"units": "1", "long_name": "Monte Carlo trials (splitting: runs a stage; 0: none)"},
         ),
         "n_exceeded": (
             angle_dims,
             to_cells(cells["n_exceeded"]).astype(np.int64),
-            {"units": "1", "long_name": "Monte Carlo trials beyond the angle or capsized"},
+            {
+                "units": "1",
+                "long_name": "Monte Carlo trials beyond the angle or capsized (-1: splitting, no trial counts)",
+            },
         ),
         "n_capsized": (
             CELL_DIMS,
             to_cells(cells["n_capsized"]).astype(np.int64),
-            {"units": "1", "long_name": "Monte Carlo trials that capsized"},
+            {"units": "1", "long_name": "Monte Carlo trials that capsized (-1: splitting)"},
+        ),
+        "estimator": (
+            CELL_DIMS,
+            to_cells(cells["estimator"]).astype(np.int8),
+            {
+                "units": "1",
+                "long_name": "the Monte Carlo cell's estimator (splitting: the rare cells, docs/longterm.md)",
+                **_flags(ESTIMATORS),
+            },
+        ),
+        "cost_trials": (
+            CELL_DIMS,
+            to_cells(cells["cost_trials"]),
+            {
+                "units": "1",
+                "long_name": "Monte Carlo cost in trials of discard + exposure (brute force: its trials; "
+                "splitting: its simulated time, pilot included, over a trial's; NaN: none)",
+            },
         ),
         "n_exceeded_effort": (
             (*CELL_DIMS, "effort", "angle"),
             to_cells(cells["n_exceeded_effort"]).astype(np.int64),
-            {"units": "1", "long_name": "trials beyond the angle among the first effort × realizations"},
+            {
+                "units": "1",
+                "long_name": "trials beyond the angle among the first effort × realizations (-1: splitting)",
+            },
         ),
         "seed": (
             CELL_DIMS,
@@ -423,6 +447,7 @@ def dominating_cells(ds, angle_index: int = 0, top: int = 10) -> list[dict]:
         idx = dict(zip(CELL_DIMS, np.unravel_index(flat, contrib.shape), strict=True))
         cell = ds.isel({k: int(v) for k, v in idx.items()})
         method = METHODS[int(cell.method)]
+        estimator = ESTIMATORS[int(cell.estimator)] if "estimator" in ds else "brute_force"
         row = {
             "hs_m": float(cell.hs),
             "tz_s": float(cell.tz),
@@ -442,29 +467,43 @@ def dominating_cells(ds, angle_index: int = 0, top: int = 10) -> list[dict]:
             "theory_probability": float(cell.theory_probability[angle_index]),
         }
         if method == "monte_carlo":
+            row["estimator"] = estimator
             row["realizations"] = int(cell.realizations)
             row["seed"] = int(cell.seed)
-            row["risk_command"] = risk_command(ds, {k: int(v) for k, v in idx.items()})
+            if estimator == "brute_force":
+                row["risk_command"] = risk_command(ds, {k: int(v) for k, v in idx.items()})
         out.append(row)
     return out
 
 
 def _ci_effort(ds) -> dict:
-    """The long-term interval's sampling part against the Monte Carlo effort: at each `effort` fraction, the
-    long-term probability and ±z σ from the first fraction of every Monte Carlo cell's trials (angles)."""
+    """The long-term interval's sampling part against the Monte Carlo effort: at each `effort` fraction, ±z σ from
+    the first fraction of every brute-force cell's trials (angles). A splitting cell has no nested subsets of its
+    runs: it enters every point with its whole run's variance and cost (`cost_trials`), so the points show what the
+    brute-force cells' effort buys beside it. `trials`: the brute-force trials plus the splitting cells' cost in
+    trials; `splitting_half_width`: the splitting cells' part of the half-width alone."""
     mc = ds["method"].values == METHODS.index("monte_carlo")
     if not mc.any():
         return {}
     w = ds["weight"].values
     n = ds["realizations"].values
+    split = mc & (ds["estimator"].values == ESTIMATORS.index("splitting")) if "estimator" in ds else mc & False
+    bf = mc & ~split
+    var_split = np.where(split[..., None], ds["probability_variance"].values, 0.0)
+    cost_split = float(np.where(split, ds["cost_trials"].values, 0.0).sum()) if split.any() else 0.0
+    axes = tuple(range(w.ndim))
     trials, half = [], []
     for e, f in enumerate(ds.effort.values):
         m = np.maximum(1, np.round(f * n))
         k = ds["n_exceeded_effort"].values[..., e, :]
-        var = np.where(mc[..., None], binomial_variance(k, m[..., None]), 0.0)
-        trials.append(int(np.where(mc, m, 0).sum()))
-        half.append((Z95 * np.sqrt((w[..., None] ** 2 * var).sum(axis=tuple(range(w.ndim))))).tolist())
-    return {"trials": trials, "sampling_half_width": half}
+        var = np.where(bf[..., None], binomial_variance(np.maximum(k, 0), m[..., None]), 0.0) + var_split
+        trials.append(int(np.where(bf, m, 0).sum() + round(cost_split)))
+        half.append((Z95 * np.sqrt((w[..., None] ** 2 * var).sum(axis=axes))).tolist())
+    out = {"trials": trials, "sampling_half_width": half}
+    if split.any():
+        out["splitting_cells"] = int(split.sum())
+        out["splitting_half_width"] = (Z95 * np.sqrt((w[..., None] ** 2 * var_split).sum(axis=axes))).tolist()
+    return out
 
 
 def longterm_summary(ds, top: int = 10) -> dict:
@@ -508,9 +547,17 @@ def longterm_summary(ds, top: int = 10) -> dict:
         ),
         "left_out_weight": float(ds.left_out_weight),
         "cells": methods,
+        "monte_carlo_estimators": {
+            e: int(((ds["estimator"].values == i) & (ds["method"].values == METHODS.index("monte_carlo"))).sum())
+            for i, e in enumerate(ESTIMATORS)
+            if e != "none"
+        }
+        if "estimator" in ds
+        else {},
         "ci_against_effort": _ci_effort(ds),
         "interval": (
-            "95 %: ±1.96 (Σ w² Var P)^1/2 over the Monte Carlo cells, plus the model allowance added "
+            "95 %: ±1.96 (Σ w² Var P)^1/2 over the Monte Carlo cells (brute force: Agresti–Coull; splitting: the "
+            "genealogy variance), plus the model allowance added "
             f"linearly: theory cells within [P/{cfg['model_factor']:g}, {cfg['model_factor']:g} P], "
             "doubtful theory cells not simulated and left-out cells within [0, 1]"
         ),

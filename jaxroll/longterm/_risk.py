@@ -79,6 +79,14 @@ def auto_cells(
     return dominant & needed, material
 
 
+def rare_cells(trials, p_theory, rare_below: float) -> np.ndarray:
+    """The rare Monte Carlo cells of `estimator="splitting"` with `method="auto"`: cells with trials (`trials` > 0)
+    whose theory probability at the largest angle — the smallest over the angles (last axis of `p_theory`; NaN
+    counts as 1) — is below `rare_below`. **Returns:** a mask, the shape of `trials`."""
+    p = np.nan_to_num(np.asarray(p_theory, float), nan=1.0)
+    return (np.asarray(trials) > 0) & (p.min(axis=-1) < rare_below)
+
+
 def model_bounds(p, kind, lower, upper) -> tuple[np.ndarray, np.ndarray]:
     """Per cell and angle the interval the long-term allowance assumes: `kind` 0 exact (Monte Carlo cells, whose
     uncertainty is sampling, and beam seas), 1 a valid theory cell: its own interval [`lower`, `upper`] (the model

@@ -23,8 +23,15 @@ from ..sea import ITTC, EffectiveWave
 from ..ship import c11_representative, vanishing_angle
 from ._cells import BEAM_DEG, SEED_STRIDE, make_grid, parse_part, skipped_cells, worker_of
 from ._dataset import METHODS, UNCERTAINTY, add_longterm, build_dataset
-from ._monte_carlo import CELL_ESTIMATORS, EFFORT_FRACTIONS, cell_problem, neyman_allocation
-from ._risk import AUTO_SHARE, AUTO_TOLERANCE, MODEL_FACTOR, auto_cells, doubtful
+from ._monte_carlo import (
+    CELL_ESTIMATORS,
+    EFFORT_FRACTIONS,
+    ESTIMATORS,
+    RARE_BELOW,
+    cell_problem,
+    neyman_allocation,
+)
+from ._risk import AUTO_SHARE, AUTO_TOLERANCE, MODEL_FACTOR, auto_cells, doubtful, rare_cells
 from ._scatter import ScatterDiagram, scatter_diagram
 from ._theory import REFINE_DELTA, class_template, class_theory
 from ._units import _gather, _hash, _load_unit, _responsible_cells, _save_unit, _twin
@@ -73,6 +80,7 @@ def longterm(
     skip_weight: float = 0.0,
     refine_delta: float = REFINE_DELTA,
     estimator: str = "brute_force",
+    rare_below: float = RARE_BELOW,
     part=None,
     checkpoint: str | os.PathLike | None = None,
     progress: Callable[[int, int, str], None] | None = None,
@@ -104,8 +112,11 @@ def longterm(
     - `model_factor`: the theory cells' allowance [P/f, f·P] in the long-term interval. `skip_weight`: leave out
       the lightest cells up to this total weight (a bound on their contribution, added to the interval).
     - Monte Carlo: `dt` [s], `excitation` ("filter" | "superposition"), `filter_order`, `phi0` [rad], `seed` (cell
-      c uses `jax.random.key(SEED_STRIDE·seed + c + 1)`, recorded), `estimator` (a name in `CELL_ESTIMATORS`),
-      `chunk_size`, `memory_budget`.
+      c uses `jax.random.key(SEED_STRIDE·seed + c + 1)`, recorded), `estimator` (a name in `CELL_ESTIMATORS`:
+      `"brute_force"`, or `"splitting"`: the rare cells by multilevel splitting, the others by brute force),
+      `rare_below` (`"splitting"`: a Monte Carlo cell is rare where its probability at the largest angle is below
+      this — by the theory with `"auto"`, by the splitting run's pilot with `"monte-carlo"`; default 1e-3;
+      docs/longterm.md, "Rare cells"), `chunk_size`, `memory_budget`.
     - `part`: `(i, N)` or `"i/N"`: compute only this part's units (a partial dataset, `merge_longterm`).
     - `checkpoint`: a directory; finished units are saved there and a rerun resumes.
     - `progress(done, total, phase)`: called as cells (theory) and trials (Monte Carlo) are done.
@@ -170,6 +181,18 @@ def longterm(
         f"`realizations` must be an integer >= 1; got {realizations!r}.",
     )
     _check(None, isinstance(seed, int) and seed >= 0, f"`seed` must be an integer >= 0; got {seed!r}.")
+    _check(
+        None,
+        isinstance(rare_below, int | float) and 0 < rare_below <= 1,
+        f"`rare_below` must be in (0, 1] (a Monte Carlo cell is rare, and estimated by splitting, where its "
+        f"probability is below it); got {rare_below!r}.",
+    )
+    _check(
+        None,
+        estimator != "splitting" or excitation == "filter",
+        f"`estimator='splitting'` needs excitation='filter' (splitting restarts runs from the shaping filter's "
+        f"state); got excitation={excitation!r}.",
+    )
     _check(None, 0 < auto_share <= 1, f"`auto_share` must be in (0, 1]; got {auto_share!r}.")
     _check(None, auto_tolerance >= 0, f"`auto_tolerance` must be >= 0; got {auto_tolerance!r}.")
     _check(None, model_factor >= 1, f"`model_factor` must be >= 1; got {model_factor!r}.")
@@ -330,6 +353,11 @@ def longterm(
                 max(2, realizations // 4),
             )
             trials[chosen] = n
+    # which Monte Carlo cells are rare (splitting): auto by the theory, monte-carlo by each cell's pilot
+    rare = np.zeros(shape, bool)
+    if estimator == "splitting" and method == "auto":
+        rare = rare_cells(trials, cells["theory_probability"], rare_below)
+    screened = estimator == "splitting" and method == "monte-carlo"
 
     # ---- Monte Carlo, one cell at a time --------------------------------------------------------------------
     mc_cells = [tuple(int(x) for x in c) for c in np.argwhere(trials > 0)]
@@ -345,9 +373,11 @@ def longterm(
         s, k, u, i, jj = c
         ship, hs, t01 = ships[s], float(grid.scatter.hs[i]), float(grid.scatter.t01[jj])
         speed, heading = float(grid.speeds[u]), float(grid.classes_deg[k])
+        name_c = "splitting" if rare[c] or screened else "brute_force"
         spec = {
             "kind": "monte_carlo",
-            "estimator": estimator,
+            "estimator": name_c,
+            **({"rare_below": float(rare_below)} if screened else {}),
             "ship": ship_to_dict(ship),
             "heading_deg": heading,
             "speed": speed,
@@ -382,7 +412,7 @@ def longterm(
             inner = (
                 None if progress is None else (lambda n, base=base: progress(base + n, total, "monte_carlo"))
             )
-            est = CELL_ESTIMATORS[estimator](
+            est = CELL_ESTIMATORS[name_c](
                 problem,
                 jax.random.key(int(seeds[c])),
                 angles_deg=angles_deg,
@@ -391,6 +421,7 @@ def longterm(
                 num_realizations=int(trials[c]),
                 progress=inner,
                 checkpoint=None if checkpoint is None else Path(checkpoint) / name,
+                **({"brute_force_above": float(rare_below)} if screened else {}),
                 **run_options,
             )
             r = {
@@ -404,6 +435,8 @@ def longterm(
                 "n": np.array([est.n_realizations, est.n_capsized]),
                 "n_exceeded": est.n_exceeded,
                 "n_exceeded_effort": est.n_exceeded_effort,
+                "estimator": np.array(ESTIMATORS.index(est.estimator)),
+                "cost_trials": np.array(est.cost_trials),
             }
             _save_unit(checkpoint, name, r)
         done_trials[0] = base + int(trials[c])
@@ -421,6 +454,9 @@ def longterm(
         cells["realizations"][c], cells["n_capsized"][c] = r["n"]
         cells["n_exceeded"][c] = r["n_exceeded"]
         cells["n_exceeded_effort"][c] = r["n_exceeded_effort"]
+        # (a unit saved before the estimators were recorded is a brute-force one)
+        cells["estimator"][c] = r.get("estimator", ESTIMATORS.index("brute_force"))
+        cells["cost_trials"][c] = r.get("cost_trials", r["n"][0])
         mc_here[c] = True
     mc_keys = (
         "probability",
@@ -435,6 +471,8 @@ def longterm(
         "n_capsized",
         "n_exceeded",
         "n_exceeded_effort",
+        "estimator",
+        "cost_trials",
     )
     if n_proc > 1:
         got = _gather({k: np.nan_to_num(cells[k], nan=0.0) for k in mc_keys}, mc_here)
@@ -473,6 +511,7 @@ def longterm(
                 "envelope_gamma",
                 "theory_pass1_probability",
                 "theory_pass1_capsize_probability",
+                "cost_trials",
             ):
                 extra = (1,) * (cells[k].ndim - len(shape))
                 cells[k] = np.where(not_mine.reshape(shape + extra), np.nan, cells[k])
@@ -483,6 +522,7 @@ def longterm(
                 "n_exceeded_effort",
                 "theory_doubtful",
                 "theory_refined",
+                "estimator",
             ):
                 extra = (1,) * (cells[k].ndim - len(shape))
                 cells[k] = np.where(not_mine.reshape(shape + extra), 0, cells[k]).astype(cells[k].dtype)
@@ -507,6 +547,7 @@ def longterm(
         skip_weight,
         estimator,
         refine_delta,
+        rare_below,
     )
     attrs = dataset_attrs(config, **({} if part is None else {"part": f"{i_part}/{n_part}"}))
     ds = build_dataset(grid, cells, config, attrs)
@@ -561,6 +602,8 @@ def _empty(shape, n_angles) -> dict:
         "theory_pass_capsize_ratio": np.ones(shape),
         "method": z(),
         "uncertainty": z(),
+        "estimator": z(),
+        "cost_trials": f(),
     }
 
 
@@ -665,6 +708,7 @@ def _config(
     skip_weight,
     estimator,
     refine_delta,
+    rare_below,
 ) -> dict:
     """The whole configuration (JSON-able): what the dataset's `config_json` attribute holds."""
     from ..io import to_jsonable
@@ -711,6 +755,14 @@ def _config(
             "skip_weight": float(skip_weight),
             "refine_delta": float(refine_delta),
             "estimator": estimator,
+            "rare_below": float(rare_below),
+            "rare_rule": (
+                "estimator 'splitting': a Monte Carlo cell is estimated by multilevel splitting where its "
+                "probability at the largest angle is below rare_below — the theory's (method auto) or its "
+                "splitting pilot's (method monte-carlo); the other Monte Carlo cells by brute force"
+                if estimator == "splitting"
+                else None
+            ),
             "beam_deg": BEAM_DEG,
         }
     )

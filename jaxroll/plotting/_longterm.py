@@ -130,7 +130,8 @@ def longterm_polar_figure(ds, angle_index: int = 0):
 
 def longterm_ci_figure(ds, summary: dict | None = None, angle_index: int = 0):
     """The long-term probability's 95 % interval against the Monte Carlo effort: the sampling half-width read
-    from the first 1/16 … all of every Monte Carlo cell's trials (points) and its 1/√N continuation (dashed), on
+    from the first 1/16 … all of every brute-force Monte Carlo cell's trials (points; splitting cells enter each
+    point with their whole run, dotted) and its 1/√N continuation (dashed), on
     top of the model allowance of the theory cells (which no Monte Carlo effort shrinks). With no Monte Carlo cell,
     the interval is the allowance alone.
 
@@ -157,9 +158,14 @@ def longterm_ci_figure(ds, summary: dict | None = None, angle_index: int = 0):
             ax.axhline(
                 max(below, above), color="tab:red", label="model allowance of the theory cells (max side)"
             )
+        split = effort.get("splitting_half_width")
+        if split is not None and split[a] > 0:  # splitting cells enter every point with their whole run
+            ax.axhline(split[a], color="tab:green", ls=":", label="of which the splitting cells (whole runs)")
         ax.set_xscale("log")
         ax.set_yscale("log")
-        ax.set_xlabel("Monte Carlo trials in all cells")
+        ax.set_xlabel(
+            "Monte Carlo trials in all cells" + (" (splitting cells: their cost in trials)" if split else "")
+        )
         ax.set_ylabel("half-width of the long-term 95 % interval")
     else:
         ax.bar(

@@ -53,8 +53,10 @@ from ._sharding import (
 from ._splitting import (
     DEFAULT_WAVE_WEIGHT as DEFAULT_WAVE_WEIGHT,
     monte_carlo_splitting as monte_carlo_splitting,
+    monte_carlo_splitting_angles as monte_carlo_splitting_angles,
+    splitting_pilot as splitting_pilot,
 )
-from ._splitting_result import SplittingResult as SplittingResult
+from ._splitting_result import SplittingPilot as SplittingPilot, SplittingResult as SplittingResult
 from ._statistics import (
     AmplitudeStatistics as AmplitudeStatistics,
     CapsizeCounts as CapsizeCounts,

@@ -111,24 +111,34 @@ def block_normals_by_column(key: PRNGKeyArray, index, n: int, first_row=0, rows:
     the 2-core CPU). For even n a pair of columns shares its hashes, as in `block_normals`.
 
     `first_row`, `rows`: only the block's source steps first_row … first_row + rows − 1 (the same numbers as
-    those rows of the whole block; `first_row` may be traced), for runs that start mid-block
-    (`jaxroll.monte_carlo_splitting`'s clones)."""
+    those rows of the whole block; `first_row` may be traced), rows past the block's end continuing into block
+    `index` + 1 (`rows` ≤ `BLOCK`), for runs that start at any source step (`jaxroll.monte_carlo_splitting`'s
+    clones, and its runs continued past the event)."""
+    whole = isinstance(first_row, int) and first_row == 0 and rows <= BLOCK
     if jr.key_impl(key) != jr.key_impl(jr.key(0)):  # another PRNG than threefry: its own normals
-        z = jax.lax.dynamic_slice_in_dim(block_normals(key, index, (BLOCK, n)), first_row, rows)
+        z = block_normals(key, index, (BLOCK, n))
+        if not whole:
+            z = jnp.concatenate([z, block_normals(key, index + 1, (BLOCK, n))])
+        z = jax.lax.dynamic_slice_in_dim(z, first_row, rows)
         return tuple(z[:, i] for i in range(n))
     kd = jr.key_data(jr.fold_in(key, index))
+    k0, k1 = kd[0], kd[1]
     s = jnp.arange(rows, dtype=jnp.uint32)
-    if not (isinstance(first_row, int) and first_row == 0):
+    if not whole:
         s = s + jnp.asarray(first_row).astype(jnp.uint32)
+        following = jr.key_data(jr.fold_in(key, index + 1))
+        beyond = s >= np.uint32(BLOCK)
+        s = jnp.where(beyond, s - np.uint32(BLOCK), s)
+        k0, k1 = jnp.where(beyond, following[0], k0), jnp.where(beyond, following[1], k1)
     zero = jnp.zeros_like(s)
     words = []
     if n % 2 == 0:
         for j in range(n // 2):
-            words += threefry2x32(kd[0], kd[1], zero, s * np.uint32(n // 2) + np.uint32(j))
+            words += threefry2x32(k0, k1, zero, s * np.uint32(n // 2) + np.uint32(j))
     else:
         for i in range(n):
             f = s * np.uint32(n) + np.uint32(i)
-            b0, b1 = threefry2x32(kd[0], kd[1], zero, f >> np.uint32(1))
+            b0, b1 = threefry2x32(k0, k1, zero, f >> np.uint32(1))
             words.append(jnp.where((f & np.uint32(1)) == 0, b0, b1))
     return tuple(_bits_to_normal(w) for w in words)
 

@@ -43,13 +43,15 @@ class SplittingResult:
       angle) and `angle_deg` last (the last stage's target is the event itself);
       `conditional_probabilities` p̂_k and `n_successes` per stage (NaN and 0 for stages never run: a stage in which
       no run reached its level ends the estimate at 0).
-    - `capsize_probability`, `capsize_standard_error` [-]: P̂(capsize within the duration), from the same runs
-      (the last stage's capsized runs); `n_capsized`: the last stage's runs that capsized; `n_exceeded`: its runs
-      with the event; `n_ancestors`: the distinct stage-0 runs these descend from.
+    - `capsize_probability`, `capsize_standard_error` [-]: P̂(capsize within the duration), from the same runs:
+      the last stage's successful runs continued to the end of the exposure with their own noise (as if they had
+      not stopped at the event); `n_capsized`: those that capsized; `n_exceeded`: the runs of the angle's event
+      stage that reached it; `n_ancestors`: the distinct stage-0 runs these descend from.
     - `relative_variance_independent`: Σ (1 − p̂_k)/(N p̂_k), what the stages would give were they independent
       (the genealogy's variance divided by this measures the clones' correlation).
     - Cost: `simulated_seconds` [s] realization-seconds simulated by the estimate's stages (`stage_simulated_seconds`
-      per stage) and `pilot_simulated_seconds` by the pilot run; `lane_seconds` what the lanes of the compiled
+      per stage) and the continuation of the last stage's successful runs for the capsizes
+      (`continuation_simulated_seconds`), `pilot_simulated_seconds` by the pilot run; `lane_seconds` what the lanes of the compiled
       pools ran, idle ones included; `wall_time_s`, `stage_wall_time_s`, `pilot_wall_time_s` [s].
     - `config`: the run's settings.
     """
@@ -75,6 +77,7 @@ class SplittingResult:
     stage_wall_time_s: np.ndarray
     pilot_wall_time_s: float
     wall_time_s: float
+    continuation_simulated_seconds: float = 0.0
     config: dict = field(default_factory=dict)
 
     @property
@@ -96,3 +99,28 @@ class SplittingResult:
         out["relative_error"] = self.relative_error
         out["total_simulated_seconds"] = self.total_simulated_seconds
         return out
+
+
+@dataclass
+class SplittingPilot:
+    """The pilot run of a splitting estimate (`splitting_pilot`): the levels it set and what it cost; host values.
+
+    - `angles_deg` [deg]; `levels_deg`: per angle, the score levels [deg] climbed before its event (as the run
+      compares them: rounded to its floating type);
+    - `probability` [-]: per angle, the pilot's own product of stage fractions — a rough estimate, biased by the
+      levels it chose from the same runs: to screen with, not to report;
+    - `pilot_trials`: runs a stage; `capped`: `max_levels` stopped it before a stage reached an event;
+      `num_runs`: the stage runs it made;
+    - cost: `simulated_seconds` [s] (realization-seconds), `lane_seconds` [s], `wall_time_s` [s]; `config`.
+    """
+
+    angles_deg: np.ndarray
+    levels_deg: tuple[tuple[float, ...], ...]
+    probability: np.ndarray
+    pilot_trials: int
+    capped: bool
+    simulated_seconds: float
+    lane_seconds: float
+    num_runs: int
+    wall_time_s: float
+    config: dict = field(default_factory=dict)
