@@ -154,12 +154,16 @@ def mesh_benchmark(warm_rounds: int = 3, baseline_tree: str | None = None, bytec
             variants["baseline_exact"] = (argv, str(Path(baseline_tree).resolve()))
         envs, cwds = {}, {}
         here = str(Path(__file__).resolve().parents[1])
-        print(f"bytecode={'compiled before the runs' if bytecode else 'none (sources compiled in every run)'}")
+        print(
+            f"bytecode={'compiled before the runs' if bytecode else 'none (sources compiled in every run)'}"
+        )
         for label, (cmd, tree) in variants.items():
             env = {**os.environ, "JAXROLL_CACHE_DIR": str(Path(tmp) / f"cache-{label}")}
             # `python -m` imports from the working folder first: run each tree's jaxroll from its own root
             env["PYTHONPATH"] = tree or here
-            if bytecode:  # as installed: jaxroll's bytecode beside its sources (__pycache__), compiled before the runs
+            if (
+                bytecode
+            ):  # as installed: jaxroll's bytecode beside its sources (__pycache__), compiled before the runs
                 env.pop("PYTHONDONTWRITEBYTECODE", None)
                 env.pop("PYTHONPYCACHEPREFIX", None)  # (a prefix would also miss the libraries' own bytecode)
                 subprocess.run([sys.executable, "-m", "compileall", "-q", str(Path(tree or here) / "jaxroll")],

@@ -97,13 +97,17 @@ def main() -> None:
     tmp = tempfile.mkdtemp()
     csv = os.path.join(tmp, "reduced.csv")
     reduced_scatter(csv)
-    print(f"problem: Rec. 34 H_s {ROWS} m × T_z {COLUMNS} s, headings {a.headings}°, 0 m/s, angles {angles}°, "
-          f"{a.hours:g} h after 500 s, method auto (share {a.auto_share:g}), {a.realizations} trials per Monte Carlo "
-          "cell on average")
+    print(
+        f"problem: Rec. 34 H_s {ROWS} m × T_z {COLUMNS} s, headings {a.headings}°, 0 m/s, angles {angles}°, "
+        f"{a.hours:g} h after 500 s, method auto (share {a.auto_share:g}), {a.realizations} trials per Monte Carlo "
+        "cell on average"
+    )
     t0 = time.perf_counter()
     theory = jaxroll.longterm(csv, method="theory", checkpoint=os.path.join(tmp, "theory"), **kw)
-    print(f"theory (once, checkpointed): {time.perf_counter() - t0:.1f} s, "
-          f"{int((theory.lyapunov_exponent.values > 0).sum())} cells with λ > 0")
+    print(
+        f"theory (once, checkpointed): {time.perf_counter() - t0:.1f} s, "
+        f"{int((theory.lyapunov_exponent.values > 0).sum())} cells with λ > 0"
+    )
 
     def auto(label, run, **extra):
         results = []
@@ -133,25 +137,35 @@ def main() -> None:
     print()
     print(f"{'run':<32} {'MC s':>7} {'MC cells':>8} {'split':>5} {'cost [trials]':>13}")
     for r in runs:
-        print(f"{r['label']:<32} {r['seconds']:7.1f} {r['mc_cells']:8d} {r['splitting_cells']:5d} "
-              f"{r['cost_trials']:13.0f}")
+        print(
+            f"{r['label']:<32} {r['seconds']:7.1f} {r['mc_cells']:8d} {r['splitting_cells']:5d} "
+            f"{r['cost_trials']:13.0f}"
+        )
     for k, angle in enumerate(angles):
-        print(f"\nangle {angle:g}°: P_LT, 95 % interval (width), sampling ±1.96σ (of which the rare cells), "
-              "model allowance")
+        print(
+            f"\nangle {angle:g}°: P_LT, 95 % interval (width), sampling ±1.96σ (of which the rare cells), "
+            "model allowance"
+        )
         for r in runs[1::2]:  # the warm runs (the same numbers as the cold ones)
             lo, hi = r["ci"][k]
-            print(f"  {r['label'].removesuffix(' (warm)'):<28} {r['p'][k]:.4g}  [{lo:.4g}, {hi:.4g}] "
-                  f"({hi - lo:.3g})  ±{1.96 * r['sd'][k]:.3g} (±{1.96 * r['rare_sd'][k]:.3g})  "
-                  f"-{r['below'][k]:.3g}/+{r['above'][k]:.3g}")
+            print(
+                f"  {r['label'].removesuffix(' (warm)'):<28} {r['p'][k]:.4g}  [{lo:.4g}, {hi:.4g}] "
+                f"({hi - lo:.3g})  ±{1.96 * r['sd'][k]:.3g} (±{1.96 * r['rare_sd'][k]:.3g})  "
+                f"-{r['below'][k]:.3g}/+{r['above'][k]:.3g}"
+            )
     print(
         "\nthe rare cells alone: their cost in trials, and the work at equal sampling width of their part against "
         "brute force, (σ_bf² cost_bf)/(σ² cost), per angle (brute force: Agresti–Coull variances, as the interval)"
     )
     base = runs[1]
     for r in runs[1::2]:
-        ratio = (base["rare_sd"] ** 2 * base["rare_cost"]) / np.maximum(r["rare_sd"] ** 2 * r["rare_cost"], 1e-300)
-        print(f"  {r['label'].removesuffix(' (warm)'):<28} cost {r['rare_cost']:9.0f}  work ratio "
-              + ", ".join(f"{angle:g}°: {x:.3g}" for angle, x in zip(angles, ratio)))
+        ratio = (base["rare_sd"] ** 2 * base["rare_cost"]) / np.maximum(
+            r["rare_sd"] ** 2 * r["rare_cost"], 1e-300
+        )
+        print(
+            f"  {r['label'].removesuffix(' (warm)'):<28} cost {r['rare_cost']:9.0f}  work ratio "
+            + ", ".join(f"{angle:g}°: {x:.3g}" for angle, x in zip(angles, ratio))
+        )
     shutil.rmtree(tmp, ignore_errors=True)
 
 

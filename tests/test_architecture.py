@@ -111,7 +111,9 @@ def test_lazy_names_are_the_typed_imports():
     import jaxroll
 
     tree = ast.parse((PKG / "__init__.py").read_text())
-    block = next(n for n in tree.body if isinstance(n, ast.If) and getattr(n.test, "id", "") == "TYPE_CHECKING")
+    block = next(
+        n for n in tree.body if isinstance(n, ast.If) and getattr(n.test, "id", "") == "TYPE_CHECKING"
+    )
     typed, modules = {}, set()
     for node in block.body:
         for alias in node.names:

@@ -600,7 +600,10 @@ def test_cli_balance_that_fails_is_an_error_line(tmp_path, capsys):
     out = tmp_path / "hs"
     assert main(["hydrostatics", "c11", "--lcg", "262", "--out", str(out)]) == 2
     err = capsys.readouterr().err
-    assert "jaxroll hydrostatics: error: the quasi-static balance (sinkage and trim) did not converge for " in err
+    assert (
+        "jaxroll hydrostatics: error: the quasi-static balance (sinkage and trim) did not converge for "
+        in err
+    )
     assert "of the 195 (ζ_mid, φ) cases" in err and "--lcg" in err and "Traceback" not in err
     assert not out.exists() or not any(out.iterdir())
 

@@ -107,7 +107,9 @@ def _run(args) -> int:
         signal.getsignal(signal.SIGINT) is _exit_at_once
     ):  # the `jaxroll` command: its Ctrl-C handling from now
         signal.signal(signal.SIGINT, _on_interrupt)
-    if _STATE["collector_paused"]:  # the `jaxroll` command (`console`): what was imported stays, collect the rest
+    if _STATE[
+        "collector_paused"
+    ]:  # the `jaxroll` command (`console`): what was imported stays, collect the rest
         _STATE["collector_paused"] = None
         gc.freeze()
         gc.enable()

@@ -86,11 +86,15 @@ def section_bottoms(triangles: np.ndarray, stations: np.ndarray) -> np.ndarray:
     xs = np.asarray(stations, dtype=float)
     x3, z3 = tri[:, :, 0], tri[:, :, 2]
     order = np.argsort(xs, kind="stable")
-    first = np.searchsorted(xs[order], x3.min(axis=1), side="left")  # the stations within each triangle's x span
+    first = np.searchsorted(
+        xs[order], x3.min(axis=1), side="left"
+    )  # the stations within each triangle's x span
     last = np.searchsorted(xs[order], x3.max(axis=1), side="right")
     count = last - first
     tri_of = np.repeat(np.arange(tri.shape[0]), count)
-    station = order[np.repeat(first, count) + np.arange(count.sum()) - np.repeat(np.cumsum(count) - count, count)]
+    station = order[
+        np.repeat(first, count) + np.arange(count.sum()) - np.repeat(np.cumsum(count) - count, count)
+    ]
     x = xs[station][:, None]
     xt, zt = x3[tri_of], z3[tri_of]
     side = np.where(x <= lo[0], xt > x, xt >= x)  # as `_section_segments`: strict at the aft end

@@ -487,7 +487,9 @@ def _ci_effort(ds) -> dict:
         return {}
     w = ds["weight"].values
     n = ds["realizations"].values
-    split = mc & (ds["estimator"].values == ESTIMATORS.index("splitting")) if "estimator" in ds else mc & False
+    split = (
+        mc & (ds["estimator"].values == ESTIMATORS.index("splitting")) if "estimator" in ds else mc & False
+    )
     bf = mc & ~split
     var_split = np.where(split[..., None], ds["probability_variance"].values, 0.0)
     cost_split = float(np.where(split, ds["cost_trials"].values, 0.0).sum()) if split.any() else 0.0
@@ -548,7 +550,9 @@ def longterm_summary(ds, top: int = 10) -> dict:
         "left_out_weight": float(ds.left_out_weight),
         "cells": methods,
         "monte_carlo_estimators": {
-            e: int(((ds["estimator"].values == i) & (ds["method"].values == METHODS.index("monte_carlo"))).sum())
+            e: int(
+                ((ds["estimator"].values == i) & (ds["method"].values == METHODS.index("monte_carlo"))).sum()
+            )
             for i, e in enumerate(ESTIMATORS)
             if e != "none"
         }

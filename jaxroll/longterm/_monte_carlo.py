@@ -200,7 +200,9 @@ def splitting_cell(
     var = np.where(p > 0, np.array([r.standard_error for r in res]) ** 2, (hi / Z95) ** 2)
     top = runs[-1]
     c, cse = top.capsize_probability, top.capsize_standard_error
-    c_zero = top.probability * (1 - 0.05 ** (1 / top.n_exceeded)) if top.n_exceeded else top.probability_ci95[1]
+    c_zero = (
+        top.probability * (1 - 0.05 ** (1 / top.n_exceeded)) if top.n_exceeded else top.probability_ci95[1]
+    )
     clo, chi = _lognormal(c, cse, c_zero)
     if progress is not None:
         progress(num_realizations)

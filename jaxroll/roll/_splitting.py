@@ -71,8 +71,6 @@ def _resampling_rng(key, stage: int) -> np.random.Generator:
     return np.random.default_rng(np.asarray(jr.key_data(jr.fold_in(jr.fold_in(key, RESAMPLE_KEY), stage))))
 
 
-
-
 @dataclass
 class _Stage:
     n_success: int
@@ -127,7 +125,9 @@ def _split(stages, key, num: int, plan, angles=(None,), progress=None) -> dict:
             if getattr(stages, "capsize_angle", None) is not None:
                 t0 = time.perf_counter()
                 following = stages.continuation(queue, out, success)
-                end, lane_steps = stages.run(_stage_key(key, k), following, math.inf, True, stages.capsize_angle)
+                end, lane_steps = stages.run(
+                    _stage_key(key, k), following, math.inf, True, stages.capsize_angle
+                )
                 continuation = _record(end, following, lane_steps, t0)
                 capsize_eves = eve[success][np.asarray(end["success"], bool)]
             break
@@ -271,7 +271,9 @@ def _stages(problem, angles, exposure, discard, lanes, devices, dtype, wave_weig
     )
 
 
-def _pilot(problem, key, angles, exposure, discard, trials, p, max_levels, wave_weight, lanes, devices, dtype):
+def _pilot(
+    problem, key, angles, exposure, discard, trials, p, max_levels, wave_weight, lanes, devices, dtype
+):
     t0 = time.perf_counter()
     stages = _stages(problem, angles, exposure, discard, lanes, devices, dtype, wave_weight, trials)
     plan, found, records, capped = _pilot_plan(
@@ -330,7 +332,15 @@ def splitting_pilot(
     **Returns:** `SplittingPilot`. **Raises:** `ValueError` as `monte_carlo_splitting_angles`.
     """
     angles, max_levels, lanes = _checked(
-        problem, angles_deg, exposure, discard, stage_probability, max_levels, wave_weight, lanes, "splitting_pilot"
+        problem,
+        angles_deg,
+        exposure,
+        discard,
+        stage_probability,
+        max_levels,
+        wave_weight,
+        lanes,
+        "splitting_pilot",
     )
     trials = _positive_int("pilot_trials", pilot_trials, 10)
     return _pilot(
@@ -392,7 +402,11 @@ def _splitting(
         problem, angles_deg, exposure, discard, stage_probability, max_levels, wave_weight, lanes, name
     )
     num_trials = _positive_int("num_trials", num_trials, 2)
-    trials = max(100, num_trials // 10) if pilot_trials is None else _positive_int("pilot_trials", pilot_trials, 10)
+    trials = (
+        max(100, num_trials // 10)
+        if pilot_trials is None
+        else _positive_int("pilot_trials", pilot_trials, 10)
+    )
     if isinstance(levels, SplittingPilot):
         if levels.angles_deg.tolist() != list(angles):
             raise ValueError(
@@ -457,7 +471,9 @@ def _splitting(
         "variance": "Lee & Whiteley (2018) genealogy estimator; 95 % interval log-normal",
         "capsize": "the last stage's successful runs continued to the end of the exposure with their own noise",
     }
-    elapsed = time.perf_counter() - t_start + (pilot.wall_time_s if isinstance(levels, SplittingPilot) else 0.0)
+    elapsed = (
+        time.perf_counter() - t_start + (pilot.wall_time_s if isinstance(levels, SplittingPilot) else 0.0)
+    )
     return _results(run, plan, angles, num_trials, pilot, problem.dt, elapsed, config)
 
 
@@ -473,7 +489,9 @@ def _results(run, plan, angles, num, pilot, dt, wall_time, config) -> tuple[Spli
     capsize_eves = run["capsize_eves"]
     capsize = 0.0 if died_top else float(np.prod(p_hat[:top])) * capsize_eves.size / num
     capsize_relvar = genealogy_relative_variance(capsize_eves, num, len(plan))
-    simulated = sum(r.simulated_steps for r in records) + (continuation.simulated_steps if continuation else 0)
+    simulated = sum(r.simulated_steps for r in records) + (
+        continuation.simulated_steps if continuation else 0
+    )
     lanes = sum(r.lane_steps for r in records) + (continuation.lane_steps if continuation else 0)
     out = []
     for j, angle in enumerate(angles):
@@ -484,7 +502,9 @@ def _results(run, plan, angles, num, pilot, dt, wall_time, config) -> tuple[Spli
         relvar = genealogy_relative_variance(eves, num, e + 1)
         ran = min(len(records), e + 1)
         reached = float(np.prod(p_hat[: ran - 1])) if ran > 1 else 1.0
-        zero_upper = reached * (1 - 0.05 ** (1 / num))  # 0 of N in the stage that stopped: 95 % binomial bound
+        zero_upper = reached * (
+            1 - 0.05 ** (1 / num)
+        )  # 0 of N in the stage that stopped: 95 % binomial bound
         fractions = p_hat[: e + 1]
         done = fractions[~np.isnan(fractions)]
         independent = float(np.sum((1 - done) / (num * done))) if np.all(done > 0) else math.inf
@@ -584,7 +604,9 @@ def monte_carlo_splitting(
     **Raises:** `ValueError` for an excitation other than the shaping filter, a moment excitation, an angle not
     below the vanishing angle, bad levels, counts or durations.
     """
-    if not (isinstance(angle_deg, int | float) and 0 < angle_deg < math.degrees(float(problem.capsize_angle))):
+    if not (
+        isinstance(angle_deg, int | float) and 0 < angle_deg < math.degrees(float(problem.capsize_angle))
+    ):
         raise ValueError(
             f"`angle_deg` must be in (0, {math.degrees(float(problem.capsize_angle)):.1f}) deg (the angle of "
             f"vanishing stability); got {angle_deg!r}."

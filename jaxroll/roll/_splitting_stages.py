@@ -336,7 +336,9 @@ class _RollStages:
         following["r"] = (queue["r"] + used)[chosen].astype(np.int32)
         return following
 
-    def run(self, key, queue: dict, level: float, final: bool, angle: float | None = None) -> tuple[dict, int]:
+    def run(
+        self, key, queue: dict, level: float, final: bool, angle: float | None = None
+    ) -> tuple[dict, int]:
         """One stage: every clone of `queue` until the level [deg] (`final`: the event of `angle` [rad], default
         the stages' angle) or the end of the exposure. **Returns:** `(per_clone, lane_steps)`, per clone in the
         queue's order."""
@@ -419,4 +421,3 @@ def _initial_filter_program(problem, key, indices):
         return jnp.stack(z), x
 
     return jax.vmap(one)(indices)
-
