@@ -18,7 +18,7 @@ import sys
 import types
 from typing import TYPE_CHECKING
 
-from ._config import configure as configure
+from ._config import configure as configure, single_threaded_blas as single_threaded_blas
 
 # `import jaxroll` imports JAX and `configure` only: the other names are imported when first used
 # (`jaxroll.monte_carlo`, `from jaxroll import ITTC`), so that a command or a script that needs the hull

@@ -1,5 +1,6 @@
 """JAX's process-wide settings that jaxroll relies on, changed only when asked: `configure()`; and the check that
-refuses to compute without float64 (`require_float64`).
+refuses to compute without float64 (`require_float64`); and `single_threaded_blas()`, a scoped limit on the
+BLAS/LAPACK threads (the envelope FPK's solves call LAPACK through jaxlib).
 
 `import jaxroll` changes nothing in JAX's or XLA's global configuration (docs/architecture.md, "Process-wide
 settings"). `jaxroll.configure()` — one call, first thing after the imports — asks for what the library was built
@@ -10,7 +11,10 @@ at the same moment). The `jaxroll` command calls it for its own process.
 
 from __future__ import annotations
 
+import contextlib
+import ctypes
 import os
+import threading
 import warnings
 from typing import Literal
 
@@ -163,3 +167,85 @@ def require_float64(name: str) -> None:
             f"{name} needs float64, but JAX runs in float32 (importing jaxroll does not change that): call "
             'jaxroll.configure() first (or jax.config.update("jax_enable_x64", True)).'
         )
+
+
+_BLAS_LOCK = threading.Lock()
+_BLAS_DEPTH = [
+    0,
+    [],
+]  # [callers inside `single_threaded_blas`, the (setter, previous count) pairs to restore]
+
+
+def _openblas_controls() -> list:
+    """(get, set) thread-count functions of every OpenBLAS loaded in this process (jaxlib's LAPACK kernels are
+    SciPy's: `scipy.linalg.cython_lapack`, SciPy's bundled OpenBLAS; NumPy bundles its own). Found through the
+    libraries mapped into the process (Linux); an empty list elsewhere."""
+    try:
+        import scipy.linalg.cython_lapack  # noqa: F401  (what jaxlib loads on its first LAPACK call)
+    except ImportError:  # pragma: no cover
+        pass
+    try:
+        with open("/proc/self/maps") as f:
+            paths = {line.split()[-1] for line in f if "openblas" in line.rsplit("/", 1)[-1].lower()}
+    except OSError:  # pragma: no cover - not Linux
+        return []
+    found = []
+    for path in sorted(paths):
+        try:
+            lib = ctypes.CDLL(path)
+        except OSError:  # pragma: no cover
+            continue
+        for prefix, suffix in (("scipy_", ""), ("scipy_", "64_"), ("", ""), ("", "64_")):
+            get = getattr(lib, f"{prefix}openblas_get_num_threads{suffix}", None)
+            put = getattr(lib, f"{prefix}openblas_set_num_threads{suffix}", None)
+            if get is not None and put is not None:
+                get.restype, put.argtypes = ctypes.c_int, [ctypes.c_int]
+                found.append((get, put))
+                break
+    return found
+
+
+def blas_threads() -> list[int]:
+    """The thread count of each OpenBLAS loaded in this process (see `single_threaded_blas`)."""
+    try:
+        from threadpoolctl import threadpool_info
+    except ImportError:
+        return [int(get()) for get, _ in _openblas_controls()]
+    return [int(i["num_threads"]) for i in threadpool_info() if i.get("user_api") == "blas"]
+
+
+@contextlib.contextmanager
+def single_threaded_blas():
+    """Run the block inside with one BLAS/LAPACK thread; the previous counts come back on leaving it.
+
+    jaxlib's LAPACK kernels (LU factorisations, triangular solves) are SciPy's OpenBLAS, which starts a thread per
+    core for each call: on the envelope FPK's 96 × 96 blocks its threads spin on each other and on the other
+    device's work, 4–40× slower when the machine is busy (a 96 × 96 inverse 31 → 0.8 ms at load 7 on 2 cores;
+    `jaxroll.theory.passage_risk_batch`, `jaxroll longterm`'s theory). Through threadpoolctl where it is
+    installed; otherwise OpenBLAS's own `openblas_set_num_threads` in the libraries loaded in this process (Linux);
+    elsewhere it does nothing. Re-entrant and thread-safe: the counts are restored when the last caller leaves.
+    The count is process-wide while inside (NumPy's own BLAS included)."""
+    with _BLAS_LOCK:
+        if _BLAS_DEPTH[0] == 0:
+            restore = []
+            try:
+                from threadpoolctl import threadpool_limits
+
+                limiter = threadpool_limits(limits=1, user_api="blas")
+                restore.append((limiter.restore_original_limits, None))
+            except ImportError:
+                for get, put in _openblas_controls():
+                    n = int(get())
+                    put(1)
+                    restore.append((put, n))
+            _BLAS_DEPTH[1] = restore
+        _BLAS_DEPTH[0] += 1
+    try:
+        yield
+    finally:
+        with _BLAS_LOCK:
+            _BLAS_DEPTH[0] -= 1
+            if _BLAS_DEPTH[0] == 0:
+                for put, n in _BLAS_DEPTH[1]:
+                    put() if n is None else put(n)
+                _BLAS_DEPTH[1] = []

@@ -224,33 +224,36 @@ def test_auto_rule_and_neyman_allocation():
 
 
 def test_class_theory_is_passage_risk_cell_by_cell(monkeypatch):
-    """A class's cells give `jaxroll.theory.passage_risk`'s numbers, cell by cell; cells with λ <= 0 (by the screen,
-    on passage_risk's own (ρ, θ) grid) never reach it and are 0, as its own `exists` makes them."""
+    """A class's cells give `jaxroll.theory.passage_risk`'s numbers, cell by cell (solved `SEAS_PER_CALL` at a time
+    by `passage_risk_batch`, with the screen's envelopes); cells with λ <= 0 (by the screen, on passage_risk's own
+    (ρ, θ) grid) never reach it and are 0, as its own `exists` makes them."""
     from jaxroll.longterm import _theory
 
     hs = np.array([6.0, 1.5, 7.0])  # 1.5 m: the roll dies out (λ < 0)
     t01 = np.array([10.0, 10.0, 9.0])
     seen = []
-    solve = _theory.passage_risk
+    solve = _theory._batch_dispatch
 
-    def counting(ship, wave, angles, durations, **kw):
-        seen.append(float(wave.sea.hs))
-        return solve(ship, wave, angles, durations, **kw)
+    def counting(ship, waves, *args, **kw):
+        seen.append([float(w.sea.hs) for w in waves])
+        return solve(ship, waves, *args, **kw)
 
-    monkeypatch.setattr(_theory, "passage_risk", counting)
+    monkeypatch.setattr(_theory, "_batch_dispatch", counting)
     r = class_theory(
         SHIP, class_template(SHIP, 0.0, 180.0), hs, t01, np.asarray(ANGLES), 1800.0, refine_delta=0.0
     )
     assert r["lyapunov_exponent"][1] < 0 < min(r["lyapunov_exponent"][0], r["lyapunov_exponent"][2])
-    assert seen == [6.0, 7.0]
+    assert seen == [[6.0, 7.0, 7.0, 7.0]]  # one call, padded to `SEAS_PER_CALL` with its last sea
     for i in range(3):
         wave = jxr.EffectiveWave(jxr.ITTC(float(hs[i]), float(t01[i])), SHIP.lpp, 0.0, "head")
-        one = solve(SHIP, wave, np.asarray(ANGLES), jnp.asarray([1800.0]))
+        one = jxr.theory.passage_risk(SHIP, wave, np.asarray(ANGLES), jnp.asarray([1800.0]))
         np.testing.assert_allclose(
             r["probability"][i], np.asarray(one.probability)[:, 0], rtol=1e-10, atol=1e-300
         )
+        # the capsize rate (λ_1 of a nearly singular system, ~1e-9 1/s) carries the screen's envelope fit
+        # (vmapped) to 3e-9 relative
         np.testing.assert_allclose(
-            r["capsize_probability"][i], float(one.capsize_probability[0]), rtol=1e-10, atol=1e-300
+            r["capsize_probability"][i], float(one.capsize_probability[0]), rtol=1e-8, atol=1e-300
         )
         if i == 1:
             assert not bool(one.exists)

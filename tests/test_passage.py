@@ -44,7 +44,7 @@ def test_survival_equals_the_system_marched_in_time():
         math.radians(1e-4),
         0,
     )
-    levels = passage._levels(SHIP, grid, [angle])
+    levels = passage._levels(passage._concrete_top(SHIP, "passage_risk"), grid, [angle])
     face = grid.num_s_coarse + levels[0][0]
 
     @eqx.filter_jit

@@ -30,27 +30,33 @@ import jax.numpy as jnp
 import numpy as np
 
 from .._compiled import SOLVER_PROGRAM, cached_program
+from .._config import single_threaded_blas
 from ..sea import ITTC, EffectiveWave
-from ..theory import envelope_lyapunov_exponent, passage_risk
+from ..theory import EnvelopeExcitation, envelope_lyapunov_exponent
+from ..theory._envelope_fpk_passage import _batch_dispatch
 from ._risk import auto_cells
 
 #: Sea states per compiled batch of the Lyapunov screen (one (ρ, θ) solve each).
 SCREEN_BATCH = 64
 #: `passage_risk`'s (ρ, θ) grid (its defaults): the screen's λ is the one `passage_risk` tests for `exists`.
 NUM_RHO, NUM_THETA = 8, 12
+#: Sea states per `passage_risk_batch` call (measured best on a 2-core CPU: 1 → 4 halves the calls' overhead).
+SEAS_PER_CALL = 4
+#: `passage_risk`'s defaults: (num_s, num_s_coarse, num_rho, num_theta, rho_max [-], a_fine [rad], a_min [rad]).
+GRID = (60, 10, NUM_RHO, NUM_THETA, 5.5, math.radians(0.5), math.radians(1e-4))
+NUM_ITERATIONS = 3
 #: δ: the cells left at pass 1 carry at most this share of a unit's pass-1 Σ w P per angle (module docstring).
 REFINE_DELTA = 0.01
 
 
 @cached_program(compiler_options=SOLVER_PROGRAM)
 def _screen_batch(ship, seas, template):
-    """(λ [1/s], fitted envelope decay γ [1/s]) of each sea state of the batch `seas` (an `ITTC` with arrays)."""
+    """(λ [1/s], the fitted envelope) of each sea state of the batch `seas` (an `ITTC` with arrays)."""
 
     def one(sea):
-        lam, exc = envelope_lyapunov_exponent(
+        return envelope_lyapunov_exponent(
             ship, eqx.tree_at(lambda w: w.sea, template, sea), num_rho=NUM_RHO, num_theta=NUM_THETA
         )
-        return lam, exc.gamma
 
     return jax.vmap(one)(seas)
 
@@ -70,39 +76,71 @@ def class_template(ship, speed: float, heading_deg: float) -> EffectiveWave:
 
 
 def _solve(
-    ship, template, hs, t01, cells, angles, durations, devices, extrapolate: bool, coarse=None
+    ship, template, hs, t01, cells, angles, durations, devices, extrapolate: bool, excitations, coarse=None
 ) -> dict:
-    """`passage_risk` of the cells `cells` (indices into `hs`, `t01`), dispatched in turn to the devices (one
-    sea state per call: a vmapped batch ran slower per cell on a CPU); `coarse`: {cell: its one-grid result},
-    reused by the extrapolation. **Returns:** {cell: (P per angle, capsize P, the `PassageRisk`)}."""
+    """`passage_risk` of the cells `cells` (indices into `hs`, `t01`) by `passage_risk_batch`, `SEAS_PER_CALL` seas a
+    call, the calls dispatched in turn to the devices without waiting (one compiled program per device, the devices
+    working together), with one BLAS thread (the caller holds `single_threaded_blas`). `excitations`: the screen's
+    fitted envelopes (host arrays per cell); `coarse`: {cell: its one-grid result, host arrays}, reused by the
+    extrapolation. **Returns:** {cell: (P per angle, capsize P, the `PassageRisk` of that cell, host arrays)}."""
+    cells = np.asarray(cells, int)
+    if cells.size == 0:
+        return {}
     fixed = [jax.device_put((ship, template), d) for d in devices]
     pending = []
-    for n, c in enumerate(cells):
+    for n, start in enumerate(range(0, cells.size, SEAS_PER_CALL)):
+        chunk = cells[start : start + SEAS_PER_CALL]
+        take = np.concatenate([chunk, np.repeat(chunk[-1:], SEAS_PER_CALL - chunk.size)])  # padded: one shape
         d = n % len(devices)
         sh, tm = fixed[d]
-        sea = eqx.tree_at(lambda s: (s.hs, s.t01), ITTC(1.0, 10.0), (jnp.asarray(hs[c]), jnp.asarray(t01[c])))
-        wave = eqx.tree_at(lambda w: w.sea, tm, jax.device_put(sea, devices[d]))
-        kw = {} if coarse is None else {"coarse": jax.device_put(coarse[c], devices[d])}
-        pending.append((c, passage_risk(sh, wave, angles, durations, extrapolate=extrapolate, **kw)))
-    return {
-        c: (np.asarray(r.probability)[:, 0], float(np.asarray(r.capsize_probability)[0]), r)
-        for c, r in pending
-    }
+        waves = [  # only the sea's H_s and T01 differ (batched); the rest is the class's, shared
+            eqx.tree_at(
+                lambda w: (w.sea.hs, w.sea.t01), tm, (np.asarray(hs[c], float), np.asarray(t01[c], float))
+            )
+            for c in take
+        ]
+        exc = jax.tree.map(lambda x: x[take], excitations)
+        crs = None if coarse is None else jax.tree.map(lambda *xs: np.stack(xs), *[coarse[c] for c in take])
+        r = _batch_dispatch(
+            sh,
+            waves,
+            angles,
+            durations,
+            excitations=exc,
+            grid_args=GRID,
+            num_iterations=NUM_ITERATIONS,
+            observe="peaks",
+            extrapolate=extrapolate,
+            coarse=crs,
+            device=devices[d],
+        )
+        pending.append((chunk, r))
+    out = {}
+    for chunk, r in pending:  # the results, in the order dispatched
+        r = jax.tree.map(np.asarray, r)
+        for i, c in enumerate(chunk):
+            one = jax.tree.map(lambda x, i=i: x[i], r)
+            out[int(c)] = (one.probability[:, 0], float(one.capsize_probability[0]), one)
+    return out
 
 
-def screen(ship, template: EffectiveWave, hs, t01) -> tuple[np.ndarray, np.ndarray]:
-    """(λ [1/s], envelope γ [1/s]) of the sea states (`hs` [m], `t01` [s], 1-D) of one heading class and speed,
-    vmapped in batches of `SCREEN_BATCH`."""
+def screen(ship, template: EffectiveWave, hs, t01) -> tuple[np.ndarray, np.ndarray, EnvelopeExcitation]:
+    """(λ [1/s], envelope γ [1/s], the fitted envelopes (host arrays per sea)) of the sea states (`hs` [m], `t01`
+    [s], 1-D) of one heading class and speed, vmapped in batches of `SCREEN_BATCH`. The envelopes are those
+    `passage_risk` fits (the same ω_l and sea), passed on to it (`excitation`)."""
     hs, t01 = np.asarray(hs, float), np.asarray(t01, float)
     n = hs.size
-    lam, gamma = np.zeros(n), np.zeros(n)
+    lam = np.zeros(n)
+    parts = []
     for start in range(0, n, SCREEN_BATCH):
         idx = np.arange(start, start + SCREEN_BATCH)
         take = np.where(idx < n, idx, 0)  # the last batch padded with cell 0 (its results dropped)
         m = min(SCREEN_BATCH, n - start)
-        out = _screen_batch(ship, _seas(hs[take], t01[take]), template)
-        lam[idx[:m]], gamma[idx[:m]] = (np.asarray(x)[:m] for x in out)
-    return lam, gamma
+        lam_b, exc_b = _screen_batch(ship, _seas(hs[take], t01[take]), template)
+        lam[idx[:m]] = np.asarray(lam_b)[:m]
+        parts.append(jax.tree.map(lambda x, m=m: np.asarray(x)[:m], exc_b))
+    exc = jax.tree.map(lambda *xs: np.concatenate(xs), *parts)
+    return lam, exc.gamma, exc
 
 
 def refine_set(weight, p1, live, delta: float) -> np.ndarray:
@@ -142,7 +180,7 @@ def class_theory(
     weight = np.ones(n) if weight is None else np.asarray(weight, float)
     angles = jnp.asarray(angles, float)
     durations = jnp.asarray([exposure], float)
-    lam, gamma = screen(ship, template, hs, t01)
+    lam, gamma, excitations = screen(ship, template, hs, t01)
     n_a = int(angles.size)
     prob, cap = np.zeros((n, n_a)), np.zeros(n)
     live = lam > 0  # λ ≤ 0: the theory's probability is 0 exactly (its `exists` is λ > 0)
@@ -151,20 +189,33 @@ def class_theory(
     devices = jax.local_devices()
     p1, c1 = np.full((n, n_a), np.nan), np.full(n, np.nan)
     first = None
-    if refine_delta > 0:
-        p1[~live], c1[~live] = 0.0, 0.0
-        first = _solve(ship, template, hs, t01, np.flatnonzero(live), angles, durations, devices, False)
-        for c, (p, cp, _) in first.items():
-            p1[c], c1[c] = p, cp
-        prob[:], cap[:] = p1, c1
-        first = {c: r for c, (_, _, r) in first.items()}
-    refined = refine_set(weight, np.nan_to_num(p1), live, refine_delta)
-    if progress is not None and live.sum() - refined.sum():
-        progress(int(live.sum() - refined.sum()))
-    for c, (p, cp, _) in _solve(
-        ship, template, hs, t01, np.flatnonzero(refined), angles, durations, devices, True, first
-    ).items():
-        prob[c], cap[c] = p, cp
+    with single_threaded_blas():
+        if refine_delta > 0:
+            p1[~live], c1[~live] = 0.0, 0.0
+            first = _solve(
+                ship, template, hs, t01, np.flatnonzero(live), angles, durations, devices, False, excitations
+            )
+            for c, (p, cp, _) in first.items():
+                p1[c], c1[c] = p, cp
+            prob[:], cap[:] = p1, c1
+            first = {c: r for c, (_, _, r) in first.items()}
+        refined = refine_set(weight, np.nan_to_num(p1), live, refine_delta)
+        if progress is not None and live.sum() - refined.sum():
+            progress(int(live.sum() - refined.sum()))
+        for c, (p, cp, _) in _solve(
+            ship,
+            template,
+            hs,
+            t01,
+            np.flatnonzero(refined),
+            angles,
+            durations,
+            devices,
+            True,
+            excitations,
+            first,
+        ).items():
+            prob[c], cap[c] = p, cp
     if progress is not None and refined.sum():
         progress(int(refined.sum()))
     ones = np.ones(n)

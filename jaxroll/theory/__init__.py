@@ -35,6 +35,7 @@ from ._envelope_fpk_law import (
 from ._envelope_fpk_passage import (  # exposure risk: first passage of the envelope FPK model's amplitude
     PassageRisk as PassageRisk,
     passage_risk as passage_risk,
+    passage_risk_batch as passage_risk_batch,
 )
 from ._excitation import (
     ParametricSpectrum as ParametricSpectrum,

@@ -47,8 +47,8 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Bool, Float
 
-from .._compiled import filter_jit
-from .._config import require_float64
+from .._compiled import SOLVER_PROGRAM, cached_program, filter_jit
+from .._config import require_float64, single_threaded_blas
 from ..ship._restoring import vanishing_angle
 from ..ship._ship import Ship
 from ._envelope_fpk import (
@@ -166,8 +166,7 @@ def _model(ship, wave, excitation, grid: _Grid, levels: tuple):
     return _build_model(ship, scale, h, omega, exc, grid, absorbing_top=True, snap=snap), exc
 
 
-@filter_jit
-def _passage(
+def _passage_body(
     ship, wave, excitation, grid: _Grid, levels: tuple, durations, num_iterations: int, observe: str
 ):
     """One grid's first-order solution. `levels`: static (fine-edge index, angle [rad]) pairs in increasing angle,
@@ -179,7 +178,7 @@ def _passage(
 
     # The capsize problem (no killing) factorised once. A level's system differs from it only above the level's
     # face: below the lowest face the factors are shared, above it each level continues the elimination with its
-    # own killing (vmapped over the levels: one program whatever their number).
+    # own killing.
     faces = jnp.asarray([grid.num_s_coarse + index for index, _ in levels])
     lowest = grid.num_s_coarse + levels[0][0]
     g, below = _factorise_slices(md, 0.0, False, None, 0, lowest, jnp.zeros((md.m, md.m)))
@@ -193,13 +192,15 @@ def _passage(
     )
     amplitude_rate = jnp.sum(p * peaks)
 
-    def level(face):
+    def level(
+        face,
+    ):  # one level after another (lax.map): one program whatever their number, no batched LAPACK
         above = (jnp.arange(ns) >= face)[:, None]
         _, tail = _factorise_slices(md, 0.0, False, jnp.where(above, killing, 0.0), lowest, ns, g)
         moments, _ = _survival_moments(md, _concat(below, tail), p, num_iterations)
         return (*moments, jnp.sum(jnp.where(above, p, 0.0)), jnp.sum(jnp.where(above, p * peaks, 0.0)))
 
-    m0, m1, rate, c1, start_above, peaks_above = jax.vmap(level)(faces)
+    m0, m1, rate, c1, start_above, peaks_above = jax.lax.map(level, faces)
     survival = jax.vmap(_survival, in_axes=(0, 0, 0, 0, None))(m0, m1, rate, c1, durations)
     return dict(
         hazard=-jnp.log(survival),  # −ln S(T) [levels, n_T]
@@ -235,6 +236,20 @@ def _extrapolated(coarse: dict, fine: dict) -> dict:
     return out
 
 
+_GRID_DOC = """
+    - `excitation` and the grid: as `envelope_fpk_pdf`; coarser in (ρ, θ) by default (8 × 12: the probabilities
+      move by up to 20 % at 12 × 20 where they are ~1e-3, less elsewhere; 7× faster).
+    - `num_iterations`: inverse-iteration solves per level (3: the slowest mode converges geometrically at the
+      ratio of the passage rate to the relaxation rate; 3 and 8 give the same probabilities to 1e-4 relative,
+      measured over H1/3 5–8 m, 25–40°, 1 h and 3 h).
+    - `observe`: `"peaks"` (the roll's peaks, what a record shows) or `"continuous"` (the envelope watched
+      continuously: every excursion above the angle counts; an upper bound).
+    - `extrapolate`: Richardson extrapolation over `num_s` and 2 `num_s` fine cells (3× the work of one grid).
+    - `coarse`: this call's own one-grid result (`extrapolate=False`, the same ship, wave and arguments), reused as
+      the extrapolation's `num_s` grid: only the 2 `num_s` grid is solved (2× the work of one grid; the same
+      result). `jaxroll longterm`'s two passes use it."""
+
+
 def passage_risk(
     ship: Ship,
     wave,
@@ -249,44 +264,279 @@ def passage_risk(
     rho_max: float = 5.5,
     a_fine: float = math.radians(0.5),
     a_min: float = math.radians(1e-4),
-    num_iterations: int = 5,
+    num_iterations: int = 3,
     observe: str = "peaks",
     extrapolate: bool = True,
     coarse: PassageRisk | None = None,
 ) -> PassageRisk:
     """Probability that the roll exceeds each angle within each exposure, with large rolls in groups: the envelope
     Fokker–Planck model followed through the exposure (module docstring; docs/theory.md, "Exposure risk when large
-    rolls come in groups"). Within ×1.15 of the direct Monte Carlo on the default ship at H1/3 5–8 m, 25–40°,
+    rolls come in groups"). Within ×1.18 of the direct Monte Carlo on the default ship at H1/3 5–8 m, 25–40°,
     1 h and 3 h, where the independent-amplitude formula is ×1.2–2.3 high.
 
     **Arguments:**
 
-    - `ship`: the roll model; `wave`: anything with `.spectrum(ω)`, the one-sided spectrum of ζ_G [m² s/rad] in
-      encounter frequency (a `jaxroll.EffectiveWave`, e.g. `problem.wave`).
+    - `ship`: the roll model, concrete or traced by `jax.grad` alone (its vanishing angle, the amplitude grid's
+      top, places the levels' faces); `wave`: anything with `.spectrum(ω)`, the one-sided spectrum of ζ_G
+      [m² s/rad] in encounter frequency (a `jaxroll.EffectiveWave`, e.g. `problem.wave`).
     - `angles` [rad]: threshold roll angles, 1-D, concrete (they place the grid's faces), each in (`a_fine`,
       vanishing angle) and more than one amplitude cell apart.
     - `durations` [s]: exposure times, 1-D, > 0 (e.g. 3600.0 for one hour). The exposure starts in the roll's
-      quasi-stationary state (as a Monte Carlo that discards its first minutes).
-    - `excitation` and the grid: as `envelope_fpk_pdf`; coarser in (ρ, θ) by default (8 × 12: the probabilities
-      move by up to 20 % at 12 × 20 where they are ~1e-3, less elsewhere; 7× faster).
-    - `num_iterations`: inverse-iteration solves per level (5: the slowest mode converges geometrically at the
-      ratio of the passage rate to the relaxation rate; 4 and 8 give the same probabilities to 1e-6 at 6 m, 30°).
-    - `observe`: `"peaks"` (the roll's peaks, what a record shows) or `"continuous"` (the envelope watched
-      continuously: every excursion above the angle counts; an upper bound).
-    - `extrapolate`: Richardson extrapolation over `num_s` and 2 `num_s` fine cells (3× the work of one grid).
-    - `coarse`: this call's own one-grid result (`extrapolate=False`, the same ship, wave and arguments), reused as
-      the extrapolation's `num_s` grid: only the 2 `num_s` grid is solved (2× the work of one grid; the same
-      result). `jaxroll longterm`'s two passes use it.
+      quasi-stationary state (as a Monte Carlo that discards its first minutes).{grid}
 
-    **Returns:** `PassageRisk`. jit-able, vmappable over sea states (`eqx.filter_vmap` over waves of the same
-    heading class) and differentiable in the ship's and the sea's parameters. Where the roll dies out
-    (λ ≤ 0, `exists` False) the probabilities are 0.
+    **Returns:** `PassageRisk`. jit-able with a concrete ship, vmappable over sea states (`eqx.filter_vmap` over
+    waves of the same heading class; `passage_risk_batch` solves several in one call) and differentiable in the
+    ship's and the sea's parameters (`jax.grad`). Where the roll dies out (λ ≤ 0, `exists` False) the
+    probabilities are 0.
 
     **Raises:** `ValueError` for angles outside (a_fine, vanishing angle) or within one cell of each other,
-    non-positive durations, or an unknown `observe` (concrete inputs).
+    non-positive durations, an unknown `observe` (concrete inputs), or a ship traced by `jax.jit` or `jax.vmap`
+    (its vanishing angle unknown while tracing: vmap over sea states with the ship fixed, or
+    `passage_risk_batch`).
     """
     require_float64("jaxroll.theory.passage_risk")
-    grid = _grid(num_s, num_s_coarse, num_rho, num_theta, rho_max, a_fine, a_min, 0)
+    grid, angles, durations, order, grids, reuse = _checked(
+        ship,
+        angles,
+        durations,
+        (num_s, num_s_coarse, num_rho, num_theta, rho_max, a_fine, a_min),
+        num_iterations,
+        observe,
+        extrapolate,
+        coarse,
+        "passage_risk",
+    )
+    return _passage_risk(
+        ship,
+        wave,
+        excitation,
+        coarse if reuse else None,
+        durations,
+        tuple(grids),
+        tuple(float(a) for a in angles),
+        tuple(int(i) for i in order),
+        grid,
+        int(num_iterations),
+        observe,
+        bool(extrapolate),
+    )
+
+
+passage_risk.__doc__ = passage_risk.__doc__.replace("{grid}", _GRID_DOC)
+
+
+def passage_risk_batch(
+    ship: Ship,
+    waves,
+    angles,
+    durations,
+    *,
+    excitations=None,
+    num_s: int = 60,
+    num_s_coarse: int = 10,
+    num_rho: int = 8,
+    num_theta: int = 12,
+    rho_max: float = 5.5,
+    a_fine: float = math.radians(0.5),
+    a_min: float = math.radians(1e-4),
+    num_iterations: int = 3,
+    observe: str = "peaks",
+    extrapolate: bool = True,
+    coarse: PassageRisk | None = None,
+    device=None,
+) -> PassageRisk:
+    """`passage_risk` of several sea states for one ship in one call: one stored, compiled program per batch size
+    (the seas one after another in it), run with one BLAS/LAPACK thread (`jaxroll.single_threaded_blas`). Each sea's numbers
+    are `passage_risk`'s (to ~1e-10 relative). What `jaxroll longterm` runs, 4 seas a call per CPU device.
+
+    **Arguments:**
+
+    - `ship`: the roll model, concrete (its vanishing angle places the levels' faces).
+    - `waves`: a sequence of waves of one kind (the same type and static settings, e.g. `jaxroll.EffectiveWave`s
+      of one heading class whose seas differ); leaves that differ between them are batched, the others shared.
+    - `angles` [rad], `durations` [s]: as `passage_risk`, the same for every sea.
+    - `excitations`: None (each wave's envelope fitted), or the fitted envelopes, a sequence of
+      `EnvelopeExcitation` or one with a leading axis of the waves' number.
+    - `coarse`: this call's own one-grid result (`passage_risk_batch(..., extrapolate=False)` for the same waves),
+      reused as the extrapolation's `num_s` grid.
+    - `device`: the JAX device to run on (default: JAX's default placement).
+    - the grid, `num_iterations`, `observe`, `extrapolate`: as `passage_risk`.
+
+    **Returns:** `PassageRisk` whose every array has a leading axis over the waves (`r.probability[i]` the i-th
+    sea's (angle, duration) table).
+
+    **Raises:** `ValueError` as `passage_risk`, for an empty `waves`, or waves of different kinds.
+    """
+    require_float64("jaxroll.theory.passage_risk_batch")
+    with single_threaded_blas():
+        return jax.block_until_ready(
+            _batch_dispatch(
+                ship,
+                waves,
+                angles,
+                durations,
+                excitations=excitations,
+                grid_args=(num_s, num_s_coarse, num_rho, num_theta, rho_max, a_fine, a_min),
+                num_iterations=num_iterations,
+                observe=observe,
+                extrapolate=extrapolate,
+                coarse=coarse,
+                device=device,
+            )
+        )
+
+
+def _stacked(trees: list, name: str):
+    """One pytree from `trees` (same structure): leaves that are not all the same object stacked on a leading axis
+    (at least one). **Returns:** (tree, a tuple of bools per leaf: stacked)."""
+    try:
+        flats = [jax.tree.flatten(t) for t in trees]
+    except Exception as e:  # pragma: no cover
+        raise ValueError(f"`{name}`: {e}") from e
+    treedef = flats[0][1]
+    if any(f[1] != treedef for f in flats[1:]):
+        raise ValueError(
+            f"`{name}` must be of one kind (the same type and static settings); got {treedef} and others."
+        )
+    columns = list(zip(*(f[0] for f in flats), strict=True))
+    batched = [any(x is not col[0] for x in col) for col in columns]
+    if not any(batched):  # one sea repeated: vmap needs one batched input
+        batched[next(i for i, col in enumerate(columns) if eqx.is_array(col[0]))] = True
+    leaves = [jnp.stack([jnp.asarray(x) for x in col]) if b else col[0] for col, b in zip(columns, batched)]
+    return jax.tree.unflatten(treedef, leaves), tuple(batched)
+
+
+def _batch_dispatch(
+    ship,
+    waves,
+    angles,
+    durations,
+    *,
+    excitations,
+    grid_args,
+    num_iterations,
+    observe,
+    extrapolate,
+    coarse,
+    device,
+) -> PassageRisk:
+    """`passage_risk_batch` without the thread limit and without waiting: the program is dispatched and its
+    (future) result returned at once, so that calls on several devices overlap (`jaxroll longterm`)."""
+    waves = list(waves)
+    if not waves:
+        raise ValueError("`waves` must hold at least one wave.")
+    grid, angles, durations, order, grids, reuse = _checked(
+        ship,
+        angles,
+        durations,
+        grid_args,
+        num_iterations,
+        observe,
+        extrapolate,
+        coarse,
+        "passage_risk_batch",
+    )
+    stacked, batched = _stacked(waves, "waves")
+    if isinstance(excitations, (list, tuple)):
+        excitations, _ = _stacked(list(excitations), "excitations")
+    args = (ship, stacked, excitations, coarse if reuse else None, durations)
+    if device is not None:
+        args = jax.device_put(args, device)
+    return _batch_program(
+        *args,
+        batched,
+        tuple(grids),
+        tuple(float(a) for a in angles),
+        tuple(int(i) for i in order),
+        grid,
+        int(num_iterations),
+        observe,
+        bool(extrapolate),
+    )
+
+
+def _risk_body(
+    ship,
+    wave,
+    excitation,
+    coarse,
+    durations,
+    grids,
+    angles,
+    order,
+    grid,
+    num_iterations,
+    observe,
+    extrapolate,
+) -> PassageRisk:
+    """One sea state's `PassageRisk`: its grids solved (the first taken from `coarse` where given), extrapolated and
+    assembled, in one program (`grids`, `angles`, `order` static)."""
+    order = np.asarray(order)
+    solved = [
+        _unsolved(coarse, order)
+        if coarse is not None and n == 0
+        else _passage_body(ship, wave, excitation, g, levels, durations, num_iterations, observe)
+        for n, (g, levels) in enumerate(grids)
+    ]
+    return _assembled(
+        solved, np.asarray(angles), durations, order, grid, num_iterations, observe, extrapolate
+    )
+
+
+# one program per call: the solves, the extrapolation and the assembly (no chain of small eager programs queued
+# behind the solve)
+_passage_risk = filter_jit(_risk_body)
+
+
+@cached_program(compiler_options=SOLVER_PROGRAM)
+def _batch_program(
+    ship,
+    waves,
+    excitations,
+    coarse,
+    durations,
+    batched,
+    grids,
+    angles,
+    order,
+    grid,
+    num_iterations,
+    observe,
+    extrapolate,
+):
+    """The batch's program: `passage_risk` mapped over the waves' `batched` leaves (and the excitations and
+    `coarse`, where given)."""
+    flat, treedef = jax.tree.flatten(waves)
+
+    def one(wave_leaves, excitation, crs):
+        leaves = list(flat)
+        for i, x in zip([i for i, b in enumerate(batched) if b], wave_leaves):
+            leaves[i] = x
+        wave = jax.tree.unflatten(treedef, leaves)
+        return _risk_body(
+            ship,
+            wave,
+            excitation,
+            crs,
+            durations,
+            grids,
+            angles,
+            order,
+            grid,
+            num_iterations,
+            observe,
+            extrapolate,
+        )
+
+    # one sea after another (lax.map, not vmap): a vmapped LAPACK call runs its batch on XLA's thread pool, where
+    # it hung (a lost wake-up, seen in gdb, 2 CPU devices); a sequential map keeps every LAPACK call unbatched
+    return jax.lax.map(lambda x: one(*x), ([x for x, b in zip(flat, batched) if b], excitations, coarse))
+
+
+def _checked(ship, angles, durations, grid_args, num_iterations, observe, extrapolate, coarse, name):
+    """The checked arguments of `passage_risk` and `passage_risk_batch`: (grid, angles (host), durations, the
+    order by increasing angle, [(grid, levels)] per grid solved, whether `coarse` is reused)."""
+    grid = _grid(*grid_args, 0)
     angles = np.atleast_1d(np.asarray(angles, dtype=float))
     durations = jnp.atleast_1d(jnp.asarray(durations, dtype=float))
     if angles.ndim != 1 or durations.ndim != 1:
@@ -305,28 +555,26 @@ def passage_risk(
     if reuse and (
         dict(coarse.grid).get("extrapolate", True)
         or coarse.grid[:-1] != grid.record()[:-1] + (("num_iterations", num_iterations), ("observe", observe))
-        or not np.array_equal(coarse.angles, angles)
-        or coarse.probability.shape != (angles.size, durations.size)
+        or not np.array_equal(np.asarray(coarse.angles).reshape(-1, angles.size)[0], angles)
+        or coarse.probability.shape[-2:] != (angles.size, durations.size)
     ):
         raise ValueError(
-            "`coarse` must be this call's one-grid result: passage_risk(..., extrapolate=False) with "
+            f"`coarse` must be this call's one-grid result: {name}(..., extrapolate=False) with "
             "the same grid, angles and durations."
         )
-    solved = [
-        _unsolved(coarse, order)
-        if reuse and n == 0
-        else _passage(
-            ship,
-            wave,
-            excitation,
-            g,
-            _levels(ship, g, [float(a) for a in angles]),
-            durations,
-            int(num_iterations),
-            observe,
-        )
-        for n, g in enumerate(grids)
-    ]
+    top = _concrete_top(ship, name)
+    return (
+        grid,
+        angles,
+        durations,
+        order,
+        [(g, _levels(top, g, [float(a) for a in angles])) for g in grids],
+        reuse,
+    )
+
+
+def _assembled(solved, angles, durations, order, grid, num_iterations, observe, extrapolate) -> PassageRisk:
+    """The `PassageRisk` from the solved grids (`_passage`'s dicts, levels by increasing angle)."""
     r = _extrapolated(*solved) if extrapolate else solved[0]
     exists = r["lyapunov_exponent"] > 0
 
@@ -374,12 +622,30 @@ def _unsolved(coarse: PassageRisk, order) -> dict:
     )
 
 
-def _levels(ship, grid: _Grid, angles: list[float]) -> tuple:
+def _primal(x):
+    """The concrete value under `jax.grad`'s (or `jax.jvp`'s) tracers; a tracer of `jit` or `vmap` stays one."""
+    while isinstance(x, jax.core.Tracer) and hasattr(x, "primal"):
+        x = x.primal
+    return x
+
+
+def _concrete_top(ship, name: str) -> float:
+    """The vanishing angle [rad] from the ship's concrete values (the primal values under `jax.grad`)."""
+    plain = jax.tree.map(_primal, ship)
+    if any(isinstance(x, jax.core.Tracer) for x in jax.tree.leaves(plain)):
+        raise ValueError(
+            f"jaxroll.theory.{name}: the ship is traced (under jax.jit or jax.vmap): its vanishing angle, the top "
+            "of the amplitude grid that places the angles' faces, must be known before tracing. Keep the ship "
+            "fixed (a concrete value closed over) and vmap over sea states, or solve several sea states in one "
+            "call with jaxroll.theory.passage_risk_batch; jax.grad with respect to the ship works as it is."
+        )
+    with jax.ensure_compile_time_eval():
+        return float(vanishing_angle(plain))
+
+
+def _levels(top: float, grid: _Grid, angles: list[float]) -> tuple:
     """Static (fine-edge index, angle) pairs, by increasing angle: each angle [rad] takes the nearest interior edge
-    of the uniform fine grid in s = ln a (moved by at most half a cell). The grid's top is the vanishing angle
-    (a nominal 70° where the ship is traced)."""
-    top = vanishing_angle(ship)
-    top = math.radians(70.0) if isinstance(top, jax.core.Tracer) else float(top)
+    of the uniform fine grid in s = ln a up to the vanishing angle `top` [rad] (moved by at most half a cell)."""
     bad = [a for a in angles if not (grid.a_fine < a < top) or not math.isfinite(a)]
     if bad:
         raise ValueError(
