@@ -246,7 +246,9 @@ def test_class_theory_is_passage_risk_cell_by_cell(monkeypatch):
     assert seen == [[6.0, 7.0, 7.0, 7.0]]  # one call, padded to `SEAS_PER_CALL` with its last sea
     for i in range(3):
         wave = jxr.EffectiveWave(jxr.ITTC(float(hs[i]), float(t01[i])), SHIP.lpp, 0.0, "head")
-        one = jxr.theory.passage_risk(SHIP, wave, np.asarray(ANGLES), jnp.asarray([1800.0]))
+        one = jxr.theory.passage_risk(
+            SHIP, wave, np.asarray(ANGLES), jnp.asarray([1800.0]), num_iterations=_theory.NUM_ITERATIONS
+        )
         np.testing.assert_allclose(
             r["probability"][i], np.asarray(one.probability)[:, 0], rtol=1e-10, atol=1e-300
         )

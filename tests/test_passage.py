@@ -188,3 +188,104 @@ def test_no_sustained_roll_gives_zero():
 def test_bad_input_is_refused(angles, durations, kw, match):
     with pytest.raises(ValueError, match=match):
         theory.passage_risk(SHIP, _wave(6.0), angles, durations, **kw, **SMALL)
+
+
+# ----------------------------------------------------------------------------------------------------------
+# Speed: the inverted pivots, the batch, the thread limit (issue 34's long-term theory)
+# ----------------------------------------------------------------------------------------------------------
+
+
+def test_block_thomas_with_inverted_pivots_equals_a_dense_solve():
+    """`_solve` with `_factorise`'s stored pivot inverses S_i⁻¹ against the same block-tridiagonal system assembled
+    densely and solved by NumPy (capsize absorbing, killing above a face: a passage system)."""
+    grid = fpk._grid(12, 4, 4, 6, 5.5, math.radians(0.5), math.radians(1e-4), 0)
+    levels = passage._levels(passage._concrete_top(SHIP, "passage_risk"), grid, [30 * DEG])
+    md, _ = passage._model(SHIP, _wave(6.0), None, grid, levels)
+    ns, m = md.sc.shape[0], md.m
+    face = grid.num_s_coarse + levels[0][0]
+    kill = jnp.where((jnp.arange(ns) >= face)[:, None], passage._peak_rate(md), 0.0)
+    rhs = jnp.asarray(np.random.default_rng(1).normal(size=(ns, m)))
+    q = np.asarray(fpk._solve(md, fpk._factorise(md, 0.0, False, kill), rhs))
+    dense = np.zeros((ns * m, ns * m))
+    for i in range(ns):
+        block = fpk._slice_operator(md, jnp.exp(md.sc[i])) + jnp.diag(md.diag_s[i] - kill[i])
+        dense[i * m : (i + 1) * m, i * m : (i + 1) * m] = np.asarray(block)
+        if i > 0:
+            dense[i * m : (i + 1) * m, (i - 1) * m : i * m] = np.diag(np.asarray(md.lower[i]))
+        if i < ns - 1:
+            dense[i * m : (i + 1) * m, (i + 1) * m : (i + 2) * m] = np.diag(np.asarray(md.upper[i]))
+    expect = np.linalg.solve(dense, np.asarray(rhs).ravel()).reshape(ns, m)
+    np.testing.assert_allclose(q, expect, rtol=1e-9, atol=1e-9 * np.abs(expect).max())
+
+
+def test_batch_equals_the_call_per_sea_state():
+    """`passage_risk_batch` (one program, the seas one after another; pass 1 then pass 2 reusing it as `coarse`)
+    gives each sea's `passage_risk`, and refuses what `passage_risk` refuses."""
+    waves = [_wave(5.5), _wave(6.5, 9.0), _wave(7.0, 11.0)]
+    angles, durations = np.deg2rad([25.0, 40.0]), [3600.0, 10800.0]
+    one_grid = theory.passage_risk_batch(SHIP, waves, angles, durations, extrapolate=False, **SMALL)
+    batch = theory.passage_risk_batch(SHIP, waves, angles, durations, coarse=one_grid, **SMALL)
+    assert batch.probability.shape == (3, 2, 2)
+    for i, wave in enumerate(waves):
+        single = theory.passage_risk(SHIP, wave, angles, durations, **SMALL)
+        for name in ("probability", "cluster_rate", "exceedance_per_cycle", "capsize_probability"):
+            np.testing.assert_allclose(
+                np.asarray(getattr(batch, name)[i]),
+                np.asarray(getattr(single, name)),
+                rtol=1e-8
+                if name == "capsize_probability"
+                else 1e-10,  # capsize ~2e-6: a nearly singular system
+                atol=1e-300,
+            )
+    with pytest.raises(ValueError, match="below the vanishing angle"):
+        theory.passage_risk_batch(SHIP, waves, [80 * DEG], durations, **SMALL)
+    with pytest.raises(ValueError, match="at least one wave"):
+        theory.passage_risk_batch(SHIP, [], angles, durations, **SMALL)
+
+
+def test_inverse_iterations_converge():
+    """The default `num_iterations` (5) and `jaxroll longterm`'s 3 against 10 (the slowest mode converged): the
+    probabilities on the default grid at 6 m, 25–40°, 1 h and 3 h (measured 6e-5 and 6e-4 relative)."""
+    angles, durations = np.deg2rad([25.0, 30.0, 40.0]), [3600.0, 10800.0]
+
+    def p(n):
+        kw = {} if n is None else {"num_iterations": n}
+        return np.asarray(
+            theory.passage_risk(SHIP, _wave(6.0), angles, durations, extrapolate=False, **kw).probability
+        )
+
+    converged = p(10)
+    np.testing.assert_allclose(p(None), converged, rtol=1e-4)
+    np.testing.assert_allclose(p(3), converged, rtol=1e-3)
+
+
+def test_a_traced_ship_is_refused_and_its_gradient_kept():
+    """Under `jit`/`vmap` the ship's vanishing angle (the grid's top, which places the angles' faces) is unknown:
+    refused, naming `passage_risk_batch`. `jax.grad` in a ship parameter still works (the top from the primal
+    values) and matches central differences."""
+    angles, durations = [30 * DEG], jnp.array([3600.0])
+    with pytest.raises(ValueError, match="passage_risk_batch"):
+        eqx.filter_jit(lambda s: theory.passage_risk(s, _wave(6.0), angles, durations, **SMALL))(SHIP)
+
+    def p(scale):
+        ship = eqx.tree_at(lambda s: s.damping, SHIP, SHIP.damping * scale)
+        return theory.passage_risk(ship, _wave(6.0), angles, durations, **SMALL).probability[0, 0]
+
+    g = float(jax.grad(p)(1.0))
+    h = 1e-4
+    fd = (float(p(1.0 + h)) - float(p(1.0 - h))) / (2 * h)
+    assert g < 0  # more damping, fewer large rolls
+    assert abs(g / fd - 1) < 1e-4
+
+
+def test_single_threaded_blas_restores_the_thread_counts():
+    from jaxroll._config import blas_threads
+
+    before = blas_threads()
+    assert before  # SciPy's OpenBLAS (jaxlib's LAPACK) is found
+    with jaxroll.single_threaded_blas():
+        assert set(blas_threads()) == {1}
+        with jaxroll.single_threaded_blas():  # re-entrant
+            assert set(blas_threads()) == {1}
+        assert set(blas_threads()) == {1}
+    assert blas_threads() == before

@@ -39,8 +39,8 @@ from ._units import _gather, _hash, _load_unit, _responsible_cells, _save_unit, 
 METHOD_NAMES = ("theory", "monte-carlo", "auto")
 #: What the theory cells are computed with (recorded in the configuration).
 THEORY = (
-    "jaxroll.theory.passage_risk: the envelope FPK model followed through the exposure (large rolls in "
-    "groups); cells with λ <= 0 are 0 exactly"
+    "jaxroll.theory.passage_risk (by passage_risk_batch, 3 inverse iterations): the envelope FPK model followed "
+    "through the exposure (large rolls in groups); cells with λ <= 0 are 0 exactly"
 )
 #: Hours in a year: the default `hours_per_year` (a ship at sea all year: the conservative end).
 HOURS_PER_YEAR = 8766.0

@@ -44,6 +44,9 @@ NUM_RHO, NUM_THETA = 8, 12
 SEAS_PER_CALL = 4
 #: `passage_risk`'s defaults: (num_s, num_s_coarse, num_rho, num_theta, rho_max [-], a_fine [rad], a_min [rad]).
 GRID = (60, 10, NUM_RHO, NUM_THETA, 5.5, math.radians(0.5), math.radians(1e-4))
+#: Inverse iterations per level (`passage_risk`'s default is 5): 3 move a cell's P by ≤ 6e-4 relative (its high-P
+#: cells, where the slowest mode converges slowest), the long-term P far less (docs/longterm.md, "Cost"); the
+#: iterations are ~15 % of a cell's work, the factorisations the rest.
 NUM_ITERATIONS = 3
 #: δ: the cells left at pass 1 carry at most this share of a unit's pass-1 Σ w P per angle (module docstring).
 REFINE_DELTA = 0.01
