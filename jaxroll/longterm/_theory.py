@@ -22,6 +22,7 @@ by the extrapolated `passage_risk` (one pass).
 
 from __future__ import annotations
 
+import itertools
 import math
 
 import equinox as eqx
@@ -33,7 +34,7 @@ from .._compiled import SOLVER_PROGRAM, cached_program
 from .._config import single_threaded_blas
 from ..sea import ITTC, EffectiveWave
 from ..theory import EnvelopeExcitation, envelope_lyapunov_exponent
-from ..theory._envelope_fpk_passage import _batch_dispatch
+from ..theory._envelope_fpk_passage import _batch_dispatch, _concrete_top
 from ._risk import auto_cells
 
 #: Sea states per compiled batch of the Lyapunov screen (one (ρ, θ) solve each).
@@ -82,19 +83,31 @@ def _solve(
     ship, template, hs, t01, cells, angles, durations, devices, extrapolate: bool, excitations, coarse=None
 ) -> dict:
     """`passage_risk` of the cells `cells` (indices into `hs`, `t01`) by `passage_risk_batch`, `SEAS_PER_CALL` seas a
-    call, the calls dispatched in turn to the devices without waiting (one compiled program per device, the devices
-    working together), with one BLAS thread (the caller holds `single_threaded_blas`). `excitations`: the screen's
+    call, the calls dispatched in turn to the devices without waiting (each device an equal share of the cells; one
+    compiled program per device, the devices working together), with one BLAS thread (the caller holds
+    `single_threaded_blas`). `excitations`: the screen's
     fitted envelopes (host arrays per cell); `coarse`: {cell: its one-grid result, host arrays}, reused by the
     extrapolation. **Returns:** {cell: (P per angle, capsize P, the `PassageRisk` of that cell, host arrays)}."""
     cells = np.asarray(cells, int)
     if cells.size == 0:
         return {}
     fixed = [jax.device_put((ship, template), d) for d in devices]
+    top = _concrete_top(
+        ship, "passage_risk_batch"
+    )  # once: each call's inputs are then placed without waiting
+    # each device takes an equal share of the cells (to one sea), in calls of `SEAS_PER_CALL` dispatched in turn;
+    # the last call of a share is padded with skipped seas (`valid` False: no work), so both devices finish
+    # together
+    shares = np.array_split(cells, len(devices))
+    calls = [
+        [(d, share[start : start + SEAS_PER_CALL]) for start in range(0, share.size, SEAS_PER_CALL)]
+        for d, share in enumerate(shares)
+    ]
     pending = []
-    for n, start in enumerate(range(0, cells.size, SEAS_PER_CALL)):
-        chunk = cells[start : start + SEAS_PER_CALL]
+    for d, chunk in (c for round_ in itertools.zip_longest(*calls) for c in round_ if c is not None):
+        if chunk.size == 0:
+            continue
         take = np.concatenate([chunk, np.repeat(chunk[-1:], SEAS_PER_CALL - chunk.size)])  # padded: one shape
-        d = n % len(devices)
         sh, tm = fixed[d]
         waves = [  # only the sea's H_s and T01 differ (batched); the rest is the class's, shared
             eqx.tree_at(
@@ -116,6 +129,8 @@ def _solve(
             extrapolate=extrapolate,
             coarse=crs,
             device=devices[d],
+            valid=np.arange(SEAS_PER_CALL) < chunk.size,
+            top=top,
         )
         pending.append((chunk, r))
     out = {}
@@ -181,8 +196,8 @@ def class_theory(
     hs, t01 = np.asarray(hs, float), np.asarray(t01, float)
     n = hs.size
     weight = np.ones(n) if weight is None else np.asarray(weight, float)
-    angles = jnp.asarray(angles, float)
-    durations = jnp.asarray([exposure], float)
+    angles = np.asarray(angles, float)
+    durations = np.asarray([exposure], float)
     lam, gamma, excitations = screen(ship, template, hs, t01)
     n_a = int(angles.size)
     prob, cap = np.zeros((n, n_a)), np.zeros(n)

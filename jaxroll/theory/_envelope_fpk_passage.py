@@ -407,7 +407,8 @@ def _stacked(trees: list, name: str):
     batched = [any(x is not col[0] for x in col) for col in columns]
     if not any(batched):  # one sea repeated: vmap needs one batched input
         batched[next(i for i, col in enumerate(columns) if eqx.is_array(col[0]))] = True
-    leaves = [jnp.stack([jnp.asarray(x) for x in col]) if b else col[0] for col, b in zip(columns, batched)]
+    # stacked on the host (concrete waves): an eager stack would run on the default device, behind its queue
+    leaves = [np.stack([np.asarray(x) for x in col]) if b else col[0] for col, b in zip(columns, batched)]
     return jax.tree.unflatten(treedef, leaves), tuple(batched)
 
 
@@ -424,9 +425,13 @@ def _batch_dispatch(
     extrapolate,
     coarse,
     device,
+    valid=None,
+    top=None,
 ) -> PassageRisk:
     """`passage_risk_batch` without the thread limit and without waiting: the program is dispatched and its
-    (future) result returned at once, so that calls on several devices overlap (`jaxroll longterm`)."""
+    (future) result returned at once, so that calls on several devices overlap (`jaxroll longterm`). `valid`:
+    None, or a bool per wave, False for a padding wave that is skipped (its results are zeros); `top`: the ship's
+    vanishing angle [rad] where known (`_concrete_top`: computed on the default device, it would wait for it)."""
     waves = list(waves)
     if not waves:
         raise ValueError("`waves` must hold at least one wave.")
@@ -440,11 +445,12 @@ def _batch_dispatch(
         extrapolate,
         coarse,
         "passage_risk_batch",
+        top,
     )
     stacked, batched = _stacked(waves, "waves")
     if isinstance(excitations, (list, tuple)):
         excitations, _ = _stacked(list(excitations), "excitations")
-    args = (ship, stacked, excitations, coarse if reuse else None, durations)
+    args = (ship, stacked, excitations, coarse if reuse else None, durations, valid)
     if device is not None:
         args = jax.device_put(args, device)
     return _batch_program(
@@ -500,6 +506,7 @@ def _batch_program(
     excitations,
     coarse,
     durations,
+    valid,
     batched,
     grids,
     angles,
@@ -510,7 +517,7 @@ def _batch_program(
     extrapolate,
 ):
     """The batch's program: `passage_risk` mapped over the waves' `batched` leaves (and the excitations and
-    `coarse`, where given)."""
+    `coarse`, where given); where `valid` (bool, one per sea) is given, the seas it marks False are skipped."""
     flat, treedef = jax.tree.flatten(waves)
 
     def one(wave_leaves, excitation, crs):
@@ -533,24 +540,41 @@ def _batch_program(
             extrapolate,
         )
 
+    def solved_or_skipped(x):
+        if valid is None:
+            return one(*x[:3])
+        shapes = jax.eval_shape(lambda: one(*x[:3]))
+        return jax.lax.cond(  # a padding sea (`valid` False) costs nothing: zeros, dropped by the caller
+            x[3], lambda: one(*x[:3]), lambda: jax.tree.map(lambda a: jnp.zeros(a.shape, a.dtype), shapes)
+        )
+
     # one sea after another (lax.map, not vmap): a vmapped LAPACK call runs its batch on XLA's thread pool, where
     # it hung (a lost wake-up, seen in gdb, 2 CPU devices); a sequential map keeps every LAPACK call unbatched
-    return jax.lax.map(lambda x: one(*x), ([x for x, b in zip(flat, batched) if b], excitations, coarse))
+    return jax.lax.map(
+        solved_or_skipped, ([x for x, b in zip(flat, batched) if b], excitations, coarse, valid)
+    )
 
 
-def _checked(ship, angles, durations, grid_args, num_iterations, observe, extrapolate, coarse, name):
+def _checked(
+    ship, angles, durations, grid_args, num_iterations, observe, extrapolate, coarse, name, top=None
+):
     """The checked arguments of `passage_risk` and `passage_risk_batch`: (grid, angles (host), durations, the
     order by increasing angle, [(grid, levels)] per grid solved, whether `coarse` is reused)."""
     grid = _grid(*grid_args, 0)
     angles = np.atleast_1d(np.asarray(angles, dtype=float))
-    durations = jnp.atleast_1d(jnp.asarray(durations, dtype=float))
+    # concrete durations checked on the host: a device computation here would wait for the device's queue
+    durations = (
+        jnp.atleast_1d(jnp.asarray(durations, dtype=float))
+        if isinstance(durations, jax.core.Tracer)
+        else np.atleast_1d(np.asarray(durations, dtype=float))
+    )
     if angles.ndim != 1 or durations.ndim != 1:
         raise ValueError(
             f"`angles` and `durations` must be 1-D; got shapes {angles.shape} and {durations.shape}."
         )
     if int(num_iterations) < 2:
         raise ValueError(f"`num_iterations` must be >= 2; got {num_iterations!r}.")
-    if not isinstance(durations, jax.core.Tracer) and not bool(jnp.all(durations > 0)):
+    if not isinstance(durations, jax.core.Tracer) and not bool(np.all(durations > 0)):
         raise ValueError(f"`durations` must be > 0 [s]; got {durations.tolist()}.")
     if observe not in ("peaks", "continuous"):
         raise ValueError(f"`observe` must be 'peaks' or 'continuous'; got {observe!r}.")
@@ -567,7 +591,7 @@ def _checked(ship, angles, durations, grid_args, num_iterations, observe, extrap
             f"`coarse` must be this call's one-grid result: {name}(..., extrapolate=False) with "
             "the same grid, angles and durations."
         )
-    top = _concrete_top(ship, name)
+    top = _concrete_top(ship, name) if top is None else top
     return (
         grid,
         angles,
