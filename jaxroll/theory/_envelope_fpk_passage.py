@@ -351,8 +351,9 @@ def passage_risk_batch(
     device=None,
 ) -> PassageRisk:
     """`passage_risk` of several sea states for one ship in one call: one stored, compiled program per batch size
-    (the seas one after another in it), run with one BLAS/LAPACK thread (`jaxroll.single_threaded_blas`). Each sea's numbers
-    are `passage_risk`'s (to ~1e-10 relative). What `jaxroll longterm` runs, 4 seas a call per CPU device.
+    (the seas one after another in it), run with one BLAS/LAPACK thread (`jaxroll.single_threaded_blas`). Each
+    sea's numbers are `passage_risk`'s (to ~1e-10 relative). What `jaxroll longterm` runs, 4 seas a call per CPU
+    device.
 
     **Arguments:**
 
@@ -405,10 +406,11 @@ def _stacked(trees: list, name: str):
         )
     columns = list(zip(*(f[0] for f in flats), strict=True))
     batched = [any(x is not col[0] for x in col) for col in columns]
-    if not any(batched):  # one sea repeated: vmap needs one batched input
+    if not any(batched):  # one sea repeated: the map needs one batched input
         batched[next(i for i, col in enumerate(columns) if eqx.is_array(col[0]))] = True
-    # stacked on the host (concrete waves): an eager stack would run on the default device, behind its queue
-    leaves = [np.stack([np.asarray(x) for x in col]) if b else col[0] for col, b in zip(columns, batched)]
+    # concrete waves stacked on the host: an eager stack would run on the default device, behind its queue
+    xp = jnp if any(isinstance(x, jax.core.Tracer) for col in columns for x in col) else np
+    leaves = [xp.stack([xp.asarray(x) for x in col]) if b else col[0] for col, b in zip(columns, batched)]
     return jax.tree.unflatten(treedef, leaves), tuple(batched)
 
 
