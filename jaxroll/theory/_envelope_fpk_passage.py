@@ -287,8 +287,7 @@ def passage_risk(
     **Returns:** `PassageRisk`. jit-able with a concrete ship, vmappable over sea states (`eqx.filter_vmap` over
     waves of the same heading class; `passage_risk_batch` solves several in one call without batching LAPACK calls,
     which under vmap jaxlib runs on XLA's thread pool, where one such program hung with 2 CPU devices) and
-    differentiable in the
-    ship's and the sea's parameters (`jax.grad`). Where the roll dies out (λ ≤ 0, `exists` False) the
+    differentiable in the ship's and the sea's parameters (`jax.grad`). Where the roll dies out (λ ≤ 0, `exists` False) the
     probabilities are 0. Called with concrete arguments it runs with one BLAS/LAPACK thread
     (`jaxroll.single_threaded_blas`) and returns when the result is computed.
 
