@@ -170,10 +170,8 @@ def require_float64(name: str) -> None:
 
 
 _BLAS_LOCK = threading.Lock()
-_BLAS_DEPTH = [
-    0,
-    [],
-]  # [callers inside `single_threaded_blas`, the (setter, previous count) pairs to restore]
+# [callers inside `single_threaded_blas`, the (setter, previous count) pairs to restore]
+_BLAS_DEPTH = [0, []]
 
 
 def _openblas_controls() -> list:

@@ -34,17 +34,18 @@ from .._compiled import SOLVER_PROGRAM, cached_program
 from .._config import single_threaded_blas
 from ..sea import ITTC, EffectiveWave
 from ..theory import EnvelopeExcitation, envelope_lyapunov_exponent
-from ..theory._envelope_fpk_passage import _batch_dispatch, _concrete_top
+from ..theory._envelope_fpk_passage import GRID_DEFAULTS, _batch_dispatch, _concrete_top
 from ._risk import auto_cells
 
 #: Sea states per compiled batch of the Lyapunov screen (one (ρ, θ) solve each).
 SCREEN_BATCH = 64
-#: `passage_risk`'s (ρ, θ) grid (its defaults): the screen's λ is the one `passage_risk` tests for `exists`.
-NUM_RHO, NUM_THETA = 8, 12
+#: `passage_risk`'s grid (its defaults, `GRID_DEFAULTS` order): num_s, num_s_coarse, num_rho, num_theta, rho_max [-],
+#: a_fine [rad], a_min [rad].
+GRID = GRID_DEFAULTS
+#: Its (ρ, θ) grid: the screen's λ is the one `passage_risk` tests for `exists`.
+NUM_RHO, NUM_THETA = GRID[2], GRID[3]
 #: Sea states per `passage_risk_batch` call (measured best on a 2-core CPU: 1 → 4 halves the calls' overhead).
 SEAS_PER_CALL = 4
-#: `passage_risk`'s defaults: (num_s, num_s_coarse, num_rho, num_theta, rho_max [-], a_fine [rad], a_min [rad]).
-GRID = (60, 10, NUM_RHO, NUM_THETA, 5.5, math.radians(0.5), math.radians(1e-4))
 #: Inverse iterations per level (`passage_risk`'s default is 5): 3 move a cell's P by ≤ 6e-4 relative (its high-P
 #: cells, where the slowest mode converges slowest), the long-term P far less (docs/longterm.md, "Cost"); the
 #: iterations are ~15 % of a cell's work, the factorisations the rest.
@@ -92,9 +93,8 @@ def _solve(
     if cells.size == 0:
         return {}
     fixed = [jax.device_put((ship, template), d) for d in devices]
-    top = _concrete_top(
-        ship, "passage_risk_batch"
-    )  # once: each call's inputs are then placed without waiting
+    # the vanishing angle once: each call's inputs are then placed without waiting
+    top = _concrete_top(ship, "passage_risk_batch")
     # each device takes an equal share of the cells (to one sea), in calls of `SEAS_PER_CALL` dispatched in turn;
     # the last call of a share is padded with skipped seas (`valid` False: no work), so both devices finish
     # together

@@ -39,6 +39,7 @@ docs/theory.md, "Exposure risk when large rolls come in groups".
 from __future__ import annotations
 
 import dataclasses
+import inspect
 import math
 
 import equinox as eqx
@@ -192,9 +193,8 @@ def _passage_body(
     )
     amplitude_rate = jnp.sum(p * peaks)
 
-    def level(
-        face,
-    ):  # one level after another (lax.map): one program whatever their number, no batched LAPACK
+    # one level after another (lax.map): one program whatever their number, no batched LAPACK
+    def level(face):
         above = (jnp.arange(ns) >= face)[:, None]
         _, tail = _factorise_slices(md, 0.0, False, jnp.where(above, killing, 0.0), lowest, ns, g)
         moments, _ = _survival_moments(md, _concat(below, tail), p, num_iterations)
@@ -329,6 +329,13 @@ def passage_risk(
 
 
 passage_risk.__doc__ = passage_risk.__doc__.replace("{grid}", _GRID_DOC)
+
+#: `passage_risk`'s grid defaults in `grid_args` order (num_s, num_s_coarse, num_rho, num_theta, rho_max [-],
+#: a_fine [rad], a_min [rad]), read off its signature: what `jaxroll longterm` solves on.
+GRID_DEFAULTS = tuple(
+    inspect.signature(passage_risk).parameters[k].default
+    for k in ("num_s", "num_s_coarse", "num_rho", "num_theta", "rho_max", "a_fine", "a_min")
+)
 
 
 def passage_risk_batch(
