@@ -136,6 +136,7 @@ if TYPE_CHECKING:
         monte_carlo_sensitivity as monte_carlo_sensitivity,
         monte_carlo_splitting as monte_carlo_splitting,
         monte_carlo_splitting_angles as monte_carlo_splitting_angles,
+        parametric_band as parametric_band,
         realization_mesh as realization_mesh,
         roll_acceleration as roll_acceleration,
         roll_time_series as roll_time_series,
@@ -158,6 +159,7 @@ if TYPE_CHECKING:
         encounter_frequency as encounter_frequency,
         encounter_spectrum as encounter_spectrum,
         fit_filter as fit_filter,
+        fit_filter_in_band as fit_filter_in_band,
         grim_transfer as grim_transfer,
         sea_steepness as sea_steepness,
         spectral_moment as spectral_moment,
@@ -213,13 +215,13 @@ _NAMES = {  # subpackage (or private module) -> the names `jaxroll` takes from i
         "SplittingPilot SplittingResult SuperpositionExcitation SweepResult amplitude_samples check_time_step "
         "default_chunk_size default_duration default_memory_budget envelope_record_every hilbert_envelope "
         "monte_carlo monte_carlo_amplitudes monte_carlo_max_roll monte_carlo_maxima monte_carlo_sensitivity "
-        "monte_carlo_splitting monte_carlo_splitting_angles realization_mesh roll_acceleration roll_time_series "
+        "monte_carlo_splitting monte_carlo_splitting_angles parametric_band realization_mesh roll_acceleration roll_time_series "
         "roll_vector_field sensitivity_problem simulate simulate_chunk splitting_pilot sweep_sea_states "
         "zero_crossing_amplitudes"
     ),
     "sea": (
         "ITTC JONSWAP AbstractWaveSpectrum EffectiveWave FilterFit ShapingFilter breaking_steepness "
-        "encounter_frequency encounter_spectrum fit_filter grim_transfer sea_steepness spectral_moment "
+        "encounter_frequency encounter_spectrum fit_filter fit_filter_in_band grim_transfer sea_steepness spectral_moment "
         "superpose"
     ),
     "ship": (

@@ -202,3 +202,99 @@ def test_filter_fit_message_where_the_sea_has_no_energy_at_2w0():
                                    match_frequency=w2)  # fmt: skip
     with pytest.raises(ValueError, match=r"\(3\d\d % off\)"):
         check_filter_fit(following)
+
+
+# ----------------------------------------------------------------------------------------------------------------
+# The filter's order chosen on the band the roll responds to (issue 42)
+# ----------------------------------------------------------------------------------------------------------------
+
+
+def test_backbone_frequency_equals_the_exact_duffing_period():
+    """ω(A) of x'' + a x + b x³ = 0 is 2π / [4 K(m) / √(a + b A²)], m = b A² / (2(a + b A²)) (complete elliptic
+    integral of the first kind, scipy's parameter m): the softening default ship's GZ with a5 = 0."""
+    import math
+
+    import equinox as eqx
+    from scipy.special import ellipk
+
+    ship = jaxroll.c11_representative()
+    duffing = eqx.tree_at(lambda s: s.restoring, ship, ship.restoring.at[1].set(0.0))
+    a, b = float(duffing.omega0) ** 2, float(duffing.restoring[0])
+    amp = np.radians([1e-8, 5.0, 20.0, 40.0, 60.0])
+    exact = 2 * np.pi / (4 * ellipk(b * amp**2 / (2 * (a + b * amp**2))) / np.sqrt(a + b * amp**2))
+    got = np.asarray(jaxroll.ship.backbone_frequency(duffing, jnp.asarray(amp)))
+    np.testing.assert_allclose(got, exact, rtol=1e-10)
+    assert math.isclose(float(jaxroll.ship.backbone_frequency(ship, 0.0)), float(ship.omega0), rel_tol=1e-14)
+    np.testing.assert_allclose(
+        float(jaxroll.ship.angle_of_maximum_gz(ship)), np.radians(45.97), atol=np.radians(0.05)
+    )
+
+
+def test_parametric_band_of_the_default_ship():
+    from jaxroll.roll._equation import parametric_band
+
+    ship = jaxroll.c11_representative()
+    lo, hi = parametric_band(ship)
+    w_top = float(jaxroll.ship.backbone_frequency(ship, jaxroll.ship.angle_of_maximum_gz(ship)))
+    np.testing.assert_allclose([lo, hi], [0.9 * 2 * w_top, 1.1 * 2 * float(ship.omega0)], rtol=1e-14)
+    np.testing.assert_allclose([lo, hi], [0.4177, 0.5665], atol=5e-4)
+
+
+def _spectra_on(fit, wave, band, num=301):
+    """The filter's and S_G on the band by the JAX spectra themselves (not `band_error`'s interpolation)."""
+    grid = jnp.linspace(band[0], band[1], num)
+    return np.asarray(fit.filter.spectrum(grid)), np.asarray(wave.spectrum(grid))
+
+
+def test_filter_order_chosen_on_the_band_follows_the_spectrum_there():
+    """T01 = 8 s head seas: the paper's order 4 is off by up to 30 % of S_G on the band the roll feels (0.42–0.57
+    rad/s); `fit_filter_in_band` goes to order 8, within 5 %, and reports it."""
+    from jaxroll.roll._equation import parametric_band
+
+    ship = jaxroll.c11_representative()
+    band = parametric_band(ship)
+    wave = jaxroll.EffectiveWave(jaxroll.ITTC(6.0, 8.0), ship.lpp)
+    four = jaxroll.fit_filter(wave, order=4, match_frequency=2 * ship.omega0)
+    s4, sg = _spectra_on(four, wave, band)
+    level = np.maximum(sg, 0.1 * sg.max())
+    assert np.max(np.abs(s4 - sg) / level) > 0.25
+    fit = jaxroll.sea.fit_filter_in_band(wave, band, match_frequency=2 * ship.omega0)
+    assert fit.filter.order == 8
+    sf, sg = _spectra_on(fit, wave, band)
+    err = np.max(np.abs(sf - sg) / level)
+    assert err <= 0.05 and abs(err - float(fit.band_error)) < 2e-3
+    np.testing.assert_allclose(float(fit.variance_filter), float(wave.variance()), rtol=1e-10)
+    assert fit.summary()["order_chosen"] == "auto" and fit.summary()["band_error"] == float(fit.band_error)
+
+
+def test_filter_order_auto_is_the_default_and_the_papers_order_stays_selectable():
+    ship = jaxroll.c11_representative()
+    sea = jaxroll.ITTC(7.0, 10.0)
+    auto = jaxroll.RollProblem.from_sea(ship, sea)
+    assert auto.filter_fit.filter.order == 6 and float(auto.filter_fit.band_error) <= 0.05
+    paper = jaxroll.RollProblem.from_sea(ship, sea, filter_order=4)
+    assert paper.filter_fit.filter.order == 4 and paper.filter_fit.band_error is None
+    with pytest.raises(ValueError, match="integer >= 3 or 'auto'"):
+        jaxroll.RollProblem.from_sea(ship, sea, filter_order="eight")
+
+    def traced(hs):
+        return jaxroll.RollProblem.from_sea(
+            ship, jaxroll.ITTC(hs, 10.0), validate=False
+        ).filter_fit.variance_target
+
+    with pytest.raises(ValueError, match="give the nominal problem's order"):
+        jax.jit(traced)(7.0)
+
+
+def test_a_band_no_order_follows_is_said_with_its_error():
+    """Head seas at 5 m/s, T01 8 s: encounter moves the sea's peak off the band and no order of 4, 6, 8 follows S_G
+    there within 5 %: a warning gives the best order's error and names the superposition."""
+    from jaxroll.roll._equation import parametric_band
+
+    ship = jaxroll.c11_representative()
+    wave = jaxroll.EffectiveWave(jaxroll.ITTC(6.0, 8.0), ship.lpp, 5.0)
+    with pytest.warns(UserWarning, match=r"order 8, is 1\d % off there.*superposition"):
+        fit = jaxroll.sea.fit_filter_in_band(wave, parametric_band(ship), match_frequency=2 * ship.omega0)
+    assert 0.1 < float(fit.band_error) < 0.2
+    with pytest.raises(ValueError, match="0 < lo < hi"):
+        jaxroll.sea.fit_filter_in_band(wave, (0.5, 0.4))

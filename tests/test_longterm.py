@@ -199,11 +199,36 @@ def test_long_term_integral_interval_and_per_year():
     )
     ny = 1000.0
     yr = annual(w, p, var, lo, hi, ny)
-    direct = 1 - np.prod((1 - p) ** (ny * w[..., None]), axis=(0, 1))
-    np.testing.assert_allclose(yr["probability"], direct, rtol=1e-12, atol=0)
+    # Poisson numbers of exposures per cell (mean w_c N_y): exceedances Poisson with mean N_y Σ w P
+    np.testing.assert_allclose(yr["probability"], 1 - np.exp(-ny * lt["probability"]), rtol=1e-12, atol=0)
     np.testing.assert_allclose(yr["rate"], ny * lt["probability"], rtol=1e-14, atol=0)
+    np.testing.assert_allclose(yr["upper"], 1 - np.exp(-ny * lt["upper"]), rtol=1e-12, atol=0)
     small = annual(w, p * 1e-6, var, lo * 1e-6, hi * 1e-6, ny)  # the rate form is the small-probability limit
     np.testing.assert_allclose(small["probability"], small["rate"], rtol=1e-3, atol=0)
+
+
+def test_per_year_probability_never_exceeds_the_expected_count():
+    """Issue 42 item 6: a storm cell of tiny weight met 0.01 times a year with P_c near 1. The old product form
+    1 − Π (1 − P_c)^(w_c N_y) gave P_year ≈ 0.43 against 0.029 expected exceedances; P(N ≥ 1) ≤ E[N] must hold."""
+    ny = 8766 / 3.0
+    w = np.array([1 - 3.4e-6, 3.4e-6])  # the storm: w N_y = 0.0099 exposures a year
+    p = np.array([[6.6e-6], [1.0 - 1e-9]])  # calm cell 6.6e-6 per exposure; the storm all but certain
+    zero = np.zeros_like(p)
+    yr = annual(w, p, zero, p, p, ny)
+    rate = ny * (w[:, None] * p).sum(axis=0)
+    np.testing.assert_allclose(yr["rate"], rate, rtol=1e-14)
+    np.testing.assert_allclose(yr["probability"], -np.expm1(-rate), rtol=1e-14)
+    assert 0.028 < rate[0] < 0.030 and yr["probability"][0] <= rate[0]
+    old = 1 - np.prod((1 - p) ** (ny * w[:, None]), axis=0)  # what the corrected formula gave
+    assert old[0] > 0.15  # (0.19 here): above the expected count, which is impossible
+    # the bound over random tables, P_c up to 1
+    rng = np.random.default_rng(1)
+    for _ in range(200):
+        w = rng.dirichlet(np.full(6, 0.2))
+        p = rng.random((6, 3)) ** rng.uniform(0.1, 5)
+        yr = annual(w, p, zero[:1].repeat(6, 0).repeat(3, 1), p, p, rng.uniform(1, 1e4))
+        assert np.all(yr["probability"] <= yr["rate"] * (1 + 1e-12))
+        assert np.all((0 <= yr["probability"]) & (yr["probability"] <= 1))
 
 
 def test_auto_rule_and_neyman_allocation():
@@ -368,7 +393,7 @@ def test_longterm_by_theory(theory_run):
     q = np.nan_to_num(p)
     np.testing.assert_allclose(
         ds.longterm_per_year_probability.values,
-        1 - np.prod((1 - q) ** (ny * w[..., None]), axis=(0, 1, 2, 3, 4)),
+        -np.expm1(-ny * (w[..., None] * q).sum(axis=(0, 1, 2, 3, 4))),
         rtol=1e-12,
         atol=0,
     )

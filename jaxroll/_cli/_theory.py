@@ -8,7 +8,7 @@ import time
 import numpy as np
 
 from ._common import CLIError
-from ._sea import TheoryInputs
+from ._sea import TheoryInputs, moment_filter, moment_filter_order
 
 
 def first_line(error: Exception) -> str:
@@ -39,8 +39,8 @@ def compute(problem, args, name: str, *, estimator: str = "envelope"):
     if name not in theory.THEORIES:
         raise CLIError(f"unknown theory {name!r}")
     return _call(name, lambda: theory.theory_law(
-        name, problem.ship, problem.wave, shaping_filter=problem.filter_fit, filter_order=args.filter_order,
-        estimator=estimator, warn=False))  # fmt: skip
+        name, problem.ship, problem.wave, shaping_filter=moment_filter(problem, args),
+        filter_order=moment_filter_order(args), estimator=estimator, warn=False))  # fmt: skip
 
 
 def start_theory_summaries(problem, args, names, bins_deg, *, skip_failed: bool = False, warn: bool = True):
@@ -61,7 +61,7 @@ def start_theory_summaries(problem, args, names, bins_deg, *, skip_failed: bool 
     # it) is made in a thread of its own while the theories' programs trace and compile, the moment method's for
     # the fit's form (`iter_theory_summaries` with a future filter). A fit that is not usable is the moment
     # method's error: with `skip_failed` it is left out with that reason, and the other theories are shown.
-    fit = problem.filter_fit if not isinstance(problem, TheoryInputs) else None
+    fit = moment_filter(problem, args) if not isinstance(problem, TheoryInputs) else None
     if isinstance(problem, TheoryInputs) and "moment" in names:
         pool = concurrent.futures.ThreadPoolExecutor(max_workers=1, thread_name_prefix="jaxroll-fit")
         fit = pool.submit(lambda: problem.filter_fit)
@@ -71,7 +71,7 @@ def start_theory_summaries(problem, args, names, bins_deg, *, skip_failed: bool 
     ):  # after the fit has started (`jaxroll theory`'s bins need the vanishing angle's program)
         bins_deg = bins_deg()
     results = theory.iter_theory_summaries(
-        names, problem.ship, problem.wave, bins_deg, shaping_filter=fit, filter_order=args.filter_order,
+        names, problem.ship, problem.wave, bins_deg, shaping_filter=fit, filter_order=moment_filter_order(args),
         return_exceptions=True, warn=warn,
     )  # fmt: skip
     dispatch = time.time() - t0

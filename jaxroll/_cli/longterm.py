@@ -25,6 +25,7 @@ from ._common import (
     write_json,
     write_netcdf,
 )
+from ._sea import _filter_order, check_filter_order
 
 _NAMED = {"head": 180.0, "beam": 90.0, "following": 0.0}
 ALL_HEADINGS = [15.0 * i for i in range(24)]  # 0 … 345°
@@ -158,7 +159,13 @@ def register(sub) -> None:
         default="filter",
         help="effective wave of the Monte Carlo: Method 2 shaping filter (default) or superposition",
     )
-    n.add_argument("--filter-order", type=int, default=4, help="order of the Method-2 filter (default 4)")
+    n.add_argument(
+        "--filter-order",
+        type=_filter_order,
+        default="auto",
+        help="order of the Method-2 filter, or auto (default): the lowest of 4, 6, 8 that follows the effective-wave "
+        "spectrum within 5 %% where the roll is excited, per sea state (4 is the paper's)",
+    )
     n.add_argument("--phi0-deg", type=float, default=5.0, help="initial roll of each trial [deg] (5)")
     n.add_argument(
         "--seed",
@@ -249,7 +256,6 @@ def check_args(args):
     files and the headings [deg]."""
     from .. import vanishing_angle
     from ..longterm import CELL_ESTIMATORS, ScatterError, scatter_diagram
-    from ..sea import MAX_FILTER_ORDER
 
     for name in ("hours", "hours_per_year", "dt"):
         value = getattr(args, name)
@@ -273,11 +279,7 @@ def check_args(args):
         raise CLIError(f"--skip-weight must be in [0, 1); got {args.skip_weight}.")
     if not (math.isfinite(args.refine_delta) and 0 <= args.refine_delta < 1):
         raise CLIError(f"--refine-delta must be in [0, 1); got {args.refine_delta}.")
-    if not 3 <= args.filter_order <= MAX_FILTER_ORDER:
-        raise CLIError(
-            f"--filter-order must be between 3 and {MAX_FILTER_ORDER} (4 recommended); "
-            f"got {args.filter_order}."
-        )
+    check_filter_order(args)
     if not math.isfinite(args.phi0_deg) or args.phi0_deg == 0:
         raise CLIError(
             f"--phi0-deg must be a finite non-zero angle (a ship started upright stays upright); got "

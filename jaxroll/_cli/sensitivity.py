@@ -15,6 +15,7 @@ from ._sea import (
     check_sea_options,
     check_steps,
     heading_for_api,
+    moment_filter_order,
     parse_heading,
     sea_config,
 )
@@ -146,7 +147,7 @@ def run(args) -> int:
         wrt=wrt,
         statistics=res.statistics,
         theories=theories,
-        filter_order=args.filter_order,
+        filter_order=moment_filter_order(args),
     )
     theory_time = time.time() - t1
 

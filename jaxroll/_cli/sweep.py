@@ -21,7 +21,14 @@ from ._common import (
     write_json,
     write_netcdf,
 )
-from ._sea import check_filter_order, check_steps, heading_for_api, heading_number, heading_phrase
+from ._sea import (
+    _filter_order,
+    check_filter_order,
+    check_steps,
+    heading_for_api,
+    heading_number,
+    heading_phrase,
+)
 
 
 def register(sub) -> None:
@@ -60,7 +67,13 @@ def register(sub) -> None:
     m.add_argument(
         "--method", choices=("filter", "superposition"), default="filter", help="effective wave method"
     )
-    m.add_argument("--filter-order", type=int, default=4, help="order of the Method-2 filter (default 4)")
+    m.add_argument(
+        "--filter-order",
+        type=_filter_order,
+        default="auto",
+        help="order of the Method-2 filter, or auto (default): the lowest of 4, 6, 8 that follows the effective-wave "
+        "spectrum within 5 %% where the roll is excited, per sea state (4 is the paper's)",
+    )
     m.add_argument(
         "--seed", type=int, default=0, help="random seed (default 0; the same trials at every point)"
     )

@@ -439,7 +439,7 @@ LONGTERM = Layout(
         "longterm_sampling_sd": "(Σ w² Var P)^1/2",
         "longterm_model_below": "model allowance below",
         "longterm_model_above": "model allowance above",
-        "longterm_per_year_probability": "P(at least one exceedance in a year) = 1 − Π (1 − P)^(w N_y)",
+        "longterm_per_year_probability": "P(at least one exceedance in a year) = 1 − exp(−N_y P_LT)",
         "longterm_per_year_probability_ci95": "95 % interval of the per-year probability",
         "longterm_per_year_rate": "expected exposures with an exceedance per year, N_y P_LT",
         "longterm_per_year_rate_ci95": "95 % interval of the per-year rate",

@@ -319,7 +319,7 @@ def add_longterm(ds):
         "longterm_per_year_probability": (
             ("angle",),
             yr["probability"],
-            {**one, "long_name": "P(at least one exceedance in a year) = 1 − Π (1 − P)^(w N_y)"},
+            {**one, "long_name": "P(at least one exceedance in a year) = 1 − exp(−N_y P_LT)"},
         ),
         "longterm_per_year_probability_ci95": (
             ("angle", "bound"),
@@ -543,9 +543,9 @@ def longterm_summary(ds, top: int = 10) -> dict:
         },
         "per_year_assumptions": (
             f"{cfg['hours_per_year']:g} h at sea per year = {float(ds.exposures_per_year):g} exposures of "
-            f"{hours:g} h, spread over the cells in proportion to their weights and independent of each other: "
-            "P_year = 1 − Π_c (1 − P_c)^(w_c N_y); `rate` = N_y P_LT, the expected number of exposures with an "
-            "exceedance per year (P_year's small-probability limit)."
+            f"{hours:g} h; the exposures a year spends in each cell Poisson with mean w_c N_y, independent of each "
+            "other: P_year = 1 − exp(−N_y P_LT) ≤ `rate` = N_y P_LT, the expected number of exposures with an "
+            "exceedance per year."
         ),
         "left_out_weight": float(ds.left_out_weight),
         "cells": methods,

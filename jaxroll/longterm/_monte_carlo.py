@@ -237,7 +237,7 @@ def cell_problem(
     *,
     excitation: str,
     dt: float,
-    filter_order: int,
+    filter_order: int | str,
     phi0: float,
 ) -> RollProblem:
     """The cell's `RollProblem`, built as `jaxroll risk` builds it (the same floats: H_s [m], T01 [s], U [m/s],

@@ -11,9 +11,11 @@ Its 95 % interval adds two parts, stated apart:
   a cell whose theory fails a validity check and was not simulated, or that was left out (`skip_weight`), in
   [0, 1]. The allowances are added linearly (as if every theory cell erred the same way: conservative).
 
-Per year: N_y = (hours at sea per year)/(exposure) exposures, distributed over the cells with frequencies w_c and
-independent of each other: P_year = 1 − Π_c (1 − P_c)^{w_c N_y}; the expected number of exposures with an
-exceedance per year is N_y P_LT (the rate form, P_year's small-probability limit).
+Per year: N_y = (hours at sea per year)/(exposure) exposures. The number of exposures a year spends in cell c is
+random, Poisson with mean w_c N_y (independent cells, independent exposures): the exposures with an exceedance are
+then Poisson with mean Λ = N_y Σ_c w_c P_c = N_y P_LT, and P_year = P(at least one) = 1 − exp(−Λ) ≤ Λ. (The
+earlier 1 − Π_c (1 − P_c)^{w_c N_y} read w_c N_y as a fixed count; a storm cell met 0.01 times a year with P_c → 1
+then gave P_year → 1 against an expected 0.01 exceedances: THEORY.md §9, corrected 2026-12-07.)
 """
 
 from __future__ import annotations
@@ -120,28 +122,19 @@ def longterm_probability(weight, p, variance, lo_model, hi_model) -> dict:
 
 
 def annual(weight, p, variance, lo_model, hi_model, exposures_per_year: float) -> dict:
-    """P(at least one exceedance in a year) = 1 − Π_c (1 − P_c)^{w_c N_y} and its interval: the allowance's ends
-    put in the product (it is increasing in every P_c), widened by z σ_Y (delta method:
-    ∂P_year/∂P_c = (1 − P_year) N_y w_c / (1 − P_c)); and the rate N_y P_LT. Arrays as `longterm_probability`."""
-    w = np.asarray(weight, float)[..., None]
-    axes = tuple(range(w.ndim - 1))
+    """P(at least one exceedance in a year) = 1 − exp(−N_y P_LT) (Poisson numbers of exposures per cell: module
+    docstring) and its interval, the long-term interval's ends put through the same increasing map; and the rate
+    Λ = N_y P_LT, the expected number of exposures with an exceedance per year (P_year ≤ Λ always). Arrays as
+    `longterm_probability`."""
     ny = float(exposures_per_year)
-
-    def year(q):
-        with np.errstate(divide="ignore"):
-            s = (w * np.log1p(-np.clip(q, 0.0, 1.0))).sum(axis=axes)
-        return -np.expm1(ny * s)
-
-    y = year(p)
-    grad = np.where(p < 1, (1 - y) * ny * w / np.where(p < 1, 1 - p, 1.0), 0.0)
-    sd = np.sqrt((grad**2 * variance).sum(axis=axes))
     lt = longterm_probability(weight, p, variance, lo_model, hi_model)
+    rate, rate_lo, rate_hi = (ny * lt[k] for k in ("probability", "lower", "upper"))
     return {
-        "probability": y,
-        "lower": np.clip(year(lo_model) - Z95 * sd, 0.0, 1.0),
-        "upper": np.clip(year(hi_model) + Z95 * sd, 0.0, 1.0),
-        "sampling_sd": sd,
-        "rate": ny * lt["probability"],
-        "rate_lower": ny * lt["lower"],
-        "rate_upper": ny * lt["upper"],
+        "probability": -np.expm1(-rate),
+        "lower": -np.expm1(-rate_lo),
+        "upper": -np.expm1(-rate_hi),
+        "sampling_sd": np.exp(-rate) * ny * lt["sampling_sd"],
+        "rate": rate,
+        "rate_lower": rate_lo,
+        "rate_upper": rate_hi,
     }

@@ -10,6 +10,7 @@ from ._equation import (
     RollProblem as RollProblem,
     check_time_step as check_time_step,
     forcing_series as forcing_series,
+    parametric_band as parametric_band,
     roll_acceleration as roll_acceleration,
     roll_time_series as roll_time_series,
     roll_vector_field as roll_vector_field,

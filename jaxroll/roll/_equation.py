@@ -23,12 +23,18 @@ import jax.random as jr
 import numpy as np
 from jaxtyping import Array, Float, PRNGKeyArray
 
-from .._compiled import filter_jit
+from .._compiled import filter_jit, is_concrete
 from .._config import require_float64
-from ..sea._filters import FilterFit, check_filter_fit, fit_filter
+from ..sea._filters import FilterFit, check_filter_fit, fit_filter, fit_filter_in_band
 from ..sea._grim import SPECTRUM_GRID, EffectiveWave, spectrum_on_grid
 from ..sea._spectra import AbstractWaveSpectrum
-from ..ship._restoring import parametric_excitation, restoring_moment, vanishing_angle
+from ..ship._restoring import (
+    angle_of_maximum_gz,
+    backbone_frequency,
+    parametric_excitation,
+    restoring_moment,
+    vanishing_angle,
+)
 from ..ship._ship import Ship
 from ..ship._validity import warn_outside_validity
 from ._excitation import BLOCK, AbstractExcitation, FilterExcitation, SuperpositionExcitation
@@ -92,6 +98,22 @@ def excitation_bandwidth(wave: EffectiveWave, fraction: float = 0.999) -> float:
     if not cum[-1] > 0:
         return 0.0  # beam seas: ζ_G ≡ 0, no excitation bandwidth
     return float(np.interp(fraction * cum[-1], cum, w))
+
+
+#: Relative margin of `parametric_band` on each side: the roll's own bandwidth and the slow modulation of its
+#: frequency by the mean GM in waves.
+BAND_MARGIN = 0.1
+
+
+def parametric_band(ship: Ship) -> tuple[float, float]:
+    """The encounter frequencies [rad/s] at which the sea excites this ship's roll parametrically, from small roll
+    to the heel of maximum GZ: ((1 − m)·2ω(A_GZmax), (1 + m)·2ω0), ω(A) the backbone frequency
+    (`jaxroll.ship.backbone_frequency`), m = `BAND_MARGIN`. A large roll of a softening GZ is slower than ω0, so
+    it feels the sea below 2ω0: this is where a shaping filter must follow S_G for the tail to be right
+    (`fit_filter_in_band`). Host side, concrete ship. The default ship: 0.416–0.567 rad/s (2ω0 = 0.515)."""
+    top = angle_of_maximum_gz(ship)
+    w_top, w0 = float(backbone_frequency(ship, top)), float(ship.omega0)
+    return (1 - BAND_MARGIN) * 2 * min(w_top, w0), (1 + BAND_MARGIN) * 2 * w0
 
 
 def check_time_step(dt: float, ship: Ship, wave: EffectiveWave) -> None:
@@ -191,7 +213,7 @@ class RollProblem(eqx.Module):
         heading: str | float = "head",
         excitation: str = "filter",
         dt: float = 0.5,
-        filter_order: int = 4,
+        filter_order: int | str = "auto",
         phi0: float = math.radians(5.0),
         dphi0: float = 0.0,
         substeps: int | None = None,
@@ -207,7 +229,11 @@ class RollProblem(eqx.Module):
         - `excitation`: "filter" (Method 2, the paper's for Monte Carlo: a shaping filter fitted once to S_G
           with extra weight at 2ω0, kept in `filter_fit` for the moment method) or "superposition" (Method 1).
         - `dt`: time step [s] (checked against the roll period and the excitation bandwidth).
-        - `filter_order`: order of the shaping filter (Method 2).
+        - `filter_order`: order of the shaping filter (Method 2), or `"auto"` (default): the lowest of 4, 6, 8
+          whose spectrum follows S_G within 5 % on `parametric_band(ship)`, the encounter frequencies the
+          roll responds to (`fit_filter_in_band`; the order and its band error in `filter_fit.summary()`). The
+          paper's Method 2 is `filter_order=4`: 9–30 % low in P(roll > angle) in some seas (docs/numerics.md, "The
+          filter's order").
         - `phi0` [rad], `dphi0` [rad/s]: initial condition (the paper's 5°, 0).
         - `substeps`: time steps per shaping-filter step (None: chosen from the bridge's interpolation error,
           `FilterExcitation`); give it when the construction is traced, to keep the nominal problem's random stream.
@@ -235,7 +261,17 @@ class RollProblem(eqx.Module):
                     f"({math.degrees(capsize):.1f}°)."
                 )
         if excitation == "filter":
-            fit = fit_filter(wave, order=filter_order, match_frequency=2 * ship.omega0)
+            if filter_order == "auto":
+                if not is_concrete((ship, wave)):
+                    raise ValueError(
+                        "filter_order='auto' chooses the order from the concrete ship and sea; when the construction "
+                        "is traced give the nominal problem's order (`problem.filter_fit.filter.order`)."
+                    )
+                fit = fit_filter_in_band(wave, parametric_band(ship), match_frequency=2 * ship.omega0)
+            elif isinstance(filter_order, str):
+                raise ValueError(f"`filter_order` must be an integer >= 3 or 'auto'; got {filter_order!r}.")
+            else:
+                fit = fit_filter(wave, order=filter_order, match_frequency=2 * ship.omega0)
             if validate:
                 check_filter_fit(fit, dt)
             source = FilterExcitation(fit.filter, dt, substeps)

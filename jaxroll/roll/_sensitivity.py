@@ -296,7 +296,7 @@ def sensitivity_problem(
     heading: str = "head",
     excitation: str = "filter",
     dt: float = 0.5,
-    filter_order: int = 4,
+    filter_order: int | str = "auto",
     phi0: float = math.radians(5.0),
     dphi0: float = 0.0,
 ) -> tuple[Callable[[Mapping], RollProblem], dict[str, float]]:
@@ -322,6 +322,7 @@ def sensitivity_problem(
     nominal = RollProblem.from_sea(ship, sea, speed=speed, **options)  # every check of the nominal problem
     if excitation == "filter":  # the traced problems step the filter as the nominal one (same random stream)
         options["substeps"] = nominal.excitation.substeps
+        options["filter_order"] = nominal.filter_fit.filter.order  # "auto" chose it on the nominal sea
     gm0_nominal = float(ship.gm0)
     kappa = float(ship.omega0) ** 2 / gm0_nominal  # a1/GM0 = gΔ/I44, held fixed
     params = {

@@ -60,7 +60,7 @@ def sweep_sea_states(
     discard: float = 0.0,
     excitation: str = "filter",
     dt: float = 0.5,
-    filter_order: int = 4,
+    filter_order: int | str = "auto",
     phi0: float = math.radians(5.0),
     chunk_size: int | None = None,
     devices=None,

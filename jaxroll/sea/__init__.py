@@ -1,11 +1,14 @@
 """The sea: wave spectra, Grim's effective wave, the shaping filter (Method 2)."""
 
 from ._filters import (
+    BAND_TOLERANCE as BAND_TOLERANCE,
     MAX_FILTER_ORDER as MAX_FILTER_ORDER,
     FilterFit as FilterFit,
     ShapingFilter as ShapingFilter,
+    band_error as band_error,
     check_filter_fit as check_filter_fit,
     fit_filter as fit_filter,
+    fit_filter_in_band as fit_filter_in_band,
 )
 from ._grim import (
     EffectiveWave as EffectiveWave,

@@ -225,6 +225,9 @@ class FilterFit(eqx.Module):
     spectrum_target_at_match: Float[Array, ""]
     spectrum_filter_at_match: Float[Array, ""]
     result: optx.RESULTS
+    # Set by `fit_filter_in_band`: the band [rad/s] the order was chosen on and the fit's error there (`band_error`).
+    band: Float[Array, " 2"] | None = None
+    band_error: Float[Array, ""] | None = None
 
     def summary(self) -> dict:
         """Fit quality as plain numbers (for JSON)."""
@@ -237,6 +240,15 @@ class FilterFit(eqx.Module):
             "match_frequency_rad_s": float(self.match_frequency),
             "spectrum_target_at_match_m2s": float(self.spectrum_target_at_match),
             "spectrum_filter_at_match_m2s": float(self.spectrum_filter_at_match),
+            **(
+                {}
+                if self.band is None
+                else {
+                    "band_rad_s": [float(x) for x in self.band],
+                    "band_error": float(self.band_error),
+                    "order_chosen": "auto",
+                }
+            ),
         }
 
 
@@ -358,3 +370,87 @@ def _fit_filter(wave: EffectiveWave, order: int, match_frequency, match_weight: 
     # Beam seas: every residual is 0 whatever the parameters, so the zero-gain filter is exact.
     result = optx.RESULTS.where(variance > 0, sol.result, optx.RESULTS.successful)
     return FilterFit(f, rel, variance, f.variance(), wm, target_m, f.spectrum(wm), result)
+
+
+# ----------------------------------------------------------------------------------------------------------------
+# The order the roll needs: the fit checked on the band of encounter frequencies the roll responds to
+# ----------------------------------------------------------------------------------------------------------------
+
+#: Orders `fit_filter_in_band` tries, lowest first. Above 8 the fit's Levenberg–Marquardt often runs to its step
+#: limit (30–100 s for orders 10 and 12 on a 2-core CPU) for little gain on the band.
+BAND_ORDERS = (4, 6, 8)
+#: The largest band error `fit_filter_in_band` accepts (`band_error`).
+BAND_TOLERANCE = 0.05
+#: Below this fraction of the band's largest S_G, errors count against that level instead of S_G itself.
+BAND_FLOOR = 0.1
+
+
+def band_error(shaping_filter: ShapingFilter, wave: EffectiveWave, band, *, num: int = 201) -> float:
+    """The largest error of the filter's spectrum against S_G on the encounter-frequency `band` (lo, hi) [rad/s]:
+    max |S − S_G| / max(S_G, `BAND_FLOOR`·max S_G) over `num` points [-] (relative where S_G carries weight, against
+    a tenth of the band's peak where it carries little). Host arithmetic on concrete inputs: S_G interpolated from
+    `spectrum_on_grid` (step 5e-4 rad/s), the filter's |H(iω)|²/π by NumPy."""
+    from ._grim import SPECTRUM_GRID, spectrum_on_grid
+
+    grid = np.linspace(float(band[0]), float(band[1]), num)
+    s_g = np.interp(grid, SPECTRUM_GRID, np.asarray(spectrum_on_grid(wave)))
+    a, c = np.asarray(shaping_filter.a)[-1], np.asarray(shaping_filter.c)
+    s = 1j * grid
+    h = np.polynomial.polynomial.polyval(s, c) / (s**a.size - np.polynomial.polynomial.polyval(s, a))
+    s_f = np.abs(h) ** 2 / np.pi
+    if not np.any(s_g > 0):
+        return 0.0 if np.allclose(s_f, 0.0) else math.inf
+    level = np.maximum(s_g, BAND_FLOOR * s_g.max())
+    return float(np.max(np.abs(s_f - s_g) / level))
+
+
+def fit_filter_in_band(
+    wave: EffectiveWave,
+    band,
+    *,
+    match_frequency=None,
+    tolerance: float = BAND_TOLERANCE,
+    orders=BAND_ORDERS,
+) -> FilterFit:
+    """The lowest-order shaping filter whose spectrum follows S_G within `tolerance` on the encounter-frequency
+    `band` (lo, hi) [rad/s] the roll responds to (`band_error`), fitted by `fit_filter` at each order of `orders`
+    (default 4, 6, 8) in turn. Where none does, the order with the smallest band error, with a warning that gives it.
+
+    Why: the tail of the roll is set by S_G over the frequencies 2ω(A) of the amplitudes A it reaches, which a
+    softening GZ lowers below 2ω0; the paper's order-4 filter matches the variance and S_G(2ω0) but is 10–100 % off
+    elsewhere on that band in some seas, which biases P(roll > angle) (docs/numerics.md, "The filter's order").
+
+    **Returns:** the `FilterFit`, with `band` and `band_error` set (also in `summary()`).
+    """
+    import warnings
+
+    require_float64("jaxroll.fit_filter_in_band")
+    lo, hi = float(band[0]), float(band[1])
+    if not (0 < lo < hi and math.isfinite(hi)):
+        raise ValueError(f"`band` must be (lo, hi) with 0 < lo < hi [rad/s]; got {band!r}.")
+    if not orders:
+        raise ValueError("`orders` must name at least one filter order.")
+    best = None
+    for order in orders:
+        fit = fit_filter(wave, order=order, match_frequency=match_frequency)
+        err = band_error(fit.filter, wave, (lo, hi))  # converged or not: the band says whether it is good
+        err = err if math.isfinite(err) else math.inf
+        if best is None or err < best[1]:
+            best = (fit, err)
+        if err <= tolerance:
+            break
+    fit, err = best
+    if err > tolerance:
+        warnings.warn(
+            f"no shaping filter of order {', '.join(map(str, orders))} follows the effective-wave spectrum within "
+            f"{100 * tolerance:g} % on {lo:.3g}–{hi:.3g} rad/s, where the roll is excited; the best, order "
+            f"{fit.filter.order}, is {100 * err:.0f} % off there, which biases the roll's tail. Use the superposition "
+            "excitation (excitation='superposition', --method superposition) for this sea state.",
+            stacklevel=2,
+        )
+    return eqx.tree_at(
+        lambda f: (f.band, f.band_error),
+        fit,
+        (jnp.asarray([lo, hi]), jnp.asarray(err)),
+        is_leaf=lambda x: x is None,
+    )

@@ -43,6 +43,8 @@ from ._ikeda import (
     simplified_ikeda as simplified_ikeda,
 )
 from ._restoring import (
+    angle_of_maximum_gz as angle_of_maximum_gz,
+    backbone_frequency as backbone_frequency,
     delta_gm as delta_gm,
     parametric_excitation as parametric_excitation,
     restoring_moment as restoring_moment,

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import jax.numpy as jnp
+import numpy as np
 from jaxtyping import Array, Float
 
 from .._compiled import cached_program
@@ -61,6 +62,27 @@ def vanishing_angle(ship: Ship, *, num: int = 4096) -> Float[Array, ""]:
     Found on a grid over (0, π] and refined by bisection; trajectories beyond it count as capsized.
     """
     return _vanishing_angle(ship, num)
+
+
+def backbone_frequency(ship: Ship, amplitude) -> Float[Array, "..."]:
+    """Natural frequency ω(A) [rad/s] of the undamped calm-water roll of amplitude A [rad] (the backbone curve):
+    2π over the exact period T(A) = 4 ∫₀^{π/2} A cos θ dθ / √(2(V(A) − V(A sin θ))), V the restoring potential
+    (64-point Gauss–Legendre in θ: the integrand is smooth). ω(0) = ω0; a softening GZ lowers it with A."""
+    a = _floating(amplitude)[..., None]
+    x, w = np.polynomial.legendre.leggauss(64)
+    theta = (x + 1) * jnp.pi / 4
+    weights = w * jnp.pi / 4
+    small = a < 1e-6
+    amp = jnp.where(small, 1e-6, a)
+    gap = 2 * (restoring_potential(ship, amp) - restoring_potential(ship, amp * jnp.sin(theta)))
+    period = 4 * jnp.sum(weights * amp * jnp.cos(theta) / jnp.sqrt(jnp.maximum(gap, 1e-300)), axis=-1)
+    return jnp.where(small[..., 0], ship.omega0, 2 * jnp.pi / period)
+
+
+def angle_of_maximum_gz(ship: Ship, *, num: int = 2048) -> Float[Array, ""]:
+    """Heel [rad] of the largest calm-water GZ before the angle of vanishing stability (grid of `num` points)."""
+    phi = vanishing_angle(ship) * jnp.linspace(0.0, 1.0, num + 1)[1:]
+    return phi[jnp.argmax(restoring_moment(ship, phi))]
 
 
 def delta_gm(ship: Ship, zeta_mid) -> Float[Array, "..."]:

@@ -37,6 +37,13 @@ def _theory_statistics(law_env, law_zc, stats, e_phi2):
     return jnp.stack(out)
 
 
+def _moment_fit(problem, order: int):
+    """The Monte Carlo's filter fit when it has the moment method's `order`, else None (the moment method fits its
+    own: an `"auto"` Monte Carlo filter may be of order 6 or 8, a closure of 3–9× the moments)."""
+    fit = problem.filter_fit
+    return fit if fit is not None and fit.filter.order == order else None
+
+
 def theory_sensitivities(
     problem_fn: Callable[[Mapping], object],
     params: Mapping[str, float],
@@ -78,7 +85,10 @@ def theory_sensitivities(
             if name == "moment":
                 nominal = problem_fn(params)
                 sol = moment_pdf_first_stable(
-                    nominal.ship, nominal.wave, shaping_filter=nominal.filter_fit, filter_order=filter_order
+                    nominal.ship,
+                    nominal.wave,
+                    shaping_filter=_moment_fit(nominal, filter_order),
+                    filter_order=filter_order,
                 )
                 details["closure_order"] = sol.closure_order
 
@@ -97,7 +107,7 @@ def theory_sensitivities(
                 prob = problem_fn(q)
                 ship, wave = prob.ship, prob.wave
                 if name == "moment":
-                    kw = dict(shaping_filter=prob.filter_fit, filter_order=filter_order,
+                    kw = dict(shaping_filter=_moment_fit(prob, filter_order), filter_order=filter_order,
                               closure_order=details["closure_order"])  # fmt: skip
                     env = moment_pdf(ship, wave, estimator="envelope", **kw)
                     zc = moment_pdf(ship, wave, estimator="zero_crossing", **kw) if need_zc else env
