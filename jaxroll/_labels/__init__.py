@@ -7,5 +7,6 @@ from ._tree import (
     config_attrs as config_attrs,
     labelled_values as labelled_values,
     merge as merge,
+    to_jsonable as to_jsonable,
     tree_to_dataset as tree_to_dataset,
 )

@@ -15,6 +15,7 @@ from __future__ import annotations
 import dataclasses
 import fnmatch
 import json
+import math
 from collections.abc import Callable, Mapping
 from typing import Any
 
@@ -405,6 +406,22 @@ def merge(*datasets):
 
 def config_attrs(config: Mapping[str, Any]) -> dict[str, str]:
     """A result's `config` as a dataset attribute: `{"config_json": JSON text}` (attributes hold no mappings)."""
-    from ..io._dataset import to_jsonable  # (io: no numerics at module level)
-
     return {"config_json": json.dumps(to_jsonable(dict(config)), sort_keys=True)}
+
+
+def to_jsonable(obj: Any) -> Any:
+    """Arrays → lists, NaN/inf → null, numpy/JAX scalars → Python numbers."""
+    if isinstance(obj, dict):
+        return {str(k): to_jsonable(v) for k, v in obj.items()}
+    if isinstance(obj, list | tuple):
+        return [to_jsonable(v) for v in obj]
+    if hasattr(obj, "__array__") and not isinstance(obj, str | bytes):
+        arr = np.asarray(obj)
+        if arr.ndim == 0:
+            return to_jsonable(arr.item())
+        return to_jsonable(arr.tolist())
+    if isinstance(obj, float):
+        return obj if math.isfinite(obj) else None
+    if isinstance(obj, np.generic):
+        return to_jsonable(obj.item())
+    return obj

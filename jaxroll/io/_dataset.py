@@ -11,35 +11,16 @@ from __future__ import annotations
 
 import importlib.metadata
 import json
-import math
 import os
 from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
 
-from .._labels import OUTPUTS, tree_to_dataset
+from .._labels import OUTPUTS, to_jsonable as to_jsonable, tree_to_dataset
 
 #: The libraries whose versions every output records (the bit-for-bit claims depend on them).
 _LIBRARIES = ("jaxroll", "jax", "jaxlib", "equinox", "diffrax", "optimistix", "numpy")
-
-
-def to_jsonable(obj: Any) -> Any:
-    """Arrays → lists, NaN/inf → null, numpy/JAX scalars → Python numbers."""
-    if isinstance(obj, dict):
-        return {str(k): to_jsonable(v) for k, v in obj.items()}
-    if isinstance(obj, list | tuple):
-        return [to_jsonable(v) for v in obj]
-    if hasattr(obj, "__array__") and not isinstance(obj, str | bytes):
-        arr = np.asarray(obj)
-        if arr.ndim == 0:
-            return to_jsonable(arr.item())
-        return to_jsonable(arr.tolist())
-    if isinstance(obj, float):
-        return obj if math.isfinite(obj) else None
-    if isinstance(obj, np.generic):
-        return to_jsonable(obj.item())
-    return obj
 
 
 def provenance() -> dict[str, str]:
@@ -141,7 +122,6 @@ _SHARED_DIMS = ("estimator", "percentile", "bound", "n0", "theory", "parameter",
 def _add_part(ds, part, prefix: str):
     """`ds` with the variables of `part` it does not have, named `<prefix>_<name>`; a dimension of the part is
     renamed `<prefix>_<dim>` unless `ds` has it with the same labels and it means the same everywhere."""
-    import numpy as np
     import xarray as xr
 
     def same(dim) -> bool:
