@@ -21,7 +21,8 @@ from typing import Any
 
 import numpy as np
 
-from ._units import GLOSSARY, long_name_from_path, unit_text, units_from_name
+from ._cf import cf_dataset
+from ._units import GLOSSARY, long_name_from_path, udunits, units_from_name
 
 
 @dataclasses.dataclass(frozen=True)
@@ -260,7 +261,7 @@ def _units(layout: Layout, entry: _Entry) -> str | None:
             "give the layout its `units` text."
         )
     if entry.unit_texts:
-        return unit_text(next(iter(entry.unit_texts)))
+        return udunits(next(iter(entry.unit_texts)))
     leaf = next((p for p in reversed(entry.path) if not p.startswith("{")), entry.name)
     return units_from_name(leaf) or units_from_name(entry.name)
 
@@ -378,7 +379,7 @@ def tree_to_dataset(tree: Mapping, layout: Layout, *, attrs: Mapping[str, Any] |
                 {"long_name": long_name, **({} if unit is None else {"units": unit})}
             )
     text = {k: (v if isinstance(v, str) else json.dumps(v)) for k, v in b.text.items()}
-    return xr.Dataset(variables, coords=coords, attrs={**text, **(attrs or {})})
+    return cf_dataset(xr.Dataset(variables, coords=coords, attrs={**text, **(attrs or {})}))
 
 
 def labelled_values(
@@ -394,7 +395,7 @@ def labelled_values(
         k: xr.Variable(dims, np.asarray(v), {"long_name": ln, **({} if u is None else {"units": u})})
         for k, (dims, v, u, ln) in d.items()
     }
-    return xr.Dataset(make(pairs), coords=make(coords or {}), attrs=dict(attrs or {}))
+    return cf_dataset(xr.Dataset(make(pairs), coords=make(coords or {}), attrs=dict(attrs or {})))
 
 
 def merge(*datasets):

@@ -12,12 +12,19 @@ from __future__ import annotations
 import importlib.metadata
 import json
 import os
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
 
-from .._labels import OUTPUTS, to_jsonable as to_jsonable, tree_to_dataset
+from .._labels import (
+    CONVENTIONS,
+    OUTPUTS,
+    cf_dataset,
+    to_jsonable as to_jsonable,
+    tree_to_dataset,
+    with_inputs,
+)
 
 #: The libraries whose versions every output records (the bit-for-bit claims depend on them).
 _LIBRARIES = ("jaxroll", "jax", "jaxlib", "equinox", "diffrax", "optimistix", "numpy")
@@ -58,7 +65,14 @@ def dataset_attrs(config: dict[str, Any] | None = None, **extra: Any) -> dict[st
 _NOT_RESULTS = ("config", "jaxroll_version", "warnings")
 
 
-def output_dataset(command: str, payload: Mapping[str, Any], parts=None, *, warnings=()):
+def output_dataset(
+    command: str,
+    payload: Mapping[str, Any],
+    parts=None,
+    *,
+    warnings=(),
+    command_line: Sequence[str] | None = None,
+):
     """The labelled twin of a command's JSON file: its numbers as an `xarray.Dataset` (the variables named like
     the JSON fields, `units`, `long_name` and `json_path` on each; docs/outputs.md), plus `parts`: the result
     objects' own datasets (`.to_xarray()`: per-trial arrays, histogram counts, …) — one dataset, or a dict
@@ -68,7 +82,11 @@ def output_dataset(command: str, payload: Mapping[str, Any], parts=None, *, warn
     `<prefix>_<dim>`.
 
     Attributes: `dataset_attrs(payload["config"])` (the configuration as JSON text, the versions of jaxroll, jax,
-    jaxlib, …, the backend and device kind), `command`, `json_file`, the JSON's text fields, the `warnings`.
+    jaxlib, …, the backend and device kind), `command`, `json_file`, the JSON's text fields, the `warnings`; CF's
+    `Conventions`, `source` and `history` (the creation time, UTC, and `command_line`: the `jaxroll` command's
+    words). The run's inputs (sea state, heading, speed, seed, ship) are length-1 dimensions with the
+    configuration per run (`run_config`), every unit is UDUNITS text and CF standard names are given where CF has
+    one (`jaxroll._labels.with_inputs`, `cf_dataset`; docs/outputs.md).
 
     **Arguments:** `command`: a key of the layouts (`"pdf"`, `"maxima"`, …, `"calibrate-decay"`); `payload`: the
     dict written as JSON.
@@ -109,7 +127,26 @@ def output_dataset(command: str, payload: Mapping[str, Any], parts=None, *, warn
         attrs["json_fields_not_stored"] = json.dumps(skipped)
     if warnings:
         attrs["warnings"] = json.dumps(list(warnings))
-    return xr.Dataset(ds.data_vars, coords=ds.coords, attrs=attrs)
+    ds = xr.Dataset(ds.data_vars, coords=ds.coords, attrs={**_cf_attrs(command, command_line), **attrs})
+    return with_inputs(cf_dataset(ds), payload.get("config"))
+
+
+def _cf_attrs(command: str, command_line: Sequence[str] | None) -> dict[str, str]:
+    """CF's global attributes: `Conventions`, `source` (jaxroll and its version), `history` (when, UTC, and by
+    which command line) and `date_created` (ISO 8601, UTC)."""
+    import datetime
+    import shlex
+
+    from .._version import __version__
+
+    now = datetime.datetime.now(datetime.UTC).strftime("%Y-%m-%dT%H:%M:%SZ")
+    how = shlex.join(command_line) if command_line else f"jaxroll.io.output_dataset({command!r}, ...)"
+    return {
+        "Conventions": CONVENTIONS,
+        "source": f"jaxroll {__version__}",
+        "history": f"{now}: {how} (jaxroll {__version__})",
+        "date_created": now,
+    }
 
 
 _JSON_FILES = {"calibrate": "calibration.json"}

@@ -188,7 +188,7 @@ def build_dataset(grid, cells: dict, config: dict, attrs: dict):
             CELL_DIMS,
             to_cells(cells["lyapunov_exponent"]),
             {
-                "units": "1/s",
+                "units": "s-1",
                 "long_name": "envelope FPK Lyapunov exponent λ of the linearised "
                 "roll (λ <= 0: the roll dies out)",
             },
@@ -197,7 +197,7 @@ def build_dataset(grid, cells: dict, config: dict, attrs: dict):
             CELL_DIMS,
             to_cells(cells["envelope_gamma"]),
             {
-                "units": "1/s",
+                "units": "s-1",
                 "long_name": "fitted envelope decay rate γ (<= 0: the envelope model does not fit)",
             },
         ),
@@ -236,7 +236,7 @@ def build_dataset(grid, cells: dict, config: dict, attrs: dict):
             grid.classes_deg[k],
             {"units": "degree", "long_name": "computed at χ' = min(χ, 360 − χ) (port/starboard symmetry)"},
         ),
-        "speed": ("speed", grid.speeds, {"units": "m/s", "long_name": "ship speed U"}),
+        "speed": ("speed", grid.speeds, {"units": "m s-1", "long_name": "ship speed U"}),
         "ship": ("ship", np.array(grid.ship_names, dtype=object), {"long_name": "loading condition (ship)"}),
         "angle": (
             "angle",
