@@ -71,7 +71,9 @@ def test_infrastructure_imports_no_stage():
         for path in paths:
             for target in _imports(path):
                 if target[0] == "jaxroll" and len(target) >= 2:
-                    assert target[1] in INFRASTRUCTURE, f"{path.relative_to(ROOT)} imports jaxroll.{target[1]}"
+                    assert target[1] in INFRASTRUCTURE, (
+                        f"{path.relative_to(ROOT)} imports jaxroll.{target[1]}"
+                    )
 
 
 def test_no_module_is_oversized():
@@ -146,7 +148,12 @@ def test_the_package_namespace_is_its_public_names():
     `sys`, `types`, `TYPE_CHECKING` were listed until 0.2)."""
     import jaxroll
 
-    assert set(jaxroll.__all__) == {"configure", "single_threaded_blas", *jaxroll._LAZY, *jaxroll._SUBPACKAGES}
+    assert set(jaxroll.__all__) == {
+        "configure",
+        "single_threaded_blas",
+        *jaxroll._LAZY,
+        *jaxroll._SUBPACKAGES,
+    }
     assert sorted(dir(jaxroll)) == sorted([*jaxroll.__all__, "__version__"])
     public = {n for n in vars(jaxroll) if not n.startswith("_")}
     assert public <= set(jaxroll.__all__), public - set(jaxroll.__all__)
