@@ -222,6 +222,8 @@ def assert_cf_variables(ds, where: str = "dataset") -> None:
             assert parsed.dimensionality == ureg.Unit(named).dimensionality, (where, name, units, named)
         if named == "degree":  # `_deg`: degrees, written one way
             assert units == "degree", (where, name, units)
+        if units == "degree":  # and degrees say so (docs/conventions.md: one angle rule)
+            assert "_deg" in str(name), (where, name, units)
         if "standard_name" in var.attrs:
             assert name in ds.cf.standard_names[var.attrs["standard_name"]], (where, name)
     for name in ("unit", "parameter_unit", "statistic_unit"):  # each label's unit, where units are mixed

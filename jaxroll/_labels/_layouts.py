@@ -380,15 +380,15 @@ SWEEP = Layout(
 _DOMINATING = "longterm_dominating_cells"
 LONGTERM = Layout(
     labels={
-        "longterm": "angle",
+        "longterm": "angle_deg",
         "longterm/*/dominating_cells": "rank",
         "cells": "cell_method",
         "monte_carlo_estimators": "mc_estimator",
     },
     arrays={
         "ci_against_effort/trials": ("effort",),
-        "ci_against_effort/sampling_half_width": ("effort", "angle"),
-        "ci_against_effort/splitting_half_width": ("angle",),
+        "ci_against_effort/sampling_half_width": ("effort", "angle_deg"),
+        "ci_against_effort/splitting_half_width": ("angle_deg",),
     },
     units={
         "exposure_hours": "h",
@@ -456,7 +456,7 @@ LONGTERM = Layout(
         f"{_DOMINATING}_*": "the cells with the largest contributions w·P, largest first (rank 0)",
     },
     coords={
-        "angle": ("degree", "roll angle"),
+        "angle_deg": ("degree", "roll angle"),
         "rank": ("1", "rank of the cell by contribution"),
         "cell_method": (None, "how a cell's probability was obtained"),
         "mc_estimator": (None, "the estimator of a Monte Carlo cell"),

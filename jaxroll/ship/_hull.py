@@ -489,7 +489,7 @@ sea water (`jaxroll.io._hull_file.write_c11_hull_file` computes it and writes th
 def c11_hull() -> Hull:
     """The C11-like hull shipped as `jaxroll/data/c11_hull.toml` (REPRESENTATIVE, not the real C11 lines).
 
-    The offsets of [`c11_like_offsets`][] rounded to 0.1 mm, as the file stores them (the model reads no file:
+    The offsets of `c11_like_offsets` rounded to 0.1 mm, as the file stores them (the model reads no file:
     tests/test_hydrostatics.py checks that the file holds these numbers)."""
     x, z, y = (_rounded(a, 4) for a in c11_like_offsets())
     return Hull(
