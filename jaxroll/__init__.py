@@ -12,20 +12,21 @@ CPU makes every core a JAX device, so that the Monte Carlo's realizations run on
 "Process-wide settings"). The `jaxroll` command does the same for its own process.
 """
 
-import importlib
-import importlib.metadata
-import sys
-import types
-from typing import TYPE_CHECKING
+import importlib as _importlib
+import sys as _sys
+import types as _types
+import typing as _typing
 
 from ._config import configure as configure, single_threaded_blas as single_threaded_blas
+from ._version import __version__ as __version__
 
 # `import jaxroll` imports JAX and `configure` only: the other names are imported when first used
 # (`jaxroll.monte_carlo`, `from jaxroll import ITTC`), so that a command or a script that needs the hull
 # hydrostatics does not pay for the Monte Carlo, the theories, the calibration and the libraries under them
 # (docs/architecture.md, "Imports on demand"). `_NAMES` is the list; the same imports written out below are for type
-# checkers and the documentation (tests/test_architecture.py checks that the two agree).
-if TYPE_CHECKING:
+# checkers and the documentation (tests/test_architecture.py checks that the two agree). `__all__` is every public
+# name; the modules this file uses are imported under private names, so `dir(jaxroll)` lists only those.
+if _typing.TYPE_CHECKING:
     from . import criteria as criteria, theory as theory
     from ._compiled import enable_compilation_cache as enable_compilation_cache
     from .calibration import (
@@ -238,33 +239,30 @@ _SUBPACKAGES = ("calibration", "criteria", "extremes", "io", "laws", "longterm",
 def __getattr__(name: str):
     """A name of `_NAMES` or a subpackage, imported on first use (a module's `__getattr__`, PEP 562)."""
     if name in _LAZY:
-        value = getattr(importlib.import_module(f"{__name__}.{_LAZY[name]}"), name)
+        value = getattr(_importlib.import_module(f"{__name__}.{_LAZY[name]}"), name)
     elif name in _SUBPACKAGES:
-        value = importlib.import_module(f"{__name__}.{name}")
+        value = _importlib.import_module(f"{__name__}.{name}")
     else:
         raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
     globals()[name] = value
     return value
 
 
+__all__ = sorted({"configure", "single_threaded_blas", *_LAZY, *_SUBPACKAGES})
+
+
 def __dir__() -> list[str]:
-    return sorted({*globals(), *_LAZY, *_SUBPACKAGES})
+    return [*__all__, "__version__"]
 
 
-class _Package(types.ModuleType):
+class _Package(_types.ModuleType):
     """`jaxroll` itself: `jaxroll.longterm` stays the function when the subpackage of that name is imported (the
     import system sets a subpackage as its parent's attribute once it has run)."""
 
     def __setattr__(self, name: str, value) -> None:
-        if name == "longterm" and isinstance(value, types.ModuleType):
+        if name == "longterm" and isinstance(value, _types.ModuleType):
             value = value.longterm
         super().__setattr__(name, value)
 
 
-sys.modules[__name__].__class__ = _Package
-
-
-try:
-    __version__ = importlib.metadata.version("jaxroll")
-except importlib.metadata.PackageNotFoundError:  # pragma: no cover - running from a source tree
-    __version__ = "0.0.0+unknown"
+_sys.modules[__name__].__class__ = _Package

@@ -130,3 +130,32 @@ def estimates_table(title: str, estimates, *, note: str | None = None) -> str:
         for name, e in estimates.items()
     ]
     return html_table(title, rows, header=("parameter", "estimate ± SE", "95 % interval", "unit"), note=note)
+
+
+def module_repr(module) -> str:
+    """`repr` of a parameter object (an `eqx.Module`) with its numbers: concrete 0-d arrays as floats (or ints),
+    concrete 1-d arrays of up to 8 elements as lists, larger or traced arrays as equinox shows them (`f64[40]`).
+    `ITTC(hs=5.0, t01=10.0)` instead of `ITTC(hs=f64[], t01=f64[])`."""
+    import equinox as eqx
+    import jax
+    import numpy as np
+
+    def shown(leaf):
+        if isinstance(leaf, jax.core.Tracer) or not hasattr(leaf, "shape") or not hasattr(leaf, "dtype"):
+            return leaf
+        if leaf.ndim > 1 or leaf.size > 8 or np.dtype(leaf.dtype).kind not in "fiub":
+            return leaf
+        value = np.asarray(leaf).tolist()
+        return _Shown(value)
+
+    return eqx.tree_pformat(jax.tree_util.tree_map(shown, module), short_arrays=True)
+
+
+class _Shown:
+    """A value shown as Python shows it (`5.0`, `[1.0, 2.0]`), inside an equinox repr."""
+
+    def __init__(self, value):
+        self.value = value
+
+    def __repr__(self) -> str:
+        return repr(self.value)

@@ -113,11 +113,10 @@ def assert_labelled_output(folder, stem: str) -> None:
         assert ds.attrs.get(key), f"{stem}.nc has no {key} attribute"
     assert ds.attrs["jaxroll_version"] == payload["jaxroll_version"] == jxr.__version__
     assert json.loads(ds.attrs["config_json"]) == payload["config"]
-    for name, var in ds.variables.items():
-        assert var.attrs.get("long_name"), f"{stem}.nc: {name} has no long_name"
-        if var.dtype.kind not in "USO":  # text labels have no unit
-            assert var.attrs.get("units"), f"{stem}.nc: {name} has no units"
-    labels = {str(v) for c in ds.coords.values() if c.dtype.kind in "US" for v in c.values}
+    assert_cf(ds, payload["config"], stem)
+    ds = ds.isel({d: 0 for d in ds.attrs["input_dims"].split()})  # the run's inputs: length-1 dimensions
+    assert json.loads(ds.run_config.item()) == payload["config"]
+    labels = {str(v) for c in ds.coords.values() if c.dtype.kind in "US" for v in np.atleast_1d(c.values)}
     seen = set()
 
     def values_at(node, parts, dims, index, concrete):
@@ -188,6 +187,71 @@ def assert_labelled_output(folder, stem: str) -> None:
             continue
         missing.append("/".join(path))
     assert not missing, f"{stem}.json numbers not in {stem}.nc: {missing[:10]}"
+
+
+#: The inputs a command's netCDF has as length-1 dimensions where its `config` gives them (issue 45).
+INPUTS = {"hs_m": ("sea", "hs_m"), "t01_s": ("sea", "t01_s"), "heading_deg": ("heading_deg",),
+          "speed_m_s": ("speed_m_s",), "seed": ("seed",), "ship": ("ship", "name")}  # fmt: skip
+
+
+def assert_cf_variables(ds, where: str = "dataset") -> None:
+    """Every variable and coordinate has a `long_name`; every number a UDUNITS `units` (no `1/s`, no `^`) that pint
+    parses (cf-xarray's UDUNITS registry) to the dimensions its name states (a variable mixing units along a label
+    says so in `comment` instead); `standard_name`s are what cf-xarray finds."""
+    import cf_xarray  # noqa: F401  (the `.cf` accessor)
+    import pint
+    from cf_xarray.units import units as ureg
+
+    from jaxroll._labels._units import units_from_name
+
+    for name, var in ds.variables.items():
+        assert var.attrs.get("long_name"), f"{where}: {name} has no long_name"
+        if var.dtype.kind in "USO":  # text labels have no unit
+            continue
+        units = var.attrs.get("units")
+        if units is None:
+            assert var.attrs.get("comment", "").startswith("units: mixed"), f"{where}: {name} has no units"
+            continue
+        assert "/" not in units and "^" not in units and units == units.strip(), (where, name, units)
+        try:
+            parsed = ureg.Unit(units)
+        except (pint.errors.PintError, ValueError, TypeError) as e:
+            raise AssertionError(f"{where}: {name}: pint cannot parse units {units!r} ({e})") from None
+        named = units_from_name(str(name))  # the unit the name states (`_deg`, `_m_s`, `_per_s`, …)
+        if named is not None and named != "1":
+            assert parsed.dimensionality == ureg.Unit(named).dimensionality, (where, name, units, named)
+        if named == "degree":  # `_deg`: degrees, written one way
+            assert units == "degree", (where, name, units)
+        if units == "degree":  # and degrees say so (docs/conventions.md: one angle rule)
+            assert "_deg" in str(name), (where, name, units)
+        if "standard_name" in var.attrs:
+            assert name in ds.cf.standard_names[var.attrs["standard_name"]], (where, name)
+    for name in ("unit", "parameter_unit", "statistic_unit"):  # each label's unit, where units are mixed
+        if name in ds.variables:
+            for u in np.atleast_1d(ds[name].values):
+                ureg.Unit(str(u))
+
+
+def assert_cf(ds, config: dict, stem: str) -> None:
+    """A command's netCDF as CF tools read it: `Conventions`, `history` (time and command line), its variables as
+    `assert_cf_variables` says, and the inputs its `config` gives as length-1 dimension coordinates."""
+    import re
+
+    assert ds.attrs["Conventions"] == "CF-1.10", stem
+    assert re.match(r"\d{4}-\d\d-\d\dT\d\d:\d\d:\d\dZ: jaxroll", ds.attrs["history"]), ds.attrs["history"]
+    assert_cf_variables(ds, f"{stem}.nc")
+    for dim, path in INPUTS.items():
+        node = config
+        for key in path:
+            node = node.get(key) if isinstance(node, dict) else None
+        if node is not None and not isinstance(node, bool) and isinstance(node, int | float | str):
+            assert dim in ds.dims or dim in ds.variables, f"{stem}.nc lacks the input {dim}"
+            if dim in ds.attrs["input_dims"].split():
+                assert ds.sizes[dim] == 1 and ds[dim].item() == node, (stem, dim)
+                assert ds.run_config.dims == tuple(ds.attrs["input_dims"].split()), stem
+    for dim in ("hs_m", "hs"):
+        if dim in ds.dims:
+            assert dim in ds.cf["sea_surface_wave_significant_height"].dims
 
 
 def _same_number(key: str, value) -> bool:

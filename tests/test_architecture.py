@@ -14,7 +14,7 @@ CORE = ("sea", "ship", "laws", "roll", "theory", "extremes", "calibration", "io"
 ALLOWED = {
     "sea": {"sea"},
     "laws": {"laws"},
-    "ship": {"ship", "sea", "io"},  # io only inside functions (packaged hull file)
+    "ship": {"ship", "sea"},  # the model reads no file: io/ reads and writes hull files
     "io": {"io", "ship"},
     "roll": {"roll", "sea", "ship", "laws", "extremes"},
     "theory": {"theory", "sea", "ship", "laws"},
@@ -53,17 +53,27 @@ def test_imports_run_downward(stage):
                 pytest.fail(f"{path.relative_to(ROOT)} imports matplotlib")
             if target[0] != "jaxroll" or len(target) < 2:
                 continue
-            if target[1] in (
-                "__version__",
-                "_atomic",
-                "_cache_files",
-                "_compiled",
-                "_display",
-                "_labels",
-                "_config",
-            ):  # infrastructure every stage may use (no numerics)
+            if target[1] in INFRASTRUCTURE:  # infrastructure every stage may use (no numerics)
                 continue
+            # `from .. import __version__` (the package root) is refused too: `jaxroll._version` has it
             assert target[1] in ALLOWED[stage], f"{path.relative_to(ROOT)} imports jaxroll.{target[1]}"
+
+
+#: Modules every stage may import: no numerics, and they import no stage and not the package root.
+INFRASTRUCTURE = ("_atomic", "_cache_files", "_compiled", "_config", "_display", "_labels", "_version")
+
+
+def test_infrastructure_imports_no_stage():
+    """`_labels` (the labelled results), `_compiled`, `_version`, … import no stage (`io` included: the netCDF
+    writer imports `_labels`, not the other way round) and not the package root."""
+    for name in INFRASTRUCTURE:
+        paths = sorted((PKG / name).glob("*.py")) if (PKG / name).is_dir() else [PKG / f"{name}.py"]
+        for path in paths:
+            for target in _imports(path):
+                if target[0] == "jaxroll" and len(target) >= 2:
+                    assert target[1] in INFRASTRUCTURE, (
+                        f"{path.relative_to(ROOT)} imports jaxroll.{target[1]}"
+                    )
 
 
 def test_no_module_is_oversized():
@@ -112,7 +122,7 @@ def test_lazy_names_are_the_typed_imports():
 
     tree = ast.parse((PKG / "__init__.py").read_text())
     block = next(
-        n for n in tree.body if isinstance(n, ast.If) and getattr(n.test, "id", "") == "TYPE_CHECKING"
+        n for n in tree.body if isinstance(n, ast.If) and ast.unparse(n.test).endswith("TYPE_CHECKING")
     )
     typed, modules = {}, set()
     for node in block.body:
@@ -131,6 +141,24 @@ def test_lazy_names_are_the_typed_imports():
     assert set(jaxroll._LAZY) | set(jaxroll._SUBPACKAGES) <= set(dir(jaxroll))
     with pytest.raises(AttributeError, match="has no attribute 'no_such_name'"):
         jaxroll.no_such_name  # noqa: B018
+
+
+def test_the_package_namespace_is_its_public_names():
+    """`dir(jaxroll)` and `jaxroll.__all__` list jaxroll's names, not the modules its `__init__` uses (`importlib`,
+    `sys`, `types`, `TYPE_CHECKING` were listed until 0.2)."""
+    import jaxroll
+
+    assert set(jaxroll.__all__) == {
+        "configure",
+        "single_threaded_blas",
+        *jaxroll._LAZY,
+        *jaxroll._SUBPACKAGES,
+    }
+    assert sorted(dir(jaxroll)) == sorted([*jaxroll.__all__, "__version__"])
+    public = {n for n in vars(jaxroll) if not n.startswith("_")}
+    assert public <= set(jaxroll.__all__), public - set(jaxroll.__all__)
+    for name in ("importlib", "sys", "types", "typing", "TYPE_CHECKING", "annotations"):
+        assert name not in dir(jaxroll) and not hasattr(jaxroll, name), name
 
 
 def test_the_hydrostatics_command_imports_only_what_it_uses():

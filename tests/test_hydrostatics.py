@@ -221,6 +221,22 @@ def test_c11_file_is_the_formula():
         close(h.half_breadths, formula.half_breadths, rtol=0, atol=5.1e-5)
 
 
+def test_the_shipped_hull_file_holds_the_models_c11_hull():
+    """`c11_hull()` and `c11_hull_loading()` read no file (the model knows no file format, issue 45); the packaged
+    `jaxroll/data/c11_hull.toml`, which `jaxroll sgisc` and users read, holds the same numbers to the last bit."""
+    from jaxroll.io._hull_file import read_hull_file
+    from jaxroll.ship import c11_hull_path
+
+    hull, loading = read_hull_file(c11_hull_path())
+    model = c11_hull()
+    for field in ("stations", "waterlines", "half_breadths", "lpp", "depth"):
+        np.testing.assert_array_equal(getattr(hull, field), getattr(model, field), err_msg=field)
+    assert (hull.name, hull.provenance) == (model.name, model.provenance)
+    from_file, ours = loading_from_dict(hull, loading), c11_hull_loading()
+    for field in ("displacement", "kg", "lcg", "water_density", "draught"):
+        np.testing.assert_array_equal(getattr(from_file, field), getattr(ours, field), err_msg=field)
+
+
 def test_balance_conserved_everywhere(c11, c11_loading, c11_solution):
     sol = c11_solution
     assert bool(jnp.all(sol.converged))

@@ -53,7 +53,7 @@ def test_rare_cell_rule():
 
 
 def test_splitting_cell_agrees_with_brute_force_and_is_marked(split_run):
-    ds = split_run.isel(tz=0, heading=0, speed=0, ship=0)
+    ds = split_run.isel(tz=0, heading_deg=0, speed=0, ship=0)
     rare, common = ds.isel(hs=0), ds.isel(hs=1)
     assert int(rare.estimator) == _flag("splitting") and int(common.estimator) == _flag("brute_force")
     assert split_run.estimator.attrs["flag_meanings"] == "none brute_force splitting"

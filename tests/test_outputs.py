@@ -11,7 +11,7 @@ import jax
 import numpy as np
 import pytest
 import xarray as xr
-from helpers import assert_labelled_output, default_problem
+from helpers import assert_cf_variables, assert_labelled_output, default_problem
 
 import jaxroll as jxr
 from jaxroll._cli._common import write_json, write_netcdf
@@ -20,10 +20,9 @@ from jaxroll.io import output_dataset, read_dataset, write_dataset
 
 
 def _has_labels(ds: xr.Dataset) -> None:
-    """Every variable and coordinate has a long name, and a unit unless it holds text labels."""
-    for name, var in ds.variables.items():
-        assert var.attrs.get("long_name"), name
-        assert var.dtype.kind in "US" or var.attrs.get("units"), name
+    """Every variable and coordinate has a long name, and a UDUNITS unit that pint parses unless it holds text
+    labels (or mixes units along a label, and says so)."""
+    assert_cf_variables(ds)
 
 
 @pytest.fixture(scope="module")
@@ -202,8 +201,8 @@ def test_sensitivity_result_to_xarray():
     infl = ds.influence.sel(statistic="E_phi2", parameter="b1")
     assert np.isnan(infl.sel(realization=2)) and infl.mean().item() == pytest.approx(-2.0, rel=1e-15)
     assert list(ds.statistic_unit.values) == ["rad2", "rad"] and list(ds.parameter_unit.values) == [
-        "1/s",
-        "-",
+        "s-1",
+        "1",
     ]
 
 
@@ -231,11 +230,12 @@ def test_decay_fit_to_xarray():
     fit = jxr.fit_extinction(records, jxr.c11_representative())
     ds = fit.to_xarray()
     _has_labels(ds)
-    assert list(ds.parameter.values) == ["b1", "b2", "b3"] and list(ds.unit.values) == [
-        "1/s",
-        "1/rad",
-        "s/rad^2",
-    ]
+    assert list(ds.parameter.values) == ["b1", "b2", "b3"]
+    assert list(ds.unit.values) == [
+        "s-1",
+        "rad-1",
+        "s rad-2",
+    ]  # UDUNITS, as every `units` (the JSON: "1/s", …)
     for name, e in fit.damping.items():
         assert ds.estimate.sel(parameter=name) == e.value and ds.std_error.sel(parameter=name) == e.std_error
     cov = ds.covariance.values
@@ -297,3 +297,68 @@ def test_the_round_trip_check_catches_a_wrong_or_missing_number(tmp_path):
     write_dataset(tmp_path / "sweep.nc", output_dataset("sweep", {**payload, "config": {"angle_deg": 20.0}}))
     with pytest.raises(AssertionError):
         assert_labelled_output(tmp_path, "sweep")
+
+
+def test_every_unit_is_udunits_text_that_pint_parses():
+    """One unit style (issue 45): every unit a layout declares and every unit a name states is UDUNITS text that
+    pint parses through cf-xarray's UDUNITS registry (or says `mixed: …`, which becomes a `comment`); the units
+    results write for people (`1/s`, `m/s`, `s/rad^2`, `-`, `deg`) are translated, never stored beside `s-1`."""
+    import cf_xarray.units
+
+    from jaxroll._labels import _layouts as layouts, cf_dataset, labelled_values, udunits
+    from jaxroll._labels._units import SUFFIX_UNITS
+
+    ureg = cf_xarray.units.units
+    declared = [u for _, u in SUFFIX_UNITS]
+    for lay in vars(layouts).values():
+        if isinstance(lay, Layout):
+            declared += [*lay.units.values(), *(c[0] for c in lay.coords.values() if c[0])]
+    assert len(declared) > 100
+    for unit in declared:
+        if not unit.startswith("mixed"):
+            assert udunits(unit) == unit, unit  # the layouts write UDUNITS already
+            ureg.Unit(unit)
+    expect = {"1/s": "s-1", "m/s": "m s-1", "rad/s": "rad s-1", "s/rad^2": "s rad-2", "1/rad^2": "rad-2",
+              "-": "1", "deg": "degree", "1/year": "year-1", "m^2 s/rad": "m2 s rad-1", "rad2": "rad2"}  # fmt: skip
+    for text, unit in expect.items():
+        assert udunits(text) == unit
+        assert ureg.Unit(unit) == ureg.Unit(
+            text.replace("^", "**").replace("-", "1") if text == "-" else unit
+        )
+    ds = labelled_values(
+        {
+            "b1": ((), 0.1, "1/s", "damping"),
+            "v": (("parameter",), [1.0, 2.0], "mixed: the parameter's", "values"),
+        },
+        coords={"unit": (("parameter",), ["1/s", "-"], None, "unit of each parameter")},
+    )
+    assert ds.b1.attrs["units"] == "s-1" and "units" not in ds.v.attrs
+    assert ds.v.attrs["comment"] == "units: mixed: the parameter's" and list(ds.unit.values) == ["s-1", "1"]
+    assert cf_dataset(ds) is ds
+
+
+def test_runs_combine_by_their_inputs(tmp_path):
+    """Two `jaxroll pdf` runs in other seas: the inputs are length-1 dimension coordinates (with CF standard
+    names), so `xr.combine_by_coords` lays them side by side on `hs_m`, and each run's configuration is a variable
+    (`run_config`) that `xr.concat` keeps per run — the attribute `config_json` keeps only the first's."""
+    from jaxroll._cli import main
+
+    folders = [tmp_path / f"hs{hs}" for hs in (5, 7)]
+    for hs, out in zip((5, 7), folders, strict=True):
+        args = ["--realizations", "4", "--duration", "300", "--theory", "none", "--seed", "3", "--quiet"]
+        assert main(["pdf", "--hs", str(hs), *args, "--out", str(out)]) == 0
+        assert_labelled_output(out, "pdf")  # CF attributes, units pint parses, the inputs as coordinates
+    runs = [xr.open_dataset(out / "pdf.nc").load() for out in folders]
+    assert runs[0].attrs["history"].endswith(f"jaxroll pdf --hs 5 {' '.join(args)} --out {folders[0]} (jaxroll "
+                                             f"{jxr.__version__})")  # fmt: skip
+    assert runs[0].cf["sea_surface_wave_significant_height"].values.tolist() == [5.0]
+    both = xr.combine_by_coords(runs, combine_attrs="drop_conflicts")
+    assert both.hs_m.values.tolist() == [5.0, 7.0] and both.sizes["t01_s"] == 1 and both.sizes["seed"] == 1
+    for hs, run in zip((5.0, 7.0), runs, strict=True):
+        np.testing.assert_array_equal(both.pdf_envelope.sel(hs_m=hs), run.pdf_envelope.sel(hs_m=hs))
+        np.testing.assert_array_equal(both.capsize_time_s.sel(hs_m=hs), run.capsize_time_s.sel(hs_m=hs))
+        assert json.loads(both.run_config.sel(hs_m=hs).item())["sea"]["hs_m"] == hs
+    assert not np.array_equal(both.pdf_envelope.sel(hs_m=5.0), both.pdf_envelope.sel(hs_m=7.0))
+    kept = xr.concat(runs, dim="hs_m")
+    assert [json.loads(c)["sea"]["hs_m"] for c in kept.run_config.values.ravel()] == [5, 7]
+    assert json.loads(kept.attrs["config_json"])["sea"]["hs_m"] == 5  # attributes: the first run's

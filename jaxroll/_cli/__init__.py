@@ -72,9 +72,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         parser.print_help()
         return 2
     from .. import configure
-    from ._common import WARNINGS
+    from ._common import COMMAND_LINE, WARNINGS
 
     WARNINGS.clear()
+    COMMAND_LINE[:] = ["jaxroll", *(sys.argv[1:] if argv is None else argv)]
     with warnings.catch_warnings():
         warnings.showwarning = functools.partial(_warning_line, args.command)
         # The command's own process, set up fully: float64, XLA:CPU's platform-independent math and small loops

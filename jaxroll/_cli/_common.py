@@ -27,6 +27,8 @@ def atomic_write_text(path: str | Path, text: str) -> None:
 #: The warnings the library gave during this command, in order (`jaxroll._cli.main` collects them; `write_json`
 #: writes them as `warnings`).
 WARNINGS: list[str] = []
+#: This command's words (`jaxroll pdf --hs 7 …`; `jaxroll._cli.main` sets them): the netCDF files' `history`.
+COMMAND_LINE: list[str] = []
 
 
 def write_json(path: str | Path, payload: dict[str, Any]) -> None:
@@ -52,7 +54,9 @@ def write_netcdf(path: str | Path, command: str, payload: dict[str, Any], parts=
     from ..io import output_dataset, write_dataset
 
     try:
-        dataset = output_dataset(command, payload, parts, warnings=list(dict.fromkeys(WARNINGS)))
+        dataset = output_dataset(
+            command, payload, parts, warnings=list(dict.fromkeys(WARNINGS)), command_line=COMMAND_LINE or None
+        )
     except ValueError as e:  # a field its layout does not describe: the JSON and figures are still written
         if not str(e).startswith("labelled results:"):
             raise

@@ -327,6 +327,11 @@ def register(subparsers) -> None:
         metavar="DIR",
         help="output folder (default: jaxroll-out/sgisc)",
     )
+    p.add_argument(
+        "--quiet",
+        action="store_true",
+        help="no progress display (it shows none; accepted like the other commands')",
+    )
     p.set_defaults(func=run)
 
 

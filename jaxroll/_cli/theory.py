@@ -24,6 +24,11 @@ def register(sub) -> None:
     )
     p.add_argument("--bin-width-deg", type=float, default=1.0, help="PDF bin width [deg] (1)")
     p.add_argument("--out", default="jaxroll-out/theory", help="output folder (default ./jaxroll-out/theory)")
+    p.add_argument(
+        "--quiet",
+        action="store_true",
+        help="no progress display (it shows none; accepted like the other commands')",
+    )
     p.set_defaults(func=run)
 
 

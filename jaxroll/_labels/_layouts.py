@@ -380,15 +380,15 @@ SWEEP = Layout(
 _DOMINATING = "longterm_dominating_cells"
 LONGTERM = Layout(
     labels={
-        "longterm": "angle",
+        "longterm": "angle_deg",
         "longterm/*/dominating_cells": "rank",
         "cells": "cell_method",
         "monte_carlo_estimators": "mc_estimator",
     },
     arrays={
         "ci_against_effort/trials": ("effort",),
-        "ci_against_effort/sampling_half_width": ("effort", "angle"),
-        "ci_against_effort/splitting_half_width": ("angle",),
+        "ci_against_effort/sampling_half_width": ("effort", "angle_deg"),
+        "ci_against_effort/splitting_half_width": ("angle_deg",),
     },
     units={
         "exposure_hours": "h",
@@ -456,7 +456,7 @@ LONGTERM = Layout(
         f"{_DOMINATING}_*": "the cells with the largest contributions w·P, largest first (rank 0)",
     },
     coords={
-        "angle": ("degree", "roll angle"),
+        "angle_deg": ("degree", "roll angle"),
         "rank": ("1", "rank of the cell by contribution"),
         "cell_method": (None, "how a cell's probability was obtained"),
         "mc_estimator": (None, "the estimator of a Monte Carlo cell"),
@@ -678,14 +678,14 @@ SGISC = (
 
 _DIAGNOSTICS = {
     "*diagnostics_condition_number": "1",
-    "*diagnostics_sigma": "residual unit (rad)",
-    "*diagnostics_rss": "residual unit squared (rad2)",
+    "*diagnostics_sigma": "rad",
+    "*diagnostics_rss": "rad2",
 }
 CALIBRATE_DECAY = SHIP + Layout(
     labels={"estimates": "method"},
     arrays={"estimates/*/damping_covariance": ("parameter", "parameter_2")},
     units={
-        "estimates_damping_covariance": "products of the parameters' units (b1 s-1, b2 rad-1, b3 s rad-2)",
+        "estimates_damping_covariance": "mixed: products of the parameters' units (b1 s-1, b2 rad-1, b3 s rad-2)",
         "agreement_z_*": "1",
         **_DIAGNOSTICS,
     },
@@ -706,7 +706,7 @@ CALIBRATE_CAPTIVE = Layout(
         "estimates_diagnostics_sigma": "m",
         "estimates_diagnostics_rss": "m2",
         "estimates_groups_per_record_ratio": "1",
-        "estimates_polynomial_covariance": "products of the coefficients' units",
+        "estimates_polynomial_covariance": "mixed: products of the coefficients' units",
         "written_gm_correction": "1",
     },
     text=("estimates/config",),
@@ -720,8 +720,8 @@ CALIBRATE_ROLL_PDF = SHIP + Layout(
         "estimates/sea_states/*/*_deg": ("estimator_band",),
     },
     units={
-        "estimates_covariance": "products of the parameters' units",
-        "estimates_initial_*": "SI unit of the parameter (estimates_*_unit)",
+        "estimates_covariance": "mixed: products of the parameters' units",
+        "estimates_initial_*": "mixed: the parameter's SI unit (estimates_*_unit)",
         "estimates_sea_states_bands": "1",
         "estimates_diagnostics_rss": "1",
         "estimates_diagnostics_sigma": "1",
@@ -751,8 +751,8 @@ CALIBRATE_ROLL_TIME_DOMAIN = SHIP + Layout(
     },
     units={
         "correlation_matrix": "1",
-        "covariance_matrix": "products of the parameters' units (estimates_*_unit)",
-        "covariance_model_based": "products of the parameters' units (estimates_*_unit)",
+        "covariance_matrix": "mixed: products of the parameters' units (estimates_*_unit)",
+        "covariance_model_based": "mixed: products of the parameters' units (estimates_*_unit)",
         "identifiability_correlation": "1",
         "identifiability_variance_inflation_*": "1",
         "identifiability_relative_se_*": "1",

@@ -15,12 +15,14 @@ from __future__ import annotations
 import dataclasses
 import fnmatch
 import json
+import math
 from collections.abc import Callable, Mapping
 from typing import Any
 
 import numpy as np
 
-from ._units import GLOSSARY, long_name_from_path, unit_text, units_from_name
+from ._cf import cf_dataset
+from ._units import GLOSSARY, long_name_from_path, udunits, units_from_name
 
 
 @dataclasses.dataclass(frozen=True)
@@ -259,7 +261,7 @@ def _units(layout: Layout, entry: _Entry) -> str | None:
             "give the layout its `units` text."
         )
     if entry.unit_texts:
-        return unit_text(next(iter(entry.unit_texts)))
+        return udunits(next(iter(entry.unit_texts)))
     leaf = next((p for p in reversed(entry.path) if not p.startswith("{")), entry.name)
     return units_from_name(leaf) or units_from_name(entry.name)
 
@@ -377,7 +379,7 @@ def tree_to_dataset(tree: Mapping, layout: Layout, *, attrs: Mapping[str, Any] |
                 {"long_name": long_name, **({} if unit is None else {"units": unit})}
             )
     text = {k: (v if isinstance(v, str) else json.dumps(v)) for k, v in b.text.items()}
-    return xr.Dataset(variables, coords=coords, attrs={**text, **(attrs or {})})
+    return cf_dataset(xr.Dataset(variables, coords=coords, attrs={**text, **(attrs or {})}))
 
 
 def labelled_values(
@@ -393,7 +395,7 @@ def labelled_values(
         k: xr.Variable(dims, np.asarray(v), {"long_name": ln, **({} if u is None else {"units": u})})
         for k, (dims, v, u, ln) in d.items()
     }
-    return xr.Dataset(make(pairs), coords=make(coords or {}), attrs=dict(attrs or {}))
+    return cf_dataset(xr.Dataset(make(pairs), coords=make(coords or {}), attrs=dict(attrs or {})))
 
 
 def merge(*datasets):
@@ -405,6 +407,22 @@ def merge(*datasets):
 
 def config_attrs(config: Mapping[str, Any]) -> dict[str, str]:
     """A result's `config` as a dataset attribute: `{"config_json": JSON text}` (attributes hold no mappings)."""
-    from ..io._dataset import to_jsonable  # (io: no numerics at module level)
-
     return {"config_json": json.dumps(to_jsonable(dict(config)), sort_keys=True)}
+
+
+def to_jsonable(obj: Any) -> Any:
+    """Arrays → lists, NaN/inf → null, numpy/JAX scalars → Python numbers."""
+    if isinstance(obj, dict):
+        return {str(k): to_jsonable(v) for k, v in obj.items()}
+    if isinstance(obj, list | tuple):
+        return [to_jsonable(v) for v in obj]
+    if hasattr(obj, "__array__") and not isinstance(obj, str | bytes):
+        arr = np.asarray(obj)
+        if arr.ndim == 0:
+            return to_jsonable(arr.item())
+        return to_jsonable(arr.tolist())
+    if isinstance(obj, float):
+        return obj if math.isfinite(obj) else None
+    if isinstance(obj, np.generic):
+        return to_jsonable(obj.item())
+    return obj

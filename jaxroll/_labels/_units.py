@@ -39,26 +39,40 @@ _DIMENSIONLESS = re.compile(
     r"^r_pr$"
 )
 
-#: Units of the JSON's own `unit` strings (Estimate.to_dict) as UDUNITS strings.
-_UNIT_TEXT = {
-    "-": "1",
+#: Units as results and estimates write them for people → UDUNITS (`"1/s"` → `"s-1"`).
+_UDUNITS = {
     "": "1",
-    "1/s": "s-1",
-    "1/rad": "rad-1",
-    "s/rad^2": "s rad-2",
-    "1/rad^2": "rad-2",
-    "s": "s",
-    "m": "m",
-    "rad": "rad",
+    "-": "1",
     "deg": "degree",
-    "m/s": "m s-1",
-    "rad/s": "rad s-1",
+    "degrees": "degree",
+    "°": "degree",
+    "%": "percent",
+    "s/rad²": "s rad-2",
 }
 
 
-def unit_text(text: str) -> str:
-    """A unit as a result writes it (`"1/s"`, `"-"`, `"s/rad^2"`) in UDUNITS form (`"s-1"`, `"1"`, `"s rad-2"`)."""
-    return _UNIT_TEXT.get(text.strip(), text.strip())
+def udunits(text: str) -> str:
+    """A unit in UDUNITS form, the one style of every `units` attribute: `"1/s"` → `"s-1"`, `"m/s"` → `"m s-1"`,
+    `"s/rad^2"` → `"s rad-2"`, `"deg"` → `"degree"`, `"-"` → `"1"`; UDUNITS text is returned as it is."""
+    text = text.strip()
+    if text in _UDUNITS:
+        return _UDUNITS[text]
+    if "/" not in text and "^" not in text and "*" not in text:
+        return text
+    num, _, den = text.partition("/")
+
+    def factors(part: str, sign: int) -> list[str]:
+        out = []
+        for factor in re.split(r"[\s*·]+", part.strip()):
+            if not factor or factor == "1":
+                continue
+            name, _, power = factor.partition("^")
+            name = _UDUNITS.get(name, name)
+            p = sign * int(power or 1)
+            out.append(name if p == 1 else f"{name}{p}")
+        return out
+
+    return " ".join(factors(num, 1) + factors(den, -1)) or "1"
 
 
 def units_from_name(name: str) -> str | None:

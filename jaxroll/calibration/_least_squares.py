@@ -107,7 +107,7 @@ def estimates_dataset(
         for k, unit, long in (
             ("n_obs", "1", "residuals"),
             ("n_params", "1", "fitted parameters"),
-            ("rss", f"({residual_unit})2", "sum of squared residuals"),
+            ("rss", _squared(residual_unit), "sum of squared residuals"),
             ("sigma", residual_unit, "residual standard deviation √(RSS/(n − p))"),
             ("num_steps", "1", "solver steps"),
             ("condition_number", "1", "condition number"),
@@ -277,3 +277,8 @@ def _set_params(ship: Ship, names: Sequence[str], values) -> Ship:
         else:
             ship = eqx.tree_at(lambda s: getattr(s, attr), ship, getattr(ship, attr).at[idx].set(v))
     return ship
+
+
+def _squared(unit: str) -> str:
+    """A UDUNITS unit squared (`"rad"` → `"rad2"`, `"1"` → `"1"`)."""
+    return "1" if unit == "1" else " ".join(f"{u}2" if u.isalpha() else u for u in unit.split())

@@ -338,7 +338,7 @@ class RollFit:
             self.estimates,
             self.covariance,
             info=self.info,
-            residual_unit="1 (each residual in its standard errors)",
+            residual_unit="1",  # each residual in its standard errors
             extra=extra,
             attrs=config_attrs(self.config),
         )

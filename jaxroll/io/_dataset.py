@@ -11,35 +11,23 @@ from __future__ import annotations
 
 import importlib.metadata
 import json
-import math
 import os
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
 
-from .._labels import OUTPUTS, tree_to_dataset
+from .._labels import (
+    CONVENTIONS,
+    OUTPUTS,
+    cf_dataset,
+    to_jsonable as to_jsonable,
+    tree_to_dataset,
+    with_inputs,
+)
 
 #: The libraries whose versions every output records (the bit-for-bit claims depend on them).
 _LIBRARIES = ("jaxroll", "jax", "jaxlib", "equinox", "diffrax", "optimistix", "numpy")
-
-
-def to_jsonable(obj: Any) -> Any:
-    """Arrays → lists, NaN/inf → null, numpy/JAX scalars → Python numbers."""
-    if isinstance(obj, dict):
-        return {str(k): to_jsonable(v) for k, v in obj.items()}
-    if isinstance(obj, list | tuple):
-        return [to_jsonable(v) for v in obj]
-    if hasattr(obj, "__array__") and not isinstance(obj, str | bytes):
-        arr = np.asarray(obj)
-        if arr.ndim == 0:
-            return to_jsonable(arr.item())
-        return to_jsonable(arr.tolist())
-    if isinstance(obj, float):
-        return obj if math.isfinite(obj) else None
-    if isinstance(obj, np.generic):
-        return to_jsonable(obj.item())
-    return obj
 
 
 def provenance() -> dict[str, str]:
@@ -77,7 +65,14 @@ def dataset_attrs(config: dict[str, Any] | None = None, **extra: Any) -> dict[st
 _NOT_RESULTS = ("config", "jaxroll_version", "warnings")
 
 
-def output_dataset(command: str, payload: Mapping[str, Any], parts=None, *, warnings=()):
+def output_dataset(
+    command: str,
+    payload: Mapping[str, Any],
+    parts=None,
+    *,
+    warnings=(),
+    command_line: Sequence[str] | None = None,
+):
     """The labelled twin of a command's JSON file: its numbers as an `xarray.Dataset` (the variables named like
     the JSON fields, `units`, `long_name` and `json_path` on each; docs/outputs.md), plus `parts`: the result
     objects' own datasets (`.to_xarray()`: per-trial arrays, histogram counts, …) — one dataset, or a dict
@@ -87,7 +82,11 @@ def output_dataset(command: str, payload: Mapping[str, Any], parts=None, *, warn
     `<prefix>_<dim>`.
 
     Attributes: `dataset_attrs(payload["config"])` (the configuration as JSON text, the versions of jaxroll, jax,
-    jaxlib, …, the backend and device kind), `command`, `json_file`, the JSON's text fields, the `warnings`.
+    jaxlib, …, the backend and device kind), `command`, `json_file`, the JSON's text fields, the `warnings`; CF's
+    `Conventions`, `source` and `history` (the creation time, UTC, and `command_line`: the `jaxroll` command's
+    words). The run's inputs (sea state, heading, speed, seed, ship) are length-1 dimensions with the
+    configuration per run (`run_config`), every unit is UDUNITS text and CF standard names are given where CF has
+    one (`jaxroll._labels.with_inputs`, `cf_dataset`; docs/outputs.md).
 
     **Arguments:** `command`: a key of the layouts (`"pdf"`, `"maxima"`, …, `"calibrate-decay"`); `payload`: the
     dict written as JSON.
@@ -128,7 +127,26 @@ def output_dataset(command: str, payload: Mapping[str, Any], parts=None, *, warn
         attrs["json_fields_not_stored"] = json.dumps(skipped)
     if warnings:
         attrs["warnings"] = json.dumps(list(warnings))
-    return xr.Dataset(ds.data_vars, coords=ds.coords, attrs=attrs)
+    ds = xr.Dataset(ds.data_vars, coords=ds.coords, attrs={**_cf_attrs(command, command_line), **attrs})
+    return with_inputs(cf_dataset(ds), payload.get("config"))
+
+
+def _cf_attrs(command: str, command_line: Sequence[str] | None) -> dict[str, str]:
+    """CF's global attributes: `Conventions`, `source` (jaxroll and its version), `history` (when, UTC, and by
+    which command line) and `date_created` (ISO 8601, UTC)."""
+    import datetime
+    import shlex
+
+    from .._version import __version__
+
+    now = datetime.datetime.now(datetime.UTC).strftime("%Y-%m-%dT%H:%M:%SZ")
+    how = shlex.join(command_line) if command_line else f"jaxroll.io.output_dataset({command!r}, ...)"
+    return {
+        "Conventions": CONVENTIONS,
+        "source": f"jaxroll {__version__}",
+        "history": f"{now}: {how} (jaxroll {__version__})",
+        "date_created": now,
+    }
 
 
 _JSON_FILES = {"calibrate": "calibration.json"}
@@ -141,7 +159,6 @@ _SHARED_DIMS = ("estimator", "percentile", "bound", "n0", "theory", "parameter",
 def _add_part(ds, part, prefix: str):
     """`ds` with the variables of `part` it does not have, named `<prefix>_<name>`; a dimension of the part is
     renamed `<prefix>_<dim>` unless `ds` has it with the same labels and it means the same everywhere."""
-    import numpy as np
     import xarray as xr
 
     def same(dim) -> bool:

@@ -174,6 +174,39 @@ class Record:
         """(H1/3 [m], T01 [s]) at full scale."""
         return (self.wave_height, self.wave_period)
 
+    def to_xarray(self):
+        """The record as an `xarray.Dataset` at full scale, SI: its channels (`roll` [rad], `wave` [m], `delta_gm`
+        [m]) on the dimension `time` [s, full scale], with `model_time` [s, model scale] and the file's `line`
+        (records read from a file) as coordinates; `kind`, `scale`, `source` and the header (`meta`, lists and
+        mappings as JSON text) in the attributes."""
+        import json
+
+        from .._labels import labelled_values, to_jsonable
+
+        names = {
+            "roll": ("rad", "roll angle φ (positive to starboard)"),
+            "wave": ("m", "wave elevation at the probe"),
+        }
+        names["delta_gm"] = ("m", "measured GM variation ΔGM at the fixed heel")
+        coords = {
+            "time": (
+                ("time",),
+                self.time,
+                "s",
+                "time, full scale (from the release or the wave maker's start)",
+            ),
+            "model_time": (("time",), self.model_time, "s", "time, model scale"),
+        }
+        if self.lines is not None:
+            coords["line"] = (("time",), self.lines, "1", "line of the sample in the record's file")
+        attrs = {"kind": self.kind, "scale": float(self.scale), "source": self.source}
+        for key, value in self.meta.items():
+            value = to_jsonable(value)
+            attrs[f"meta_{key}"] = value if isinstance(value, int | float | str) else json.dumps(value)
+        return labelled_values(
+            {k: (("time",), v, *names.get(k, ("1", k))) for k, v in self.channels.items()}, attrs, coords
+        )
+
     def _meta(self, key: str):
         if key not in self.meta:
             raise RecordError(f"{self.source}: header key `{key}` is missing.")

@@ -14,7 +14,13 @@ import numpy as np
 from ._monte_carlo import EFFORT_FRACTIONS, ESTIMATORS, Z95, binomial_variance
 from ._risk import annual, longterm_probability
 
-CELL_DIMS = ("hs", "tz", "heading", "speed", "ship")
+CELL_DIMS = (
+    "hs",
+    "tz",
+    "heading_deg",
+    "speed",
+    "ship",
+)  # angles in degrees say so: `_deg` (docs/conventions.md)
 #: `method` flag values (CF `flag_values`/`flag_meanings`).
 METHODS = ("not_computed", "zero_weight", "left_out", "no_excitation", "theory", "monte_carlo")
 #: `uncertainty` flag values: what a cell's interval is.
@@ -54,7 +60,7 @@ def build_dataset(grid, cells: dict, config: dict, attrs: dict):
         a = np.asarray(a)[:, k]
         return np.moveaxis(a, (0, 1, 2, 3, 4), (4, 2, 3, 0, 1))
 
-    angle_dims = (*CELL_DIMS, "angle")
+    angle_dims = (*CELL_DIMS, "angle_deg")
     data = {
         "weight": (
             CELL_DIMS,
@@ -158,7 +164,7 @@ def build_dataset(grid, cells: dict, config: dict, attrs: dict):
             },
         ),
         "n_exceeded_effort": (
-            (*CELL_DIMS, "effort", "angle"),
+            (*CELL_DIMS, "effort", "angle_deg"),
             to_cells(cells["n_exceeded_effort"]).astype(np.int64),
             {
                 "units": "1",
@@ -188,7 +194,7 @@ def build_dataset(grid, cells: dict, config: dict, attrs: dict):
             CELL_DIMS,
             to_cells(cells["lyapunov_exponent"]),
             {
-                "units": "1/s",
+                "units": "s-1",
                 "long_name": "envelope FPK Lyapunov exponent λ of the linearised "
                 "roll (λ <= 0: the roll dies out)",
             },
@@ -197,7 +203,7 @@ def build_dataset(grid, cells: dict, config: dict, attrs: dict):
             CELL_DIMS,
             to_cells(cells["envelope_gamma"]),
             {
-                "units": "1/s",
+                "units": "s-1",
                 "long_name": "fitted envelope decay rate γ (<= 0: the envelope model does not fit)",
             },
         ),
@@ -226,20 +232,20 @@ def build_dataset(grid, cells: dict, config: dict, attrs: dict):
         "hs": ("hs", grid.scatter.hs, {"units": "m", "long_name": "significant wave height H_s"}),
         "tz": ("tz", grid.scatter.tz, {"units": "s", "long_name": "zero-upcrossing period T_z"}),
         "t01": ("tz", grid.scatter.t01, {"units": "s", "long_name": "mean period T01 = 1.0864 T_z (ITTC)"}),
-        "heading": (
-            "heading",
+        "heading_deg": (
+            "heading_deg",
             grid.headings_deg,
             {"units": "degree", "long_name": "heading χ: 0 following, 90 beam, 180 head"},
         ),
-        "heading_class": (
-            "heading",
+        "heading_class_deg": (
+            "heading_deg",
             grid.classes_deg[k],
             {"units": "degree", "long_name": "computed at χ' = min(χ, 360 − χ) (port/starboard symmetry)"},
         ),
-        "speed": ("speed", grid.speeds, {"units": "m/s", "long_name": "ship speed U"}),
+        "speed": ("speed", grid.speeds, {"units": "m s-1", "long_name": "ship speed U"}),
         "ship": ("ship", np.array(grid.ship_names, dtype=object), {"long_name": "loading condition (ship)"}),
-        "angle": (
-            "angle",
+        "angle_deg": (
+            "angle_deg",
             np.asarray(config["angles_deg"], float),
             {"units": "degree", "long_name": "roll angle"},
         ),
@@ -296,43 +302,43 @@ def add_longterm(ds):
     ci = lambda r, lo, hi: np.stack([r[lo], r[hi]], axis=-1)  # noqa: E731
     new = {
         "longterm_probability": (
-            ("angle",),
+            ("angle_deg",),
             lt["probability"],
             {**one, "long_name": "P(max |roll| > angle within one exposure), the cells' weighted mean"},
         ),
         "longterm_probability_ci95": (
-            ("angle", "bound"),
+            ("angle_deg", "bound"),
             ci(lt, "lower", "upper"),
             {**one, "long_name": "95 % interval of the long-term probability (sampling and model allowance)"},
         ),
-        "longterm_sampling_sd": (("angle",), lt["sampling_sd"], {**one, "long_name": "(Σ w² Var P)^1/2"}),
+        "longterm_sampling_sd": (("angle_deg",), lt["sampling_sd"], {**one, "long_name": "(Σ w² Var P)^1/2"}),
         "longterm_model_below": (
-            ("angle",),
+            ("angle_deg",),
             lt["model_below"],
             {**one, "long_name": "model allowance below"},
         ),
         "longterm_model_above": (
-            ("angle",),
+            ("angle_deg",),
             lt["model_above"],
             {**one, "long_name": "model allowance above"},
         ),
         "longterm_per_year_probability": (
-            ("angle",),
+            ("angle_deg",),
             yr["probability"],
             {**one, "long_name": "P(at least one exceedance in a year) = 1 − exp(−N_y P_LT)"},
         ),
         "longterm_per_year_probability_ci95": (
-            ("angle", "bound"),
+            ("angle_deg", "bound"),
             ci(yr, "lower", "upper"),
             {**one, "long_name": "95 % interval of the per-year probability"},
         ),
         "longterm_per_year_rate": (
-            ("angle",),
+            ("angle_deg",),
             yr["rate"],
             {"units": "year-1", "long_name": "expected exposures with an exceedance per year, N_y P_LT"},
         ),
         "longterm_per_year_rate_ci95": (
-            ("angle", "bound"),
+            ("angle_deg", "bound"),
             ci(yr, "rate_lower", "rate_upper"),
             {"units": "year-1", "long_name": "95 % interval of the per-year rate"},
         ),
@@ -411,7 +417,7 @@ def merge_parts(datasets):
 
 def risk_command(ds, index: dict) -> str:
     """The `jaxroll risk` command line that reproduces a Monte Carlo cell of `ds` trial for trial (its direct
-    estimate), `index` the cell's coordinates by dim (hs, tz, heading, speed, ship) as positions."""
+    estimate), `index` the cell's coordinates by dim (hs, tz, heading_deg, speed, ship) as positions."""
     cfg = config_of(ds)
     cell = ds.isel(index)
     ship_file = cfg["ships"][index["ship"]]["file"]
@@ -419,13 +425,13 @@ def risk_command(ds, index: dict) -> str:
         "jaxroll risk",
         f"--hs {float(cell.hs)!r}",
         f"--t01 {float(cell.t01)!r}",
-        f"--heading {float(cell.heading_class):g}",
+        f"--heading {float(cell.heading_class_deg):g}",
         f"--speed {float(cell.speed)!r}",
         f"--hours {cfg['exposure_s'] / 3600.0!r}",
         f"--discard {cfg['discard_s']!r}",
         f"--realizations {int(cell.realizations)}",
         f"--seed {int(cell.seed) - 1}",
-        f"--angle {float(ds.angle[0]):g}",
+        f"--angle {float(ds.angle_deg[0]):g}",
         f"--dt {cfg['dt_s']!r}",
         f"--method {cfg['excitation']}",
         f"--filter-order {cfg['filter_order']}",
@@ -452,7 +458,7 @@ def dominating_cells(ds, angle_index: int = 0, top: int = 10) -> list[dict]:
             "hs_m": float(cell.hs),
             "tz_s": float(cell.tz),
             "t01_s": float(cell.t01),
-            "heading_deg": float(cell.heading),
+            "heading_deg": float(cell.heading_deg),
             "speed_m_s": float(cell.speed),
             "ship": str(cell.ship.values),
             "weight": float(cell.weight),
@@ -516,7 +522,7 @@ def longterm_summary(ds, top: int = 10) -> dict:
     cfg = config_of(ds)
     methods = {m: int((ds["method"].values == i).sum()) for i, m in enumerate(METHODS) if m != "not_computed"}
     per_angle = {}
-    for a, angle in enumerate(float(x) for x in ds.angle.values):
+    for a, angle in enumerate(float(x) for x in ds.angle_deg.values):
         per_angle[f"{angle:g}"] = {
             "probability": float(ds.longterm_probability[a]),
             "probability_ci95": [float(x) for x in ds.longterm_probability_ci95[a]],

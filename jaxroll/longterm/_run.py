@@ -569,7 +569,7 @@ _THEORY_KEYS = {
 
 
 def _version() -> str:
-    from .. import __version__
+    from .._version import __version__
 
     return __version__
 

@@ -11,7 +11,7 @@ __all__ = ["longterm_ci_figure", "longterm_polar_figure", "longterm_scatter_figu
 
 
 def _angle_label(ds, a: int) -> str:
-    return f"P(max |φ| > {float(ds.angle[a]):g}° within {_hours(ds):g} h)"
+    return f"P(max |φ| > {float(ds.angle_deg[a]):g}° within {_hours(ds):g} h)"
 
 
 def _hours(ds) -> float:
@@ -98,9 +98,9 @@ def longterm_polar_figure(ds, angle_index: int = 0):
     w = ds["weight"].values  # (hs, tz, heading, speed, ship)
     p = np.nan_to_num(ds["probability"].values[..., angle_index])
     c = np.nan_to_num(ds["capsize_probability"].values)
-    classes = np.unique(ds.heading_class.values)
+    classes = np.unique(ds.heading_class_deg.values)
     speeds = ds.speed.values
-    member = ds.heading_class.values
+    member = ds.heading_class_deg.values
     risk = np.zeros((classes.size, speeds.size))
     cap = np.zeros_like(risk)
     for a, chi in enumerate(classes):

@@ -97,7 +97,7 @@ def _to_host(tree, mesh=None):
 
 def _run_fingerprint(chunk_fn, problem, key, num_realizations, chunk_size, static) -> dict[str, str]:
     """What identifies a run, item by item (hashes for the arrays), so a mismatch can say what differs."""
-    from .. import __version__
+    from .._version import __version__
 
     def digest(leaves) -> str:
         h = hashlib.sha256()

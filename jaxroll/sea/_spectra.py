@@ -14,6 +14,7 @@ import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float
 
 from .._compiled import array_module, as_float, require
+from .._display import module_repr
 
 GRAVITY = 9.80665  # [m/s²]
 
@@ -23,6 +24,9 @@ _ITTC_B_T01_4 = (2 * math.pi / math.gamma(0.75)) ** 4
 
 class AbstractWaveSpectrum(eqx.Module):
     """A one-sided sea spectrum S(ω) [m² s/rad] of the absolute wave frequency ω [rad/s]."""
+
+    def __repr__(self) -> str:
+        return module_repr(self)  # `ITTC(hs=5.0, t01=10.0)`: the numbers, not `f64[]`
 
     @abc.abstractmethod
     def __call__(self, omega: ArrayLike) -> Float[Array, "..."]:

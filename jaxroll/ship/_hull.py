@@ -3,7 +3,7 @@ r"""The hull: station offsets, section polygons, analytic test hulls and the rep
 A [`Hull`][] is a table of offsets (full scale, SI): each station's section is the polygon of its starboard
 half-breadths, mirrored to port and closed by the deck at `depth`. This module holds the hull type and its
 geometry; the hydrostatics of a hull (immersed sections, balance, GZ, GM) are in `jaxroll.ship._hydrostatics`,
-the hull file format (TOML) in `jaxroll.io._hull_file`.
+the hull file format (TOML) in `jaxroll.io._hull_file` (the model reads no file).
 
 **Frames** (see `docs/hydrostatics.md`): x [m] forward from the aft perpendicular (AP), y [m] to starboard,
 z [m] up from the baseline.
@@ -481,12 +481,32 @@ C11_GM0 = 1.9299
 """GM0 [m] of the default ship (Table 1); the shipped hull's KG is chosen to give it at d = 11.5 m."""
 
 
-def c11_hull() -> Hull:
-    """The C11-like hull shipped as `jaxroll/data/c11_hull.toml` (REPRESENTATIVE, not the real C11 lines)."""
-    # Function-level import: io/ imports ship/, so ship/ reads hull files only when called.
-    from ..io._hull_file import load_hull
+C11_KG = 15.5289
+"""KG [m] of the shipped C11-like hull's loading (its file's `[loading] kg_m`): GM0 = 1.9299 m at d = 11.5 m in
+sea water (`jaxroll.io._hull_file.write_c11_hull_file` computes it and writes the file)."""
 
-    return load_hull(_c11_hull_path())
+
+def c11_hull() -> Hull:
+    """The C11-like hull shipped as `jaxroll/data/c11_hull.toml` (REPRESENTATIVE, not the real C11 lines).
+
+    The offsets of `c11_like_offsets` rounded to 0.1 mm, as the file stores them (the model reads no file:
+    tests/test_hydrostatics.py checks that the file holds these numbers)."""
+    x, z, y = (_rounded(a, 4) for a in c11_like_offsets())
+    return Hull(
+        stations=x,
+        waterlines=z,
+        half_breadths=y,
+        lpp=C11_PARTICULARS["lpp"],
+        depth=C11_PARTICULARS["depth"],
+        name="C11-like hull (representative)",
+        provenance=C11_HULL_NOTE,
+    )
+
+
+def _rounded(values: np.ndarray, digits: int) -> np.ndarray:
+    """`values` rounded as a hull file writes them (Python's correctly rounded `round`, −0 as 0)."""
+    flat = [round(float(v), digits) + 0.0 for v in np.ravel(values)]
+    return np.asarray(flat, dtype=float).reshape(np.shape(values))
 
 
 def _c11_hull_path() -> Path:

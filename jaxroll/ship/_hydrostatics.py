@@ -50,7 +50,7 @@ from jaxtyping import Array, ArrayLike, Float
 
 from .._compiled import as_float, cached_program
 from . import _surface
-from ._hull import Hull, _bare, _c11_hull_path, _concrete, _section_polygons
+from ._hull import C11_KG, C11_PARTICULARS, Hull, _bare, _concrete, _section_polygons, c11_hull
 
 GRAVITY = 9.80665
 """Standard gravity g [m/s²]."""
@@ -451,8 +451,6 @@ def loading_condition(
 
 def c11_hull_loading() -> Loading:
     """Loading of the shipped C11-like hull (its file's [loading]): d = 11.5 m, KG giving GM0 ≈ 1.93 m."""
-    # Function-level import: io/ imports ship/, so ship/ reads hull files only when called.
-    from ..io._hull_file import loading_from_dict, read_hull_file
-
-    hull, loading = read_hull_file(_c11_hull_path())
-    return loading_from_dict(hull, loading)
+    return loading_condition(
+        c11_hull(), kg=C11_KG, draught=C11_PARTICULARS["draught"], water_density=SEAWATER_DENSITY
+    )

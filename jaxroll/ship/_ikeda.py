@@ -266,7 +266,7 @@ def ikeda_damping(
 ) -> dict:
     """(b1 [1/s], b2 [1/rad], b3 = 0) for jaxroll's roll equation from the simplified Ikeda method at ω0.
 
-    b_eq(φa) = B44(φa) ω0²/(ρ g ∇ GM) is computed at `amplitudes` (default 2°–30°, the range parametric roll
+    b_eq(φa) = B44(φa) ω0²/(ρ g ∇ GM) is computed at `amplitudes` [rad] (default 2°–30°, the range parametric roll
     lives in) and fitted by b1 + (8/(3π)) ω0 φa b2 (least squares, b2 ≥ 0). Also returns the fit's RMS
     residual, the equivalent damping ratio ζ_eq = b_eq/(2ω0) at each amplitude, and the out-of-range inputs.
 

@@ -17,6 +17,7 @@ import numpy as np
 from jaxtyping import Array, Float
 
 from .._compiled import as_float
+from .._display import module_repr
 
 DEFAULT_SHIP_NOTE = (
     "C11 (representative): the particulars are the paper's Table 1 (Katsumura et al., arXiv 2407.02728); "
@@ -27,6 +28,9 @@ DEFAULT_SHIP_NOTE = (
 
 class Ship(eqx.Module):
     """Roll-model parameters of one ship at full scale (SI units, radians)."""
+
+    def __repr__(self) -> str:
+        return module_repr(self)  # the particulars and coefficients as numbers, not `f64[]`
 
     lpp: Float[Array, ""]
     breadth: Float[Array, ""]
