@@ -21,6 +21,7 @@ Usage: python benchmarks/mcs.py [--quick]   (the last line is `speedup_vs_numpy=
 from __future__ import annotations
 
 import argparse
+import math
 import resource
 import time
 
@@ -185,12 +186,68 @@ def deterministic_error(ship, dt, ship_np, t_end=600.0):
 _REFERENCE: dict[float, float] = {}
 
 
+def frontier(n_real: int, duration: float, dt: float = 0.5) -> None:
+    """Issue 42's accuracy–cost frontier: the paper protocol's time with each excitation (order-4/6/8 filters, the
+    default `auto`, superposition; the same run, best of two after compilation), beside each one's tail error over
+    the validation map (pooled χ², geometric-mean ratio to the exact-spectrum sea) where the map has it."""
+    import json
+    import os
+    import warnings
+
+    ship = jaxroll.c11_representative()
+    sea = jaxroll.ITTC(7.0, 10.0)
+    variants = {
+        "filter4": {"excitation": "filter", "filter_order": 4},
+        "filter6": {"excitation": "filter", "filter_order": 6},
+        "filter8": {"excitation": "filter", "filter_order": 8},
+        "default": {},
+        "superposition": {"excitation": "superposition"},
+    }
+    path = os.path.join(os.path.dirname(os.path.abspath(__file__)), "data", "validation_map.json")
+    summary = json.load(open(path)).get("summary", {}) if os.path.exists(path) else {}
+    times = {}
+    for name, kw in variants.items():
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            problem = jaxroll.RollProblem.from_sea(ship, sea, dt=dt, **kw)
+        key = jax.random.key(0)
+        jaxroll.monte_carlo_amplitudes(problem, key, num_realizations=min(1000, n_real), duration=duration)
+        best = math.inf
+        for _ in range(2):
+            t0 = time.perf_counter()
+            jaxroll.monte_carlo_amplitudes(problem, key, num_realizations=n_real, duration=duration)
+            best = min(best, time.perf_counter() - t0)
+        times[name] = best
+        order = problem.filter_fit.filter.order if problem.filter_fit is not None else "-"
+        tail = summary.get(f"mc-{name}")
+        tail_text = (
+            f" map_chi2={tail['chi2']:.1f}/{tail['n']} (99%: {tail['chi2_q99']:.1f}) map_ratio_geomean="
+            f"{tail['ratio_geomean']:.3f} ratio_range={tail['ratio_min']:.2f}-{tail['ratio_max']:.2f}"
+            if tail
+            else ""
+        )
+        print(
+            f"frontier {name}: order={order} run_s={best:.2f} throughput_vs_filter4="
+            f"{times['filter4'] / best:.2f}{tail_text}",
+            flush=True,
+        )
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
     )
     parser.add_argument("--quick", action="store_true", help="10³ realizations × 1800 s (under a minute)")
+    parser.add_argument(
+        "--frontier",
+        action="store_true",
+        help="only the accuracy-cost frontier: each excitation's time for the protocol beside its tail error "
+        "against the exact-spectrum sea (benchmarks/data/validation_map.json)",
+    )
     args = parser.parse_args()
+    if args.frontier:
+        frontier(*((1000, 1800.0) if args.quick else (10_000, 3600.0)))
+        return
     n_real, duration = (1000, 1800.0) if args.quick else (10_000, 3600.0)
     dt = 0.5
 

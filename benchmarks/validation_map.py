@@ -188,6 +188,31 @@ def compare(reference, results):
     return summary
 
 
+#: Regions of the theory's allowance (jaxroll/longterm/_allowance.py): speed classes [m/s] × T01 bands [s], and the
+#: fewest reference exceedances an entry needs to count there (fewer: its ratio is mostly the reference's noise,
+#: σ_log > 0.2).
+SPEED_CLASSES = ((0.0, 0.5), (0.5, math.inf))
+T01_BANDS = ((0.0, 9.0), (9.0, 11.0), (11.0, math.inf))
+MIN_EVENTS = 25
+
+
+def allowance(summary, reference, method="passage"):
+    """Per region (speed class, T01 band) index pair: (f_below, f_above, entries), so that over the region's
+    entries P_exact ∈ [P/f_below, P·f_above]: f_below = max(1, largest ratio r = P/P_exact), f_above = max(1,
+    1/smallest r), over the entries with at least `MIN_EVENTS` reference exceedances (None where there are none)."""
+    out = {}
+    for si, (ulo, uhi) in enumerate(SPEED_CLASSES):
+        for ti, (lo, hi) in enumerate(T01_BANDS):
+            ratios = []
+            for e in summary.get(method, {}).get("entries", []):
+                ref = reference[e["cell"]]
+                events = ref["exceedances"][f"{e['exposure_h']:g}"][f"{e['angle_deg']:g}"]
+                if lo <= ref["t01"] < hi and ulo <= ref["speed"] < uhi and events >= MIN_EVENTS and e["ratio"] > 0:
+                    ratios.append(e["ratio"])
+            out[(si, ti)] = (max(1.0, max(ratios)), max(1.0, 1 / min(ratios)), len(ratios)) if ratios else None
+    return out
+
+
 def print_summary(summary):
     for m, s in summary.items():
         print(f"{m}: n={s['n']} chi2={s['chi2']:.1f} (99% quantile {s['chi2_q99']:.1f}) worst_|z|="
@@ -262,7 +287,7 @@ def main(argv=None):
     parser.add_argument("--reference", default=REFERENCE)
     parser.add_argument("--json", default=OUT_JSON)
     parser.add_argument("--figure", default=FIGURE)
-    parser.add_argument("--from-json", default=None, help="summarise and draw stored results")
+    parser.add_argument("--from-json", default=None, help="summarise and draw stored results (comma-separated files: merged)")
     parser.add_argument("--cells", default=None, help="comma-separated cell keys (default: every live cell)")
     args = parser.parse_args(argv)
     with open(args.reference) as f:
@@ -271,8 +296,11 @@ def main(argv=None):
     exposures = ref["protocol"]["exposures_h"]
     angles = ref["protocol"]["angles_deg"]
     if args.from_json:
-        with open(args.from_json) as f:
-            results = json.load(f)["results"]
+        results = {}
+        for path in args.from_json.split(","):  # runs of different methods, merged
+            with open(path) as f:
+                for m, cells in json.load(f)["results"].items():
+                    results.setdefault(m, {}).update(cells)
     else:
         import jaxroll as jxr
 
@@ -302,7 +330,9 @@ def main(argv=None):
                         results.setdefault(m, {})[key] = splitting_probabilities(
                             cell, args.splitting_trials, args.seed, exposures, angles
                         )
-            if any((m == "passage" or m.startswith("pstar-")) and key not in results.get(m, {}) for m in methods):
+            if any(
+                (m == "passage" or m.startswith("pstar-")) and key not in results.get(m, {}) for m in methods
+            ):
                 for m, v in theory_probabilities(cell, exposures, angles).items():
                     if m in methods:
                         results.setdefault(m, {})[key] = v
@@ -314,6 +344,11 @@ def main(argv=None):
             os.replace(tmp, args.json)
     summary = compare(reference, results)
     print_summary(summary)
+    if "passage" in summary:
+        for (si, ti), v in allowance(summary, reference).items():
+            (ulo, uhi), (lo, hi) = SPEED_CLASSES[si], T01_BANDS[ti]
+            text = "no entry" if v is None else f"f_below={v[0]:.3f} f_above={v[1]:.3f} ({v[2]} entries)"
+            print(f"passage allowance (speed {ulo:g}-{uhi:g} m/s, T01 {lo:g}-{hi:g} s): {text}")
     if args.json and not args.from_json:
         with open(args.json) as f:
             stored = json.load(f)

@@ -8,6 +8,7 @@ the partial dataset `longterm.part-i-of-N.nc` (merge the parts with `jaxroll mer
 
 from __future__ import annotations
 
+import argparse
 import math
 import time
 from pathlib import Path
@@ -26,6 +27,17 @@ from ._common import (
     write_netcdf,
 )
 from ._sea import _filter_order, check_filter_order
+
+
+def _model_factor(text: str) -> float | str:
+    """argparse type of --model-factor: 'measured' or a number (checked by `check_options`)."""
+    if str(text).strip().lower() == "measured":
+        return "measured"
+    try:
+        return float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be measured or a number >= 1; got {text!r}") from None
+
 
 _NAMED = {"head": 180.0, "beam": 90.0, "following": 0.0}
 ALL_HEADINGS = [15.0 * i for i in range(24)]  # 0 … 345°
@@ -119,9 +131,11 @@ def register(sub) -> None:
     )
     r.add_argument(
         "--model-factor",
-        type=float,
-        default=1.25,
-        help="allowance on theory cells in the long-term interval: [P/f, f·P] (1.25)",
+        type=_model_factor,
+        default="measured",
+        help="allowance on theory cells in the long-term interval, [P/f, f·P]: measured (default: f measured "
+        "against an exact-spectrum sea in the cell's T01 band, the widest measured outside the validated map) or "
+        "a number f >= 1 for every cell",
     )
     r.add_argument(
         "--skip-weight",
@@ -271,9 +285,10 @@ def check_args(args):
         raise CLIError(f"--auto-share must be in (0, 1]; got {args.auto_share}.")
     if not (math.isfinite(args.auto_tolerance) and args.auto_tolerance >= 0):
         raise CLIError(f"--auto-tolerance must be >= 0; got {args.auto_tolerance}.")
-    if not (math.isfinite(args.model_factor) and args.model_factor >= 1):
+    if args.model_factor != "measured" and not (math.isfinite(args.model_factor) and args.model_factor >= 1):
         raise CLIError(
-            f"--model-factor must be >= 1 (1: the theory taken as exact); got {args.model_factor}."
+            f"--model-factor must be measured or a number >= 1 (1: the theory taken as exact); got "
+            f"{args.model_factor}."
         )
     if not 0 <= args.skip_weight < 1:
         raise CLIError(f"--skip-weight must be in [0, 1); got {args.skip_weight}.")

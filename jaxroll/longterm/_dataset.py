@@ -212,6 +212,15 @@ def build_dataset(grid, cells: dict, config: dict, attrs: dict):
             to_cells(cells["theory_doubtful"]).astype(bool),
             {"units": "1", "long_name": "the theory fails a validity check (docs/longterm.md)"},
         ),
+        "theory_outside_validated_map": (
+            CELL_DIMS,
+            to_cells(cells["theory_outside_validated_map"]).astype(bool),
+            {
+                "units": "1",
+                "long_name": "a theory cell outside the map the theory was validated on (H1/3 4-8 m, T01 8-12 s, "
+                "0-5 m/s): the widest measured allowance",
+            },
+        ),
         "theory_refined": (
             CELL_DIMS,
             to_cells(cells["theory_refined"]).astype(bool),
@@ -568,8 +577,14 @@ def longterm_summary(ds, top: int = 10) -> dict:
         "interval": (
             "95 %: ±1.96 (Σ w² Var P)^1/2 over the Monte Carlo cells (brute force: Agresti–Coull; splitting: the "
             "genealogy variance), plus the model allowance added "
-            f"linearly: theory cells within [P/{cfg['model_factor']:g}, {cfg['model_factor']:g} P], "
-            "doubtful theory cells not simulated and left-out cells within [0, 1]"
+            + (
+                "linearly: theory cells within [P/f_below, f_above P], the factors measured against an "
+                "exact-spectrum sea in the cell's region (speed class, T01 band; the widest measured outside the "
+                "validated map: theory_outside_validated_map), "
+                if cfg["model_factor"] == "measured"
+                else f"linearly: theory cells within [P/{cfg['model_factor']:g}, {cfg['model_factor']:g} P], "
+            )
+            + "doubtful theory cells not simulated and left-out cells within [0, 1]"
         ),
         "probability_definition": (
             "P(max |roll| > angle within one exposure, or capsize), for an exposure taken "

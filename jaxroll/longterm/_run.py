@@ -21,6 +21,7 @@ from ..io import dataset_attrs, ship_to_dict
 from ..roll import check_time_step
 from ..sea import ITTC, EffectiveWave
 from ..ship import c11_representative, vanishing_angle
+from ._allowance import measured_allowance
 from ._cells import BEAM_DEG, SEED_STRIDE, make_grid, parse_part, skipped_cells, worker_of
 from ._dataset import METHODS, UNCERTAINTY, add_longterm, build_dataset
 from ._monte_carlo import (
@@ -31,7 +32,7 @@ from ._monte_carlo import (
     cell_problem,
     neyman_allocation,
 )
-from ._risk import AUTO_SHARE, AUTO_TOLERANCE, MODEL_FACTOR, auto_cells, doubtful, rare_cells
+from ._risk import AUTO_SHARE, AUTO_TOLERANCE, auto_cells, doubtful, rare_cells
 from ._scatter import ScatterDiagram, scatter_diagram
 from ._theory import REFINE_DELTA, class_template, class_theory
 from ._units import _gather, _hash, _load_unit, _responsible_cells, _save_unit, _twin
@@ -76,7 +77,7 @@ def longterm(
     hours_per_year: float = HOURS_PER_YEAR,
     auto_share: float = AUTO_SHARE,
     auto_tolerance: float = AUTO_TOLERANCE,
-    model_factor: float = MODEL_FACTOR,
+    model_factor: float | str = "measured",
     skip_weight: float = 0.0,
     refine_delta: float = REFINE_DELTA,
     estimator: str = "brute_force",
@@ -109,7 +110,11 @@ def longterm(
     - `refine_delta`: δ of the theory's two passes: per heading class and speed, the cells outside the smallest
       set carrying 1 − δ of the one-grid Σ w P keep that value (no Richardson step), with a widened allowance
       (docs/longterm.md, "Cost"); 0: every cell refined.
-    - `model_factor`: the theory cells' allowance [P/f, f·P] in the long-term interval. `skip_weight`: leave out
+    - `model_factor`: the theory cells' allowance [P/f, f·P] in the long-term interval: `"measured"` (default),
+      the factor measured against an exact-spectrum sea in the cell's T01 band, the widest measured outside the
+      validated map (H1/3 4–8 m, T01 8–12 s, 0–5 m/s; those cells flagged `theory_outside_validated_map`, and
+      simulated under `auto` where material); or one number f ≥ 1 for every cell (docs/longterm.md, "Model
+      allowance"). `skip_weight`: leave out
       the lightest cells up to this total weight (a bound on their contribution, added to the interval).
     - Monte Carlo: `dt` [s], `excitation` ("filter" | "superposition"), `filter_order`, `phi0` [rad], `seed` (cell
       c uses `jax.random.key(SEED_STRIDE·seed + c + 1)`, recorded), `estimator` (a name in `CELL_ESTIMATORS`:
@@ -195,7 +200,11 @@ def longterm(
     )
     _check(None, 0 < auto_share <= 1, f"`auto_share` must be in (0, 1]; got {auto_share!r}.")
     _check(None, auto_tolerance >= 0, f"`auto_tolerance` must be >= 0; got {auto_tolerance!r}.")
-    _check(None, model_factor >= 1, f"`model_factor` must be >= 1; got {model_factor!r}.")
+    _check(
+        None,
+        model_factor == "measured" or (isinstance(model_factor, int | float) and model_factor >= 1),
+        f"`model_factor` must be 'measured' or a number >= 1; got {model_factor!r}.",
+    )
     _check(None, 0 <= skip_weight < 1, f"`skip_weight` must be in [0, 1); got {skip_weight!r}.")
     _check(
         None,
@@ -216,6 +225,14 @@ def longterm(
     positive = comp_w > 0
     left_out = skipped_cells(comp_w, positive & ~beam, skip_weight)
     needed = positive & ~beam & ~left_out
+    below, above, outside, covered = measured_allowance(
+        grid.scatter.hs[:, None], grid.scatter.t01[None, :], np.asarray(grid.speeds, float)[:, None, None]
+    )
+    if model_factor != "measured":
+        below = above = np.full(below.shape, float(model_factor))
+    factor = np.stack(np.broadcast_arrays(*(np.broadcast_to(x, shape) for x in (below, above))))  # [2, *shape]
+    outside = np.broadcast_to(outside, shape) & needed
+    uncovered = np.broadcast_to(~covered, shape) & needed
     seeds = grid.seeds(seed)
     n_proc, proc = jax.process_count(), jax.process_index()
     n_part, i_part = (1, 1) if part is None else (part[1], part[0])
@@ -338,7 +355,7 @@ def longterm(
         dominant, material = auto_cells(
             flat(comp_w),
             flat(np.nan_to_num(cells["theory_probability"])),
-            flat(cells["theory_doubtful"]),
+            flat(cells["theory_doubtful"] | uncovered),
             flat(needed),
             auto_share,
             auto_tolerance,
@@ -483,7 +500,8 @@ def longterm(
     is_mc = trials > 0
 
     # ---- every cell's method, value and interval ------------------------------------------------------------
-    _fill(cells, shape, method, comp_w, beam, left_out, needed, is_mc, model_factor)
+    cells["theory_outside_validated_map"] = outside & ~is_mc
+    _fill(cells, shape, method, comp_w, beam, left_out, needed, is_mc, factor)
     if part is not None or n_proc > 1:
         if part is not None:
             mine = np.zeros(shape, bool)
@@ -595,6 +613,7 @@ def _empty(shape, n_angles) -> dict:
         "lyapunov_exponent": f(),
         "envelope_gamma": f(),
         "theory_doubtful": np.zeros(shape, bool),
+        "theory_outside_validated_map": np.zeros(shape, bool),
         "theory_pass1_probability": f(n_angles),
         "theory_pass1_capsize_probability": f(),
         "theory_refined": np.zeros(shape, bool),
@@ -608,7 +627,8 @@ def _empty(shape, n_angles) -> dict:
 
 
 def _fill(cells, shape, method, comp_w, beam, left_out, needed, is_mc, factor) -> None:
-    """Method, value and interval of every computation cell (Monte Carlo cells are already filled)."""
+    """Method, value and interval of every computation cell (Monte Carlo cells are already filled); `factor`
+    [2, *shape]: each theory cell's (f_below, f_above)."""
     m = np.full(shape, METHODS.index("zero_weight"))
     unc = np.zeros(shape, np.int64)
     m[left_out] = METHODS.index("left_out")
@@ -625,12 +645,13 @@ def _fill(cells, shape, method, comp_w, beam, left_out, needed, is_mc, factor) -
         p = cells["theory_probability"][th]
         c = cells["theory_capsize_probability"][th]
         doubt = cells["theory_doubtful"][th]
+        f_below, f_above = factor[0][th][:, None], factor[1][th][:, None]
         cells["probability"][th] = p
         cells["capsize_probability"][th] = c
-        cells["probability_lower"][th] = np.where(doubt[:, None], 0.0, p / factor)
-        cells["probability_upper"][th] = np.where(doubt[:, None], 1.0, np.minimum(1.0, p * factor))
-        cells["capsize_lower"][th] = np.where(doubt, 0.0, c / factor)
-        cells["capsize_upper"][th] = np.where(doubt, 1.0, np.minimum(1.0, c * factor))
+        cells["probability_lower"][th] = np.where(doubt[:, None], 0.0, p / f_below)
+        cells["probability_upper"][th] = np.where(doubt[:, None], 1.0, np.minimum(1.0, p * f_above))
+        cells["capsize_lower"][th] = np.where(doubt, 0.0, c / f_below[:, 0])
+        cells["capsize_upper"][th] = np.where(doubt, 1.0, np.minimum(1.0, c * f_above[:, 0]))
         # cells left at pass 1 (two passes): [0, min(1, f·r·P1)], r the largest pass-2/pass-1 ratio of the refined
         # cells of the cell's unit (at least 1; pass 1 was measured above pass 2 wherever they differ):
         # docs/longterm.md, "Cost"
@@ -643,7 +664,9 @@ def _fill(cells, shape, method, comp_w, beam, left_out, needed, is_mc, factor) -
                 1.0,
                 np.minimum(
                     1.0,
-                    factor * cells["theory_pass_ratio"][rough][:, None] * cells["theory_probability"][rough],
+                    factor[1][rough][:, None]
+                    * cells["theory_pass_ratio"][rough][:, None]
+                    * cells["theory_probability"][rough],
                 ),
             )
             cells["capsize_lower"][rough] = 0.0
@@ -652,7 +675,7 @@ def _fill(cells, shape, method, comp_w, beam, left_out, needed, is_mc, factor) -
                 1.0,
                 np.minimum(
                     1.0,
-                    factor
+                    factor[1][rough]
                     * cells["theory_pass_capsize_ratio"][rough]
                     * cells["theory_capsize_probability"][rough],
                 ),
@@ -751,7 +774,7 @@ def _config(
             "cell_seed_rule": f"s_c = {SEED_STRIDE}·seed + c + 1 (c: the computation cell's index)",
             "auto_share": float(auto_share),
             "auto_tolerance": float(auto_tolerance),
-            "model_factor": float(model_factor),
+            "model_factor": model_factor if model_factor == "measured" else float(model_factor),
             "skip_weight": float(skip_weight),
             "refine_delta": float(refine_delta),
             "estimator": estimator,
