@@ -648,6 +648,12 @@ def test_cli_datum_options_contradicting_the_hull_exit_2_before_computing(tmp_pa
         (["sgisc", *base, "--kg", "6", "--draught", "5", "--full-load-draught", "12", "--draught-datum", "keel",
           "--speed-kn", "10", "--skip-c2"], r"--full-load-draught 12 m from the keel line \(file z = 0 m\) is d = 12 m"),
         (["hydrostatics", "c11", "--kg-datum", "keel"], r"--kg-datum apply to STL, GDF and CSV hull files only"),
+        # issue 45 item 2: a datum whose height is not given was ignored without a word
+        (["hydrostatics", *base, "--gm", "2", "--kg-datum", "keel", "--draught", "5"],
+         r"--kg-datum \(it applies to --kg, and no --kg was given: KG comes from --gm .*\) would be ignored"),
+        (["hydrostatics", *base, "--kg", "6", "--displacement", "5e6", "--draught-datum", "keel"],
+         r"--draught-datum \(it applies to --draught, and no --draught was given: the loading comes from "
+         r"--displacement .*\) would be ignored"),
         # a hull file in millimetres read as metres (--units m, the default): L = 100 000 m, refused with the unit
         (["hydrostatics", str(io.write_stl(tmp_path / "mm.stl", box_triangles() * 1000)), "--kg", "6", "--draught",
           "5", "--roll-period", "10"], r"mm\.stl \(length overall\): .*in mm it would be 100 m.*--units mm"),
