@@ -6,6 +6,7 @@ brute-force Monte Carlo, parts, processes and checkpoints bit for bit, bad input
 import json
 import math
 import os
+import re
 import socket
 import subprocess
 import sys
@@ -109,6 +110,8 @@ BAD_SCATTER = [
     ("hs_m,2.5\n6.5,1\n", ":2: H_s = 6.5 m with T_z = 2.5 s has a count"),
     ("hs_m,8.5\n-1,1\n", ":2: H_s = -1 m is outside"),
     ("", "no data"),
+    # issue 45 item 3: counts that overflow when summed gave P_LT = 0 with only a NumPy warning
+    ("hs_m,8.5,9.5\n4.5,1e308,1e308\n", "the counts sum to more than the largest number"),
 ]
 
 
@@ -146,6 +149,11 @@ BAD_OPTIONS = [
     (["--model-factor", "0.5"], "--model-factor must be >= 1"),
     (["--skip-weight", "1"], "--skip-weight must be in [0, 1)"),
     (["--refine-delta", "-0.1"], "--refine-delta must be in [0, 1)"),
+    # issue 45 items 4 and 6: absurd values that were accepted (P = 0) or ended in a traceback
+    (["--speed", "1e6"], "--speed: U = 1e+06 m/s is a Froude number of 1.97e+04 for C11 (representative)"),
+    (["--hours", "10000"], "--hours (10000 h) is longer than the 8766 h at sea per year (--hours-per-year)"),
+    (["--hours-per-year", "1e9"], "--hours-per-year must be at most 8766 h"),
+    (["--seed", str(10**14)], "--seed must be an integer in [0, 999999999999]"),
 ]
 
 
@@ -161,6 +169,79 @@ def test_bad_options_exit_2_before_any_computation(argv, message, tmp_path, caps
 # ----------------------------------------------------------------------------------------------------------
 # Cells, weights, the long-term integral
 # ----------------------------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    "kwargs, message",
+    [
+        (
+            dict(scatter=123),
+            r"`scatter` must be 'rec34', the path of a scatter CSV file or a ScatterDiagram; got 123",
+        ),
+        (dict(ships="c11"), r"`ships` must be a Ship or a sequence of Ships .*got 'c11' \(str\)"),
+        (dict(checkpoint=123), r"`checkpoint` must be the path of a folder \(or None\); got 123 \(int\)"),
+        (dict(seed=10**14), r"`seed` must be an integer in \[0, 999999999999\]"),
+        (dict(seed=1.5), r"`seed` must be an integer; got 1\.5 \(float\)"),
+        (dict(exposure="3h"), r"`exposure` must be a number; got '3h' \(str\)"),
+        (dict(speeds=[1e6]), r"`speeds`: U = 1e\+06 m/s is a Froude number"),
+        (
+            dict(exposure=1e4 * 3600.0, hours_per_year=5000.0),
+            r"`exposure` \(10000 h\) is longer than the 5000 h",
+        ),
+        (dict(hours_per_year=1e9), r"`hours_per_year` must be at most 8766 h"),
+        (dict(heading_weights=[1e308, 1e308], headings=[math.pi, 0.0], speeds=[3e6]), r"Froude"),
+    ],
+)
+def test_api_refuses_bad_arguments_with_a_message(kwargs, message):
+    """Issue 45 item 6: raw TypeError/AttributeError/OverflowError before; one ValueError naming the argument."""
+    kwargs = {"scatter": SMALL_SCATTER, **kwargs}
+    with pytest.raises(ValueError, match=message):
+        jxr.longterm(**kwargs)
+
+
+SMALL_SCATTER = parse_scatter(SMALL, "small.csv")
+CALM = "hs_m,8.5,9.5\n0.5,1,1\n1.0,1,1\n"  # no cell rolls: every probability is 0 exactly (λ <= 0)
+
+
+def test_numpy_numbers_are_accepted_and_no_negative_zero_is_written(tmp_path, capsys):
+    """Issue 45 items 6 and 9: NumPy integers and floats were refused as seeds and exposures; "per year: P = -0"
+    was printed (and -0.0 written) where nothing is exceeded. Weights of 1e308 (whose sum overflows) normalise."""
+    calm = parse_scatter(CALM, "calm.csv")
+    ds = jxr.longterm(
+        calm,
+        headings=[math.pi, math.radians(150.0)],
+        heading_weights=[1e308, 1e308],
+        seed=np.int64(3),
+        exposure=np.float32(1800.0),
+        realizations=np.int32(10),
+        hours_per_year=np.float64(5000.0),
+        angles=ANGLES,
+    )
+    assert (ds.seed.values // 1_000_000 == 3).all() and float(ds.exposures_per_year) == 5000.0 * 2
+    np.testing.assert_array_equal(np.unique(ds.weight.sum(("hs", "tz", "speed", "ship")).values), [0.5])
+    for v in ds.data_vars.values():
+        if v.dtype.kind == "f":
+            assert not np.signbit(v.values[v.values == 0]).any(), v.name
+    assert float(ds.longterm_per_year_probability[0]) == 0.0
+    path = tmp_path / "calm.csv"
+    path.write_text(CALM)
+    out = tmp_path / "out"
+    argv = [
+        "longterm",
+        "--scatter",
+        str(path),
+        "--heading",
+        "180",
+        "--angle",
+        "25",
+        "--quiet",
+        "--out",
+        str(out),
+    ]
+    assert main(argv) == 0
+    text = capsys.readouterr().out
+    assert "per year: P = 0," in text and "-0" not in text
+    assert not re.search(r"-0\.0\b(?!\d)|-0[,\n]", (out / "longterm.json").read_text())
 
 
 def test_weights_classes_and_seeds():

@@ -52,6 +52,8 @@ def build_dataset(grid, cells: dict, config: dict, attrs: dict):
 
     def to_cells(a):  # (ship, class, speed, hs, tz, ...) → (hs, tz, heading, speed, ship, ...)
         a = np.asarray(a)[:, k]
+        if a.dtype.kind == "f":
+            a = a + 0.0  # no negative zeros
         return np.moveaxis(a, (0, 1, 2, 3, 4), (4, 2, 3, 0, 1))
 
     angle_dims = (*CELL_DIMS, "angle")
@@ -363,7 +365,8 @@ def add_longterm(ds):
         ),
     }
     ds = ds.drop_vars([v for v in _LONGTERM_VARS if v in ds])
-    ds = ds.assign({k: xr.Variable(*v) for k, v in new.items()})
+    # + 0.0: a negative zero (1 − Π (1 − 0) in floating point) would be printed "-0" (issue 45)
+    ds = ds.assign({k: xr.Variable(d, np.asarray(a, float) + 0.0, at) for k, (d, a, at) in new.items()})
     return ds
 
 
