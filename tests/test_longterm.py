@@ -631,6 +631,93 @@ def test_cli_parts_merge_and_outputs(small_csv, tmp_path, capsys):
     assert "each part 1/2 … 2/2 exactly once" in capsys.readouterr().err
 
 
+@pytest.fixture(scope="module")
+def calm_parts(tmp_path_factory):
+    """Two parts of a cheap run (a calm scatter: every theory cell is 0 exactly), written and read back."""
+    folder = tmp_path_factory.mktemp("calm_parts")
+    kw = dict(headings=[math.pi, math.radians(150.0)], angles=ANGLES, exposure=1800.0, hours_per_year=5000.0)
+    calm = parse_scatter(CALM, "calm.csv")
+    return [_roundtrip(jxr.longterm(calm, part=f"{i}/2", **kw), folder / f"p{i}.nc") for i in (1, 2)]
+
+
+def _edited(ds, edit, *, redigest=False):
+    from jaxroll.longterm._dataset import part_digest
+
+    ds = edit(ds.copy(deep=True))
+    if redigest:  # as someone who recomputes the digest would: the range checks behind it
+        ds.attrs["part_sha256"] = part_digest(ds)
+    return ds
+
+
+def _tripled(ds):
+    ds["weight"] = ds.weight * 3
+    return ds
+
+
+def _set(var, value):
+    def edit(ds):
+        ds[var] = ds[var].where(~ds.computed, value)
+        return ds
+
+    return edit
+
+
+def _attr(key, value):
+    def edit(ds):
+        ds.attrs[key] = value
+        return ds
+
+    return edit
+
+
+MERGE_REFUSALS = [
+    (_tripled, False, r"part 1/2\) was changed since jaxroll wrote it .*part_sha256"),
+    (_set("probability", 7.0), False, r"was changed since jaxroll wrote it"),
+    (_tripled, True, r"its cell weights do not sum to 1"),
+    (_set("probability", 7.0), True, r"probability holds values outside \[0, 1\]"),
+    (_set("capsize_probability", np.nan), True, r"a cell it computed has no probability \(NaN\)"),
+    (
+        _attr("jaxroll_version", "0.0.1"),
+        True,
+        r"written by another jaxroll or JAX \(jaxroll_version 0\.0\.1 \(this",
+    ),
+    (_attr("jax_version", "0.4.0"), True, r"written by another jaxroll or JAX \(jax_version 0\.4\.0"),
+    (lambda ds: ds.drop_vars("seed"), False, r"lacks the variables seed: rerun that part"),
+    (_attr("config_json", "[" * 5000 + "]" * 5000), False, r"its config_json attribute is not the JSON"),
+    (_attr("part", "one/2"), False, r"its part attribute 'one/2' is not i/N"),
+]
+
+
+@pytest.mark.parametrize("edit, redigest, message", MERGE_REFUSALS)
+def test_merge_refuses_edited_foreign_or_broken_parts(calm_parts, edit, redigest, message, tmp_path, capsys):
+    """Issue 45 items 1, 6 and 10: a part whose weights were tripled merged into 3 × P_LT; other versions, NaN and
+    7 as probabilities, a missing variable (KeyError), a config_json 5000 deep (RecursionError) and a bad part
+    attribute ("invalid literal for int()") merged without a word or ended in a traceback."""
+    bad = _edited(calm_parts[0], edit, redigest=redigest)
+    with pytest.raises(ValueError, match=message):
+        jxr.merge_longterm([bad, calm_parts[1]])
+    path = tmp_path / "bad.nc"
+    write_dataset(path, bad)
+    other = tmp_path / "p2.nc"
+    write_dataset(other, calm_parts[1])
+    assert main(["merge", str(path), str(other), "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"jaxroll merge: error: {path}") and re.search(message, err), err
+    assert not (tmp_path / "out").exists()
+
+
+def test_merged_parts_are_the_one_run(calm_parts, capsys):
+    merged = jxr.merge_longterm(calm_parts)
+    assert "part" not in merged.attrs and "part_sha256" not in merged.attrs
+    assert calm_parts[0].attrs["part_sha256"] != calm_parts[1].attrs["part_sha256"]
+    kw = dict(headings=[math.pi, math.radians(150.0)], angles=ANGLES, exposure=1800.0, hours_per_year=5000.0)
+    _assert_same(merged, jxr.longterm(parse_scatter(CALM, "calm.csv"), **kw))
+    with pytest.raises(SystemExit):
+        main(["merge", "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    assert "bit for bit the same longterm.nc" not in text and "not the same bytes" in text
+
+
 def _free_port() -> int:
     with socket.socket() as s:
         s.bind(("localhost", 0))

@@ -481,6 +481,7 @@ def run(args) -> int:
     if kwargs["part"] is not None:
         i, n = kwargs["part"]
         path = out / f"longterm.part-{i}-of-{n}.nc"
+        ds.attrs["run_time_s"] = elapsed  # (not in the part's digest; `jaxroll merge` sums them)
         write_dataset(path, ds)
         print(f"part {i}/{n} done in {elapsed:.1f} s: wrote {path} (merge the parts with `jaxroll merge`)")
         return 0

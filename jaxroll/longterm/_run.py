@@ -790,9 +790,10 @@ def _config(
     )
 
 
-def merge_longterm(datasets):
+def merge_longterm(datasets, names=None):
     """The full dataset from the partial datasets of `longterm(part=(i, N))`, i = 1 … N (bit for bit the dataset
-    of one run). **Raises:** `ValueError` when they are not the complete parts of one run."""
+    of one run: `_dataset.merge_parts`; `names`: the datasets' names in messages). **Raises:** `ValueError` when they
+    are not the complete, unchanged parts of one run written by this jaxroll and JAX."""
     from ._dataset import merge_parts
 
-    return merge_parts(list(datasets))
+    return merge_parts(list(datasets), names)
