@@ -1,10 +1,12 @@
 """Files written completely or not at all: into a temporary file beside the target, flushed to disk, then renamed
 into place (`os.replace` is atomic within a file system). One implementation for the output sets, the netCDF
-datasets, the Monte Carlo checkpoints and the program cache."""
+datasets, the Monte Carlo checkpoints and the program cache; and their reading (`read_regular`): regular files
+only, so that a FIFO or a device planted in their place cannot hang a command."""
 
 from __future__ import annotations
 
 import os
+import stat
 import tempfile
 from collections.abc import Callable
 from pathlib import Path
@@ -36,3 +38,27 @@ def atomic_write(path: str | os.PathLike, write: Callable[[str], None], *, mode:
 def atomic_write_bytes(path: str | os.PathLike, data: bytes, *, mode: int | None = None) -> None:
     """Create or replace the file `path` with `data`, completely or not at all (`atomic_write`)."""
     atomic_write(path, lambda tmp: Path(tmp).write_bytes(data), mode=mode)
+
+
+class NotRegularFile(OSError):
+    """A path that is not a regular file (a FIFO, a device, a socket or a folder) where one is read."""
+
+
+def read_regular(path: str | os.PathLike) -> bytes:
+    """The bytes of the regular file `path`. Opened without blocking (`O_NONBLOCK`: opening a FIFO with no writer
+    would wait for one forever, issue 45) and refused unless it is a regular file.
+
+    **Raises:** `NotRegularFile` (an `OSError`) for a FIFO, device, socket or folder; `OSError` as `open`."""
+    fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_CLOEXEC", 0))
+    try:
+        st = os.fstat(fd)
+        if not stat.S_ISREG(st.st_mode):
+            raise NotRegularFile(f"{os.fspath(path)} is not a regular file (a FIFO, a device or a folder)")
+        if hasattr(os, "set_blocking"):
+            os.set_blocking(fd, True)
+        with os.fdopen(fd, "rb") as f:
+            fd = None
+            return f.read()
+    finally:
+        if fd is not None:
+            os.close(fd)

@@ -823,3 +823,27 @@ def test_notebook_runs_in_smoke_mode(tmp_path, monkeypatch):
 
     ns = run_notebook("07_longterm.ipynb", tmp_path, monkeypatch)
     assert "ds" in ns and float(ns["ds"].longterm_probability[0]) > 0
+
+
+def test_a_fifo_in_place_of_a_unit_checkpoint_is_recomputed_not_a_hang(tmp_path):
+    """Issue 45 item 7: a FIFO in place of a long-term unit's checkpoint hung the run (killed after 120 s)."""
+    import threading
+
+    kw = dict(headings=[math.pi], angles=ANGLES, exposure=1800.0, hours_per_year=5000.0, checkpoint=tmp_path)
+    calm = parse_scatter(CALM, "calm.csv")
+    ref = jxr.longterm(calm, **kw)
+    (unit,) = tmp_path.glob("theory_*.npz")
+    unit.unlink()
+    os.mkfifo(unit)
+    box = {}
+
+    def run():
+        with pytest.warns(UserWarning, match=r"theory_.*\.npz is not a regular file \(a FIFO"):
+            box["ds"] = jxr.longterm(calm, **kw)
+
+    t = threading.Thread(target=run, daemon=True)
+    t.start()
+    t.join(60)
+    assert not t.is_alive() and "ds" in box
+    _assert_same(box["ds"], ref)
+    assert unit.is_file()  # saved again over the FIFO
