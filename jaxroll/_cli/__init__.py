@@ -71,6 +71,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.command is None:
         parser.print_help()
         return 2
+    for name, value in sorted(
+        vars(args).items()
+    ):  # `jaxroll records import: error: …`, not `jaxroll records: …`
+        if name.endswith("_command") and isinstance(value, str):
+            args.command = f"{args.command} {value}"
     from .. import configure
     from ._common import WARNINGS
 
