@@ -35,9 +35,18 @@ def atomic_write(path: str | os.PathLike, write: Callable[[str], None], *, mode:
         raise
 
 
-def atomic_write_bytes(path: str | os.PathLike, data: bytes, *, mode: int | None = None) -> None:
-    """Create or replace the file `path` with `data`, completely or not at all (`atomic_write`)."""
-    atomic_write(path, lambda tmp: Path(tmp).write_bytes(data), mode=mode)
+def atomic_write_bytes(
+    path: str | os.PathLike, data: bytes, *, mode: int | None = None, name_errors: bool = False
+) -> None:
+    """Create or replace the file `path` with `data`, completely or not at all (`atomic_write`). `name_errors`: an
+    `OSError` that names no file (a failing write: a full disk) is raised naming `path` (a checkpoint, so that the
+    command can name its option)."""
+    try:
+        atomic_write(path, lambda tmp: Path(tmp).write_bytes(data), mode=mode)
+    except OSError as e:
+        if not name_errors or e.filename is not None:
+            raise
+        raise OSError(e.errno, e.strerror or str(e), os.fspath(path)) from e
 
 
 class NotRegularFile(OSError):

@@ -847,3 +847,22 @@ def test_a_fifo_in_place_of_a_unit_checkpoint_is_recomputed_not_a_hang(tmp_path)
     assert not t.is_alive() and "ds" in box
     _assert_same(box["ds"], ref)
     assert unit.is_file()  # saved again over the FIFO
+
+
+def test_the_recorded_risk_command_is_shell_quoted(calm_parts, tmp_path):
+    """Issue 45 item 11: a ship path with a space and ';' became a command line that ran `touch …` when pasted."""
+    import shlex
+
+    ds = jxr.merge_longterm(calm_parts)
+    cfg = json.loads(ds.attrs["config_json"])
+    evil = str(tmp_path / "my ship;touch PWNED;.toml")
+    cfg["ships"][0]["file"] = evil
+    ds.attrs["config_json"] = json.dumps(cfg)
+    from jaxroll.longterm import risk_command
+
+    command = risk_command(ds, dict(hs=0, tz=0, heading=0, speed=0, ship=0))
+    words = shlex.split(command)
+    assert words[:2] == ["jaxroll", "risk"] and words[-2:] == ["--ship", evil]
+    assert words[words.index("--seed") + 1] == str(int(ds.seed.values[0, 0, 0, 0, 0]) - 1)
+    subprocess.run(["bash", "-c", "true" + command.removeprefix("jaxroll")], cwd=tmp_path, check=True)
+    assert not (tmp_path / "PWNED").exists()

@@ -106,7 +106,7 @@ def _run(args) -> int:
     cache is switched on (JAXROLL_CACHE_DIR, default ~/.cache/jaxroll/xla; empty: off; refused, with a warning,
     where others could write to it)."""
     from .. import enable_compilation_cache
-    from ._common import CLIError, os_error_message, prepare_out
+    from ._common import CLIError, check_folder, os_error_message, prepare_out
 
     if (
         signal.getsignal(signal.SIGINT) is _exit_at_once
@@ -121,6 +121,8 @@ def _run(args) -> int:
     try:
         if getattr(args, "out", None) is not None:
             prepare_out(args.out)
+        if getattr(args, "checkpoint", None) is not None:
+            check_folder(args.checkpoint, "--checkpoint")
         enable_compilation_cache()
         return int(args.func(args) or 0)
     except CLIError as e:
@@ -130,7 +132,10 @@ def _run(args) -> int:
         print(f"jaxroll {args.command}: error: {e}", file=sys.stderr)
         return 2
     except OSError as e:  # a folder that cannot be written, a full disk, …: one line, not a traceback
-        print(f"jaxroll {args.command}: error: {os_error_message(e)}", file=sys.stderr)
+        print(
+            f"jaxroll {args.command}: error: {os_error_message(e, getattr(args, 'checkpoint', None))}",
+            file=sys.stderr,
+        )
         return 2
     except KeyboardInterrupt:
         from ._common import interrupted_message

@@ -256,6 +256,7 @@ def check_args(args):
         check_speeds,
         scatter_diagram,
     )
+    from ..roll import SPLITTING_EXCITATIONS
     from ..sea import MAX_FILTER_ORDER
 
     for name in ("hours", "hours_per_year", "dt"):
@@ -305,7 +306,7 @@ def check_args(args):
             f"--rare-below must be a probability in (0, 1] (a Monte Carlo cell is rare, and estimated by "
             f"splitting, where its probability is below it); got {args.rare_below}."
         )
-    if estimator == "splitting" and args.excitation != "filter":
+    if estimator == "splitting" and args.excitation not in SPLITTING_EXCITATIONS:
         raise CLIError(
             "--estimator splitting needs --excitation filter (splitting restarts runs from the shaping filter's "
             f"state); got --excitation {args.excitation}."

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import sys
 import time
 from pathlib import Path
 
@@ -176,6 +177,11 @@ def _first_passage(problem, angle_deg: float, exposure: float, curve_deg, vanish
     return entry, on_curve
 
 
+def _splitting_line(text: str) -> None:
+    """The splitting phase's progress (its pilot, then each stage): one line each on stderr."""
+    print(f"splitting: {text}", file=sys.stderr, flush=True)
+
+
 def run(args) -> int:
     import jax
     import jax.numpy as jnp
@@ -190,6 +196,7 @@ def run(args) -> int:
         vanishing_angle,
     )
     from ..plotting import risk_figure
+    from ..roll import SPLITTING_EXCITATIONS
 
     theories, first_passage = parse_risk_theories(args.theory)
     check_positive(args, "hours", "duration")
@@ -199,6 +206,13 @@ def run(args) -> int:
         raise CLIError(f"--realizations must be >= 1; got {args.realizations}.")
     if args.estimator == "splitting" and args.splitting_trials < 10:
         raise CLIError(f"--splitting-trials must be >= 10; got {args.splitting_trials}.")
+    if (
+        args.estimator == "splitting" and args.method not in SPLITTING_EXCITATIONS
+    ):  # (was after the direct trials)
+        raise CLIError(
+            f"--estimator splitting needs --method {' or '.join(SPLITTING_EXCITATIONS)} (splitting restarts runs "
+            f"from the shaping filter's state); got --method {args.method}."
+        )
     check_chunk_size(args)
     if not (math.isfinite(args.discard) and 0 <= args.discard < args.duration):
         raise CLIError(
@@ -282,6 +296,8 @@ def run(args) -> int:
         )
     if args.estimator == "splitting":
         # The same probability by multilevel splitting on the roll energy (unbiased; for rare exceedances).
+        if not args.quiet:
+            _splitting_line(f"a pilot run, then stages of {args.splitting_trials} runs")
         split = monte_carlo_splitting(
             problem,
             jax.random.key(args.seed + 2),
@@ -289,6 +305,7 @@ def run(args) -> int:
             exposure=exposure,
             discard=args.discard,
             num_trials=args.splitting_trials,
+            progress=None if args.quiet else _splitting_line,
         )
         direct_splitting = {
             **split.to_dict(),
@@ -364,6 +381,7 @@ def run(args) -> int:
             hours=args.hours,
             capsize_probability=direct_stats.capsize_probability,
             title=title,
+            splitting=result.get("splitting"),
         )
         save_figure(fig, tmp / "risk.png")
         write_json(tmp / "risk.json", payload)

@@ -242,7 +242,7 @@ def make_grid(
         if c not in classes:
             classes.append(c)
         member.append(classes.index(c))
-    return CellGrid(
+    grid = CellGrid(
         scatter=scatter,
         ships=tuple(ships),
         ship_names=tuple(ship_names),
@@ -254,6 +254,15 @@ def make_grid(
         speeds=speeds,
         speed_weights=normalised_weights(speed_weights, speeds.size, "speed_weights"),
     )
+    n = int(np.prod(grid.shape))
+    if n >= SEED_STRIDE:  # each cell its own seed (`SEED_STRIDE`)
+        s, k, u, i, j = grid.shape
+        raise ValueError(
+            f"{n} computation cells ({s} ships × {k} heading classes × {u} speeds × the {i} H_s × {j} T_z of the "
+            f"scatter diagram {scatter.source}): more than one run can seed ({SEED_STRIDE - 1}); use a coarser "
+            "scatter diagram, fewer headings or speeds, or several runs."
+        )
+    return grid
 
 
 def skipped_cells(comp_weight: np.ndarray, needed: np.ndarray, skip_weight: float) -> np.ndarray:

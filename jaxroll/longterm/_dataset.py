@@ -528,28 +528,31 @@ def merge_parts(datasets, names=None):
 
 def risk_command(ds, index: dict) -> str:
     """The `jaxroll risk` command line that reproduces a Monte Carlo cell of `ds` trial for trial (its direct
-    estimate), `index` the cell's coordinates by dim (hs, tz, heading, speed, ship) as positions."""
+    estimate), `index` the cell's coordinates by dim (hs, tz, heading, speed, ship) as positions. Quoted for a POSIX
+    shell (`shlex.join`): a ship file named `a b;touch x.toml` is one argument, never a second command."""
+    import shlex
+
     cfg = config_of(ds)
     cell = ds.isel(index)
     ship_file = cfg["ships"][index["ship"]]["file"]
     parts = [
-        "jaxroll risk",
-        f"--hs {float(cell.hs)!r}",
-        f"--t01 {float(cell.t01)!r}",
-        f"--heading {float(cell.heading_class):g}",
-        f"--speed {float(cell.speed)!r}",
-        f"--hours {cfg['exposure_s'] / 3600.0!r}",
-        f"--discard {cfg['discard_s']!r}",
-        f"--realizations {int(cell.realizations)}",
-        f"--seed {int(cell.seed) - 1}",
-        f"--angle {float(ds.angle[0]):g}",
-        f"--dt {cfg['dt_s']!r}",
-        f"--method {cfg['excitation']}",
-        f"--filter-order {cfg['filter_order']}",
-    ]
+        "jaxroll", "risk",
+        "--hs", repr(float(cell.hs)),
+        "--t01", repr(float(cell.t01)),
+        "--heading", f"{float(cell.heading_class):g}",
+        "--speed", repr(float(cell.speed)),
+        "--hours", repr(cfg["exposure_s"] / 3600.0),
+        "--discard", repr(cfg["discard_s"]),
+        "--realizations", str(int(cell.realizations)),
+        "--seed", str(int(cell.seed) - 1),
+        "--angle", f"{float(ds.angle[0]):g}",
+        "--dt", repr(cfg["dt_s"]),
+        "--method", str(cfg["excitation"]),
+        "--filter-order", str(cfg["filter_order"]),
+    ]  # fmt: skip
     if ship_file:
-        parts.append(f"--ship {ship_file}")
-    return " ".join(parts)
+        parts += ["--ship", str(ship_file)]
+    return shlex.join(parts)
 
 
 def dominating_cells(ds, angle_index: int = 0, top: int = 10) -> list[dict]:

@@ -19,7 +19,7 @@ import numpy as np
 
 from .._config import require_float64
 from ..io import dataset_attrs, ship_to_dict
-from ..roll import check_time_step
+from ..roll import SPLITTING_EXCITATIONS, check_time_step
 from ..sea import ITTC, EffectiveWave
 from ..ship import c11_representative, vanishing_angle
 from ._cells import (
@@ -215,7 +215,7 @@ def longterm(
     )
     _check(
         None,
-        estimator != "splitting" or excitation == "filter",
+        estimator != "splitting" or excitation in SPLITTING_EXCITATIONS,
         f"`estimator='splitting'` needs excitation='filter' (splitting restarts runs from the shaping filter's "
         f"state); got excitation={excitation!r}.",
     )
@@ -224,11 +224,6 @@ def longterm(
     _check(None, model_factor >= 1, f"`model_factor` must be >= 1; got {model_factor!r}.")
     _check(None, 0 <= skip_weight < 1, f"`skip_weight` must be in [0, 1); got {skip_weight!r}.")
     _check(None, 0 <= refine_delta < 1, f"`refine_delta` must be in [0, 1); got {refine_delta!r}.")
-    _check(
-        None,
-        int(np.prod(grid.shape)) < SEED_STRIDE,
-        f"{int(np.prod(grid.shape))} computation cells: more than the seeds' stride {SEED_STRIDE}.",
-    )
     part = parse_part(part)
 
     shape = grid.shape

@@ -51,7 +51,7 @@ def _save_unit(checkpoint, name: str, arrays: dict) -> None:
     """Save a unit's arrays as a verified entry (digest, unit name, versions; `_cache_files.entry_bytes`)."""
     if checkpoint is None:
         return
-    atomic_write_bytes(Path(checkpoint) / f"{name}.npz", files.entry_bytes(name, arrays))
+    atomic_write_bytes(Path(checkpoint) / f"{name}.npz", files.entry_bytes(name, arrays), name_errors=True)
 
 
 def _gather(arrays: dict, mine: np.ndarray) -> dict:

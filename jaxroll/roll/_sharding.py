@@ -215,7 +215,7 @@ def _save_checkpoint(path: Path, fingerprint: dict, next_start: int, summed: dic
     arrays["digest"] = np.array(_content_digest(arrays))
     buf = io.BytesIO()
     np.savez(buf, **arrays)
-    atomic_write_bytes(path, buf.getvalue())
+    atomic_write_bytes(path, buf.getvalue(), name_errors=True)
 
 
 #: Peak bytes per realization-step of the histogram observer's chunk, measured (peak RSS, dt = 0.05 s, 3600 s,
