@@ -1245,3 +1245,16 @@ def test_risk_figure_shows_the_splitting_estimate():
         labels = ax.get_legend_handles_labels()[1]
         assert "multilevel splitting at 30°: 0.002 (95 % 0.001–0.004)" in labels
     assert fig.axes[1].get_ylim()[0] <= 1e-3
+
+
+def test_risk_and_longterm_name_their_estimators_alike(tmp_path, capsys):
+    """Issue 45 item 17: `risk --estimator direct|splitting` beside `longterm --estimator brute-force|splitting`
+    (whose help listed no choices). One vocabulary; the old name is accepted with a deprecation note."""
+    assert main(["risk", "--estimator", "direct", "--angle", "95", "--out", str(tmp_path)]) == 2
+    err = capsys.readouterr().err
+    assert "jaxroll risk: warning: --estimator direct is now called brute-force" in err
+    assert "--angle must be in (0, 90)" in err  # the old name runs as brute-force
+    for command in ("risk", "longterm"):
+        with pytest.raises(SystemExit):
+            main([command, "--help"])
+        assert "--estimator brute-force|splitting" in capsys.readouterr().out

@@ -138,6 +138,7 @@ def register(sub) -> None:
     r.add_argument(
         "--estimator",
         default="brute-force",
+        metavar="brute-force|splitting",
         help="per-cell Monte Carlo estimator: brute-force (default), or splitting: the rare Monte Carlo cells "
         "(P < --rare-below) by multilevel splitting, every angle from one run, the others by brute force "
         "(docs/longterm.md, Rare cells)",

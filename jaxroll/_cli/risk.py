@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 import sys
 import time
+import warnings
 from pathlib import Path
 
 from ._common import (
@@ -56,10 +57,13 @@ def register(sub) -> None:
     )
     p.add_argument(
         "--estimator",
-        choices=("direct", "splitting"),
-        default="direct",
-        help="direct: trials of the exposure's length (always run); splitting: also multilevel splitting "
-        "for the direct probability, for rare exceedances (risk.json 'splitting'; docs/rare_events.md)",
+        choices=("brute-force", "splitting", "direct"),
+        default="brute-force",
+        metavar="brute-force|splitting",
+        help="brute-force (default): trials of the exposure's length (always run; risk.json 'direct'); splitting: "
+        "also multilevel splitting for the same probability, for rare exceedances (risk.json 'splitting'; "
+        "docs/rare_events.md). The names of `jaxroll longterm --estimator`; 'direct', the old name of "
+        "brute-force, is still accepted (deprecated)",
     )
     p.add_argument("--splitting-trials", type=int, default=1000, help="splitting: runs a stage (1000)")
     p.add_argument(
@@ -199,6 +203,14 @@ def run(args) -> int:
     from ..roll import SPLITTING_EXCITATIONS
 
     theories, first_passage = parse_risk_theories(args.theory)
+    if args.estimator == "direct":  # one vocabulary with `jaxroll longterm --estimator` (issue 45)
+        warnings.warn(
+            "--estimator direct is now called brute-force (the same trials of the exposure's length; longterm's "
+            "name); 'direct' is accepted until jaxroll 0.3.",
+            FutureWarning,
+            stacklevel=2,
+        )
+        args.estimator = "brute-force"
     check_positive(args, "hours", "duration")
     if not (math.isfinite(args.angle) and 0 < args.angle < 90):
         raise CLIError(f"--angle must be in (0, 90) degrees; got {args.angle}.")
