@@ -1247,6 +1247,7 @@ def test_risk_figure_shows_the_splitting_estimate():
     assert fig.axes[1].get_ylim()[0] <= 1e-3
 
 
+@pytest.mark.filterwarnings("default::FutureWarning")  # shown, as the command shows it (not raised)
 def test_risk_and_longterm_name_their_estimators_alike(tmp_path, capsys):
     """Issue 45 item 17: `risk --estimator direct|splitting` beside `longterm --estimator brute-force|splitting`
     (whose help listed no choices). One vocabulary; the old name is accepted with a deprecation note."""
