@@ -866,3 +866,41 @@ def test_the_recorded_risk_command_is_shell_quoted(calm_parts, tmp_path):
     assert words[words.index("--seed") + 1] == str(int(ds.seed.values[0, 0, 0, 0, 0]) - 1)
     subprocess.run(["bash", "-c", "true" + command.removeprefix("jaxroll")], cwd=tmp_path, check=True)
     assert not (tmp_path / "PWNED").exists()
+
+
+def test_figures_draw_every_angle_with_labelled_axes(calm_parts):
+    """Issue 45 item 19: only the first --angle was drawn; the theory-only interval figure was one bar with no x
+    axis; the scatter chart's colour bars had no label (its cell labels ~5 px high)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from jaxroll.plotting import longterm_ci_figure, longterm_polar_figure, longterm_scatter_figure
+
+    ds = jxr.merge_longterm(calm_parts)  # two angles
+    fig = longterm_scatter_figure(ds)
+    panels = [ax for ax in fig.axes if ax.get_visible() and ax.get_label() != "<colorbar>"]
+    assert len(panels) == 3 and "25°" in panels[1].get_title() and "35°" in panels[2].get_title()
+    bars = [ax for ax in fig.axes if ax.get_label() == "<colorbar>"]
+    assert [ax.get_ylabel() for ax in bars] == [
+        "occurrence [%]",
+        "share of P_LT at 25° [%]",
+        "share of P_LT at 35° [%]",
+    ]
+    assert all(t.get_fontsize() >= 6.5 for ax in panels for t in ax.texts)
+    plt.close(fig)
+    fig = longterm_polar_figure(ds)
+    polar = [ax for ax in fig.axes if ax.name == "polar" and ax.get_visible()]
+    labels = [ax.get_xlabel() for ax in fig.axes if ax.get_label() == "<colorbar>"]
+    assert len(polar) == 3 and [x.split("\n")[0] for x in labels] == [
+        "P(max |φ| > 25° within 0.5 h)", "P(max |φ| > 35° within 0.5 h)", "P(capsize within 0.5 h)"
+    ]  # fmt: skip
+    plt.close(fig)
+    fig = longterm_ci_figure(ds)
+    (ax,) = fig.axes
+    assert ax.get_xlabel() == "roll angle [deg]" and [t.get_text() for t in ax.get_xticklabels()] == [
+        "25°",
+        "35°",
+    ]
+    plt.close(fig)
