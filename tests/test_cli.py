@@ -1259,3 +1259,54 @@ def test_risk_and_longterm_name_their_estimators_alike(tmp_path, capsys):
         with pytest.raises(SystemExit):
             main([command, "--help"])
         assert "--estimator brute-force|splitting" in capsys.readouterr().out
+
+
+_LOST_INTERRUPT = """
+import pathlib, random, signal, sys, tempfile, threading, time
+import numpy as np
+from jaxroll import _cli, _atomic
+from jaxroll.longterm._units import _save_unit
+
+signal.signal(signal.SIGINT, _cli._on_interrupt)
+main = threading.main_thread().ident
+
+
+class Finaliser:
+    def __del__(self):  # Python ignores (prints) an exception raised here: a Ctrl-C landing here is "lost"
+        time.sleep(0.004)
+
+
+folder = pathlib.Path(tempfile.mkdtemp())
+n, lost = int(sys.argv[1]), 0
+rng = random.Random(0)
+for trial in range(n):
+    _cli._STATE.update(raised=None, deferred=None)  # a new command each trial
+    _atomic.clear_interrupt()
+    threading.Timer(rng.uniform(0.0, 0.03), signal.pthread_kill, (main, signal.SIGINT)).start()
+    try:
+        t_end = time.monotonic() + 0.06
+        while time.monotonic() < t_end:  # the units: a finaliser runs, then a unit is saved
+            Finaliser()
+            _save_unit(folder, "unit", {"p": np.arange(4.0)})
+        _atomic.atomic_write_bytes(folder / "out", b"the output set")  # what --out would receive
+        lost += 1
+    except KeyboardInterrupt:
+        pass
+print(f"lost {lost} of {n}")
+"""
+
+
+def test_a_ctrl_c_lost_in_a_finaliser_is_raised_at_the_next_save():
+    """Issue 45 item 20: a SIGINT within 0.1 s of a long-term unit's save was lost once in 15 tries (the run went
+    on, wrote --out and exited 0): Python ignores an exception raised in a finaliser (`__del__`, a weakref
+    callback), where the handler's KeyboardInterrupt can land. The handler records it, and every save (and the
+    commit of an output set) raises it again. A loop of 40 interrupts at random times around unit saves, most of
+    them landing in a finaliser: before, 16 of 40 ran on to write the output; now none (about 3 s)."""
+    import subprocess
+    import sys
+
+    done = subprocess.run(
+        [sys.executable, "-c", _LOST_INTERRUPT, "40"], capture_output=True, text=True, timeout=300
+    )
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert done.stdout.strip().splitlines()[-1] == "lost 0 of 40", done.stdout

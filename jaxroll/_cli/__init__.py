@@ -20,6 +20,8 @@ import time
 import warnings
 from collections.abc import Sequence
 
+from .._atomic import clear_interrupt, note_interrupt
+
 # The LAPACK that jaxlib calls on the CPU is SciPy's OpenBLAS, which starts a thread per core; on the small matrices
 # of jaxroll's theories those threads only contend with XLA's own (a warm `jaxroll theory` took 5.8–8 s instead of
 # 3.4–3.7 s on a 2-core machine with another job running; no difference when idle). One thread, unless set.
@@ -118,6 +120,7 @@ def _run(args) -> int:
         _STATE["collector_paused"] = None
         gc.freeze()
         gc.enable()
+    clear_interrupt()
     try:
         if getattr(args, "out", None) is not None:
             prepare_out(args.out)
@@ -140,6 +143,7 @@ def _run(args) -> int:
     except KeyboardInterrupt:
         from ._common import interrupted_message
 
+        clear_interrupt()
         print(interrupted_message(args.command, getattr(args, "out", None)), file=sys.stderr)
         return 130
 
@@ -166,6 +170,7 @@ def _on_interrupt(signum, frame) -> None:
         _STATE["raised"], _STATE["deferred"] = now, None  # (no deferred signal: `_raise_again` stops)
     if echo:  # a repeat sent by `_raise_again` just as the first was raised (the command is reporting it)
         return
+    note_interrupt()  # raised again at the next save where this one is lost (raised in a finaliser)
     raise KeyboardInterrupt
 
 

@@ -12,6 +12,7 @@ import time
 from pathlib import Path
 from typing import Any
 
+from .._atomic import raise_if_interrupted
 from ..io import atomic_write_bytes as atomic_write_bytes, to_jsonable as to_jsonable
 
 
@@ -238,6 +239,7 @@ class OutputFolder:
             shutil.rmtree(self.tmp, ignore_errors=True)
             return False
         try:
+            raise_if_interrupted()  # a Ctrl-C lost on its way never commits the set
             if self.beside and not self.out.exists():
                 try:
                     os.rename(self.tmp, self.out)  # the whole set appears at once
