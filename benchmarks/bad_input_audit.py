@@ -24,6 +24,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import json
+import math
 import os
 import pickle
 import re
@@ -769,6 +770,282 @@ def risk_ci_near_one(tmp: Path) -> Verdict:
 
 # ----------------------------------------------------------------------------------------------------------------
 
+# ----------------------------------------------------------------------------------------------------------------
+# Issue 45: the new commands as strict as the old ones (items 1-12, 17-20)
+# ----------------------------------------------------------------------------------------------------------------
+
+CALM_SCATTER = (
+    "hs_m,8.5,9.5\n0.5,1,1\n1.0,1,1\n"  # every cell's theory is 0 exactly: a long-term run in seconds
+)
+
+
+def _longterm(tmp: Path, *argv, scatter: str = CALM_SCATTER, out: str = "out") -> Run:
+    (tmp / "scatter.csv").write_text(scatter)
+    return jaxroll(
+        "longterm", "--scatter", tmp / "scatter.csv", "--quiet", "--out", tmp / out, *argv, cwd=tmp
+    )
+
+
+def _box12(tmp: Path) -> Path:
+    """A 12-triangle box 120 x 20 x 12 m (one diagonal per face), whose diagonals meet the symmetry check's grid."""
+    return prism_stl(tmp / "box.stl", [(-10, 0), (10, 0), (10, 12), (-10, 12)], 120.0)
+
+
+def _parts(tmp: Path) -> list[Path]:
+    for i in (1, 2):
+        run = _longterm(tmp, "--heading", "180,150", "--part", f"{i}/2", out="parts")
+        if run.code != 0:
+            raise RuntimeError(f"part {i}/2: {last_line(run.err)}")
+    return sorted((tmp / "parts").glob("longterm.part-*-of-2.nc"))
+
+
+def _edited_part(tmp: Path, edit: str) -> Run:
+    first, second = _parts(tmp)
+    done = python(
+        "import numpy as np\nfrom jaxroll.io import read_dataset, write_dataset\n"
+        f"ds = read_dataset({str(first)!r})\n{edit}\nwrite_dataset({str(tmp / 'edited.nc')!r}, ds)\n",
+        cwd=tmp,
+    )
+    if done.code != 0:
+        raise RuntimeError(last_line(done.err))
+    return jaxroll("merge", tmp / "edited.nc", second, "--out", tmp / "merged", cwd=tmp)
+
+
+def merge_tripled_weights(tmp):
+    return held_if_error(
+        _edited_part(tmp, 'ds["weight"] = ds.weight * 3'), r"was changed since jaxroll wrote it"
+    )
+
+
+def merge_probability_seven(tmp):
+    edit = 'ds["probability"] = ds.probability.where(~ds.computed, 7.0)'
+    return held_if_error(_edited_part(tmp, edit), r"was changed since jaxroll wrote it")
+
+
+def merge_other_version(tmp):
+    edit = 'ds.attrs["jax_version"] = "0.4.0"'
+    return held_if_error(_edited_part(tmp, edit), r"written by another jaxroll or JAX \(jax_version 0\.4\.0")
+
+
+def merge_missing_variable(tmp):
+    return held_if_error(_edited_part(tmp, 'ds = ds.drop_vars("seed")'), r"lacks the variables seed")
+
+
+def merge_deep_config(tmp):
+    edit = 'ds.attrs["config_json"] = "[" * 5000 + "]" * 5000'
+    return held_if_error(_edited_part(tmp, edit), r"config_json attribute is not the JSON")
+
+
+def merge_bad_part_attribute(tmp):
+    return held_if_error(
+        _edited_part(tmp, 'ds.attrs["part"] = "one/2"'), r"part attribute 'one/2' is not i/N"
+    )
+
+
+def kg_datum_without_kg(tmp):
+    run = jaxroll("hydrostatics", _box12(tmp), "--lpp", "120", "--roll-period", "12", "--draught", "5",
+                  "--gm", "2", "--kg-datum", "keel", "--out", tmp / "out", cwd=tmp)  # fmt: skip
+    return held_if_error(run, r"--kg-datum \(it applies to --kg.*would be ignored")
+
+
+def draught_datum_without_draught(tmp):
+    run = jaxroll("hydrostatics", _box12(tmp), "--lpp", "120", "--roll-period", "12", "--displacement", "1e7",
+                  "--kg", "6", "--draught-datum", "keel", "--out", tmp / "out", cwd=tmp)  # fmt: skip
+    return held_if_error(run, r"--draught-datum \(it applies to --draught.*would be ignored")
+
+
+def scatter_counts_overflow(tmp):
+    run = _longterm(tmp, scatter="hs_m,8.5,9.5\n4.5,1e308,1e308\n6.5,1,1\n")
+    return held_if_error(run, r"the counts sum to more than the largest number")
+
+
+def longterm_speed_1e6(tmp):
+    return held_if_error(_longterm(tmp, "--speed", "1e6"), r"--speed: U = 1e\+06 m/s is a Froude number")
+
+
+def longterm_hours_beyond_year(tmp):
+    return held_if_error(_longterm(tmp, "--hours", "10000"), r"--hours \(10000 h\) is longer than the 8766 h")
+
+
+def longterm_hours_per_year_1e9(tmp):
+    return held_if_error(_longterm(tmp, "--hours-per-year", "1e9"), r"--hours-per-year must be at most 8766")
+
+
+def _lab_import(tmp: Path, rows: list[str], *extra) -> Run:
+    (tmp / "lab.csv").write_text("\n".join(["Time [s],Roll [deg],WP1 [mm]", *rows]) + "\n")
+    return jaxroll("records", "import", tmp / "lab.csv", "--kind", "roll", "--time", "1", "--roll", "2", "--wave",
+                   "3", "--scale", "100", "--hs", "7", "--t01", "10", "--probe-x", "0", "--out", tmp / "o", *extra,
+                   cwd=tmp)  # fmt: skip
+
+
+def records_time_in_ms(tmp):
+    rows = [f"{50 * k},{math.sin(0.3 * k):.4f},{math.cos(0.2 * k):.4f}" for k in range(60)]
+    return held_if_error(_lab_import(tmp, rows), r"jaxroll records import: error: .*a sample every 50 s")
+
+
+def records_unit_twice(tmp):
+    rows = [f"{0.1 * k:.1f},{math.sin(0.3 * k):.4f},{math.cos(0.2 * k):.4f}" for k in range(60)]
+    return held_if_error(_lab_import(tmp, rows, "--units", "roll=deg,roll=rad"), r"--units gives roll twice")
+
+
+def cad_box_symmetric(tmp):
+    run = jaxroll("hydrostatics", _box12(tmp), "--lpp", "120", "--roll-period", "12", "--draught", "5", "--kg",
+                  "6", "--out", tmp / "out", cwd=tmp)  # fmt: skip
+    if run.code != 0:
+        return Verdict(False, f"exit {run.code}: {last_line(run.err)}")
+    return Verdict(True, f"exit 0 in {run.seconds:.0f} s: the 12-triangle box is symmetric")
+
+
+def longterm_seed_1e14(tmp):
+    return held_if_error(
+        _longterm(tmp, "--seed", str(10**14)), r"--seed must be an integer in \[0, 999999999999\]"
+    )
+
+
+def longterm_api_types(tmp):
+    run = python(
+        "import jaxroll\njaxroll.configure()\n"
+        "for kw in (dict(scatter=123), dict(ships='c11'), dict(checkpoint=123)):\n"
+        "    try:\n        jaxroll.longterm(**kw)\n    except ValueError as e:\n        print('ValueError', e)\n",
+        cwd=tmp,
+    )
+    n = run.out.count("ValueError")
+    return Verdict(n == 3 and "Traceback" not in run.err, f"{n} of 3 a ValueError naming the argument")
+
+
+def longterm_fifo_checkpoint(tmp):
+    run = _longterm(tmp, "--heading", "180", "--checkpoint", tmp / "ck")
+    (unit,) = (tmp / "ck").glob("theory_*.npz")
+    unit.unlink()
+    os.mkfifo(unit)
+    try:
+        run = _longterm(tmp, "--heading", "180", "--checkpoint", tmp / "ck", out="out2")
+    except subprocess.TimeoutExpired:
+        return Verdict(False, "hung on the FIFO")
+    return held_if_warning(run, r"is not a regular file")
+
+
+def records_gzip_bomb(tmp):
+    import gzip
+
+    with gzip.open(tmp / "bomb.csv.gz", "wb", compresslevel=9) as f:
+        f.write(b"Time [s],Roll [deg],WP1 [mm]\n")
+        for _ in range(256):
+            f.write(b"0.1,1.0,2.0\n" * 87382)  # 256 MiB of text in 0.5 MiB
+    run = jaxroll("records", "import", tmp / "bomb.csv.gz", "--kind", "roll", "--time", "1", "--roll", "2",
+                  "--wave", "3", "--scale", "100", "--hs", "7", "--t01", "10", "--probe-x", "0", "--out", tmp / "o",
+                  cwd=tmp, timeout=300)  # fmt: skip
+    return held_if_error(run, r"more than 24 MiB of text once decompressed")
+
+
+def longterm_no_negative_zero(tmp):
+    run = _longterm(tmp, "--heading", "180")
+    ok = run.code == 0 and "per year: P = 0," in run.out and "-0" not in run.out
+    return Verdict(ok, last_line(run.out) if ok else f"exit {run.code}: {last_line(run.text)}")
+
+
+def checkpoint_on_a_file(tmp):
+    (tmp / "afile").write_text("")
+    return held_if_error(
+        _longterm(tmp, "--checkpoint", tmp / "afile"), r"--checkpoint .* exists and is not a folder"
+    )
+
+
+def out_dangling_symlink(tmp):
+    (tmp / "link").symlink_to(tmp / "nowhere" / "x")
+    run = jaxroll("risk", "--realizations", "40000", "--out", tmp / "link", cwd=tmp)
+    return held_if_error(run, r"--out .* is a symbolic link to .*which does not exist")
+
+
+def risk_splitting_superposition(tmp):
+    run = jaxroll("risk", "--estimator", "splitting", "--method", "superposition", "--realizations", "40000",
+                  "--out", tmp / "out", cwd=tmp)  # fmt: skip
+    verdict = held_if_error(run, r"--estimator splitting needs --method filter")
+    if verdict.held and run.seconds > 20:
+        return Verdict(False, f"refused after {run.seconds:.0f} s (after computing)")
+    return verdict
+
+
+def scatter_million_cells(tmp):
+    tz = ",".join(f"{5 + 0.01 * j:.2f}" for j in range(1000))
+    rows = "\n".join(f"{0.01 + 0.001 * i:.3f}," + ",".join(["1"] * 1000) for i in range(1001))
+    run = _longterm(tmp, "--heading", "180", scatter=f"hs_m,{tz}\n{rows}\n")
+    return held_if_error(run, r"computation cells .* of the scatter diagram .*scatter\.csv\)")
+
+
+def risk_command_quoted(tmp):
+    run = python(
+        "import json, math, shlex, jaxroll\nfrom jaxroll.longterm import parse_scatter, risk_command\n"
+        "jaxroll.configure()\n"
+        f"ds = jaxroll.longterm(parse_scatter({CALM_SCATTER!r}, 'calm.csv'))\n"
+        "cfg = json.loads(ds.attrs['config_json']); cfg['ships'][0]['file'] = 'my ship;touch PWNED;.toml'\n"
+        "ds.attrs['config_json'] = json.dumps(cfg)\n"
+        "print(risk_command(ds, dict(hs=0, tz=0, heading=0, speed=0, ship=0)))\n",
+        cwd=tmp,
+    )
+    command = run.out.strip().splitlines()[-1] if run.out.strip() else ""
+    subprocess.run(["bash", "-c", "true" + command.removeprefix("jaxroll")], cwd=tmp)
+    return Verdict(bool(command) and not (tmp / "PWNED").exists(), command[-80:] or last_line(run.err))
+
+
+def cache_another_program(tmp):
+    code = f"""
+import pathlib, jax.numpy as jnp, jaxroll
+jaxroll.configure()
+from jaxroll import _cache_files as files, _compiled
+folder = pathlib.Path({str(tmp / "cache")!r})
+_compiled.cache_dir = lambda: folder
+@_compiled.cached_program
+def prog(a, x, p: int):
+    return a * x**p
+@_compiled.cached_program
+def other(a, b, c):
+    return a + b + c
+ref = prog(jnp.asarray(3.0), jnp.arange(4.0), 1)
+other(jnp.asarray(1.0), jnp.asarray(2.0), jnp.arange(3.0))
+mine, theirs = sorted(folder.glob("*.npz"), key=lambda p: p.stat().st_mtime_ns)
+mine.write_bytes(files.entry_bytes(mine.stem, files.read_entry(theirs, theirs.stem)))
+_compiled._LOADED.clear()
+print("same" if (prog(jnp.asarray(3.0), jnp.arange(4.0), 1) == ref).all() else "different")
+"""
+    run = python(code, cwd=tmp)
+    return Verdict(run.out.strip().endswith("same"), last_line(run.text))
+
+
+def cache_path_a_file(tmp):
+    (tmp / "afile").write_text("")
+    run = jaxroll("ship", "show", cwd=tmp, env=_env(JAXROLL_CACHE_DIR=str(tmp / "afile")))
+    verdict = held_if_warning(run, r"afile is a file, not a folder")
+    if verdict.held and "others could plant" in run.err:
+        return Verdict(False, "still says 'others could plant'")
+    return verdict
+
+
+def risk_estimator_direct_deprecated(tmp):
+    run = jaxroll("risk", "--estimator", "direct", "--angle", "95", "--out", tmp / "out", cwd=tmp)
+    return held_if_warning(run, r"--estimator direct is now called brute-force")
+
+
+def _longterm_with_sigint(tmp: Path) -> Verdict:
+    """SIGINT at random times around unit saves, 15 tries (each a fresh run resuming its checkpoint): exit 130 and
+    no --out every time."""
+    import random
+
+    (tmp / "scatter.csv").write_text("hs_m,8.5,9.5\n4.5,1,2\n6.5,3,1\n")
+    lost = 0
+    for k in range(15):
+        proc = start("longterm", "--scatter", tmp / "scatter.csv", "--heading", "180,150,120", "--quiet",
+                     "--checkpoint", tmp / f"ck{k}", "--out", tmp / f"out{k}", cwd=tmp)  # fmt: skip
+        deadline = time.time() + 600
+        while proc.poll() is None and time.time() < deadline and not list((tmp / f"ck{k}").glob("*.npz")):
+            time.sleep(0.01)
+        time.sleep(random.uniform(0.0, 0.1))  # within 0.1 s of the first unit's save
+        proc.send_signal(signal.SIGINT)
+        proc.communicate(timeout=600)
+        lost += proc.returncode != 130 or (tmp / f"out{k}").exists()
+    return Verdict(lost == 0, f"{lost} of 15 interrupts lost")
+
+
 CASES = [
     Case("asymmetric-hull", "37.1", "a prism with one side flared read as symmetric", asymmetric_hull),
     Case(
@@ -882,6 +1159,88 @@ CASES = [
     ),
     Case("risk-hours-1e9", "37+", "--hours 1e9 reported after the amplitude Monte Carlo", risk_hours_1e9),
     Case("sensitivity-dt-1e-9", "37+", "sensitivity --dt 1e-9: out-of-memory traceback", sensitivity_dt_1e_9),
+    Case(
+        "merge-tripled-weights",
+        "45.1",
+        "a part whose weights were tripled merged (P_LT x3)",
+        merge_tripled_weights,
+    ),
+    Case("merge-probability-7", "45.1", "a probability of 7 in a part merged", merge_probability_seven),
+    Case("merge-other-jax", "45.1", "a part of another JAX version merged", merge_other_version),
+    Case("kg-datum-without-kg", "45.2", "--kg-datum with --gm ignored without a word", kg_datum_without_kg),
+    Case(
+        "draught-datum-without-draught",
+        "45.2",
+        "--draught-datum with --displacement ignored",
+        draught_datum_without_draught,
+    ),  # fmt: skip
+    Case("scatter-overflow", "45.3", "counts 1e308 + 1e308: P_LT = 0", scatter_counts_overflow),
+    Case("longterm-speed-1e6", "45.4", "--speed 1e6 m/s: P = 0", longterm_speed_1e6),
+    Case(
+        "longterm-hours-beyond-year", "45.4", "--hours 10000 > --hours-per-year", longterm_hours_beyond_year
+    ),
+    Case("longterm-hours-per-year-1e9", "45.4", "--hours-per-year 1e9 accepted", longterm_hours_per_year_1e9),
+    Case(
+        "records-time-in-ms", "45.4", "a time column in ms labelled s (0.02 Hz) accepted", records_time_in_ms
+    ),
+    Case("records-unit-twice", "45.4", "a unit given twice for one column: the last won", records_unit_twice),
+    Case("cad-box-symmetric", "45.5", "a 12-triangle box refused as asymmetric", cad_box_symmetric),
+    Case("longterm-seed-1e14", "45.6", "--seed 1e14: OverflowError", longterm_seed_1e14),
+    Case("merge-missing-variable", "45.6", "a part lacking a variable: KeyError", merge_missing_variable),
+    Case("merge-deep-config", "45.6", "config_json 5000 deep: RecursionError", merge_deep_config),
+    Case(
+        "longterm-api-types",
+        "45.6",
+        "longterm(scatter=123 / ships='c11' / checkpoint=123)",
+        longterm_api_types,
+    ),
+    Case(
+        "longterm-fifo-checkpoint",
+        "45.7",
+        "a FIFO as a checkpoint unit hung the run",
+        longterm_fifo_checkpoint,
+    ),
+    Case("records-gzip-bomb", "45.8", "a 0.5 MiB .csv.gz of 256 MiB: 5.6 GiB RSS", records_gzip_bomb),
+    Case("longterm-negative-zero", "45.9", "'per year: P = -0'", longterm_no_negative_zero),
+    Case("merge-bad-part-attribute", "45.10", "merge: 'invalid literal for int()'", merge_bad_part_attribute),
+    Case(
+        "checkpoint-on-a-file",
+        "45.10",
+        "--checkpoint a file: 'File exists' without the option",
+        checkpoint_on_a_file,
+    ),  # fmt: skip
+    Case(
+        "out-dangling-symlink",
+        "45.10",
+        "--out a dangling symlink refused after computing",
+        out_dangling_symlink,
+    ),
+    Case(
+        "risk-splitting-superposition",
+        "45.10",
+        "refused after the direct Monte Carlo, naming a function",
+        risk_splitting_superposition,
+    ),  # fmt: skip
+    Case(
+        "scatter-million-cells", "45.10", "1001 x 1000 scatter: error without the file", scatter_million_cells
+    ),
+    Case("risk-command-quoted", "45.11", "risk_command not shell-quoted: ';' ran touch", risk_command_quoted),
+    Case("cache-another-program", "45.12", "a valid entry of another program: exit 2", cache_another_program),
+    Case(
+        "cache-path-a-file", "45.12", "a cache path that is a file: 'others could plant'", cache_path_a_file
+    ),
+    Case(
+        "risk-estimator-direct",
+        "45.17",
+        "risk/longterm estimator names differ",
+        risk_estimator_direct_deprecated,
+    ),
+    Case(
+        "longterm-sigint-near-save",
+        "45.20",
+        "a SIGINT near a unit save lost (1 in 15)",
+        _longterm_with_sigint,
+    ),
     Case(
         "sensitivity-superposition-hs",
         "37+",

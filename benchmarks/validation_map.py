@@ -207,9 +207,16 @@ def allowance(summary, reference, method="passage"):
             for e in summary.get(method, {}).get("entries", []):
                 ref = reference[e["cell"]]
                 events = ref["exceedances"][f"{e['exposure_h']:g}"][f"{e['angle_deg']:g}"]
-                if lo <= ref["t01"] < hi and ulo <= ref["speed"] < uhi and events >= MIN_EVENTS and e["ratio"] > 0:
+                if (
+                    lo <= ref["t01"] < hi
+                    and ulo <= ref["speed"] < uhi
+                    and events >= MIN_EVENTS
+                    and e["ratio"] > 0
+                ):
                     ratios.append(e["ratio"])
-            out[(si, ti)] = (max(1.0, max(ratios)), max(1.0, 1 / min(ratios)), len(ratios)) if ratios else None
+            out[(si, ti)] = (
+                (max(1.0, max(ratios)), max(1.0, 1 / min(ratios)), len(ratios)) if ratios else None
+            )
     return out
 
 
@@ -287,7 +294,9 @@ def main(argv=None):
     parser.add_argument("--reference", default=REFERENCE)
     parser.add_argument("--json", default=OUT_JSON)
     parser.add_argument("--figure", default=FIGURE)
-    parser.add_argument("--from-json", default=None, help="summarise and draw stored results (comma-separated files: merged)")
+    parser.add_argument(
+        "--from-json", default=None, help="summarise and draw stored results (comma-separated files: merged)"
+    )
     parser.add_argument("--cells", default=None, help="comma-separated cell keys (default: every live cell)")
     args = parser.parse_args(argv)
     with open(args.reference) as f:

@@ -18,7 +18,8 @@ class that is kept by a key (as it pickles: `MomentEquations`, by its tables' ke
 pickles in another way of its own is not stored.
 
 `read_entry` treats anything unreadable as a miss (returns None, no message): a missing, truncated or corrupt file,
-another format, key or version, a digest that does not match, a file not owned by the user or writable by others.
+another format, key or version, a digest that does not match, a file not owned by the user or writable by others,
+anything but a regular file (a FIFO there hung the command, issue 45).
 
 `unsafe_reason(folder)` says why a cache folder must not be used: it, or a folder above it, can be written by
 another user (group- or world-writable without the sticky bit, or owned by someone other than the user or root),
@@ -41,6 +42,8 @@ import sys
 from pathlib import Path
 
 import numpy as np
+
+from ._atomic import read_regular
 
 FORMAT = "jaxroll-cache 2"
 _TRUSTED = (
@@ -81,6 +84,34 @@ def unsafe_reason(folder: str) -> str | None:
         if st.st_mode & (stat.S_IWGRP | stat.S_IWOTH) and not (i > 0 and st.st_mode & stat.S_ISVTX):
             who = "every user" if st.st_mode & stat.S_IWOTH else "its group"
             return f"{d} is writable by {who} (mode {stat.S_IMODE(st.st_mode):o})"
+    return None
+
+
+@functools.lru_cache(maxsize=16)
+def unusable_reason(folder: str) -> str | None:
+    """Why `folder` cannot hold a cache at all (None: it can): it cannot be created (a file stands there or above
+    it, a read-only file system, a permission), or no file can be written in it. The real reason, from the
+    operating system (a file in its place was reported as a folder others could write to, issue 45)."""
+    import errno
+    import tempfile
+
+    try:
+        os.makedirs(folder, mode=0o700, exist_ok=True)
+    except FileExistsError:
+        return f"{folder} is a file, not a folder"
+    except NotADirectoryError:
+        return f"a file stands where a folder above {folder} should be"
+    except OSError as e:
+        return f"it cannot be created ({e.strerror or e})"
+    if not os.path.isdir(folder):
+        return f"{folder} is a file, not a folder"
+    try:
+        fd, probe = tempfile.mkstemp(dir=folder, prefix=".jaxroll-probe-")
+        os.close(fd)
+        os.unlink(probe)
+    except OSError as e:
+        why = "it is on a read-only file system" if e.errno == errno.EROFS else (e.strerror or str(e))
+        return f"no file can be written in it ({why})"
     return None
 
 
@@ -141,13 +172,12 @@ def read_entry(path: Path, key: str) -> dict[str, np.ndarray] | None:
     """The members of the entry at `path`, or None (a miss) where it is missing, unreadable, corrupt, of another
     format, key or version, does not match its digest, or could have been written by someone else."""
     try:
-        with open(path, "rb") as f:
-            st = os.fstat(f.fileno())
-            if os.name == "posix" and (
-                st.st_uid != os.geteuid() or st.st_mode & (stat.S_IWGRP | stat.S_IWOTH)
-            ):
-                return None
-            data = f.read()
+        st = os.stat(path)
+        if os.name == "posix" and (st.st_uid != os.geteuid() or st.st_mode & (stat.S_IWGRP | stat.S_IWOTH)):
+            return None
+        data = read_regular(path)  # a regular file only (a FIFO would hang the command)
+        if os.name == "posix" and os.stat(path).st_ino != st.st_ino:
+            return None  # replaced between the checks and the reading
         with np.load(io.BytesIO(data), allow_pickle=False) as npz:
             members = {name: npz[name] for name in npz.files}
         meta = json.loads(member_text(members.pop("__meta__")))

@@ -72,6 +72,15 @@ def enable_compilation_cache(path: str | os.PathLike | None = None) -> pathlib.P
         )
     if not str(path):
         return None
+    problem = files.unusable_reason(os.path.abspath(path))
+    if problem is not None:  # nothing can be kept there: say why (not a matter of who else could write)
+        warnings.warn(
+            f"the compilation cache {str(path)!r} is not used: {problem}. Every program is compiled afresh "
+            "(slower). Set JAXROLL_CACHE_DIR to a folder you can write (or to an empty string to leave the "
+            "cache off).",
+            stacklevel=2,
+        )
+        return None
     reason = files.unsafe_reason(os.path.abspath(path))
     if reason is not None:  # JAX would load compiled code that someone else may have put there
         warnings.warn(
@@ -104,13 +113,17 @@ def cache_subfolder(name: str) -> pathlib.Path | None:
     if not base:
         return None
     folder = os.path.join(os.path.abspath(base), name)
-    reason = files.unsafe_reason(folder)
-    if reason is None:
+    problem = files.unusable_reason(folder)
+    reason = None if problem else files.unsafe_reason(folder)
+    if problem is None and reason is None:
         return pathlib.Path(folder)
     if base not in _REFUSED:  # said once for the folder
         _REFUSED.add(base)
         warnings.warn(
-            f"jaxroll keeps no programs or tables in {base!r}: {reason}, so others could plant files "
+            f"jaxroll keeps no programs or tables in {base!r}: {problem}. Use a compilation cache you can write "
+            "(JAXROLL_CACHE_DIR, jaxroll.enable_compilation_cache)."
+            if problem
+            else f"jaxroll keeps no programs or tables in {base!r}: {reason}, so others could plant files "
             "there. Use a compilation cache only you can write (JAXROLL_CACHE_DIR, "
             "jaxroll.enable_compilation_cache).",
             stacklevel=3,
@@ -238,6 +251,7 @@ class _Stored:
 
     def __init__(self, exported: Callable, box: dict):
         self.exported, self.box, self.compiled = exported, box, None
+        self.from_disk = False  # read from the cache (not exported by this process)
 
     @property
     def skeleton(self):
@@ -324,7 +338,17 @@ def cached_program(fn: Callable | None = None, *, compiler_options: dict | None 
                     else _load_or_export(d / f"{key}.npz", key, fn, leaves, in_tree, static)
                 )
             if stored is not None and compile and stored.compiled is None:
-                stored.compiled = _compiled(stored.exported, leaves, options)
+                try:
+                    stored.compiled = _compiled(stored.exported, leaves, options)
+                except Exception:
+                    if not stored.from_disk:
+                        raise
+                    # a stored program that does not compile for these arguments: a miss, exported afresh
+                    stored = _LOADED[key] = _export_and_store(
+                        d / f"{key}.npz", key, fn, leaves, in_tree, static
+                    )
+                    if stored is not None:
+                        stored.compiled = _compiled(stored.exported, leaves, options)
         return None if stored is None else (stored, leaves)
 
     @functools.wraps(fn)
@@ -487,9 +511,21 @@ def _load_or_export(path: pathlib.Path, key: str, fn, leaves, in_tree, static) -
             exported = jax.export.deserialize(bytearray(members["exported"].tobytes()))
             if sorted(slots) != list(range(len(exported.out_avals))):
                 raise ValueError("the skeleton does not match the program's outputs")
-            return _Stored(exported.call, {"skeleton": skeleton})
+            # another program under this key (its digest recomputed) is a miss, not an error at the call (issue 45)
+            if [(tuple(a.shape), np.dtype(a.dtype)) for a in exported.in_avals] != [
+                (tuple(x.shape), np.dtype(x.dtype)) for x in leaves
+            ]:
+                raise ValueError("the program takes other arguments")
+            stored = _Stored(exported.call, {"skeleton": skeleton})
+            stored.from_disk = True
+            return stored
         except Exception:  # not what jaxroll writes: export afresh and overwrite it
             pass
+    return _export_and_store(path, key, fn, leaves, in_tree, static)
+
+
+def _export_and_store(path: pathlib.Path, key: str, fn, leaves, in_tree, static) -> _Stored | None:
+    """The program exported now and stored at `path` (None, stored as such, where it cannot be exported)."""
     flat, box = _flat(fn, in_tree, static)
     try:
         exp = _export(flat, leaves)

@@ -90,6 +90,28 @@ def box(length=100.0, breadth=20.0, depth=10.0, *, ns=11, nr=3) -> np.ndarray:
     return ring_mesh(x, np.tile(Y, (ns, 1)), np.tile(Z, (ns, 1)))
 
 
+def cad_box(length=120.0, breadth=20.0, depth=12.0) -> np.ndarray:
+    """A box L × B × D as the simplest CAD export writes it: 12 triangles, each face split by one diagonal (the
+    same corner on every face), outward normals. Its diagonals pass through station × waterline points of a regular
+    sampling grid wherever L/D is a ratio of small integers (issue 45)."""
+    corner = np.array([[i, j, k] for i in (0, 1) for j in (0, 1) for k in (0, 1)], float)
+    v = corner * [length, breadth, depth] - [0.0, breadth / 2, 0.0]
+    at = lambda i, j, k: 4 * i + 2 * j + k  # noqa: E731
+    quads = [
+        (at(0, 0, 0), at(0, 1, 0), at(0, 1, 1), at(0, 0, 1)),
+        (at(1, 0, 0), at(1, 0, 1), at(1, 1, 1), at(1, 1, 0)),
+        (at(0, 0, 0), at(0, 0, 1), at(1, 0, 1), at(1, 0, 0)),
+        (at(0, 1, 0), at(1, 1, 0), at(1, 1, 1), at(0, 1, 1)),
+        (at(0, 0, 0), at(1, 0, 0), at(1, 1, 0), at(0, 1, 0)),
+        (at(0, 0, 1), at(0, 1, 1), at(1, 1, 1), at(1, 0, 1)),
+    ]
+    tri = v[np.array([t for a, b, c, d in quads for t in ((a, b, c), (a, c, d))])]
+    normal = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    inward = np.einsum("ij,ij->i", tri.mean(axis=1) - v.mean(axis=0), normal) < 0
+    tri[inward] = tri[inward][:, ::-1]
+    return tri
+
+
 def wigley(length=100.0, breadth=10.0, draught=6.25, depth=10.0, *, ns=81, nr=33) -> np.ndarray:
     """The Wigley hull y = (B/2)(1 − (2x'/L)²)(1 − (z'/T)²) (x' from amidships, z' below the waterline), wall-sided
     from the waterline to the deck, closed at the ends by a 5 mm wide stem (the ring mesh's minimum breadth)."""

@@ -131,7 +131,8 @@ def test_ship_show_warns_on_a_vanishing_angle_of_two_degrees(tmp_path, capsys):
     )
     err = capsys.readouterr().err
     assert (
-        "jaxroll ship: warning: ship 'C11 (representative)': the angle of vanishing stability is 2.09°" in err
+        "jaxroll ship show: warning: ship 'C11 (representative)': the angle of vanishing stability is 2.09°"
+        in err
     )
 
 

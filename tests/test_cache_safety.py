@@ -290,3 +290,96 @@ def test_a_cache_folder_others_can_write_is_refused(tmp_path, monkeypatch):
     finally:
         jax.config.update("jax_compilation_cache_dir", before)
         files.unsafe_reason.cache_clear()
+
+
+def _returns_within(seconds, call):
+    """`call()`'s result, or a failure where it has not returned within `seconds` (a FIFO hangs an `open`)."""
+    import threading
+
+    box = {}
+
+    def run():
+        try:
+            box["out"] = call()
+        except Exception as e:  # re-raised in the test's thread
+            box["error"] = e
+
+    t = threading.Thread(target=run, daemon=True)
+    t.start()
+    t.join(seconds)
+    assert not t.is_alive(), f"{call} did not return within {seconds} s (a FIFO read as a file?)"
+    if "error" in box:
+        raise box["error"]
+    return box["out"]
+
+
+def test_a_fifo_in_place_of_an_entry_or_a_checkpoint_is_a_miss_not_a_hang(store, tmp_path):
+    """Issue 45 item 7: a FIFO planted as a program-cache entry or a Monte Carlo checkpoint hung the command (killed
+    after 120 s): only regular files are read."""
+    from jaxroll.roll._sharding import _load_checkpoint
+
+    params, x = _Params(jnp.asarray(3.0), "fifo"), jnp.arange(4.0)
+    ref = np.asarray(_program(params, x, 1)["y"])
+    (path,) = (store / "jaxroll-programs").glob("*.npz")
+    path.unlink()
+    os.mkfifo(path, 0o600)
+    assert _returns_within(10, lambda: files.read_entry(path, path.stem)) is None
+    _compiled._LOADED.clear()
+    np.testing.assert_array_equal(_returns_within(30, lambda: _program(params, x, 1)["y"]), ref)
+    assert path.is_file() and files.read_entry(path, path.stem) is not None  # stored again over the FIFO
+    fifo = tmp_path / "checkpoint.npz"
+    os.mkfifo(fifo)
+    with pytest.raises(ValueError, match=r"checkpoint .*checkpoint\.npz is not a regular file \(a FIFO"):
+        _returns_within(10, lambda: _load_checkpoint(fifo, {}))
+
+
+def test_another_program_under_a_valid_digest_is_a_miss(store):
+    """Issue 45 item 12: an entry whose digest was recomputed over another program (other arguments) ended the
+    command in exit 2 with JAX's "args is a tuple of length … when exported"; it is a miss, exported again."""
+
+    @_compiled.cached_program
+    def three(a, b, c):
+        return a + b + c
+
+    params, x = _Params(jnp.asarray(3.0), "swap"), jnp.arange(4.0)
+    ref = np.asarray(_program(params, x, 1)["y"])
+    three(jnp.asarray(1.0), jnp.asarray(2.0), jnp.arange(3.0))
+    entries = sorted((store / "jaxroll-programs").glob("*.npz"), key=lambda p: p.stat().st_mtime_ns)
+    mine, theirs = entries
+    mine.write_bytes(files.entry_bytes(mine.stem, files.read_entry(theirs, theirs.stem)))
+    mine.chmod(0o600)
+    assert files.read_entry(mine, mine.stem) is not None  # a valid entry, of another program
+    _compiled._LOADED.clear()
+    np.testing.assert_array_equal(_program(params, x, 1)["y"], ref)
+
+
+def test_a_cache_path_that_cannot_be_used_warns_with_the_real_reason(tmp_path, monkeypatch):
+    """Issue 45 item 12: a cache path that is a file (or on a read-only file system) warned "…, so others could
+    plant compiled code there"; the warning now gives the reason from the operating system."""
+    import errno
+    import tempfile
+
+    before = jax.config.jax_compilation_cache_dir
+    afile = tmp_path / "afile"
+    afile.write_text("")
+    files.unusable_reason.cache_clear()
+    try:
+        with pytest.warns(
+            UserWarning, match=r"is not used: .*afile is a file, not a folder\. Every program"
+        ) as w:
+            assert jaxroll.enable_compilation_cache(afile) is None
+        assert "others could plant" not in str(w[0].message)
+        with pytest.warns(UserWarning, match=r"a file stands where a folder above .*afile/xla should be"):
+            assert jaxroll.enable_compilation_cache(afile / "xla") is None
+
+        def read_only(*args, **kwargs):
+            raise OSError(errno.EROFS, "Read-only file system")
+
+        monkeypatch.setattr(tempfile, "mkstemp", read_only)
+        with pytest.warns(
+            UserWarning, match=r"no file can be written in it \(it is on a read-only file system\)"
+        ):
+            assert jaxroll.enable_compilation_cache(tmp_path / "ro") is None
+        assert jax.config.jax_compilation_cache_dir == before
+    finally:
+        files.unusable_reason.cache_clear()

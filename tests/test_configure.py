@@ -215,6 +215,8 @@ ENTRY_POINTS = {
     ),
     "jaxroll.fit_filter": lambda i: jaxroll.fit_filter(i["problem"].wave),
     "jaxroll.hull_hydrostatics": lambda i: jaxroll.hull_hydrostatics(jaxroll.c11_hull(), None),
+    # issue 45: was refused by a private function's name (jaxroll.ship._restoring._vanishing_angle)
+    "jaxroll.longterm": lambda i: jaxroll.longterm(),
 }
 
 

@@ -548,7 +548,7 @@ def test_cli_import_option_errors(tmp_path, capsys, extra, message):
     ]
     assert main(argv) == 2
     err = capsys.readouterr().err
-    assert err.startswith("jaxroll records: error: ") and message in err
+    assert err.startswith("jaxroll records import: error: ") and message in err  # issue 45
     assert not (tmp_path / "o").exists()
 
 

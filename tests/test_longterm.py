@@ -6,6 +6,7 @@ brute-force Monte Carlo, parts, processes and checkpoints bit for bit, bad input
 import json
 import math
 import os
+import re
 import socket
 import subprocess
 import sys
@@ -109,6 +110,8 @@ BAD_SCATTER = [
     ("hs_m,2.5\n6.5,1\n", ":2: H_s = 6.5 m with T_z = 2.5 s has a count"),
     ("hs_m,8.5\n-1,1\n", ":2: H_s = -1 m is outside"),
     ("", "no data"),
+    # issue 45 item 3: counts that overflow when summed gave P_LT = 0 with only a NumPy warning
+    ("hs_m,8.5,9.5\n4.5,1e308,1e308\n", "the counts sum to more than the largest number"),
 ]
 
 
@@ -146,6 +149,11 @@ BAD_OPTIONS = [
     (["--model-factor", "0.5"], "--model-factor must be >= 1"),
     (["--skip-weight", "1"], "--skip-weight must be in [0, 1)"),
     (["--refine-delta", "-0.1"], "--refine-delta must be in [0, 1)"),
+    # issue 45 items 4 and 6: absurd values that were accepted (P = 0) or ended in a traceback
+    (["--speed", "1e6"], "--speed: U = 1e+06 m/s is a Froude number of 1.97e+04 for C11 (representative)"),
+    (["--hours", "10000"], "--hours (10000 h) is longer than the 8766 h at sea per year (--hours-per-year)"),
+    (["--hours-per-year", "1e9"], "--hours-per-year must be at most 8766 h"),
+    (["--seed", str(10**14)], "--seed must be an integer in [0, 999999999999]"),
 ]
 
 
@@ -161,6 +169,79 @@ def test_bad_options_exit_2_before_any_computation(argv, message, tmp_path, caps
 # ----------------------------------------------------------------------------------------------------------
 # Cells, weights, the long-term integral
 # ----------------------------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    "kwargs, message",
+    [
+        (
+            dict(scatter=123),
+            r"`scatter` must be 'rec34', the path of a scatter CSV file or a ScatterDiagram; got 123",
+        ),
+        (dict(ships="c11"), r"`ships` must be a Ship or a sequence of Ships .*got 'c11' \(str\)"),
+        (dict(checkpoint=123), r"`checkpoint` must be the path of a folder \(or None\); got 123 \(int\)"),
+        (dict(seed=10**14), r"`seed` must be an integer in \[0, 999999999999\]"),
+        (dict(seed=1.5), r"`seed` must be an integer; got 1\.5 \(float\)"),
+        (dict(exposure="3h"), r"`exposure` must be a number; got '3h' \(str\)"),
+        (dict(speeds=[1e6]), r"`speeds`: U = 1e\+06 m/s is a Froude number"),
+        (
+            dict(exposure=1e4 * 3600.0, hours_per_year=5000.0),
+            r"`exposure` \(10000 h\) is longer than the 5000 h",
+        ),
+        (dict(hours_per_year=1e9), r"`hours_per_year` must be at most 8766 h"),
+        (dict(heading_weights=[1e308, 1e308], headings=[math.pi, 0.0], speeds=[3e6]), r"Froude"),
+    ],
+)
+def test_api_refuses_bad_arguments_with_a_message(kwargs, message):
+    """Issue 45 item 6: raw TypeError/AttributeError/OverflowError before; one ValueError naming the argument."""
+    kwargs = {"scatter": SMALL_SCATTER, **kwargs}
+    with pytest.raises(ValueError, match=message):
+        jxr.longterm(**kwargs)
+
+
+SMALL_SCATTER = parse_scatter(SMALL, "small.csv")
+CALM = "hs_m,8.5,9.5\n0.5,1,1\n1.0,1,1\n"  # no cell rolls: every probability is 0 exactly (λ <= 0)
+
+
+def test_numpy_numbers_are_accepted_and_no_negative_zero_is_written(tmp_path, capsys):
+    """Issue 45 items 6 and 9: NumPy integers and floats were refused as seeds and exposures; "per year: P = -0"
+    was printed (and -0.0 written) where nothing is exceeded. Weights of 1e308 (whose sum overflows) normalise."""
+    calm = parse_scatter(CALM, "calm.csv")
+    ds = jxr.longterm(
+        calm,
+        headings=[math.pi, math.radians(150.0)],
+        heading_weights=[1e308, 1e308],
+        seed=np.int64(3),
+        exposure=np.float32(1800.0),
+        realizations=np.int32(10),
+        hours_per_year=np.float64(5000.0),
+        angles=ANGLES,
+    )
+    assert (ds.seed.values // 1_000_000 == 3).all() and float(ds.exposures_per_year) == 5000.0 * 2
+    np.testing.assert_array_equal(np.unique(ds.weight.sum(("hs", "tz", "speed", "ship")).values), [0.5])
+    for v in ds.data_vars.values():
+        if v.dtype.kind == "f":
+            assert not np.signbit(v.values[v.values == 0]).any(), v.name
+    assert float(ds.longterm_per_year_probability[0]) == 0.0
+    path = tmp_path / "calm.csv"
+    path.write_text(CALM)
+    out = tmp_path / "out"
+    argv = [
+        "longterm",
+        "--scatter",
+        str(path),
+        "--heading",
+        "180",
+        "--angle",
+        "25",
+        "--quiet",
+        "--out",
+        str(out),
+    ]
+    assert main(argv) == 0
+    text = capsys.readouterr().out
+    assert "per year: P = 0," in text and "-0" not in text
+    assert not re.search(r"-0\.0\b(?!\d)|-0[,\n]", (out / "longterm.json").read_text())
 
 
 def test_weights_classes_and_seeds():
@@ -578,6 +659,93 @@ def test_cli_parts_merge_and_outputs(small_csv, tmp_path, capsys):
     assert "each part 1/2 … 2/2 exactly once" in capsys.readouterr().err
 
 
+@pytest.fixture(scope="module")
+def calm_parts(tmp_path_factory):
+    """Two parts of a cheap run (a calm scatter: every theory cell is 0 exactly), written and read back."""
+    folder = tmp_path_factory.mktemp("calm_parts")
+    kw = dict(headings=[math.pi, math.radians(150.0)], angles=ANGLES, exposure=1800.0, hours_per_year=5000.0)
+    calm = parse_scatter(CALM, "calm.csv")
+    return [_roundtrip(jxr.longterm(calm, part=f"{i}/2", **kw), folder / f"p{i}.nc") for i in (1, 2)]
+
+
+def _edited(ds, edit, *, redigest=False):
+    from jaxroll.longterm._dataset import part_digest
+
+    ds = edit(ds.copy(deep=True))
+    if redigest:  # as someone who recomputes the digest would: the range checks behind it
+        ds.attrs["part_sha256"] = part_digest(ds)
+    return ds
+
+
+def _tripled(ds):
+    ds["weight"] = ds.weight * 3
+    return ds
+
+
+def _set(var, value):
+    def edit(ds):
+        ds[var] = ds[var].where(~ds.computed, value)
+        return ds
+
+    return edit
+
+
+def _attr(key, value):
+    def edit(ds):
+        ds.attrs[key] = value
+        return ds
+
+    return edit
+
+
+MERGE_REFUSALS = [
+    (_tripled, False, r"part 1/2\) was changed since jaxroll wrote it .*part_sha256"),
+    (_set("probability", 7.0), False, r"was changed since jaxroll wrote it"),
+    (_tripled, True, r"its cell weights do not sum to 1"),
+    (_set("probability", 7.0), True, r"probability holds values outside \[0, 1\]"),
+    (_set("capsize_probability", np.nan), True, r"a cell it computed has no probability \(NaN\)"),
+    (
+        _attr("jaxroll_version", "0.0.1"),
+        True,
+        r"written by another jaxroll or JAX \(jaxroll_version 0\.0\.1 \(this",
+    ),
+    (_attr("jax_version", "0.4.0"), True, r"written by another jaxroll or JAX \(jax_version 0\.4\.0"),
+    (lambda ds: ds.drop_vars("seed"), False, r"lacks the variables seed: rerun that part"),
+    (_attr("config_json", "[" * 5000 + "]" * 5000), False, r"its config_json attribute is not the JSON"),
+    (_attr("part", "one/2"), False, r"its part attribute 'one/2' is not i/N"),
+]
+
+
+@pytest.mark.parametrize("edit, redigest, message", MERGE_REFUSALS)
+def test_merge_refuses_edited_foreign_or_broken_parts(calm_parts, edit, redigest, message, tmp_path, capsys):
+    """Issue 45 items 1, 6 and 10: a part whose weights were tripled merged into 3 × P_LT; other versions, NaN and
+    7 as probabilities, a missing variable (KeyError), a config_json 5000 deep (RecursionError) and a bad part
+    attribute ("invalid literal for int()") merged without a word or ended in a traceback."""
+    bad = _edited(calm_parts[0], edit, redigest=redigest)
+    with pytest.raises(ValueError, match=message):
+        jxr.merge_longterm([bad, calm_parts[1]])
+    path = tmp_path / "bad.nc"
+    write_dataset(path, bad)
+    other = tmp_path / "p2.nc"
+    write_dataset(other, calm_parts[1])
+    assert main(["merge", str(path), str(other), "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"jaxroll merge: error: {path}") and re.search(message, err), err
+    assert not (tmp_path / "out").exists()
+
+
+def test_merged_parts_are_the_one_run(calm_parts, capsys):
+    merged = jxr.merge_longterm(calm_parts)
+    assert "part" not in merged.attrs and "part_sha256" not in merged.attrs
+    assert calm_parts[0].attrs["part_sha256"] != calm_parts[1].attrs["part_sha256"]
+    kw = dict(headings=[math.pi, math.radians(150.0)], angles=ANGLES, exposure=1800.0, hours_per_year=5000.0)
+    _assert_same(merged, jxr.longterm(parse_scatter(CALM, "calm.csv"), **kw))
+    with pytest.raises(SystemExit):
+        main(["merge", "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    assert "bit for bit the same longterm.nc" not in text and "not the same bytes" in text
+
+
 def _free_port() -> int:
     with socket.socket() as s:
         s.bind(("localhost", 0))
@@ -683,3 +851,84 @@ def test_notebook_runs_in_smoke_mode(tmp_path, monkeypatch):
 
     ns = run_notebook("07_longterm.ipynb", tmp_path, monkeypatch)
     assert "ds" in ns and float(ns["ds"].longterm_probability[0]) > 0
+
+
+def test_a_fifo_in_place_of_a_unit_checkpoint_is_recomputed_not_a_hang(tmp_path):
+    """Issue 45 item 7: a FIFO in place of a long-term unit's checkpoint hung the run (killed after 120 s)."""
+    import threading
+
+    kw = dict(headings=[math.pi], angles=ANGLES, exposure=1800.0, hours_per_year=5000.0, checkpoint=tmp_path)
+    calm = parse_scatter(CALM, "calm.csv")
+    ref = jxr.longterm(calm, **kw)
+    (unit,) = tmp_path.glob("theory_*.npz")
+    unit.unlink()
+    os.mkfifo(unit)
+    box = {}
+
+    def run():
+        with pytest.warns(UserWarning, match=r"theory_.*\.npz is not a regular file \(a FIFO"):
+            box["ds"] = jxr.longterm(calm, **kw)
+
+    t = threading.Thread(target=run, daemon=True)
+    t.start()
+    t.join(60)
+    assert not t.is_alive() and "ds" in box
+    _assert_same(box["ds"], ref)
+    assert unit.is_file()  # saved again over the FIFO
+
+
+def test_the_recorded_risk_command_is_shell_quoted(calm_parts, tmp_path):
+    """Issue 45 item 11: a ship path with a space and ';' became a command line that ran `touch …` when pasted."""
+    import shlex
+
+    ds = jxr.merge_longterm(calm_parts)
+    cfg = json.loads(ds.attrs["config_json"])
+    evil = str(tmp_path / "my ship;touch PWNED;.toml")
+    cfg["ships"][0]["file"] = evil
+    ds.attrs["config_json"] = json.dumps(cfg)
+    from jaxroll.longterm import risk_command
+
+    command = risk_command(ds, dict(hs=0, tz=0, heading=0, speed=0, ship=0))
+    words = shlex.split(command)
+    assert words[:2] == ["jaxroll", "risk"] and words[-2:] == ["--ship", evil]
+    assert words[words.index("--seed") + 1] == str(int(ds.seed.values[0, 0, 0, 0, 0]) - 1)
+    subprocess.run(["bash", "-c", "true" + command.removeprefix("jaxroll")], cwd=tmp_path, check=True)
+    assert not (tmp_path / "PWNED").exists()
+
+
+def test_figures_draw_every_angle_with_labelled_axes(calm_parts):
+    """Issue 45 item 19: only the first --angle was drawn; the theory-only interval figure was one bar with no x
+    axis; the scatter chart's colour bars had no label (its cell labels ~5 px high)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from jaxroll.plotting import longterm_ci_figure, longterm_polar_figure, longterm_scatter_figure
+
+    ds = jxr.merge_longterm(calm_parts)  # two angles
+    fig = longterm_scatter_figure(ds)
+    panels = [ax for ax in fig.axes if ax.get_visible() and ax.get_label() != "<colorbar>"]
+    assert len(panels) == 3 and "25°" in panels[1].get_title() and "35°" in panels[2].get_title()
+    bars = [ax for ax in fig.axes if ax.get_label() == "<colorbar>"]
+    assert [ax.get_ylabel() for ax in bars] == [
+        "occurrence [%]",
+        "share of P_LT at 25° [%]",
+        "share of P_LT at 35° [%]",
+    ]
+    assert all(t.get_fontsize() >= 6.5 for ax in panels for t in ax.texts)
+    plt.close(fig)
+    fig = longterm_polar_figure(ds)
+    polar = [ax for ax in fig.axes if ax.name == "polar" and ax.get_visible()]
+    labels = [ax.get_xlabel() for ax in fig.axes if ax.get_label() == "<colorbar>"]
+    assert len(polar) == 3 and [x.split("\n")[0] for x in labels] == [
+        "P(max |φ| > 25° within 0.5 h)", "P(max |φ| > 35° within 0.5 h)", "P(capsize within 0.5 h)"
+    ]  # fmt: skip
+    plt.close(fig)
+    fig = longterm_ci_figure(ds)
+    (ax,) = fig.axes
+    assert ax.get_xlabel() == "roll angle [deg]" and [t.get_text() for t in ax.get_xticklabels()] == [
+        "25°",
+        "35°",
+    ]
+    plt.close(fig)

@@ -408,6 +408,31 @@ def test_asymmetric_and_skewed_hulls_are_refused_with_the_measured_asymmetry(tmp
         read(io.write_stl(tmp_path / "skew.stl", skew))
 
 
+@pytest.mark.parametrize(
+    "dims", [(120.0, 20.0, 12.0), (100.0, 10.0, 8.0), (200.0, 40.0, 20.0), (262.0, 40.0, 24.45)]
+)
+def test_a_twelve_triangle_box_is_symmetric_where_the_sampling_grid_meets_its_diagonals(tmp_path, dims):
+    """Issue 45 item 5: a box of 12 triangles (one diagonal per face, the simplest CAD export) whose diagonals pass
+    through station × waterline points of the symmetry check's grid (120 × 12: z = x/10 meets x = 12, z = 1.2) was
+    refused as asymmetric ("port 0 m"): the two triangles' cut points differ in the last bits and the point fell
+    between them. A point on an edge or vertex counts."""
+    import hull_meshes as hm
+
+    tri = hm.cad_box(*dims)
+    assert tri.shape == (12, 3, 3)
+    sym = io._mesh_geometry.symmetry_defect(tri)
+    assert sym["max_difference"] == 0.0 and sym["section_offset"] == 0.0
+    # every station × waterline of the grid has the box's half-breadth on both sides (edges and vertices counted)
+    lo, hi = tri.reshape(-1, 3).min(axis=0), tri.reshape(-1, 3).max(axis=0)
+    st, wl = np.linspace(lo[0], hi[0], 41), np.linspace(lo[2], hi[2], 41)
+    for side in (1, -1):
+        np.testing.assert_allclose(
+            io._mesh_geometry.slice_offsets(tri, st, wl, side=side), dims[1] / 2, rtol=1e-12
+        )
+    hull = io.read_stl_hull(io.write_stl(tmp_path / "box.stl", tri), lpp=dims[0], x_ap=0.0)
+    assert float(hull.lpp) == pytest.approx(dims[0])
+
+
 def test_inconsistent_normals_refused_then_fixed_and_inverted_meshes_accepted(tmp_path):
     tri = box_triangles()
     bad = tri.copy()
@@ -623,6 +648,12 @@ def test_cli_datum_options_contradicting_the_hull_exit_2_before_computing(tmp_pa
         (["sgisc", *base, "--kg", "6", "--draught", "5", "--full-load-draught", "12", "--draught-datum", "keel",
           "--speed-kn", "10", "--skip-c2"], r"--full-load-draught 12 m from the keel line \(file z = 0 m\) is d = 12 m"),
         (["hydrostatics", "c11", "--kg-datum", "keel"], r"--kg-datum apply to STL, GDF and CSV hull files only"),
+        # issue 45 item 2: a datum whose height is not given was ignored without a word
+        (["hydrostatics", *base, "--gm", "2", "--kg-datum", "keel", "--draught", "5"],
+         r"--kg-datum \(it applies to --kg, and no --kg was given: KG comes from --gm .*\) would be ignored"),
+        (["hydrostatics", *base, "--kg", "6", "--displacement", "5e6", "--draught-datum", "keel"],
+         r"--draught-datum \(it applies to --draught, and no --draught was given: the loading comes from "
+         r"--displacement .*\) would be ignored"),
         # a hull file in millimetres read as metres (--units m, the default): L = 100 000 m, refused with the unit
         (["hydrostatics", str(io.write_stl(tmp_path / "mm.stl", box_triangles() * 1000)), "--kg", "6", "--draught",
           "5", "--roll-period", "10"], r"mm\.stl \(length overall\): .*in mm it would be 100 m.*--units mm"),

@@ -410,3 +410,66 @@ def test_issue13_bom_accepted_and_degrees_labelled_rad_refused(tmp_path):
     deg += [f"{k * 0.1:.4f},{20 * math.cos(0.3 * k):.4f}" for k in range(40)]
     with pytest.raises(RecordError, match="probably in degrees"):
         load_record(write(tmp_path, deg, "deg.csv"))
+
+
+# ------------------------------------------------------------------------------------------------------------
+# Issue 45: sizes, sampling rates and units that were accepted or exhausted the memory
+# ------------------------------------------------------------------------------------------------------------
+
+
+def test_a_gzip_bomb_or_a_huge_file_is_refused_after_reading_at_most_the_limit(tmp_path, monkeypatch, capsys):
+    """Issue 45 item 8: a 1 MiB .csv.gz expanding to 256 MiB took 5.6 GiB (MemoryError), a 2 GiB sparse file
+    2.2 GiB before its refusal. Text is read up to `MAX_TEXT_BYTES` (24 MiB; 64 KiB here) and refused beyond."""
+    from jaxroll._cli import main
+    from jaxroll.io import _records
+
+    monkeypatch.setattr(_records, "MAX_TEXT_BYTES", 64 * 1024)
+    bomb = tmp_path / "bomb.csv.gz"
+    bomb.write_bytes(gzip.compress("\n".join(good("roll")).encode() + b"\n0.1,1.0,2.0" * 100_000, 9))
+    assert bomb.stat().st_size < 64 * 1024  # small on disk, 1.2 MB of text
+    reads = []
+    real_open = gzip.open
+
+    def counting_open(*args, **kwargs):
+        f = real_open(*args, **kwargs)
+        real_read = f.read
+        f.read = lambda size=-1: reads.append(size) or real_read(size)
+        return f
+
+    monkeypatch.setattr(gzip, "open", counting_open)
+    with pytest.raises(RecordError, match=r"bomb\.csv\.gz: more than 0\.0625 MiB of text once decompressed"):
+        load_record(bomb)
+    assert reads == [64 * 1024 + 1]  # read up to the limit, never the whole
+    sparse = tmp_path / "sparse.csv"
+    with open(sparse, "wb") as f:
+        f.truncate(2**31)  # 2 GiB, sparse: refused by its size before any reading
+    with pytest.raises(
+        RecordError, match=r"sparse\.csv: more than 0\.0625 MiB of text: far more than a tank record"
+    ):
+        load_record(sparse)
+    argv = ["records", "import", str(bomb), "--kind", "roll", "--time", "1", "--roll", "2", "--wave", "3"]
+    argv += ["--scale", "100", "--hs", "7", "--t01", "10", "--probe-x", "0", "--out", str(tmp_path / "o")]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("jaxroll records import: error: ") and "more than 0.0625 MiB" in err  # item 17
+
+
+def test_a_time_column_in_ms_read_as_s_and_a_unit_given_twice_are_refused(tmp_path, capsys):
+    """Issue 45 item 4: a time column in ms labelled s (a "0.02 Hz" record) and a column's unit given twice in
+    --units (the last one won) were accepted."""
+    from jaxroll._cli import main
+
+    lines = [x.replace("sampling_hz: 10", "sampling_hz: 0.02") for x in HEADER["roll"]] + [COLUMNS["roll"]]
+    lines += rows("roll", dt=50.0)
+    with pytest.raises(RecordError, match=r"a sample every 50 s at model scale \(0\.02 Hz; 500 s full scale\): "
+                       r"slower than any roll record .*--units time=ms"):  # fmt: skip
+        load_record(write(tmp_path, lines))
+    lab = write(tmp_path, ["Time [s],Roll [deg],WP1 [mm]"] + rows("roll", n=60, dt=20.0), "lab.csv")
+    base = ["records", "import", str(lab), "--kind", "roll", "--time", "1", "--roll", "2", "--wave", "3"]
+    base += ["--scale", "100", "--hs", "7", "--t01", "10", "--probe-x", "0", "--out", str(tmp_path / "o")]
+    assert main(base) == 2
+    assert "a sample every 20 s at model scale (0.05 Hz" in capsys.readouterr().err
+    assert main([*base, "--units", "roll=deg,roll=rad"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("jaxroll records import: error: --units gives roll twice (deg, rad)")
+    assert not (tmp_path / "o").exists()

@@ -20,6 +20,8 @@ import time
 import warnings
 from collections.abc import Sequence
 
+from .._atomic import clear_interrupt, note_interrupt
+
 # The LAPACK that jaxlib calls on the CPU is SciPy's OpenBLAS, which starts a thread per core; on the small matrices
 # of jaxroll's theories those threads only contend with XLA's own (a warm `jaxroll theory` took 5.8–8 s instead of
 # 3.4–3.7 s on a 2-core machine with another job running; no difference when idle). One thread, unless set.
@@ -71,6 +73,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.command is None:
         parser.print_help()
         return 2
+    for name, value in sorted(
+        vars(args).items()
+    ):  # `jaxroll records import: error: …`, not `jaxroll records: …`
+        if name.endswith("_command") and isinstance(value, str):
+            args.command = f"{args.command} {value}"
     from .. import configure
     from ._common import COMMAND_LINE, WARNINGS
 
@@ -102,7 +109,7 @@ def _run(args) -> int:
     cache is switched on (JAXROLL_CACHE_DIR, default ~/.cache/jaxroll/xla; empty: off; refused, with a warning,
     where others could write to it)."""
     from .. import enable_compilation_cache
-    from ._common import CLIError, os_error_message, prepare_out
+    from ._common import CLIError, check_folder, os_error_message, prepare_out
 
     if (
         signal.getsignal(signal.SIGINT) is _exit_at_once
@@ -114,9 +121,12 @@ def _run(args) -> int:
         _STATE["collector_paused"] = None
         gc.freeze()
         gc.enable()
+    clear_interrupt()
     try:
         if getattr(args, "out", None) is not None:
             prepare_out(args.out)
+        if getattr(args, "checkpoint", None) is not None:
+            check_folder(args.checkpoint, "--checkpoint")
         enable_compilation_cache()
         return int(args.func(args) or 0)
     except CLIError as e:
@@ -126,11 +136,15 @@ def _run(args) -> int:
         print(f"jaxroll {args.command}: error: {e}", file=sys.stderr)
         return 2
     except OSError as e:  # a folder that cannot be written, a full disk, …: one line, not a traceback
-        print(f"jaxroll {args.command}: error: {os_error_message(e)}", file=sys.stderr)
+        print(
+            f"jaxroll {args.command}: error: {os_error_message(e, getattr(args, 'checkpoint', None))}",
+            file=sys.stderr,
+        )
         return 2
     except KeyboardInterrupt:
         from ._common import interrupted_message
 
+        clear_interrupt()
         print(interrupted_message(args.command, getattr(args, "out", None)), file=sys.stderr)
         return 130
 
@@ -157,6 +171,7 @@ def _on_interrupt(signum, frame) -> None:
         _STATE["raised"], _STATE["deferred"] = now, None  # (no deferred signal: `_raise_again` stops)
     if echo:  # a repeat sent by `_raise_again` just as the first was raised (the command is reporting it)
         return
+    note_interrupt()  # raised again at the next save where this one is lost (raised in a finaliser)
     raise KeyboardInterrupt
 
 

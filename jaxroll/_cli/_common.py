@@ -12,6 +12,7 @@ import time
 from pathlib import Path
 from typing import Any
 
+from .._atomic import raise_if_interrupted
 from ..io import atomic_write_bytes as atomic_write_bytes, to_jsonable as to_jsonable
 
 
@@ -242,6 +243,7 @@ class OutputFolder:
             shutil.rmtree(self.tmp, ignore_errors=True)
             return False
         try:
+            raise_if_interrupted()  # a Ctrl-C lost on its way never commits the set
             if self.beside and not self.out.exists():
                 try:
                     os.rename(self.tmp, self.out)  # the whole set appears at once
@@ -335,6 +337,39 @@ def _process_ended(host: str, pid: str) -> bool:
     return False
 
 
+def check_folder(folder: str | Path, option: str) -> None:
+    """Check, before any computation, that the folder of `option` (`--out`, `--checkpoint`) can be created and
+    written: not a file, not a symbolic link to nothing, a file can be created in it (or, where it does not exist
+    yet, in the nearest folder above it). Raises `CLIError` naming `option` and the reason."""
+    import errno
+
+    folder = Path(folder)
+    if folder.is_symlink() and not folder.exists():  # (was refused only after the computation, issue 45)
+        raise CLIError(
+            f"{option} {str(folder)!r} is a symbolic link to {os.readlink(folder)!r}, which does not exist: create "
+            f"that folder, or give {option} another path."
+        )
+    if folder.exists() and not folder.is_dir():
+        raise CLIError(f"{option} {str(folder)!r} exists and is not a folder.")
+    base = Path(os.path.abspath(folder))
+    while not base.exists() and base != base.parent:
+        base = base.parent
+    if not base.is_dir():
+        raise CLIError(
+            f"{option} {str(folder)!r}: {str(base)!r} is a file, so the folder cannot be created there."
+        )
+    try:
+        fd, probe = tempfile.mkstemp(dir=base, prefix=".jaxroll-probe.")
+        os.close(fd)
+        os.unlink(probe)
+    except OSError as e:
+        why = "it is on a read-only file system" if e.errno == errno.EROFS else (e.strerror or str(e)).lower()
+        raise CLIError(
+            f"{option} {str(folder)!r} cannot be written: no file can be created in {str(base)!r} ({why}). "
+            "Choose a folder you can write, or fix its permissions."
+        ) from None
+
+
 def prepare_out(out: str | Path) -> None:
     """Check `--out` before any computation, and clear what killed runs left there.
 
@@ -343,28 +378,11 @@ def prepare_out(out: str | Path) -> None:
     run left half done (`OutputFolder`) and removes the hidden folders of killed runs (this machine, PID no
     longer running). Folders left by jaxroll before 0.2 beside `out` (`.NAME.partial-*`, `.NAME.old-*`: no PID in
     their names, so not provably stale) are named in a warning."""
-    import errno
     import shutil
     import warnings
 
     out = Path(out)
-    if out.exists() and not out.is_dir():
-        raise CLIError(f"--out {str(out)!r} exists and is not a folder.")
-    base = Path(os.path.abspath(out))
-    while not base.exists() and base != base.parent:
-        base = base.parent
-    if not base.is_dir():
-        raise CLIError(f"--out {str(out)!r}: {str(base)!r} is a file, so the folder cannot be created there.")
-    try:
-        fd, probe = tempfile.mkstemp(dir=base, prefix=".jaxroll-probe.")
-        os.close(fd)
-        os.unlink(probe)
-    except OSError as e:
-        why = "it is on a read-only file system" if e.errno == errno.EROFS else (e.strerror or str(e)).lower()
-        raise CLIError(
-            f"--out {str(out)!r} cannot be written: no file can be created in {str(base)!r} ({why}). "
-            "Choose a folder you can write, or fix its permissions."
-        ) from None
+    check_folder(out, "--out")
     pattern = re.compile(
         rf"^({re.escape(_PARTIAL)}|{re.escape(_REPLACED)})\.([A-Za-z0-9-]+)\.(\d+)\.[0-9a-f]+$"
     )
@@ -437,20 +455,25 @@ def _roll_back(tmp: Path, out: Path, killed: bool = True) -> None:
         )
 
 
-def os_error_message(e: OSError) -> str:
+def os_error_message(e: OSError, checkpoint: str | None = None) -> str:
     """An operating-system error (a folder that cannot be written, a full disk, …) as one line that says what to
-    do; the command's outputs are written as a set, so `--out` is unchanged."""
+    do; the command's outputs are written as a set, so `--out` is unchanged. An error writing in the `checkpoint`
+    folder names `--checkpoint`."""
     import errno
 
+    option = "--out"
+    prefix = ""
+    if checkpoint and e.filename and os.path.abspath(str(e.filename)).startswith(os.path.abspath(checkpoint)):
+        option, prefix = "--checkpoint", f"--checkpoint {checkpoint!r}: "
     advice = {
-        errno.ENOSPC: "free some space or choose another --out",
-        errno.EDQUOT: "free some space (a disk quota is full) or choose another --out",
-        errno.EROFS: "choose a folder on a writable file system (--out)",
+        errno.ENOSPC: f"free some space or choose another {option}",
+        errno.EDQUOT: f"free some space (a disk quota is full) or choose another {option}",
+        errno.EROFS: f"choose a folder on a writable file system ({option})",
         errno.EACCES: "fix the permissions or choose another path",
         errno.EPERM: "fix the permissions or choose another path",
     }.get(e.errno, "")
     where = f" ({e.filename})" if e.filename else ""
-    text = f"{e.strerror or e}{where}"
+    text = f"{prefix}{e.strerror or e}{where}"
     return f"{text}; outputs are written as a complete set or not at all, so --out is unchanged" + (
         f"; {advice}." if advice else "."
     )

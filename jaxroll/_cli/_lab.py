@@ -145,6 +145,10 @@ def _units(text: str | None, kind: str) -> dict[str, str]:
             key = key.strip().replace("-", "_")
             if key not in columns:
                 raise CLIError(f"--units: {key!r} is not a column of a {kind} record ({', '.join(columns)}).")
+            if key in units:  # the last one won without a word (issue 45)
+                raise CLIError(
+                    f"--units gives {key} twice ({units[key]}, {unit.strip()}): give each column's unit once."
+                )
             units[key] = unit.strip()
         return units
     if parts and not any("=" in p for p in parts) and len(parts) == len(columns):

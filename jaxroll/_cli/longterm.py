@@ -153,6 +153,7 @@ def register(sub) -> None:
     r.add_argument(
         "--estimator",
         default="brute-force",
+        metavar="brute-force|splitting",
         help="per-cell Monte Carlo estimator: brute-force (default), or splitting: the rare Monte Carlo cells "
         "(P < --rare-below) by multilevel splitting, every angle from one run, the others by brute force "
         "(docs/longterm.md, Rare cells)",
@@ -260,7 +261,7 @@ def weights(text, n: int, option: str, what: str) -> list[float] | None:
         )
     if not all(math.isfinite(x) and x >= 0 for x in w):
         raise CLIError(f"{option} must be finite numbers >= 0; got {text!r}.")
-    if not sum(w) > 0:
+    if not max(w) > 0:
         raise CLIError(f"{option} sum to zero: give at least one {what[:-1]} a positive weight.")
     return w
 
@@ -269,7 +270,15 @@ def check_args(args):
     """Every option, before any computation. **Returns:** the keyword arguments of `jaxroll.longterm`, the ship
     files and the headings [deg]."""
     from .. import vanishing_angle
-    from ..longterm import CELL_ESTIMATORS, ScatterError, scatter_diagram
+    from ..longterm import (
+        CELL_ESTIMATORS,
+        MAX_SEED,
+        ScatterError,
+        check_exposure,
+        check_speeds,
+        scatter_diagram,
+    )
+    from ..roll import SPLITTING_EXCITATIONS
 
     for name in ("hours", "hours_per_year", "dt"):
         value = getattr(args, name)
@@ -279,8 +288,12 @@ def check_args(args):
         raise CLIError(f"--discard must be a finite number >= 0 [s]; got {args.discard}.")
     if args.realizations < 1:
         raise CLIError(f"--realizations must be >= 1; got {args.realizations}.")
-    if args.seed < 0:
-        raise CLIError(f"--seed must be >= 0; got {args.seed}.")
+    if not 0 <= args.seed <= MAX_SEED:
+        raise CLIError(f"--seed must be an integer in [0, {MAX_SEED}] (10^12 - 1); got {args.seed}.")
+    try:
+        check_exposure(args.hours * 3600.0, args.hours_per_year, ("--hours", "--hours-per-year"))
+    except ValueError as e:
+        raise CLIError(str(e)) from None
     if not 0 < args.auto_share <= 1:
         raise CLIError(f"--auto-share must be in (0, 1]; got {args.auto_share}.")
     if not (math.isfinite(args.auto_tolerance) and args.auto_tolerance >= 0):
@@ -311,7 +324,7 @@ def check_args(args):
             f"--rare-below must be a probability in (0, 1] (a Monte Carlo cell is rare, and estimated by "
             f"splitting, where its probability is below it); got {args.rare_below}."
         )
-    if estimator == "splitting" and args.excitation != "filter":
+    if estimator == "splitting" and args.excitation not in SPLITTING_EXCITATIONS:
         raise CLIError(
             "--estimator splitting needs --excitation filter (splitting restarts runs from the shaping filter's "
             f"state); got --excitation {args.excitation}."
@@ -347,6 +360,10 @@ def check_args(args):
     except FileNotFoundError as e:
         raise CLIError(f"--scatter: {e} Give rec34 or a CSV file.") from None
     ships = [load_ship_arg(f) for f in files]
+    try:
+        check_speeds(speeds, ships, "--speed")
+    except ValueError as e:
+        raise CLIError(str(e)) from None
     names = [s.name if f in (None, "c11-hull") else Path(f).stem for s, f in zip(ships, files, strict=True)]
     if len(set(names)) != len(names):
         names = [f or s.name for s, f in zip(ships, files, strict=True)]
@@ -483,6 +500,7 @@ def run(args) -> int:
     if kwargs["part"] is not None:
         i, n = kwargs["part"]
         path = out / f"longterm.part-{i}-of-{n}.nc"
+        ds.attrs["run_time_s"] = elapsed  # (not in the part's digest; `jaxroll merge` sums them)
         write_dataset(path, ds)
         print(f"part {i}/{n} done in {elapsed:.1f} s: wrote {path} (merge the parts with `jaxroll merge`)")
         return 0

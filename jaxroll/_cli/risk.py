@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 import math
+import sys
 import time
+import warnings
 from pathlib import Path
 
 from ._common import (
@@ -55,10 +57,13 @@ def register(sub) -> None:
     )
     p.add_argument(
         "--estimator",
-        choices=("direct", "splitting"),
-        default="direct",
-        help="direct: trials of the exposure's length (always run); splitting: also multilevel splitting "
-        "for the direct probability, for rare exceedances (risk.json 'splitting'; docs/rare_events.md)",
+        choices=("brute-force", "splitting", "direct"),
+        default="brute-force",
+        metavar="brute-force|splitting",
+        help="brute-force (default): trials of the exposure's length (always run; risk.json 'direct'); splitting: "
+        "also multilevel splitting for the same probability, for rare exceedances (risk.json 'splitting'; "
+        "docs/rare_events.md). The names of `jaxroll longterm --estimator`; 'direct', the old name of "
+        "brute-force, is still accepted (deprecated)",
     )
     p.add_argument("--splitting-trials", type=int, default=1000, help="splitting: runs a stage (1000)")
     p.add_argument(
@@ -176,6 +181,11 @@ def _first_passage(problem, angle_deg: float, exposure: float, curve_deg, vanish
     return entry, on_curve
 
 
+def _splitting_line(text: str) -> None:
+    """The splitting phase's progress (its pilot, then each stage): one line each on stderr."""
+    print(f"splitting: {text}", file=sys.stderr, flush=True)
+
+
 def run(args) -> int:
     import jax
     import jax.numpy as jnp
@@ -190,8 +200,17 @@ def run(args) -> int:
         vanishing_angle,
     )
     from ..plotting import risk_figure
+    from ..roll import SPLITTING_EXCITATIONS
 
     theories, first_passage = parse_risk_theories(args.theory)
+    if args.estimator == "direct":  # one vocabulary with `jaxroll longterm --estimator` (issue 45)
+        warnings.warn(
+            "--estimator direct is now called brute-force (the same trials of the exposure's length; longterm's "
+            "name); 'direct' is accepted until jaxroll 0.3.",
+            FutureWarning,
+            stacklevel=2,
+        )
+        args.estimator = "brute-force"
     check_positive(args, "hours", "duration")
     if not (math.isfinite(args.angle) and 0 < args.angle < 90):
         raise CLIError(f"--angle must be in (0, 90) degrees; got {args.angle}.")
@@ -199,6 +218,13 @@ def run(args) -> int:
         raise CLIError(f"--realizations must be >= 1; got {args.realizations}.")
     if args.estimator == "splitting" and args.splitting_trials < 10:
         raise CLIError(f"--splitting-trials must be >= 10; got {args.splitting_trials}.")
+    if (
+        args.estimator == "splitting" and args.method not in SPLITTING_EXCITATIONS
+    ):  # (was after the direct trials)
+        raise CLIError(
+            f"--estimator splitting needs --method {' or '.join(SPLITTING_EXCITATIONS)} (splitting restarts runs "
+            f"from the shaping filter's state); got --method {args.method}."
+        )
     check_chunk_size(args)
     if not (math.isfinite(args.discard) and 0 <= args.discard < args.duration):
         raise CLIError(
@@ -282,6 +308,8 @@ def run(args) -> int:
         )
     if args.estimator == "splitting":
         # The same probability by multilevel splitting on the roll energy (unbiased; for rare exceedances).
+        if not args.quiet:
+            _splitting_line(f"a pilot run, then stages of {args.splitting_trials} runs")
         split = monte_carlo_splitting(
             problem,
             jax.random.key(args.seed + 2),
@@ -289,6 +317,7 @@ def run(args) -> int:
             exposure=exposure,
             discard=args.discard,
             num_trials=args.splitting_trials,
+            progress=None if args.quiet else _splitting_line,
         )
         direct_splitting = {
             **split.to_dict(),
@@ -364,6 +393,7 @@ def run(args) -> int:
             hours=args.hours,
             capsize_probability=direct_stats.capsize_probability,
             title=title,
+            splitting=result.get("splitting"),
         )
         save_figure(fig, tmp / "risk.png")
         write_json(tmp / "risk.json", payload)

@@ -67,8 +67,8 @@ def add_hull_options(p) -> None:
     )  # fmt: skip
     g.add_argument(
         "--kg-datum", metavar="REF", type=_height_reference,
-        help="what --kg is measured from (and KG, KGmax are also reported from): baseline (default), keel, lowest, or "
-        "a file z [m, full scale]",
+        help="what --kg is measured from: baseline (default), keel, lowest, or a file z [m, full scale] (the outputs "
+        "give every height from the baseline)",
     )  # fmt: skip
     g.add_argument(
         "--half-hull",
@@ -112,6 +112,21 @@ def heights_above_baseline(hull, args, *, draughts=(), kg=None) -> tuple[list, f
         getattr(args, "draught_datum", None) or "baseline",
         getattr(args, "kg_datum", None) or "baseline",
     )
+    ignored = [
+        f"{flag} (it applies to {what}, and no {what} was given{also})"
+        for flag, given, what, also in (
+            ("--draught-datum", getattr(args, "draught_datum", None) is not None and all(v is None for _, v in draughts),
+             " or ".join(f for f, _ in draughts), ": the loading comes from --displacement or the hull file"),
+            ("--kg-datum", getattr(args, "kg_datum", None) is not None and kg is None, "--kg",
+             ": KG comes from --gm or the hull file"),
+        )
+        if given
+    ]  # fmt: skip
+    if ignored:  # a datum the user believes applied, silently ignored (issue 45)
+        raise CLIError(
+            f"{'; '.join(ignored)} would be ignored: give the height it is the datum of, or leave it out (every "
+            "height in the outputs is measured from the baseline)."
+        )
     datum = hull.datum
     if datum is None:
         if (d_ref, k_ref) != ("baseline", "baseline"):

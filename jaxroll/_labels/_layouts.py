@@ -283,6 +283,7 @@ SPLITTING_UNITS = {
     "splitting_lane_seconds": "s",
     "splitting_total_simulated_seconds": "s",
     "splitting_stage_simulated_seconds": "s",
+    "splitting_continuation_simulated_seconds": "s",
 }
 SPLITTING_LONG_NAMES = {
     "splitting_probability": "P(max |φ| > angle within the exposure, or a capsize): multilevel splitting",

@@ -411,7 +411,7 @@ def config_attrs(config: Mapping[str, Any]) -> dict[str, str]:
 
 
 def to_jsonable(obj: Any) -> Any:
-    """Arrays → lists, NaN/inf → null, numpy/JAX scalars → Python numbers."""
+    """Arrays → lists, NaN/inf → null, −0 → 0, numpy/JAX scalars → Python numbers."""
     if isinstance(obj, dict):
         return {str(k): to_jsonable(v) for k, v in obj.items()}
     if isinstance(obj, list | tuple):
@@ -422,7 +422,7 @@ def to_jsonable(obj: Any) -> Any:
             return to_jsonable(arr.item())
         return to_jsonable(arr.tolist())
     if isinstance(obj, float):
-        return obj if math.isfinite(obj) else None
+        return obj + 0.0 if math.isfinite(obj) else None  # (+ 0.0: no "-0.0" where nothing is exceeded)
     if isinstance(obj, np.generic):
         return to_jsonable(obj.item())
     return obj

@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import csv
 import dataclasses
-import gzip
 import math
 import re
 from collections.abc import Mapping
@@ -34,6 +33,7 @@ from ._records import (
     _check_time,
     _err,
     _parse_number,
+    read_text_bytes,
 )
 
 #: Units a lab file may use, per quantity: alias (lower case) -> (the record format's unit, factor to it).
@@ -116,12 +116,7 @@ class LabTable:
 
 
 def _read_text(path: Path) -> tuple[str, str]:
-    data = path.read_bytes()
-    if path.suffix == ".gz":
-        try:
-            data = gzip.decompress(data)
-        except (OSError, EOFError) as e:
-            raise _err(str(path), None, f"not a readable gzip file ({e}).") from None
+    data = read_text_bytes(path)  # at most MAX_TEXT_BYTES (a gzip bomb is refused after reading that much)
     if b"\x00" in data[:4096]:
         raise _err(
             str(path), None, "not a text file (it holds NUL bytes); an HDF5 file is read by its datasets."

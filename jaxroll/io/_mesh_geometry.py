@@ -43,16 +43,23 @@ def _section_segments(tri: np.ndarray, x: float, strict: bool = False) -> np.nda
 
 def _half_breadths(seg: np.ndarray, z: np.ndarray, side: int = 0) -> np.ndarray:
     """Largest |y| (side 0), y (side +1, starboard) or −y (side −1, port) where the segments (s, 2, 2) cross each
-    height z (0 where none does)."""
+    height z (0 where none does).
+
+    A height on a segment's end counts within a rounding tolerance (1e-9 of the section's size): where a station
+    and a waterline meet on a triangle's edge or vertex (a box's diagonal), the two triangles' cut points differ
+    in the last bits, and an exact comparison left the height in the gap between them, counted by neither
+    (issue 45: a 12-triangle box refused as asymmetric, "port 0 m")."""
     if seg.shape[0] == 0:
         return np.zeros_like(z)
     y0, z0, y1, z1 = seg[:, 0, 0], seg[:, 0, 1], seg[:, 1, 0], seg[:, 1, 1]
+    size = max(float(np.max(np.abs(seg))), float(np.max(np.abs(z))) if z.size else 0.0, 1e-300)
+    eps = 1e-9 * size
     zlo, zhi = np.minimum(z0, z1)[:, None], np.maximum(z0, z1)[:, None]
     zz = z[None, :]
-    inside = (zz >= zlo) & (zz <= zhi)
+    inside = (zz >= zlo - eps) & (zz <= zhi + eps)
     dz = (z1 - z0)[:, None]
     flat = np.abs(dz) <= 1e-15 * max(1.0, float(np.max(np.abs(z))))
-    t = np.where(flat, 0.0, (zz - z0[:, None]) / np.where(flat, 1.0, dz))
+    t = np.clip(np.where(flat, 0.0, (zz - z0[:, None]) / np.where(flat, 1.0, dz)), 0.0, 1.0)
     f = np.abs if side == 0 else (lambda v: side * v)
     y = f(y0[:, None] + t * (y1 - y0)[:, None])
     y = np.where(flat, np.maximum(f(y0), f(y1))[:, None], y)

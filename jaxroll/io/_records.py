@@ -78,6 +78,9 @@ _NUMERIC_KEYS = {
 }
 _KNOWN_STRING_VALUES = {"spectrum": ("ITTC",), "heading": ("head",)}
 
+#: The longest full-scale interval between samples of a record [s]: roll periods are 5–30 s at full scale and a
+#: cycle needs several samples; a slower record is a time column in another unit (ms read as s).
+MAX_FULL_SCALE_INTERVAL_S = 5.0
 #: Relative tolerance on the sampling interval (jitter beyond it is "irregular sampling").
 SAMPLING_RTOL = 0.02
 #: A step longer than this many nominal intervals is a gap (refused even with `resample=True`).
@@ -354,15 +357,43 @@ def save_record(record: Record, path: str | Path, **kwargs) -> Path:
 # ------------------------------------------------------------------------------------------------------------
 
 
+#: The most text a record file (or a lab's text file) may hold, decompressed [bytes]: parsing keeps about 30 bytes
+#: per byte of text in memory, so a file at the limit stays under 1 GiB; a record of the paper's protocol is ~0.1 MiB
+#: (a 1 MiB `.csv.gz` expanding to 256 MiB took 5.6 GiB, issue 45). Read in blocks: a larger file, or a gzip bomb,
+#: is refused after reading at most this much.
+MAX_TEXT_BYTES = 24 * 2**20
+
+
+def read_text_bytes(path: Path) -> bytes:
+    """The bytes of a text file, gunzipped where its name ends in `.gz`, at most `MAX_TEXT_BYTES` (checked on the
+    file's size first, then while decompressing). **Raises:** `RecordError` naming the file for a larger file or an
+    unreadable gzip file."""
+    limit = MAX_TEXT_BYTES
+    too_big = (
+        f"more than {limit / 2**20:g} MiB of text{' once decompressed' if path.suffix == '.gz' else ''}: far more "
+        "than a tank record (10^5 samples of three channels are ~3 MiB); split it into realizations, or check that "
+        "it is the file meant."
+    )
+    if path.stat().st_size > limit:
+        raise _err(str(path), None, too_big)
+    if path.suffix != ".gz":
+        with open(path, "rb") as f:
+            data = f.read(limit + 1)
+    else:
+        try:
+            with gzip.open(path, "rb") as f:
+                data = f.read(limit + 1)
+        except (OSError, EOFError) as e:
+            raise _err(str(path), None, f"not a readable gzip file ({e}).") from None
+    if len(data) > limit:
+        raise _err(str(path), None, too_big)
+    return data
+
+
 def _read_text(path: Path) -> str:
     if not path.is_file():
         raise FileNotFoundError(f"Record file {str(path)!r} does not exist.")
-    data = path.read_bytes()
-    if path.suffix == ".gz":
-        try:
-            data = gzip.decompress(data)
-        except (OSError, EOFError) as e:
-            raise _err(str(path), None, f"not a readable gzip file ({e}).") from None
+    data = read_text_bytes(path)
     try:
         return data.decode("utf-8-sig")  # a UTF-8 byte-order mark (Excel writes one) is dropped
     except UnicodeDecodeError as e:
@@ -450,6 +481,18 @@ def _check_header(kind: str, meta: dict[str, Any], where: dict[str, int], source
     for key, (ok, why) in checks.items():
         if key in meta and not ok(meta[key]):
             raise _err(source, where[key], f"header key `{key}` = {meta[key]:g} {why}.")
+    full_interval = math.sqrt(meta["scale"]) / meta["sampling_hz"]
+    if (
+        full_interval > MAX_FULL_SCALE_INTERVAL_S
+    ):  # a time column in ms read as s (issue 45: a "0.02 Hz" record)
+        raise _err(
+            source,
+            where["sampling_hz"],
+            f"a sample every {1 / meta['sampling_hz']:g} s at model scale ({meta['sampling_hz']:g} Hz; "
+            f"{full_interval:g} s full scale): slower than any roll record (at most {MAX_FULL_SCALE_INTERVAL_S:g} "
+            "s full scale between samples, a roll cycle needs several). A time column in ms read as s? Give its "
+            "unit (CLI --units time=ms).",
+        )
     for key, allowed in _KNOWN_STRING_VALUES.items():
         if key in meta and meta[key] not in allowed:
             raise _err(

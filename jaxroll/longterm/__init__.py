@@ -11,7 +11,15 @@ its interval, the per-year conversion, the `auto` rule), `_dataset.py` (the `xar
 names are also re-exported at the top level (`jaxroll.read_scatter`, …).
 """
 
-from ._cells import SEED_STRIDE as SEED_STRIDE, canonical_heading_deg as canonical_heading_deg
+from ._cells import (
+    HOURS_PER_YEAR as HOURS_PER_YEAR,
+    MAX_FROUDE as MAX_FROUDE,
+    MAX_SEED as MAX_SEED,
+    SEED_STRIDE as SEED_STRIDE,
+    canonical_heading_deg as canonical_heading_deg,
+    check_exposure as check_exposure,
+    check_speeds as check_speeds,
+)
 from ._dataset import (
     METHODS as METHODS,
     UNCERTAINTY as UNCERTAINTY,
@@ -31,7 +39,7 @@ from ._risk import (
     AUTO_TOLERANCE as AUTO_TOLERANCE,
     MODEL_FACTOR as MODEL_FACTOR,
 )
-from ._run import HOURS_PER_YEAR as HOURS_PER_YEAR, longterm as longterm, merge_longterm as merge_longterm
+from ._run import longterm as longterm, merge_longterm as merge_longterm
 from ._scatter import (
     T01_OVER_TZ as T01_OVER_TZ,
     ScatterDiagram as ScatterDiagram,

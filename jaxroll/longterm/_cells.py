@@ -14,6 +14,8 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import numbers
+import os
 from collections.abc import Sequence
 
 import numpy as np
@@ -25,6 +27,61 @@ BEAM_DEG = 90.0
 #: run never share a seed and `jaxroll risk --seed s_c − 1` (whose direct estimate uses `jax.random.key(seed + 1)`)
 #: reproduces cell c trial for trial.
 SEED_STRIDE = 1_000_000
+#: The largest `seed`: s_c = SEED_STRIDE·seed + c + 1 stays within int64 (and `jax.random.key`) for any grid.
+MAX_SEED = 10**12 - 1
+#: The fastest speed a long-term cell may have, as a Froude number U/√(g L): displacement ships sail below about
+#: 0.4 and fast craft reach 1; a speed above is a unit slip (knots, km/h) or a typo, and its encounter spectrum
+#: would carry no parametric excitation (P = 0 without a word, issue 45).
+MAX_FROUDE = 1.0
+GRAVITY = 9.80665
+
+
+#: Hours in a year: the default `hours_per_year` (a ship at sea all year: the conservative end).
+HOURS_PER_YEAR = 8766.0
+
+
+def _real(value, name: str) -> float:
+    """`value` as a float: a Python or NumPy real number (not a bool). **Raises:** `ValueError` naming `name`."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise ValueError(f"`{name}` must be a number; got {value!r} ({type(value).__name__}).")
+    return float(value)
+
+
+def _integer(value, name: str) -> int:
+    """`value` as an int: a Python or NumPy integer (not a bool). **Raises:** `ValueError` naming `name`."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral):
+        raise ValueError(f"`{name}` must be an integer; got {value!r} ({type(value).__name__}).")
+    return int(value)
+
+
+def check_types(ships: list, checkpoint) -> None:
+    """`ships` are `Ship`s and `checkpoint` a path or None. **Raises:** `ValueError` naming the argument."""
+    from ..ship import Ship
+
+    for s in ships:
+        if not isinstance(s, Ship):
+            raise ValueError(
+                f"`ships` must be a Ship or a sequence of Ships (e.g. jaxroll.c11_representative(), "
+                f"jaxroll.load_ship(path)); got {s!r} ({type(s).__name__})."
+            )
+    if not (checkpoint is None or isinstance(checkpoint, str | os.PathLike)):
+        raise ValueError(
+            f"`checkpoint` must be the path of a folder (or None); got {checkpoint!r} ({type(checkpoint).__name__})."
+        )
+
+
+def check_exposure(exposure: float, hours_per_year: float, option=("`exposure`", "`hours_per_year`")) -> None:
+    """An exposure [s] within a year of `hours_per_year` hours at sea, itself at most a year (`HOURS_PER_YEAR`).
+    **Raises:** `ValueError` naming the options (`option`: their names)."""
+    if hours_per_year > HOURS_PER_YEAR:
+        raise ValueError(
+            f"{option[1]} must be at most {HOURS_PER_YEAR:g} h (a year: 365.25 days at sea); got {hours_per_year:g}."
+        )
+    if exposure / 3600.0 > hours_per_year:
+        raise ValueError(
+            f"{option[0]} ({exposure / 3600.0:g} h) is longer than the {hours_per_year:g} h at sea per year "
+            f"({option[1]}): the per-year values need at least one exposure a year."
+        )
 
 
 def canonical_heading_deg(chi_rad: float) -> float:
@@ -49,9 +106,25 @@ def normalised_weights(weights, n: int, name: str) -> np.ndarray:
         raise ValueError(f"`{name}` has {w.size} weights for {n} values; give one weight per value.")
     if not np.all(np.isfinite(w)) or np.any(w < 0):
         raise ValueError(f"`{name}` must be finite and >= 0; got {w.tolist()}.")
-    if not w.sum() > 0:
+    if not w.max() > 0:
         raise ValueError(f"`{name}` sum to zero; at least one value needs a positive weight.")
+    w = w / w.max()  # (weights of 1e308 would sum to inf, and every weight to 0)
     return w / w.sum()
+
+
+def check_speeds(speeds, ships, option: str = "`speeds`") -> None:
+    """Refuse a speed [m/s] whose Froude number U/√(g Lpp) exceeds `MAX_FROUDE` for a ship (a unit slip).
+    **Raises:** `ValueError` naming `option`, the speed, the ship and the largest speed accepted."""
+    for ship in ships:
+        lpp = float(ship.lpp)
+        top = MAX_FROUDE * math.sqrt(GRAVITY * lpp)
+        for u in np.atleast_1d(np.asarray(speeds, dtype=float)):
+            if u > top:
+                raise ValueError(
+                    f"{option}: U = {u:g} m/s is a Froude number of {u / math.sqrt(GRAVITY * lpp):.3g} for "
+                    f"{ship.name} (Lpp = {lpp:g} m), faster than any ship (at most Fn = {MAX_FROUDE:g}, "
+                    f"{top:.4g} m/s); speeds are in m/s (1 kn = 0.5144 m/s)."
+                )
 
 
 @dataclasses.dataclass(frozen=True)
@@ -161,6 +234,7 @@ def make_grid(
         raise ValueError(f"`speeds` must be finite and >= 0 [m/s]; got {speeds.tolist()}.")
     if len(set(speeds.tolist())) != speeds.size:
         raise ValueError(f"`speeds` repeats a speed: {speeds.tolist()} m/s.")
+    check_speeds(speeds, ships)
     classes: list[float] = []
     member = []
     for d in deg:
@@ -168,7 +242,7 @@ def make_grid(
         if c not in classes:
             classes.append(c)
         member.append(classes.index(c))
-    return CellGrid(
+    grid = CellGrid(
         scatter=scatter,
         ships=tuple(ships),
         ship_names=tuple(ship_names),
@@ -180,6 +254,15 @@ def make_grid(
         speeds=speeds,
         speed_weights=normalised_weights(speed_weights, speeds.size, "speed_weights"),
     )
+    n = int(np.prod(grid.shape))
+    if n >= SEED_STRIDE:  # each cell its own seed (`SEED_STRIDE`)
+        s, k, u, i, j = grid.shape
+        raise ValueError(
+            f"{n} computation cells ({s} ships × {k} heading classes × {u} speeds × the {i} H_s × {j} T_z of the "
+            f"scatter diagram {scatter.source}): more than one run can seed ({SEED_STRIDE - 1}); use a coarser "
+            "scatter diagram, fewer headings or speeds, or several runs."
+        )
+    return grid
 
 
 def skipped_cells(comp_weight: np.ndarray, needed: np.ndarray, skip_weight: float) -> np.ndarray:

@@ -7,7 +7,9 @@ the cell variables by `add_longterm`, so a dataset merged from parts is the one 
 
 from __future__ import annotations
 
+import hashlib
 import json
+import math
 
 import numpy as np
 
@@ -58,6 +60,8 @@ def build_dataset(grid, cells: dict, config: dict, attrs: dict):
 
     def to_cells(a):  # (ship, class, speed, hs, tz, ...) → (hs, tz, heading, speed, ship, ...)
         a = np.asarray(a)[:, k]
+        if a.dtype.kind == "f":
+            a = a + 0.0  # no negative zeros
         return np.moveaxis(a, (0, 1, 2, 3, 4), (4, 2, 3, 0, 1))
 
     angle_dims = (*CELL_DIMS, "angle_deg")
@@ -270,11 +274,50 @@ def build_dataset(grid, cells: dict, config: dict, attrs: dict):
         coords={k_: xr.Variable(*v) for k_, v in coords.items()},
     )
     ds.attrs.update(attrs)  # `dataset_attrs(config, …)`: versions, backend, the configuration as JSON text
+    if "part" in attrs:  # a partial dataset carries the digest of what it holds (`merge_parts` checks it)
+        ds.attrs["part_sha256"] = part_digest(ds)
     return ds
 
 
+#: What a part's digest covers besides its variables and coordinates: the configuration, the part, the versions.
+_DIGEST_ATTRS = ("config_json", "part", "jaxroll_version", "jax_version", "jaxlib_version", "x64")
+#: The versions the parts of one merge must share with each other and with the jaxroll that merges them.
+_VERSION_ATTRS = ("jaxroll_version", "jax_version", "jaxlib_version", "x64")
+
+
+def part_digest(ds) -> str:
+    """SHA-256 of a partial dataset's content and configuration: the attributes `_DIGEST_ATTRS`, every coordinate
+    and every variable but the long-term ones (recomputed by the merge), by name, dims and values (NaN as NaN,
+    booleans and integers as int64: the same digest after a netCDF round trip)."""
+    h = hashlib.sha256()
+    for k in _DIGEST_ATTRS:
+        h.update(f"{k}\0{ds.attrs.get(k)}\0".encode())
+    names = sorted(set(ds.coords) | {v for v in ds.data_vars if v not in _LONGTERM_VARS})
+    for name in names:
+        a = np.asarray(ds[name].values)
+        if a.dtype.kind in "biu":
+            data = a.astype(np.int64).tobytes()
+        elif a.dtype.kind == "f":
+            f = a.astype(np.float64)
+            data = np.where(np.isnan(f), np.nan, f).tobytes() + np.isnan(f).tobytes()
+        else:
+            data = "\0".join(str(x) for x in a.reshape(-1)).encode()
+        h.update(f"{name}\0{ds[name].dims}\0{a.shape}\0".encode() + data)
+    return h.hexdigest()
+
+
 def config_of(ds) -> dict:
-    return json.loads(ds.attrs["config_json"])
+    """The configuration a dataset records (its `config_json` attribute). **Raises:** `ValueError` where there is
+    none or it is not JSON (nested beyond Python's recursion limit included)."""
+    try:
+        cfg = json.loads(ds.attrs["config_json"])
+    except KeyError:
+        raise ValueError("it has no config_json attribute: not a dataset of jaxroll longterm.") from None
+    except (ValueError, TypeError, RecursionError):
+        raise ValueError("its config_json attribute is not the JSON jaxroll longterm writes.") from None
+    if not isinstance(cfg, dict):
+        raise ValueError("its config_json attribute is not the JSON jaxroll longterm writes.")
+    return cfg
 
 
 def add_longterm(ds):
@@ -378,22 +421,91 @@ def add_longterm(ds):
         ),
     }
     ds = ds.drop_vars([v for v in _LONGTERM_VARS if v in ds])
-    ds = ds.assign({k: xr.Variable(*v) for k, v in new.items()})
+    # + 0.0: a negative zero (1 − Π (1 − 0) in floating point) would be printed "-0" (issue 45)
+    ds = ds.assign({k: xr.Variable(d, np.asarray(a, float) + 0.0, at) for k, (d, a, at) in new.items()})
     return ds
 
 
-def merge_parts(datasets):
-    """One dataset from the partial datasets of `longterm(part=(i, N))` for i = 1 … N (any order).
+#: The cell variables a partial dataset must hold (besides `computed`), and those that are probabilities.
+_PART_VARS = ("weight", "probability", "probability_lower", "probability_upper", "probability_variance",
+              "capsize_probability", "capsize_probability_lower", "capsize_probability_upper",
+              "capsize_probability_variance", "method", "uncertainty", "realizations", "n_exceeded", "n_capsized",
+              "seed", "theory_probability", "theory_capsize_probability")  # fmt: skip
+_PROBABILITIES = ("probability", "probability_lower", "probability_upper", "capsize_probability",
+                  "capsize_probability_lower", "capsize_probability_upper")  # fmt: skip
 
-    **Raises:** `ValueError` when they are not the parts of one run (configurations differ), a part is missing or
-    repeated, or a cell was computed by no part or by two."""
+
+def _check_part(ds, name: str) -> tuple[int, int]:
+    """(i, N) of a partial dataset, after checking that it is one, whole and unchanged since jaxroll wrote it,
+    written by this jaxroll and JAX, with probabilities in [0, 1] and weights that sum to 1. **Raises:**
+    `ValueError` starting with `name`."""
+    from ..io import provenance
+
+    if "part" not in ds.attrs or "computed" not in ds:
+        raise ValueError(f"{name} is not a partial dataset (longterm(part=…), --part i/N).")
+    try:
+        i, n = (int(x) for x in str(ds.attrs["part"]).split("/"))
+        assert 1 <= i <= n
+    except (ValueError, AssertionError):
+        raise ValueError(
+            f"{name}: its part attribute {str(ds.attrs['part'])[:40]!r} is not i/N with 1 <= i <= N: not a "
+            "partial dataset as jaxroll longterm writes it."
+        ) from None
+    missing = [v for v in _PART_VARS if v not in ds]
+    if missing:
+        raise ValueError(f"{name} (part {i}/{n}) lacks the variables {', '.join(missing)}: rerun that part.")
+    try:
+        config_of(ds)
+    except ValueError as e:
+        raise ValueError(f"{name} (part {i}/{n}): {e}") from None
+    here = {k: v for k, v in provenance().items() if k in _VERSION_ATTRS}
+    theirs = {k: ds.attrs.get(k) for k in _VERSION_ATTRS}
+    if theirs != here:
+        differ = ", ".join(
+            f"{k} {theirs[k]} (this one: {here[k]})" for k in _VERSION_ATTRS if theirs[k] != here[k]
+        )
+        raise ValueError(
+            f"{name} (part {i}/{n}) was written by another jaxroll or JAX ({differ}): the merge recomputes the "
+            "long-term values, and the parts' numbers are bit for bit only within one version. Merge with the "
+            "versions that wrote the parts, or rerun them."
+        )
+    if ds.attrs.get("part_sha256") != part_digest(ds):
+        raise ValueError(
+            f"{name} (part {i}/{n}) was changed since jaxroll wrote it (its content or configuration does not match "
+            "its digest, part_sha256): rerun that part."
+        )
+    for v in _PROBABILITIES:
+        a = ds[v].values
+        if np.any(~np.isnan(a) & ~((a >= 0) & (a <= 1))):
+            raise ValueError(f"{name} (part {i}/{n}): {v} holds values outside [0, 1]: rerun that part.")
+    computed = ds["computed"].values & np.isin(ds["method"].values, [METHODS.index("theory"),
+                                                                     METHODS.index("monte_carlo")])  # fmt: skip
+    if (
+        np.isnan(ds["probability"].values[computed]).any()
+        or np.isnan(ds["capsize_probability"].values[computed]).any()
+    ):
+        raise ValueError(
+            f"{name} (part {i}/{n}): a cell it computed has no probability (NaN): rerun that part."
+        )
+    w = ds["weight"].values
+    if not (np.all(np.isfinite(w)) and np.all(w >= 0) and math.isclose(float(w.sum()), 1.0, rel_tol=1e-9)):
+        raise ValueError(f"{name} (part {i}/{n}): its cell weights do not sum to 1: rerun that part.")
+    return i, n
+
+
+def merge_parts(datasets, names=None):
+    """One dataset from the partial datasets of `longterm(part=(i, N))` for i = 1 … N (any order): every variable and
+    attribute the one run gives (`part`, `part_sha256` and `run_time_s` left out), bit for bit. `names`: what
+    messages call the datasets (default "dataset 1", …; the CLI gives the files).
+
+    **Raises:** `ValueError` when they are not the parts of one run: a part missing or repeated, configurations or
+    coordinates that differ, a cell computed by no part or by two; or a part changed since jaxroll wrote it (its
+    digest `part_sha256`), written by another jaxroll or JAX (`jaxroll_version`, `jax_version`, `jaxlib_version`,
+    `x64`), lacking a variable, or holding probabilities outside [0, 1] or NaN where it computed a cell."""
     if not datasets:
         raise ValueError("no partial dataset to merge.")
-    parts = []
-    for i, ds in enumerate(datasets):
-        if "part" not in ds.attrs or "computed" not in ds:
-            raise ValueError(f"dataset {i + 1} is not a partial dataset (longterm(part=…), --part i/N).")
-        parts.append(tuple(int(x) for x in str(ds.attrs["part"]).split("/")))
+    names = list(names) if names is not None else [f"dataset {k + 1}" for k in range(len(datasets))]
+    parts = [_check_part(ds, name) for ds, name in zip(datasets, names, strict=True)]
     n = parts[0][1]
     if any(q[1] != n for q in parts) or sorted(q[0] for q in parts) != list(range(1, n + 1)):
         raise ValueError(
@@ -408,6 +520,11 @@ def merge_parts(datasets):
             raise ValueError(
                 f"the parts come from different runs (configurations differ in {', '.join(differ)})."
             )
+        for c in ref.coords:
+            if c not in ds.coords or not np.array_equal(ds[c].values, ref[c].values):
+                raise ValueError(f"the parts come from different runs (their {c} coordinates differ).")
+        if not np.array_equal(ds["weight"].values, ref["weight"].values):
+            raise ValueError("the parts come from different runs (their cell weights differ).")
     count = sum(ds["computed"].values.astype(int) for ds in datasets)
     trivial = ref["method"].values != METHODS.index("not_computed")  # the same in every part (no computation)
     if np.any(count > 1) or np.any((count == 0) & ~trivial):
@@ -420,34 +537,37 @@ def merge_parts(datasets):
             mask = ds["computed"].values.reshape(ds["computed"].shape + (1,) * (values.ndim - len(CELL_DIMS)))
             values = np.where(np.broadcast_to(mask, values.shape), ds[v].values, values)
         out[v] = (out[v].dims, values, out[v].attrs)
-    out.attrs = {k: v for k, v in ref.attrs.items() if k != "part"}
+    out.attrs = {k: v for k, v in ref.attrs.items() if k not in ("part", "part_sha256", "run_time_s")}
     return add_longterm(out)
 
 
 def risk_command(ds, index: dict) -> str:
     """The `jaxroll risk` command line that reproduces a Monte Carlo cell of `ds` trial for trial (its direct
-    estimate), `index` the cell's coordinates by dim (hs, tz, heading_deg, speed, ship) as positions."""
+    estimate), `index` the cell's coordinates by dim (hs, tz, heading_deg, speed, ship) as positions. Quoted for a POSIX
+    shell (`shlex.join`): a ship file named `a b;touch x.toml` is one argument, never a second command."""
+    import shlex
+
     cfg = config_of(ds)
     cell = ds.isel(index)
     ship_file = cfg["ships"][index["ship"]]["file"]
     parts = [
-        "jaxroll risk",
-        f"--hs {float(cell.hs)!r}",
-        f"--t01 {float(cell.t01)!r}",
-        f"--heading {float(cell.heading_class_deg):g}",
-        f"--speed {float(cell.speed)!r}",
-        f"--hours {cfg['exposure_s'] / 3600.0!r}",
-        f"--discard {cfg['discard_s']!r}",
-        f"--realizations {int(cell.realizations)}",
-        f"--seed {int(cell.seed) - 1}",
-        f"--angle {float(ds.angle_deg[0]):g}",
-        f"--dt {cfg['dt_s']!r}",
-        f"--method {cfg['excitation']}",
-        f"--filter-order {cfg['filter_order']}",
-    ]
+        "jaxroll", "risk",
+        "--hs", repr(float(cell.hs)),
+        "--t01", repr(float(cell.t01)),
+        "--heading", f"{float(cell.heading_class_deg):g}",
+        "--speed", repr(float(cell.speed)),
+        "--hours", repr(cfg["exposure_s"] / 3600.0),
+        "--discard", repr(cfg["discard_s"]),
+        "--realizations", str(int(cell.realizations)),
+        "--seed", str(int(cell.seed) - 1),
+        "--angle", f"{float(ds.angle_deg[0]):g}",
+        "--dt", repr(cfg["dt_s"]),
+        "--method", str(cfg["excitation"]),
+        "--filter-order", str(cfg["filter_order"]),
+    ]  # fmt: skip
     if ship_file:
-        parts.append(f"--ship {ship_file}")
-    return " ".join(parts)
+        parts += ["--ship", str(ship_file)]
+    return shlex.join(parts)
 
 
 def dominating_cells(ds, angle_index: int = 0, top: int = 10) -> list[dict]:

@@ -17,12 +17,26 @@ from pathlib import Path
 import jax
 import numpy as np
 
+from .._config import require_float64
 from ..io import dataset_attrs, ship_to_dict
-from ..roll import check_time_step
+from ..roll import SPLITTING_EXCITATIONS, check_time_step
 from ..sea import ITTC, EffectiveWave
 from ..ship import c11_representative, vanishing_angle
 from ._allowance import measured_allowance
-from ._cells import BEAM_DEG, SEED_STRIDE, make_grid, parse_part, skipped_cells, worker_of
+from ._cells import (
+    BEAM_DEG,
+    HOURS_PER_YEAR,
+    MAX_SEED,
+    SEED_STRIDE,
+    _integer,
+    _real,
+    check_exposure,
+    check_types,
+    make_grid,
+    parse_part,
+    skipped_cells,
+    worker_of,
+)
 from ._dataset import METHODS, UNCERTAINTY, add_longterm, build_dataset
 from ._monte_carlo import (
     CELL_ESTIMATORS,
@@ -43,8 +57,6 @@ THEORY = (
     "jaxroll.theory.passage_risk (by passage_risk_batch, 3 inverse iterations): the envelope FPK model followed "
     "through the exposure (large rolls in groups); cells with λ <= 0 are 0 exactly"
 )
-#: Hours in a year: the default `hours_per_year` (a ship at sea all year: the conservative end).
-HOURS_PER_YEAR = 8766.0
 
 
 def _check(value, ok: bool, message: str):
@@ -137,12 +149,21 @@ def longterm(
     **Raises:** `ValueError` for bad arguments (before any computation).
     """
     # ---- checks, before any computation --------------------------------------------------------------------
+    require_float64("jaxroll.longterm")
     scatter = scatter_diagram(scatter)
     if ships is None:
         ships = [c11_representative()]
     elif not isinstance(ships, list | tuple):
         ships = [ships]
     ships = list(ships)
+    check_types(ships, checkpoint)  # NumPy numbers are numbers: each converted, or refused by its name
+    reals = dict(exposure=exposure, hours_per_year=hours_per_year, dt=dt, discard=discard, auto_share=auto_share,
+                 auto_tolerance=auto_tolerance, model_factor=model_factor, skip_weight=skip_weight,
+                 refine_delta=refine_delta, rare_below=rare_below, phi0=phi0)  # fmt: skip
+    (exposure, hours_per_year, dt, discard, auto_share, auto_tolerance, model_factor, skip_weight, refine_delta,
+     rare_below, phi0) = (_real(v, n) for n, v in reals.items())  # fmt: skip
+    seed, realizations, filter_order = (_integer(v, n) for n, v in
+                                        dict(seed=seed, realizations=realizations, filter_order=filter_order).items())  # fmt: skip
     names = list(ship_names) if ship_names is not None else [s.name for s in ships]
     files = list(ship_files) if ship_files is not None else [None] * len(ships)
     grid = make_grid(scatter, ships, names, ship_weights, headings, heading_weights, speeds, speed_weights)
@@ -185,7 +206,12 @@ def longterm(
         isinstance(realizations, int) and realizations >= 1,
         f"`realizations` must be an integer >= 1; got {realizations!r}.",
     )
-    _check(None, isinstance(seed, int) and seed >= 0, f"`seed` must be an integer >= 0; got {seed!r}.")
+    _check(
+        None,
+        0 <= seed <= MAX_SEED,
+        f"`seed` must be an integer in [0, {MAX_SEED}] (10^12 - 1); got {seed!r}.",
+    )
+    check_exposure(exposure, hours_per_year)
     _check(
         None,
         isinstance(rare_below, int | float) and 0 < rare_below <= 1,
@@ -194,7 +220,7 @@ def longterm(
     )
     _check(
         None,
-        estimator != "splitting" or excitation == "filter",
+        estimator != "splitting" or excitation in SPLITTING_EXCITATIONS,
         f"`estimator='splitting'` needs excitation='filter' (splitting restarts runs from the shaping filter's "
         f"state); got excitation={excitation!r}.",
     )
@@ -206,16 +232,7 @@ def longterm(
         f"`model_factor` must be 'measured' or a number >= 1; got {model_factor!r}.",
     )
     _check(None, 0 <= skip_weight < 1, f"`skip_weight` must be in [0, 1); got {skip_weight!r}.")
-    _check(
-        None,
-        isinstance(refine_delta, int | float) and 0 <= refine_delta < 1,
-        f"`refine_delta` must be in [0, 1); got {refine_delta!r}.",
-    )
-    _check(
-        None,
-        int(np.prod(grid.shape)) < SEED_STRIDE,
-        f"{int(np.prod(grid.shape))} computation cells: more than the seeds' stride {SEED_STRIDE}.",
-    )
+    _check(None, 0 <= refine_delta < 1, f"`refine_delta` must be in [0, 1); got {refine_delta!r}.")
     part = parse_part(part)
 
     shape = grid.shape
@@ -230,7 +247,9 @@ def longterm(
     )
     if model_factor != "measured":
         below = above = np.full(below.shape, float(model_factor))
-    factor = np.stack(np.broadcast_arrays(*(np.broadcast_to(x, shape) for x in (below, above))))  # [2, *shape]
+    factor = np.stack(
+        np.broadcast_arrays(*(np.broadcast_to(x, shape) for x in (below, above)))
+    )  # [2, *shape]
     outside = np.broadcast_to(outside, shape) & needed
     uncovered = np.broadcast_to(~covered, shape) & needed
     seeds = grid.seeds(seed)
@@ -791,9 +810,10 @@ def _config(
     )
 
 
-def merge_longterm(datasets):
+def merge_longterm(datasets, names=None):
     """The full dataset from the partial datasets of `longterm(part=(i, N))`, i = 1 … N (bit for bit the dataset
-    of one run). **Raises:** `ValueError` when they are not the complete parts of one run."""
+    of one run: `_dataset.merge_parts`; `names`: the datasets' names in messages). **Raises:** `ValueError` when they
+    are not the complete, unchanged parts of one run written by this jaxroll and JAX."""
     from ._dataset import merge_parts
 
-    return merge_parts(list(datasets))
+    return merge_parts(list(datasets), names)

@@ -62,7 +62,8 @@ class ScatterDiagram:
     @property
     def probability(self) -> np.ndarray:
         """Occurrence probabilities [-], summing to 1."""
-        return self.counts / self.counts.sum()
+        c = self.counts / self.counts.max()  # (counts of 1e308 would sum to inf, and every probability to 0)
+        return c / c.sum()
 
     @property
     def total(self) -> float:
@@ -149,6 +150,13 @@ def parse_scatter(text: str, source: str) -> ScatterDiagram:
         hs.append(h)
         counts.append(row)
     counts = np.array(counts)
+    with np.errstate(over="ignore"):
+        finite_sum = np.isfinite(counts.sum())
+    if not finite_sum:
+        raise ScatterError(
+            f"{source}: the counts sum to more than the largest number ({counts.max():g} the largest count): give "
+            "counts of a sensible size (they are normalised, so any common scale works)."
+        )
     if not counts.sum() > 0:
         raise ScatterError(
             f"{source}: every count is zero: the scatter diagram gives no sea state any weight."
@@ -186,6 +194,11 @@ def scatter_diagram(name_or_path: str | os.PathLike | ScatterDiagram) -> Scatter
     """`rec34` (the packaged IACS Rec. 34 table), a scatter CSV file, or a `ScatterDiagram` (returned as is)."""
     if isinstance(name_or_path, ScatterDiagram):
         return name_or_path
+    if not isinstance(name_or_path, str | os.PathLike):
+        raise ValueError(
+            f"`scatter` must be 'rec34', the path of a scatter CSV file or a ScatterDiagram; got "
+            f"{name_or_path!r} ({type(name_or_path).__name__})."
+        )
     if str(name_or_path).lower() == REC34:
         return rec34_scatter()
     return read_scatter(name_or_path)

@@ -30,6 +30,13 @@ def _load_unit(checkpoint, name: str):
     path = Path(checkpoint) / f"{name}.npz"
     if not path.exists():
         return None
+    if not path.is_file():  # a FIFO there hung the run (issue 45); `_save_unit` replaces it
+        warnings.warn(
+            f"checkpoint file {path} is not a regular file (a FIFO, a device or a folder); computing that unit "
+            "again.",
+            stacklevel=3,
+        )
+        return None
     members = files.read_entry(path, name)
     if members is None:
         warnings.warn(
@@ -44,7 +51,7 @@ def _save_unit(checkpoint, name: str, arrays: dict) -> None:
     """Save a unit's arrays as a verified entry (digest, unit name, versions; `_cache_files.entry_bytes`)."""
     if checkpoint is None:
         return
-    atomic_write_bytes(Path(checkpoint) / f"{name}.npz", files.entry_bytes(name, arrays))
+    atomic_write_bytes(Path(checkpoint) / f"{name}.npz", files.entry_bytes(name, arrays), name_errors=True)
 
 
 def _gather(arrays: dict, mine: np.ndarray) -> dict:

@@ -76,21 +76,32 @@ def polar_risk_chart(
     _setup_polar(ax, r_max, speed)
     mesh = ax.pcolormesh(theta_edges, r_edges, p.T, cmap=cmap, vmin=0.0, vmax=vmax, shading="flat")
     ax.plot(*np.meshgrid(np.radians(180.0 - chi), speed, indexing="ij"), "k.", ms=2, alpha=0.4)
-    if annotate:  # at the cells' centres (a speed-0 cell is a wedge from the centre)
+    if annotate:  # at the cells' centres (a speed-0 cell is a wedge from the centre), where the text fits
         r_mid = (r_edges[1:] + r_edges[:-1]) / 2
         theta_mid = (theta_edges[1:] + theta_edges[:-1]) / 2
+        fig = ax.figure
+        box = ax.get_position()
+        radius_in = min(box.width * fig.get_figwidth(), box.height * fig.get_figheight() / 2)  # the half disc
+        origin = ax.get_rorigin()
+        scale = radius_in / (r_max - origin)  # [in] per unit of speed
         for a in range(chi.size):
             for b in range(speed.size):
+                text = fmt.format(p[a, b])
+                arc = (r_mid[b] - origin) * scale * abs(theta_edges[a] - theta_edges[a + 1])
+                depth = (r_edges[b + 1] - r_edges[b]) * scale
+                if arc < len(text) * 0.55 * 6 / 72 or depth < 1.3 * 6 / 72:
+                    continue  # it would spill out of its wedge (the colour says the value)
                 ax.text(
                     theta_mid[a],
                     r_mid[b],
-                    fmt.format(p[a, b]),
+                    text,
                     ha="center",
                     va="center",
                     fontsize=6,
                     color="w" if p[a, b] > 0.5 * vmax else "k",
                 )
-    ax.set_title(label, fontsize=9, pad=26)  # above the two-line "180° head" tick label
+    if label:
+        ax.set_title(label, fontsize=9, pad=26)  # above the two-line "180° head" tick label
     ax.grid(True, alpha=0.4)
     return mesh
 

@@ -16,6 +16,7 @@ def risk_figure(
     hours: float,
     capsize_probability: float,
     title: str | None = None,
+    splitting: dict | None = None,
 ):
     """P(max |φ| > x within the exposure) [-] against the angle x [deg], linear and log panels.
 
@@ -25,6 +26,8 @@ def risk_figure(
       amplitude law; theory names: their laws), or "first_passage": the envelope FPK model's first passage
       (no independence assumed; NaN where not computed).
     - `angle_deg`: the threshold asked for (vertical line); `hours`: the exposure [h].
+    - `splitting`: the multilevel-splitting estimate at `angle_deg` (`probability`, `probability_ci95`), drawn as a
+      point with its 95 % interval (None: not computed).
 
     **Returns:** the figure.
     """
@@ -65,14 +68,27 @@ def risk_figure(
                 lw=1.0,
                 label=f"P(capsize) = {capsize_probability:.3g}",
             )
+        if splitting is not None:
+            p, (lo, hi) = float(splitting["probability"]), (float(v) for v in splitting["probability_ci95"])
+            ax.errorbar(
+                [angle_deg],
+                [p],
+                yerr=[[max(p - lo, 0.0)], [max(hi - p, 0.0)]],
+                fmt="D",
+                color="tab:purple",
+                ms=5,
+                capsize=3,
+                label=f"multilevel splitting at {angle_deg:g}°: {p:.3g} (95 % {lo:.2g}–{hi:.2g})",
+            )
         ax.axvline(angle_deg, color="0.5", ls="-.", lw=0.8)
         ax.set_xlabel("roll angle x [deg]")
         ax.set_ylabel(f"P(max |φ| > x within {hours:g} h)")
         if log:
             ax.set_yscale("log")
+            extra = [] if splitting is None else [np.asarray([splitting["probability_ci95"][0]], float)]
             finite = [
                 np.nanmin(np.where(np.asarray(c) > 0, c, np.nan))
-                for c in [direct, *curves.values()]
+                for c in [direct, *curves.values(), *extra]
                 if np.any(np.asarray(c) > 0)
             ]
             ax.set_ylim(max(min(finite, default=1e-6), 1e-8) / 2, 1.5)

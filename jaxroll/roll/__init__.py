@@ -53,6 +53,7 @@ from ._sharding import (
 )
 from ._splitting import (
     DEFAULT_WAVE_WEIGHT as DEFAULT_WAVE_WEIGHT,
+    SPLITTING_EXCITATIONS as SPLITTING_EXCITATIONS,
     monte_carlo_splitting as monte_carlo_splitting,
     monte_carlo_splitting_angles as monte_carlo_splitting_angles,
     splitting_pilot as splitting_pilot,

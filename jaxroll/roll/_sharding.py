@@ -21,7 +21,7 @@ import jax.numpy as jnp
 import jax.random as jr
 import numpy as np
 
-from .._atomic import atomic_write_bytes
+from .._atomic import NotRegularFile, atomic_write_bytes, read_regular
 from .._compiled import MONTE_CARLO_PROGRAM, cached_program
 
 REALIZATION_AXIS = "realizations"
@@ -152,7 +152,13 @@ def _load_checkpoint(path: Path, fingerprint: dict[str, str], consistency=None):
     per-realization arrays (`AbstractObserver.consistency`)."""
     advice = f"Delete {path.parent} (or the file) to start afresh, or pass another checkpoint directory."
     try:
-        with open(path, "rb") as f, np.load(f, allow_pickle=False) as data:
+        raw = read_regular(path)  # a FIFO in its place would hang the run
+    except NotRegularFile:
+        raise ValueError(
+            f"checkpoint {path} is not a regular file (a FIFO, a device or a folder). {advice}"
+        ) from None
+    try:
+        with np.load(io.BytesIO(raw), allow_pickle=False) as data:
             contents = {name: data[name] for name in data.files}
         digest = str(contents.pop("digest")) if "digest" in contents else None
         stored = json.loads(str(contents["fingerprint"]))
@@ -209,7 +215,7 @@ def _save_checkpoint(path: Path, fingerprint: dict, next_start: int, summed: dic
     arrays["digest"] = np.array(_content_digest(arrays))
     buf = io.BytesIO()
     np.savez(buf, **arrays)
-    atomic_write_bytes(path, buf.getvalue())
+    atomic_write_bytes(path, buf.getvalue(), name_errors=True)
 
 
 #: Peak bytes per realization-step of the histogram observer's chunk, measured (peak RSS, dt = 0.05 s, 3600 s,

@@ -60,6 +60,10 @@ PILOT_KEY = 0x7FFFFFF2  # the pilot run (level choice) is a splitting run keyed 
 #: the default ship (H1/3 4.5 m, 40°, 1 h) the committor of a level's entrance states correlated 0.40 with â and
 #: 0.71 with ê, and a least-squares fit weighed one standard deviation of ê as 4.9° of â (docs/rare_events.md).
 DEFAULT_WAVE_WEIGHT = 5.0
+#: The effective-wave excitations (`RollProblem.from_sea(excitation=…)`) splitting can restart runs from: the
+#: shaping filter's Markov state. The commands and `jaxroll.longterm` check a chosen estimator against it before
+#: any computation (one rule for them all; `_checked` refuses any other problem).
+SPLITTING_EXCITATIONS = ("filter",)
 
 
 def _stage_key(key, stage: int):
