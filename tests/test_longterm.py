@@ -30,6 +30,7 @@ from jaxroll.longterm import (
     parse_scatter,
 )
 from jaxroll.longterm._cells import make_grid
+from jaxroll.longterm._allowance import measured_allowance
 from jaxroll.longterm._risk import annual, auto_cells, longterm_probability
 from jaxroll.longterm._theory import class_template, class_theory
 
@@ -146,7 +147,12 @@ BAD_OPTIONS = [
     (["--realizations", "0"], "--realizations must be >= 1"),
     (["--scatter", "nowhere.csv"], "--scatter: scatter file 'nowhere.csv' not found"),
     (["--estimator", "magic"], "--estimator must be one of brute-force"),
-    (["--model-factor", "0.5"], "--model-factor must be >= 1"),
+    (["--model-factor", "0.5"], "--model-factor must be measured or a number >= 1"),
+    (
+        ["--model-factor", "wide"],
+        "--model-factor must be measured or a number >= 1 (1: the theory taken as exact); got 'wide'",
+    ),
+    (["--filter-order", "eight"], "--filter-order must be auto or an integer between 3 and 12"),
     (["--skip-weight", "1"], "--skip-weight must be in [0, 1)"),
     (["--refine-delta", "-0.1"], "--refine-delta must be in [0, 1)"),
     # issue 45 items 4 and 6: absurd values that were accepted (P = 0) or ended in a traceback
@@ -459,11 +465,27 @@ def test_longterm_by_theory(theory_run):
         empty.method.values == METHODS.index("zero_weight")
     )
     assert np.all(ds.method.sel(hs=5.5, heading_deg=[180.0, 150.0, 210.0]).values == METHODS.index("theory"))
-    # theory cells: the interval is the model allowance [P/1.25, 1.25 P] (none is doubtful here)
+    # theory cells: the interval is the measured model allowance [P/f_below, f_above P] of the cell's region
+    # (none is doubtful here)
     assert not ds.theory_doubtful.values.any()
-    pt = ds.probability.sel(hs=5.5, heading_deg=180.0).values
+    pt = ds.probability.sel(hs=5.5, heading_deg=180.0).values  # (tz, speed, ship, angle)
+    below, above, outside, _ = measured_allowance(
+        5.5, ds.tz.values[:, None] * T01_OVER_TZ, ds.speed.values[None]
+    )
     np.testing.assert_allclose(
-        ds.probability_lower.sel(hs=5.5, heading_deg=180.0).values, pt / 1.25, rtol=1e-15, atol=0
+        ds.probability_lower.sel(hs=5.5, heading_deg=180.0).values,
+        pt / below[..., None, None],
+        rtol=1e-15,
+        atol=0,
+    )
+    np.testing.assert_allclose(
+        ds.probability_upper.sel(hs=5.5, heading_deg=180.0).values,
+        np.minimum(1.0, pt * above[..., None, None]),
+        rtol=1e-15,
+        atol=0,
+    )
+    np.testing.assert_array_equal(
+        ds.theory_outside_validated_map.sel(hs=5.5, heading_deg=180.0).values[..., 0], outside
     )
     lt = ds.longterm_probability.values
     np.testing.assert_allclose(
@@ -888,7 +910,7 @@ def test_the_recorded_risk_command_is_shell_quoted(calm_parts, tmp_path):
     ds.attrs["config_json"] = json.dumps(cfg)
     from jaxroll.longterm import risk_command
 
-    command = risk_command(ds, dict(hs=0, tz=0, heading=0, speed=0, ship=0))
+    command = risk_command(ds, dict(hs=0, tz=0, heading_deg=0, speed=0, ship=0))
     words = shlex.split(command)
     assert words[:2] == ["jaxroll", "risk"] and words[-2:] == ["--ship", evil]
     assert words[words.index("--seed") + 1] == str(int(ds.seed.values[0, 0, 0, 0, 0]) - 1)

@@ -43,7 +43,7 @@ def test_default_excitation_agrees_with_the_exact_sea():
     (docs/validation.md)."""
     x_ref, n_ref = _ref("hs6_t10_chi180_u0", 1, 35)
     problem = jxr.RollProblem.from_sea(jxr.c11_representative(), jxr.ITTC(6.0, 10.0))
-    assert problem.filter_fit.filter.order == 6
+    assert problem.filter_fit.filter.order == 8
     n = 4000
     s = jxr.monte_carlo_max_roll(problem, jax.random.key(7), angle_deg=35.0, num_realizations=n, duration=4100.0,
                                  discard=500.0)  # fmt: skip

@@ -45,20 +45,21 @@ def add_sea_options(p: argparse.ArgumentParser) -> None:
         "--filter-order",
         type=_filter_order,
         default="auto",
-        help="order of the Method-2 filter, or auto (default): the lowest of 4, 6, 8 that follows the effective-wave "
+        help="order of the Method-2 filter, or auto (default): 4, or 8 where 4 does not follow the effective-wave "
         "spectrum within 5 %% where the roll is excited (4 is the paper's; the moment method keeps 4 under auto)",
     )
     n.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
 
 
 def _filter_order(text: str) -> int | str:
-    """argparse type of --filter-order: 'auto' or an integer (its range checked by `check_filter_order`)."""
+    """argparse type of --filter-order: 'auto', an integer, or the text as given (refused by `check_filter_order`
+    with the option's name)."""
     if str(text).strip().lower() == "auto":
         return "auto"
     try:
         return int(text)
     except ValueError:
-        raise argparse.ArgumentTypeError(f"must be auto or an integer filter order; got {text!r}") from None
+        return text
 
 
 def moment_filter_order(args) -> int:
@@ -182,10 +183,11 @@ def check_filter_order(args) -> None:
     (whatever --method is)."""
     from ..sea import MAX_FILTER_ORDER
 
-    if args.filter_order != "auto" and not 3 <= args.filter_order <= MAX_FILTER_ORDER:
+    order = args.filter_order
+    if order != "auto" and not (isinstance(order, int) and 3 <= order <= MAX_FILTER_ORDER):
         raise CLIError(
-            f"--filter-order must be auto or between 3 and {MAX_FILTER_ORDER} (auto recommended, 4 the paper's); "
-            f"got {args.filter_order}."
+            f"--filter-order must be auto or an integer between 3 and {MAX_FILTER_ORDER} (auto recommended, 4 the "
+            f"paper's); got {order!r}."
         )
 
 

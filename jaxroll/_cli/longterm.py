@@ -30,13 +30,14 @@ from ._sea import _filter_order, check_filter_order
 
 
 def _model_factor(text: str) -> float | str:
-    """argparse type of --model-factor: 'measured' or a number (checked by `check_options`)."""
+    """argparse type of --model-factor: 'measured', a number, or the text as given (refused by `check_options`
+    with the option's name)."""
     if str(text).strip().lower() == "measured":
         return "measured"
     try:
         return float(text)
     except ValueError:
-        raise argparse.ArgumentTypeError(f"must be measured or a number >= 1; got {text!r}") from None
+        return text
 
 
 _NAMED = {"head": 180.0, "beam": 90.0, "following": 0.0}
@@ -178,7 +179,7 @@ def register(sub) -> None:
         "--filter-order",
         type=_filter_order,
         default="auto",
-        help="order of the Method-2 filter, or auto (default): the lowest of 4, 6, 8 that follows the effective-wave "
+        help="order of the Method-2 filter, or auto (default): 4, or 8 where 4 does not follow the effective-wave "
         "spectrum within 5 %% where the roll is excited, per sea state (4 is the paper's)",
     )
     n.add_argument("--phi0-deg", type=float, default=5.0, help="initial roll of each trial [deg] (5)")
@@ -298,10 +299,12 @@ def check_args(args):
         raise CLIError(f"--auto-share must be in (0, 1]; got {args.auto_share}.")
     if not (math.isfinite(args.auto_tolerance) and args.auto_tolerance >= 0):
         raise CLIError(f"--auto-tolerance must be >= 0; got {args.auto_tolerance}.")
-    if args.model_factor != "measured" and not (math.isfinite(args.model_factor) and args.model_factor >= 1):
+    if args.model_factor != "measured" and not (
+        isinstance(args.model_factor, float) and math.isfinite(args.model_factor) and args.model_factor >= 1
+    ):
         raise CLIError(
             f"--model-factor must be measured or a number >= 1 (1: the theory taken as exact); got "
-            f"{args.model_factor}."
+            f"{args.model_factor!r}."
         )
     if not 0 <= args.skip_weight < 1:
         raise CLIError(f"--skip-weight must be in [0, 1); got {args.skip_weight}.")

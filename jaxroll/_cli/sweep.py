@@ -71,7 +71,7 @@ def register(sub) -> None:
         "--filter-order",
         type=_filter_order,
         default="auto",
-        help="order of the Method-2 filter, or auto (default): the lowest of 4, 6, 8 that follows the effective-wave "
+        help="order of the Method-2 filter, or auto (default): 4, or 8 where 4 does not follow the effective-wave "
         "spectrum within 5 %% where the roll is excited, per sea state (4 is the paper's)",
     )
     m.add_argument(

@@ -158,12 +158,13 @@ def longterm(
     ships = list(ships)
     check_types(ships, checkpoint)  # NumPy numbers are numbers: each converted, or refused by its name
     reals = dict(exposure=exposure, hours_per_year=hours_per_year, dt=dt, discard=discard, auto_share=auto_share,
-                 auto_tolerance=auto_tolerance, model_factor=model_factor, skip_weight=skip_weight,
-                 refine_delta=refine_delta, rare_below=rare_below, phi0=phi0)  # fmt: skip
-    (exposure, hours_per_year, dt, discard, auto_share, auto_tolerance, model_factor, skip_weight, refine_delta,
-     rare_below, phi0) = (_real(v, n) for n, v in reals.items())  # fmt: skip
-    seed, realizations, filter_order = (_integer(v, n) for n, v in
-                                        dict(seed=seed, realizations=realizations, filter_order=filter_order).items())  # fmt: skip
+                 auto_tolerance=auto_tolerance, skip_weight=skip_weight, refine_delta=refine_delta,
+                 rare_below=rare_below, phi0=phi0)  # fmt: skip
+    (exposure, hours_per_year, dt, discard, auto_share, auto_tolerance, skip_weight, refine_delta, rare_below,
+     phi0) = (_real(v, n) for n, v in reals.items())  # fmt: skip
+    model_factor = model_factor if model_factor == "measured" else _real(model_factor, "model_factor")
+    filter_order = filter_order if filter_order == "auto" else _integer(filter_order, "filter_order")
+    seed, realizations = (_integer(v, n) for n, v in dict(seed=seed, realizations=realizations).items())
     names = list(ship_names) if ship_names is not None else [s.name for s in ships]
     files = list(ship_files) if ship_files is not None else [None] * len(ships)
     grid = make_grid(scatter, ships, names, ship_weights, headings, heading_weights, speeds, speed_weights)

@@ -229,10 +229,9 @@ class RollProblem(eqx.Module):
         - `excitation`: "filter" (Method 2, the paper's for Monte Carlo: a shaping filter fitted once to S_G
           with extra weight at 2ω0, kept in `filter_fit` for the moment method) or "superposition" (Method 1).
         - `dt`: time step [s] (checked against the roll period and the excitation bandwidth).
-        - `filter_order`: order of the shaping filter (Method 2), or `"auto"` (default): the lowest of 4, 6, 8
-          whose spectrum follows S_G within 5 % on `parametric_band(ship)`, the encounter frequencies the
-          roll responds to (`fit_filter_in_band`; the order and its band error in `filter_fit.summary()`). The
-          paper's Method 2 is `filter_order=4`: 9–30 % low in P(roll > angle) in some seas (docs/numerics.md, "The
+        - `filter_order`: order of the shaping filter (Method 2), or `"auto"` (default): order 4 where it follows S_G
+          within 5 % on `parametric_band(ship)`, the encounter frequencies the roll responds to, else 8 (`fit_filter_in_band`; the order and its band error in `filter_fit.summary()`). The
+          paper's Method 2 is `filter_order=4`: 10–60 % low in P(roll > angle) in some seas (docs/numerics.md, "The
           filter's order").
         - `phi0` [rad], `dphi0` [rad/s]: initial condition (the paper's 5°, 0).
         - `substeps`: time steps per shaping-filter step (None: chosen from the bridge's interpolation error,
