@@ -20,8 +20,6 @@ import time
 import warnings
 from collections.abc import Sequence
 
-from .._atomic import clear_interrupt, note_interrupt
-
 # The LAPACK that jaxlib calls on the CPU is SciPy's OpenBLAS, which starts a thread per core; on the small matrices
 # of jaxroll's theories those threads only contend with XLA's own (a warm `jaxroll theory` took 5.8–8 s instead of
 # 3.4–3.7 s on a 2-core machine with another job running; no difference when idle). One thread, unless set.
@@ -109,6 +107,7 @@ def _run(args) -> int:
     cache is switched on (JAXROLL_CACHE_DIR, default ~/.cache/jaxroll/xla; empty: off; refused, with a warning,
     where others could write to it)."""
     from .. import enable_compilation_cache
+    from ..io import clear_interrupt
     from ._common import CLIError, check_folder, os_error_message, prepare_out
 
     if (
@@ -171,6 +170,8 @@ def _on_interrupt(signum, frame) -> None:
         _STATE["raised"], _STATE["deferred"] = now, None  # (no deferred signal: `_raise_again` stops)
     if echo:  # a repeat sent by `_raise_again` just as the first was raised (the command is reporting it)
         return
+    from ..io import note_interrupt  # (imported by `_run` already: a look-up)
+
     note_interrupt()  # raised again at the next save where this one is lost (raised in a finaliser)
     raise KeyboardInterrupt
 

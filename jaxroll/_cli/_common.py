@@ -12,8 +12,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-from .._atomic import raise_if_interrupted
-from ..io import atomic_write_bytes as atomic_write_bytes, to_jsonable as to_jsonable
+from ..io import atomic_write_bytes as atomic_write_bytes, raise_if_interrupted, to_jsonable as to_jsonable
 
 
 class CLIError(Exception):

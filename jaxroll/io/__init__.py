@@ -1,7 +1,12 @@
 """Every file format: tank records (and lab files of tank data), ship files, hull files, and the labelled results
 (netCDF)."""
 
-from .._atomic import atomic_write_bytes as atomic_write_bytes
+from .._atomic import (
+    atomic_write_bytes as atomic_write_bytes,
+    clear_interrupt as clear_interrupt,
+    note_interrupt as note_interrupt,
+    raise_if_interrupted as raise_if_interrupted,
+)
 from ._dataset import (
     dataset_attrs as dataset_attrs,
     output_dataset as output_dataset,
