@@ -179,12 +179,16 @@ class Record:
             raise RecordError(f"{self.source}: header key `{key}` is missing.")
         return self.meta[key]
 
-    def window(self, start_model_s: float, stop_model_s: float) -> Record:
-        """The samples with start ≤ t ≤ stop, the bounds in **model-scale seconds** (the paper's 70–340 s).
+    def window(self, start_model_s: float | None, stop_model_s: float | None) -> Record:
+        """The samples with start ≤ t ≤ stop, the bounds in **model-scale seconds** of the record's own time (the
+        paper's 70–340 s; the time scale of every start, stop and window jaxroll takes); None: the record's first
+        (last) sample.
 
         **Raises:** `RecordError` if the record does not cover the window (it names the last line)."""
         t_model = self.model_time
         tol = 0.5 / float(self.meta["sampling_hz"])
+        start_model_s = float(t_model[0]) if start_model_s is None else start_model_s
+        stop_model_s = float(t_model[-1]) if stop_model_s is None else stop_model_s
         if not stop_model_s > start_model_s:
             raise RecordError(
                 f"{self.source}: analysis window {start_model_s}–{stop_model_s} s is empty "

@@ -1,0 +1,163 @@
+"""A decay record as a lab hands it over, made ready for a fit: the part analysed (from the release, found
+automatically, or from a given start; to a given stop), the roll offset, and a check of the angle unit.
+
+Times given by the user are in **model-scale seconds of the record's own time column** (as in the file), like
+`Record.window` and the `--window` of the other calibrations (docs/calibration.md, "Records as labs hand them
+over").
+
+Release: a decay test starts with the model at rest (upright, or held at its heel), is heeled by hand and let go;
+the largest deviation from the record's median is the release (or the end of the plateau where the model was held
+there), and everything before it is not a decay.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import warnings
+
+import numpy as np
+
+from ..io._records import Record, RecordError
+from ._inputs import _noise_std
+
+
+@dataclasses.dataclass(frozen=True)
+class DecaySegment:
+    """The analysed part of one decay record.
+
+    - `record`: the record as given; `analysed`: from `start` to the stop, the roll as measured [rad].
+    - `start_model_s`: the first analysed sample [s, model scale, the record's time]; `released`: True when it is
+      the release found in the record (False: a start given by the user).
+    - `stop_model_s`: the last analysed sample [s, model scale].
+    - `offset`: first estimate of the roll offset [rad] (the level the decay settles about).
+    - `peak`: |φ(start) − offset| [rad].
+    """
+
+    record: Record
+    analysed: Record
+    start_model_s: float
+    stop_model_s: float
+    released: bool
+    offset: float
+    peak: float
+
+    def config(self) -> dict:
+        """JSON-ready: where the analysis starts and stops [s, model scale] and why."""
+        return {
+            "source": self.record.source,
+            "start_model_s": self.start_model_s,
+            "stop_model_s": self.stop_model_s,
+            "start_from": "release found" if self.released else "start given",
+        }
+
+
+def find_release(record: Record) -> int:
+    """Index of the release of a decay record: the last sample of the largest deviation from the record's median
+    (the end of the plateau when the model was held heeled; within 5 noise std or 0.2 % of the peak)."""
+    phi = np.asarray(record.roll, dtype=float)
+    d = np.abs(phi - np.median(phi))
+    i = int(np.argmax(d))
+    threshold = d[i] - max(5 * _noise_std(phi), 0.002 * d[i])
+    below = np.nonzero(d[i:] < threshold)[0]
+    return i + int(below[0]) - 1 if below.size else i
+
+
+def _slice(record: Record, a: int, b: int) -> Record:
+    return dataclasses.replace(
+        record,
+        time=record.time[a:b],
+        channels={k: v[a:b] for k, v in record.channels.items()},
+        lines=None if record.lines is None else record.lines[a:b],
+    )
+
+
+def _index(record: Record, t_model: float, name: str) -> int:
+    tm = record.model_time
+    tol = 0.5 / float(record.meta["sampling_hz"])
+    if not (tm[0] - tol <= t_model <= tm[-1] + tol):
+        raise RecordError(
+            f"{record.source}: {name} = {t_model:g} s (model scale) is outside the record, which covers "
+            f"{tm[0]:.3f}–{tm[-1]:.3f} s model scale ({record.time[0]:.1f}–{record.time[-1]:.1f} s full scale)."
+        )
+    return int(np.clip(np.searchsorted(tm, t_model - tol), 0, tm.size - 1))
+
+
+def _offset(phi: np.ndarray, dt: float) -> float:
+    """The level a decay oscillates about [rad]: the median of (φ_n + 2φ_{n+1} + φ_{n+2})/4 over its extremes
+    (cancels a linear decay of the amplitude), or the median of φ when there are fewer than three."""
+    ref = float(np.median(phi))
+    x = phi - ref
+    h = max(3 * _noise_std(phi), 0.02 * float(np.max(np.abs(x))))
+    s = np.sign(x[0]) or 1.0
+    idx = []
+    best = 0
+    for i, v in enumerate(x):  # extremes between hysteresis crossings
+        if s * v < -h:
+            idx.append(best)
+            s, best = -s, i
+        elif s * v > s * x[best]:
+            best = i
+    ext = phi[idx]
+    if ext.size < 3:
+        return ref
+    return float(np.median((ext[:-2] + 2 * ext[1:-1] + ext[2:]) / 4))
+
+
+def decay_segment(
+    record: Record, *, start_model_s: float | None = None, stop_model_s: float | None = None
+) -> DecaySegment:
+    """The analysed part of a decay record: from `start_model_s` [s, model scale, the record's time] if given,
+    else from the release found in the record (`find_release`), to `stop_model_s` (default: the end).
+
+    **Raises:** `RecordError` for a start or stop outside the record, a stop before the start, or fewer than 16
+    samples between them."""
+    n = record.time.size
+    stop = n if stop_model_s is None else _index(record, stop_model_s, "stop") + 1
+    if start_model_s is not None:
+        start = _index(record, start_model_s, "start")
+        released = False
+    else:
+        start = find_release(_slice(record, 0, stop))
+        released = True
+    if stop - start < 16:
+        raise RecordError(
+            f"{record.source}: the analysis from {record.model_time[min(start, n - 1)]:.3f} s to "
+            f"{record.model_time[stop - 1]:.3f} s (model scale) leaves {max(stop - start, 0)} samples; at least 16 "
+            "are needed (check --start/--stop)."
+        )
+    analysed = _slice(record, start, stop)
+    offset = _offset(analysed.roll, record.dt)
+    return DecaySegment(
+        record,
+        analysed,
+        float(record.model_time[start]),
+        float(record.model_time[stop - 1]),
+        released,
+        offset,
+        abs(float(analysed.roll[0]) - offset),
+    )
+
+
+def check_angle_unit(segment: DecaySegment) -> str | None:
+    """A warning (also returned) when the decay's amplitude says the roll unit is wrong: a decay test is released
+    from a few degrees to a few tens, so a peak under 1° that would be 2–60° read as radians is radians labelled
+    degrees, and a peak over 45° is probably degrees labelled radians (beyond 90° the loaders refuse it)."""
+    peak = math.degrees(segment.peak)
+    src = segment.record.source
+    message = None
+    if peak < 1.0 and 2.0 <= peak * 180 / math.pi <= 60.0:
+        message = (
+            f"{src}: the decay starts at only {peak:.3g}°; if the roll column is in radians labelled degrees it "
+            f"would be {peak * 180 / math.pi:.3g}°, a usual decay test — check the roll unit (CLI --units roll=rad "
+            "or --units-file)."
+        )
+    elif peak > 45.0:
+        message = (
+            f"{src}: the decay starts at {peak:.3g}°, beyond any decay test; if the roll column is in degrees "
+            f"labelled radians it would be {math.radians(peak):.3g}° — check the roll "
+            "unit (CLI --units roll=deg)."
+        )
+    if message:
+        warnings.warn(message, stacklevel=3)
+    return message
