@@ -195,14 +195,18 @@ def _prepare(records, start_model_s, stop_model_s, hysteresis_deg, min_amplitude
     """Each record's analysed segment, its extremes about the roll offset, the pooled observed period [s] and the
     amplitude range [rad]."""
     segs = [decay_segment(r, start_model_s=start_model_s, stop_model_s=stop_model_s) for r in records]
-    for s in segs:
-        check_angle_unit(s)
     thresholds, ext = [], []
     for s in segs:
+        unit_note = check_angle_unit(s)
         centred = dataclasses.replace(s.analysed, channels={"roll": s.analysed.roll - s.offset})
         h, a = _extinction_thresholds(centred, hysteresis_deg, min_amplitude_deg)
         thresholds.append((h, a))
-        ext.append(decay_extremes(centred, hysteresis_deg=h, min_amplitude_deg=a))
+        try:
+            ext.append(decay_extremes(centred, hysteresis_deg=h, min_amplitude_deg=a))
+        except RecordError as e:
+            if unit_note is None:
+                raise
+            raise RecordError(f"{e} {unit_note.removeprefix(s.record.source + ': ')}") from None
     periods = [2 * float(np.median(np.diff(e.time))) for e in ext]
     amps = np.concatenate([np.abs(e.value) for e in ext])
     return segs, thresholds, ext, periods, (float(amps.min()), float(amps.max()))

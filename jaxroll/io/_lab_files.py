@@ -420,6 +420,38 @@ def _resolve_unit(
     return native, factor, from_file
 
 
+def read_units_file(path: str | Path) -> dict[str, str]:
+    """A units side file as labs hand it over: two rows, the column names and then their units, with the data
+    file's delimiter (`,` `;` tab `|` or spaces), e.g. `time,x,y,z,phi,theta,psi` over `s,m,m,m,rad,rad,rad`.
+
+    **Returns:** {column name: unit}, and {"#1": unit, "#2": …} by 1-based position (for files without names).
+
+    **Raises:** `RecordError` when it does not hold two rows of the same length; `FileNotFoundError`."""
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"Units file {str(path)!r} does not exist.")
+    rows = [ln for ln in _read_text(path)[0].splitlines() if ln.strip() and not _is_comment(ln)]
+    if len(rows) != 2:
+        raise _err(
+            str(path),
+            None,
+            f"a units file holds two rows (the column names, then their units); it has {len(rows)}.",
+        )
+    for delim in (";", "\t", ",", "|", " "):
+        names, units = (_splitter(delim)([r])[0] for r in rows)
+        if len(names) == len(units) and (len(names) > 1 or delim == " "):
+            break
+    if len(names) != len(units):
+        raise _err(
+            str(path),
+            2,
+            f"the units row has {len(units)} fields but the names row {len(names)}; give one unit a column.",
+        )
+    out = {n.strip(): u.strip() for n, u in zip(names, units)}
+    out.update({f"#{j + 1}": u.strip() for j, u in enumerate(units)})
+    return out
+
+
 def _split_hdf5(path: str | Path) -> tuple[Path, str | None] | None:
     """(file, group) when `path` names an HDF5 file, optionally as `FILE:/group`; None for a text file."""
     text = str(path)
@@ -507,6 +539,7 @@ def import_record(
     wave: str | int | None = None,
     delta_gm: str | int | None = None,
     units: Mapping[str, str] | None = None,
+    units_file: str | Path | None = None,
     scale: float,
     full_scale: bool = False,
     sampling_hz: float | None = None,
@@ -531,6 +564,8 @@ def import_record(
     - `units`: units by column (`{"roll": "deg", "wave": "mm"}`) where the file gives none; time s, ms or min;
       roll deg or rad (mrad); wave and delta_gm m, cm or mm. A unit given here that contradicts the file's is
       an error.
+    - `units_file`: a side file of two rows, the column names and their units (`read_units_file`), for a file
+      whose header has names but no units; a column is looked up by its name, else by its position.
     - `scale`: λ ≥ 1 of the model (1 for full-scale data).
     - `full_scale`: the file's time and lengths are already full scale (default: model scale, as tank records
       are); the record is kept at model scale λ all the same.
@@ -641,6 +676,15 @@ def import_record(
             f", header line {table.layout['header_line']}" if table.layout["header_line"] else ", no header"
         )
     # --- units, scale, sampling ---
+    if units_file is not None:
+        side = read_units_file(units_file)
+        folded = {k.lower(): v for k, v in side.items()}
+        for role in specs:
+            if file_units[role] is None:
+                position = f"#{_column_index(table, specs[role], role) + 1}" if hdf5 is None else None
+                file_units[role] = (
+                    side.get(names[role]) or folded.get(names[role].lower()) or side.get(position)
+                )
     record_units, factors, read_units = {}, {}, {}
     for role in specs:
         native, factor, read = _resolve_unit(
