@@ -16,9 +16,9 @@ import pytest
 import jaxroll as jxr
 from jaxroll.calibration import (
     decay_segment,
+    find_release,
     fit_decay_ode,
     fit_extinction,
-    find_release,
     virtual_decay_record,
     write_lab_file,
 )

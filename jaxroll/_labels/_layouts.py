@@ -293,8 +293,7 @@ SPLITTING_LONG_NAMES = {
     "splitting_n_successes": "runs of each stage that reached the next level",
     "splitting_simulated_seconds": "simulated realization-seconds of the estimate",
     "splitting_total_simulated_seconds": "simulated realization-seconds, the pilot included",
-    "splitting_continuation_simulated_seconds": "simulated realization-seconds of the successful runs continued "
-    "after the last stage",
+    "splitting_continuation_simulated_seconds": "realization-seconds of the runs continued after the last stage",
 }
 
 RISK = Layout(
@@ -687,37 +686,21 @@ _DIAGNOSTICS = {
 CALIBRATE_DECAY = SHIP + Layout(
     labels={"estimates": "method", "estimates/*/records": "record", "model_comparison": "damping_model"},
     arrays={
-        "estimates/*/damping_covariance": ("parameter", "parameter_2"),
-        "estimates/*/damping_correlation": ("parameter", "parameter_2"),
+        **{f"estimates/*/damping_{m}": ("parameter", "parameter_2") for m in ("covariance", "correlation")},
         "estimates/*/equivalent_damping/*": ("amplitude",),
         "estimates/*/amplitude_range_deg": ("range_bound",),
     },
     units={
         "estimates_damping_covariance": "products of the parameters' units (b1 s-1, b2 rad-1, b3 s rad-2)",
-        "estimates_damping_correlation": "1",
-        "estimates_information_criteria_*": "1",
-        "estimates_equivalent_damping_zeta": "1",
-        "estimates_equivalent_damping_zeta_std_error": "1",
-        "estimates_equivalent_damping_b_e_per_s": "s-1",
-        "estimates_equivalent_damping_b_e_std_error_per_s": "s-1",
-        "model_comparison_*": "1",
-        "written_constrained_b1_*": "s-1",
-        "written_constrained_b2_*": "rad-1",
-        "written_constrained_b3_*": "s rad-2",
-        "agreement_z_*": "1",
+        **dict.fromkeys(("estimates_damping_correlation", "estimates_information_criteria_*"), "1"),
+        **dict.fromkeys(("estimates_equivalent_damping_zeta*", "model_comparison_*", "agreement_z_*"), "1"),
+        "estimates_equivalent_damping_b_e*": "s-1",
+        **{f"written_constrained_b{i}_*": u for i, u in ((1, "s-1"), (2, "rad-1"), (3, "s rad-2"))},
         **_DIAGNOSTICS,
     },
-    long_names={
-        "estimates_damping_covariance": "covariance of (b1, b2, b3)",
-        "estimates_damping_correlation": "correlation of (b1, b2, b3) (NaN: not in the damping model)",
-        "estimates_equivalent_damping_zeta": "equivalent linear damping ratio ζ_eq(A) = B_e(A)/(2ω)",
-        "estimates_equivalent_damping_b_e_per_s": "equivalent linear damping B_e(A) per unit inertia",
-        "estimates_equivalent_damping_extrapolated": "amplitude outside the records' (1: extrapolated)",
-        "model_comparison_aic": "Akaike information criterion of the damping model (extinction curve)",
-        "model_comparison_bic": "Bayesian information criterion of the damping model (extinction curve)",
-    },
+    long_names={"estimates_damping_covariance": "covariance of (b1, b2, b3)"},
     coords={"method": (None, "fit (extinction curve or ODE)"), "damping_model": (None, "damping model")},
-    index={"parameter": ("b1", "b2", "b3"), "parameter_2": ("b1", "b2", "b3")},
+    index=dict.fromkeys(("parameter", "parameter_2"), ("b1", "b2", "b3")),
     text=("estimates/*/config", "estimates/*/fitted_parameters"),
 )
 

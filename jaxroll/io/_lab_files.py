@@ -22,6 +22,7 @@ from typing import Any
 
 import numpy as np
 
+from ._lab_units import read_units_file
 from ._records import (
     _FROUDE_POWER,
     _NUMERIC_KEYS,
@@ -418,38 +419,6 @@ def _resolve_unit(
         return native, factor, given
     native, factor = parse(from_file, "in the file")
     return native, factor, from_file
-
-
-def read_units_file(path: str | Path) -> dict[str, str]:
-    """A units side file as labs hand it over: two rows, the column names and then their units, with the data
-    file's delimiter (`,` `;` tab `|` or spaces), e.g. `time,x,y,z,phi,theta,psi` over `s,m,m,m,rad,rad,rad`.
-
-    **Returns:** {column name: unit}, and {"#1": unit, "#2": …} by 1-based position (for files without names).
-
-    **Raises:** `RecordError` when it does not hold two rows of the same length; `FileNotFoundError`."""
-    path = Path(path)
-    if not path.is_file():
-        raise FileNotFoundError(f"Units file {str(path)!r} does not exist.")
-    rows = [ln for ln in _read_text(path)[0].splitlines() if ln.strip() and not _is_comment(ln)]
-    if len(rows) != 2:
-        raise _err(
-            str(path),
-            None,
-            f"a units file holds two rows (the column names, then their units); it has {len(rows)}.",
-        )
-    for delim in (";", "\t", ",", "|", " "):
-        names, units = (_splitter(delim)([r])[0] for r in rows)
-        if len(names) == len(units) and (len(names) > 1 or delim == " "):
-            break
-    if len(names) != len(units):
-        raise _err(
-            str(path),
-            2,
-            f"the units row has {len(units)} fields but the names row {len(names)}; give one unit a column.",
-        )
-    out = {n.strip(): u.strip() for n, u in zip(names, units)}
-    out.update({f"#{j + 1}": u.strip() for j, u in enumerate(units)})
-    return out
 
 
 def _split_hdf5(path: str | Path) -> tuple[Path, str | None] | None:
