@@ -7,6 +7,7 @@ written."""
 import json
 import math
 import re
+import warnings
 
 import equinox as eqx
 import jax.numpy as jnp
@@ -204,3 +205,100 @@ def test_every_command_lists_only_files_it_wrote(argv, tmp_path, capsys):
     names = {p.rsplit("/", 1)[-1] for p in listed}
     assert f"{stem}.nc" in names and f"{stem}.json" in names
     assert names == {p.name for p in out.iterdir()}
+
+
+def test_bad_decay_options_and_units_files_are_one_line_errors(lab_record, tmp_path, capsys):
+    """Each new error of issue 43, from the command line: exit 2, one line naming what to fix, nothing written."""
+    from jaxroll._cli import main
+
+    data, units = lab_record
+    lab = ["--time", "time", "--roll", "phi", "--scale", "68"]
+    bad = {
+        "two_rows.csv": "time,x,phi\n",
+        "short_row.csv": "time,x,phi\ns,m\n",
+        "no_phi.csv": "time,x\ns,m\n",
+    }
+    for name, text in bad.items():
+        (tmp_path / name).write_text(text)
+    cases = [
+        (["--units-file", str(units), "--gm", "-1"], r"--gm must be > 0 \(full scale\); got -1\."),
+        (["--units-file", str(units), "--roll-period", "nan"], r"--roll-period must be > 0"),
+        (
+            ["--units-file", str(units), "--start", "500"],
+            r"run1\.csv: start = 500 s \(model scale\) is outside the record, which covers 0\.000–120\.500 s "
+            r"model scale \(0\.0–993\.7 s full scale\)\.",
+        ),
+        (
+            ["--units-file", str(units), "--start", "20", "--stop", "20.1"],
+            r"the analysis from 20\.000 s to 20\.100 s \(model scale\) leaves 11 samples; at least 16",
+        ),
+        (["--units-file", str(tmp_path / "none.csv")], r"Units file '.*none\.csv' does not exist\."),
+        (["--units-file", str(tmp_path / "two_rows.csv")], r"two_rows\.csv: a units file holds two rows .* has 1\."),
+        (
+            ["--units-file", str(tmp_path / "short_row.csv")],
+            r"short_row\.csv:2: the units row has 2 fields but the names row 3; give one unit a column\.",
+        ),
+        (
+            ["--units-file", str(tmp_path / "no_phi.csv")],
+            r"no_phi\.csv: no unit for column `phi` \(roll\) of .*run1\.csv: the units file names time, x; add the "
+            r"column there, or give its unit \(CLI --units roll=…\)\.",
+        ),
+    ]  # fmt: skip
+    for extra, message in cases:
+        out = tmp_path / "out"
+        assert main(["calibrate", "decay", str(data), *lab, *extra, "--out", str(out)]) == 2, extra
+        err = capsys.readouterr().err.strip()
+        assert len(err.splitlines()) == 1 and re.search(message, err), (extra, err)
+        assert err.startswith("jaxroll calibrate: error: ") and not out.exists()
+    for window, message in (
+        (["--start", "500"], r"run1\.csv: start = 500 s \(model scale\) is outside the record"),
+        (["--stop", "-3"], r"run1\.csv: stop = -3 s \(model scale\) is outside the record"),
+        (
+            ["--start", "30", "--stop", "20"],
+            r"analysis window 30\.0–20\.0 s is empty \(stop must be > start\)",
+        ),
+    ):
+        argv = ["records", "import", str(data), "--kind", "decay", *lab, "--units-file", str(units), *window]
+        assert main([*argv, "--out", str(tmp_path / "imp")]) == 2
+        assert re.search(message, capsys.readouterr().err), window
+    with pytest.raises(
+        ValueError, match=r"damping model 'quadratic' is not one of linear, linear\+quadratic"
+    ):
+        fit_extinction(_import(data, units), damping_model="quadratic")
+
+
+def test_degrees_labelled_radians_and_the_deprecated_start_are_said():
+    """A 1°-ish decay written in degrees but read as radians starts at ~52°: warned; `start_s` (full scale)
+    warns and means start_model_s = start_s/√λ."""
+    from jaxroll.calibration._decay_inputs import check_angle_unit
+    from jaxroll.io import make_record
+
+    t = np.arange(0, 40, 0.01)
+    roll = (
+        0.9 * np.exp(-0.02 * t) * np.cos(2 * math.pi * t / 2.5)
+    )  # "rad": 0.9 rad = 51.6° (51.5° about the offset)
+    rec = make_record("decay", t * math.sqrt(68.0), {"roll": roll}, scale=68.0, sampling_hz=100.0)
+    with pytest.warns(UserWarning, match=r"starts at 51\.5°, beyond any decay test; .* would be 0\.899°"):
+        assert "check the roll unit (CLI --units roll=deg)" in check_angle_unit(decay_segment(rec))
+    small = make_record("decay", t * math.sqrt(68.0), {"roll": roll / 60}, scale=68.0, sampling_hz=100.0)
+    with pytest.warns(DeprecationWarning, match=r"`start_s` \[s, full scale\] is deprecated"):
+        with pytest.raises(ValueError, match=r"start = 41\.5 s \(model scale\) is outside the record"):
+            fit_decay_ode(small, start_s=41.5 * math.sqrt(68.0))
+
+
+def test_cli_decay_warnings_are_in_the_json(lab_record, tmp_path, capsys):
+    """The ship's period 16 % off the observed one: one warning line, and in calibration.json's `warnings`."""
+    from jaxroll._cli import main
+
+    data, units = lab_record
+    out = tmp_path / "cal"
+    lab = ["--time", "time", "--roll", "phi", "--scale", "68", "--units-file", str(units)]
+    argv = ["calibrate", "decay", str(data), *lab, "--roll-period", "24.4", "--method", "extinction"]
+    with warnings.catch_warnings():
+        warnings.simplefilter("default")  # as the command runs (the suite turns warnings into errors)
+        assert main([*argv, "--stop", "60", "--out", str(out)]) == 0
+    err = [ln for ln in capsys.readouterr().err.splitlines() if "warning" in ln]
+    assert len(err) == 1 and re.search(
+        r"roll period 24\.4 s differs from the records' observed 2\d\.\d+ s", err[0]
+    )
+    assert json.loads((out / "calibration.json").read_text())["warnings"] == [err[0].split("warning: ", 1)[1]]

@@ -299,9 +299,6 @@ def _zeta_line(fit) -> str:
 
 
 def run_decay(args) -> int:
-    import sys
-    import warnings
-
     import matplotlib.pyplot as plt
 
     from ..calibration import (
@@ -316,24 +313,20 @@ def run_decay(args) -> int:
     records = _load(args, "decay")
     t0 = time.time()
     window = {"start_model_s": args.start, "stop_model_s": args.stop}
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
-        ext = fit_extinction(
-            records, ship, damping_model=args.damping_model, correct_bias=args.bias_correction, **window
+    ext = fit_extinction(
+        records, ship, damping_model=args.damping_model, correct_bias=args.bias_correction, **window
+    )
+    comparison = {}
+    for model in DAMPING_MODEL_CHOICES:  # the extinction curve of each model (its warnings are said once)
+        f = (
+            ext
+            if model == args.damping_model
+            else fit_extinction(records, ship, damping_model=model, **window)
         )
-        comparison = {}
-        for model in DAMPING_MODEL_CHOICES:  # linear least squares on the extremes: milliseconds each
-            f = (
-                ext
-                if model == args.damping_model
-                else fit_extinction(records, ship, damping_model=model, **window)
-            )
-            comparison[model] = f.information_criteria()
-        ode = fit_decay_ode(
-            records, ship, damping_model=args.damping_model, fit_period=not args.fixed_period, **window
-        )
-    for w in dict.fromkeys(str(w.message) for w in caught):
-        print(f"jaxroll calibrate: warning: {w}", file=sys.stderr)
+        comparison[model] = f.information_criteria()
+    ode = fit_decay_ode(
+        records, ship, damping_model=args.damping_model, fit_period=not args.fixed_period, **window
+    )
     chosen = ode if args.method == "ode" else ext
     fitted = None if ship is None else calibrated_ship(ship, decay=chosen, name=args.name)
     agree = decay_agreement(ext, ode)

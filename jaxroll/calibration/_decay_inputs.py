@@ -73,13 +73,9 @@ def _slice(record: Record, a: int, b: int) -> Record:
 
 
 def _index(record: Record, t_model: float, name: str) -> int:
+    record.check_model_time(t_model, name)
     tm = record.model_time
     tol = 0.5 / float(record.meta["sampling_hz"])
-    if not (tm[0] - tol <= t_model <= tm[-1] + tol):
-        raise RecordError(
-            f"{record.source}: {name} = {t_model:g} s (model scale) is outside the record, which covers "
-            f"{tm[0]:.3f}–{tm[-1]:.3f} s model scale ({record.time[0]:.1f}–{record.time[-1]:.1f} s full scale)."
-        )
     return int(np.clip(np.searchsorted(tm, t_model - tol), 0, tm.size - 1))
 
 

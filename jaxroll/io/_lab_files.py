@@ -654,6 +654,14 @@ def import_record(
                 file_units[role] = (
                     side.get(names[role]) or folded.get(names[role].lower()) or side.get(position)
                 )
+                if file_units[role] is None and units.get(role) is None:
+                    listed = ", ".join(k for k in side if not k.startswith("#"))
+                    raise _err(
+                        str(units_file),
+                        None,
+                        f"no unit for column {labels[role]} of {source}: the units file names {listed}; add the "
+                        f"column there, or give its unit (CLI --units {role}=…).",
+                    )
     record_units, factors, read_units = {}, {}, {}
     for role in specs:
         native, factor, read = _resolve_unit(

@@ -26,10 +26,8 @@ def read_units_file(path: str | Path) -> dict[str, str]:
             None,
             f"a units file holds two rows (the column names, then their units); it has {len(rows)}.",
         )
-    for delim in (";", "\t", ",", "|", " "):
-        names, units = (_split(r, delim) for r in rows)
-        if len(names) == len(units) and (len(names) > 1 or delim == " "):
-            break
+    delim = next((d for d in (";", "\t", ",", "|") if d in rows[0]), " ")  # the names row's delimiter
+    names, units = (_split(r, delim) for r in rows)
     if len(names) != len(units):
         raise _err(
             str(path),
