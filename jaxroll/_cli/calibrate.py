@@ -317,7 +317,9 @@ def run_decay(args) -> int:
         records, ship, damping_model=args.damping_model, correct_bias=args.bias_correction, **window
     )
     comparison = {}
-    for model in DAMPING_MODEL_CHOICES:  # the extinction curve of each model (its warnings are said once)
+    # the models compared by the extinction curve: an ODE fit per model would add ~30 s of compilation each
+    # (docs/calibration.md, "Damping models"); warnings are said once
+    for model in DAMPING_MODEL_CHOICES:
         f = (
             ext
             if model == args.damping_model

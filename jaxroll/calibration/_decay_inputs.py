@@ -13,13 +13,11 @@ there), and everything before it is not a decay.
 from __future__ import annotations
 
 import dataclasses
-import math
-import warnings
 
 import numpy as np
 
 from ..io._records import Record, RecordError
-from ._inputs import _noise_std
+from ._inputs import _noise_std, check_roll_unit, roll_offset
 
 
 @dataclasses.dataclass(frozen=True)
@@ -79,27 +77,6 @@ def _index(record: Record, t_model: float, name: str) -> int:
     return int(np.clip(np.searchsorted(tm, t_model - tol), 0, tm.size - 1))
 
 
-def _offset(phi: np.ndarray, dt: float) -> float:
-    """The level a decay oscillates about [rad]: the median of (φ_n + 2φ_{n+1} + φ_{n+2})/4 over its extremes
-    (cancels a linear decay of the amplitude), or the median of φ when there are fewer than three."""
-    ref = float(np.median(phi))
-    x = phi - ref
-    h = max(3 * _noise_std(phi), 0.02 * float(np.max(np.abs(x))))
-    s = np.sign(x[0]) or 1.0
-    idx = []
-    best = 0
-    for i, v in enumerate(x):  # extremes between hysteresis crossings
-        if s * v < -h:
-            idx.append(best)
-            s, best = -s, i
-        elif s * v > s * x[best]:
-            best = i
-    ext = phi[idx]
-    if ext.size < 3:
-        return ref
-    return float(np.median((ext[:-2] + 2 * ext[1:-1] + ext[2:]) / 4))
-
-
 def decay_segment(
     record: Record, *, start_model_s: float | None = None, stop_model_s: float | None = None
 ) -> DecaySegment:
@@ -123,7 +100,7 @@ def decay_segment(
             "are needed (check --start/--stop)."
         )
     analysed = _slice(record, start, stop)
-    offset = _offset(analysed.roll, record.dt)
+    offset = roll_offset(analysed.roll)
     return DecaySegment(
         record,
         analysed,
@@ -136,24 +113,5 @@ def decay_segment(
 
 
 def check_angle_unit(segment: DecaySegment) -> str | None:
-    """A warning (also returned) when the decay's amplitude says the roll unit is wrong: a decay test is released
-    from a few degrees to a few tens, so a peak under 1° that would be 2–60° read as radians is radians labelled
-    degrees, and a peak over 45° is probably degrees labelled radians (beyond 90° the loaders refuse it)."""
-    peak = math.degrees(segment.peak)
-    src = segment.record.source
-    message = None
-    if peak < 1.0 and 2.0 <= peak * 180 / math.pi <= 60.0:
-        message = (
-            f"{src}: the decay starts at only {peak:.3g}°; if the roll column is in radians labelled degrees it "
-            f"would be {peak * 180 / math.pi:.3g}°, a usual decay test — check the roll unit (CLI --units roll=rad "
-            "or --units-file)."
-        )
-    elif peak > 45.0:
-        message = (
-            f"{src}: the decay starts at {peak:.3g}°, beyond any decay test; if the roll column is in degrees "
-            f"labelled radians it would be {math.radians(peak):.3g}° — check the roll "
-            "unit (CLI --units roll=deg)."
-        )
-    if message:
-        warnings.warn(message, stacklevel=3)
-    return message
+    """A warning (also returned) when the decay's amplitude says the roll unit is wrong (`check_roll_unit`)."""
+    return check_roll_unit(segment.peak, segment.record.source, "the decay starts at", "decay test")
