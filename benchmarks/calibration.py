@@ -6,13 +6,25 @@ values. Each estimator's first call (tracing and compilation included) and its l
 with the estimates, so that a change in speed can be checked not to change the numbers (docs/calibration.md, "Which
 estimator when").
 
+With `--decay [--baseline-tree DIR]`: `jaxroll calibrate decay` end to end as a user waits (fresh processes, one
+cache: the first run cold, the next ones warm) on a 100 Hz, 200 s model-scale decay record (KVLCC2-like, 1:68,
+Tφ 21 s, b = (0.002, 0.045, 0)): a clean one released at t = 0 (a jaxroll record, which the code before issue 43
+also reads) and, for the current tree only, the realistic lab file (9 s at rest, 0.3° offset, noise, drift, radians
+with a units file). `--baseline-tree DIR` times the same command with PYTHONPATH=DIR (e.g. `git worktree add
+/tmp/base acdbadf`), alternated with the current tree. Target (issue 43): warm <= 3 s.
+
 Run: `python benchmarks/calibration.py [--repeat 2]`. Output: `name=value` lines.
 """
 
 from __future__ import annotations
 
 import argparse
+import os
+import subprocess
+import sys
+import tempfile
 import time
+from pathlib import Path
 
 import equinox as eqx
 import jax.numpy as jnp
@@ -26,7 +38,13 @@ PARAMS = ("b1", "b2", "gm_correction")
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=2, help="timed calls after the first (2)")
+    parser.add_argument("--decay", action="store_true", help="time `jaxroll calibrate decay` instead")
+    parser.add_argument(
+        "--baseline-tree", default=None, help="--decay: a tree of the code before, side by side"
+    )
     args = parser.parse_args()
+    if args.decay:
+        return decay_cli(args)
 
     ship = jxr.c11_representative()
     truth = eqx.tree_at(lambda s: s.gm_correction, ship, jnp.asarray(0.8))
@@ -45,6 +63,58 @@ def main() -> None:
             e = result.estimates[k]
             print(f"{name}_{k}={e.value:.6g}")
             print(f"{name}_{k}_std_error={e.std_error:.2g}")
+
+
+def _decay_records(folder: Path) -> tuple[Path, Path]:
+    from jaxroll.calibration import virtual_decay_record, write_lab_file
+    from jaxroll.io import save_record
+
+    ship = eqx.tree_at(
+        lambda s: (s.roll_period, s.damping),
+        jxr.c11_representative(),
+        (jnp.asarray(21.0), jnp.asarray([0.002, 0.045, 0.0])),
+    )
+    common = dict(initial_roll_deg=9.0, scale=68.0, sampling_hz=100.0, roll_noise_deg=0.01, max_dt=0.05)
+    clean = save_record(virtual_decay_record(ship, duration_model_s=200.0, **common), folder / "clean.csv")
+    lab = virtual_decay_record(
+        ship, duration_model_s=189.5, rest_model_s=9.0, roll_offset_deg=0.3, drift_deg_per_min=0.01, **common
+    )
+    return clean, write_lab_file(lab, folder / "lab.csv")[0]
+
+
+def decay_cli(args) -> None:
+    folder = Path(tempfile.mkdtemp(prefix="jaxroll-bench-decay-"))
+    clean, lab = _decay_records(folder)
+    here = str(Path(__file__).resolve().parents[1])
+    trees = {"current": here, **({"baseline": args.baseline_tree} if args.baseline_tree else {})}
+    cases = {"clean": [str(clean)], "lab": [str(lab), "--time", "time", "--roll", "phi", "--scale", "68",
+                                           "--units-file", str(lab.with_name("lab_units.csv"))]}  # fmt: skip
+    for tree_name, tree in trees.items():
+        env = {**os.environ, "PYTHONPATH": tree, "JAXROLL_CACHE_DIR": str(folder / f"cache-{tree_name}")}
+        for case, argv in cases.items():
+            if tree_name == "baseline" and case == "lab":
+                continue  # the code before finds no release: "only 0 extremes above 0.50°"
+            times = []
+            for _ in range(1 + args.repeat):
+                cmd = [
+                    sys.executable,
+                    "-m",
+                    "jaxroll",
+                    "calibrate",
+                    "decay",
+                    *argv,
+                    "--out",
+                    str(folder / "out"),
+                ]
+                t0 = time.perf_counter()
+                done = subprocess.run(cmd, env=env, capture_output=True, text=True)
+                times.append(time.perf_counter() - t0)
+                if done.returncode:
+                    print(f"{tree_name}_{case}_error={done.stderr.strip().splitlines()[-1]}")
+                    break
+            print(f"{tree_name}_{case}_cold_s={times[0]:.2f}")
+            if len(times) > 1:
+                print(f"{tree_name}_{case}_warm_s={min(times[1:]):.2f}")
 
 
 if __name__ == "__main__":

@@ -44,6 +44,7 @@ BASE = jxr.c11_representative()
 B_TRUE = np.array([0.0077252, 0.5, 2.0])  # b3 ≠ 0 so that all three are exercised
 DECAY_SHIP = eqx.tree_at(lambda s: s.damping, BASE, jnp.asarray(B_TRUE))
 NAMES = ("b1", "b2", "b3")
+ALL3 = "linear+quadratic+cubic"  # B_TRUE has all three terms
 
 
 def _with_noise(rec, sigma_deg, seed):
@@ -82,17 +83,17 @@ def test_extinction_conversion_is_energy_balance():
 def test_first_order_conversion_bias_is_small_and_corrected(clean_decay):
     """Noise-free decay: the plain conversion is off by O(damping) (documented), the bias correction removes
     it."""
-    raw = fit_extinction(clean_decay, BASE, correct_bias=False)
-    corrected = fit_extinction(clean_decay, BASE)
+    raw = fit_extinction(clean_decay, BASE, correct_bias=False, damping_model=ALL3)
+    corrected = fit_extinction(clean_decay, BASE, correct_bias=True, damping_model=ALL3)
     rel = (raw.b - B_TRUE) / B_TRUE
     assert abs(rel[0]) < 0.02 and abs(rel[1]) < 0.03 and abs(rel[2]) < 0.1  # first-order theory, 20° release
-    np.testing.assert_allclose(corrected.b, B_TRUE, rtol=2e-3, atol=0)
+    np.testing.assert_allclose(corrected.b, B_TRUE, rtol=4e-3, atol=0)  # two multiplicative updates
 
 
 def test_decay_methods_recover_truth_and_agree(clean_decay):
     rec = _with_noise(clean_decay, 0.05, seed=7)
-    ext = fit_extinction(rec, BASE)
-    ode = fit_decay_ode(rec, BASE)
+    ext = fit_extinction(rec, BASE, damping_model=ALL3)
+    ode = fit_decay_ode(rec, BASE, damping_model=ALL3)
     assert ode.info.converged and ext.info.converged
     for fit in (ext, ode):
         for name, truth in zip(NAMES, B_TRUE):
@@ -108,7 +109,9 @@ def test_decay_methods_recover_truth_and_agree(clean_decay):
 def test_extinction_standard_errors_match_repeated_experiments(clean_decay):
     est, se = [], []
     for seed in range(12):
-        fit = fit_extinction(_with_noise(clean_decay, 0.1, seed), BASE, correct_bias=False)  # same SE, faster
+        fit = fit_extinction(
+            _with_noise(clean_decay, 0.1, seed), BASE, correct_bias=False, damping_model=ALL3
+        )  # same SE, faster
         est.append(fit.b)
         se.append([fit.damping[n].std_error for n in NAMES])
     ratio = np.std(est, axis=0, ddof=1) / np.mean(se, axis=0)
@@ -120,8 +123,8 @@ def test_extinction_standard_errors_match_repeated_experiments(clean_decay):
 def test_decay_recovery_degrades_gracefully_with_noise(clean_decay):
     errors, ses = [], []
     for sigma in (0.02, 0.1, 0.5):
-        ode = fit_decay_ode(_with_noise(clean_decay, sigma, seed=3), BASE)
-        ext = fit_extinction(_with_noise(clean_decay, sigma, seed=3), BASE)
+        ode = fit_decay_ode(_with_noise(clean_decay, sigma, seed=3), BASE, damping_model=ALL3)
+        ext = fit_extinction(_with_noise(clean_decay, sigma, seed=3), BASE, damping_model=ALL3)
         assert np.all(np.isfinite(ode.b)) and np.all(np.isfinite(ext.b))
         errors.append(abs(ode.b[0] - B_TRUE[0]))
         ses.append([ode.damping["b1"].std_error, ext.damping["b1"].std_error])
@@ -135,7 +138,7 @@ def test_decay_recovery_degrades_gracefully_with_noise(clean_decay):
 def test_ode_standard_errors_match_repeated_experiments(clean_decay):
     est, se = [], []
     for seed in range(12):
-        fit = fit_decay_ode(_with_noise(clean_decay, 0.1, seed), BASE)
+        fit = fit_decay_ode(_with_noise(clean_decay, 0.1, seed), BASE, damping_model=ALL3)
         est.append(fit.b)
         se.append([fit.damping[n].std_error for n in NAMES])
     ratio = np.std(est, axis=0, ddof=1) / np.mean(se, axis=0)
@@ -364,8 +367,8 @@ def test_plots_return_axes(clean_decay):
         plot_extinction,
     )
 
-    ext = fit_extinction(clean_decay, BASE)
-    ode = fit_decay_ode(clean_decay, BASE)
+    ext = fit_extinction(clean_decay, BASE, correct_bias=True, damping_model=ALL3)
+    ode = fit_decay_ode(clean_decay, BASE, damping_model=ALL3)
     cap = fit_captive(_captive_records(0.8, 0.3, 0.3, n=2, heels=(0.0,)), BASE)
     for ax in (plot_extinction([ext, ode]), plot_decay_fit(ode), plot_captive(cap), plot_captive_series(cap)):
         assert isinstance(ax, matplotlib.axes.Axes)
@@ -384,7 +387,17 @@ def test_cli_tank_then_calibrate_decay(tmp_path, capsys):
     truth = json.loads((tank / "truth.json").read_text())
     assert truth["truth"]["damping"]["b3_s_rad2"] == B_TRUE[2]
     out = tmp_path / "cal"
-    assert main(["calibrate", "decay", str(tank / "decay"), "--out", str(out)]) == 0
+    # --roll-period: the ship tested (C11's GZ shape at 24.4 s), so a ship.toml is written
+    cmd = [
+        "calibrate",
+        "decay",
+        str(tank / "decay"),
+        "--out",
+        str(out),
+        "--damping-model",
+        "linear+quadratic+cubic",
+    ]
+    assert main([*cmd, "--roll-period", "24.4"]) == 0
     ship = jxr.load_ship(out / "ship.toml")
     cal = json.loads((out / "calibration.json").read_text())
     assert cal["jaxroll_version"] == jxr.__version__
@@ -424,7 +437,7 @@ def test_dense_decay_records_are_decimated_not_overfitted():
     standard errors 30× too small) is decimated to ~50 samples per roll period: the same damping within its SE."""
     base = virtual_decay_record(DECAY_SHIP, initial_roll_deg=20.0, duration_model_s=60.0, sampling_hz=200.0)
     rec = _with_noise(base, 0.05, seed=11)
-    fit = fit_decay_ode(rec, BASE)
+    fit = fit_decay_ode(rec, BASE, damping_model=ALL3)
     per_period = BASE.roll_period / rec.dt
     assert fit.config["decimation"] == [int(per_period) // 50] and fit.config["decimation"][0] >= 4
     for name, truth in zip(NAMES, B_TRUE):
@@ -439,7 +452,10 @@ def test_a_fit_whose_solver_fails_says_what_to_check():
 
     rec = virtual_decay_record(DECAY_SHIP, initial_roll_deg=20.0, duration_model_s=30.0)
     wild = dataclasses.replace(
-        rec, channels={"roll": rec.roll * 3.4}
-    )  # 68°: the fit drives the model to capsize
-    with pytest.raises(FitFailure, match="roll unit"):
-        fit_decay_ode(wild, BASE)
+        rec, channels={"roll": rec.roll * 3.7}
+    )  # 74°: beyond the vanishing angle (71.6°), the model capsizes
+    with (
+        pytest.raises(FitFailure, match="roll unit"),
+        pytest.warns(UserWarning, match="beyond any decay test"),
+    ):
+        fit_decay_ode(wild, BASE, damping_model=ALL3)

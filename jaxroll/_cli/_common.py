@@ -45,12 +45,14 @@ def write_json(path: str | Path, payload: dict[str, Any]) -> None:
     atomic_write_text(path, json.dumps(to_jsonable(data), indent=2) + "\n")
 
 
-def write_netcdf(path: str | Path, command: str, payload: dict[str, Any], parts=None) -> None:
+def write_netcdf(path: str | Path, command: str, payload: dict[str, Any], parts=None) -> bool:
     """Write the labelled twin of a command's JSON (`payload`) as netCDF, atomically: its numbers with dimensions,
     units and long names, plus `parts` (the results' `.to_xarray()`: per-trial arrays, histogram counts), the
     configuration, versions and this command's warnings in the attributes (`jaxroll.io.output_dataset`;
     docs/outputs.md). A JSON field the output's layout does not describe leaves the netCDF out with a warning
-    (the set is still written: a run's results are never lost to their labels; the tests refuse it)."""
+    (the set is still written: a run's results are never lost to their labels; the tests refuse it).
+
+    **Returns:** whether the file was written (the command's "wrote" line lists only files that exist)."""
     from ..io import output_dataset, write_dataset
 
     try:
@@ -65,8 +67,9 @@ def write_netcdf(path: str | Path, command: str, payload: dict[str, Any], parts=
             "Please report it.",
             file=sys.stderr,
         )
-        return
+        return False
     write_dataset(path, dataset)
+    return True
 
 
 def import_output_libraries() -> None:

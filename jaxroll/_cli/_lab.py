@@ -11,6 +11,7 @@ _DELIMITER_NAMES = {"tab": "\t", "\\t": "\t", "space": " ", "whitespace": " ", "
 #: The options that only describe a lab file (they need a column option).
 LAB_ONLY = (
     "units",
+    "units_file",
     "scale",
     "full_scale",
     "sampling_hz",
@@ -52,6 +53,13 @@ def add_lab_options(parser, *, for_calibrate: bool) -> None:
         metavar="UNITS",
         help="units the file does not state, e.g. 'roll=deg,wave=mm' (or 's,deg,mm' in the order "
         "time, then the record's columns); time s|ms|min, roll deg|rad|mrad, lengths m|cm|mm",
+    )
+    g.add_argument(
+        "--units-file",
+        default=None,
+        metavar="FILE",
+        help="a side file of two rows, the column names and then their units (e.g. 'time,x,phi' over 's,m,rad'), "
+        "for a data file whose header names its columns without units",
     )
     g.add_argument(
         "--scale",
@@ -253,6 +261,7 @@ def lab_settings(args, kind: str) -> dict:
         "wave": args.wave,
         "delta_gm": args.delta_gm,
         "units": _units(args.units, kind),
+        "units_file": args.units_file,
         "scale": args.scale,
         "full_scale": args.full_scale,
         "sampling_hz": args.sampling_hz,

@@ -5,6 +5,7 @@ likelihood)."""
 
 from __future__ import annotations
 
+import math
 import time
 from pathlib import Path
 
@@ -19,6 +20,8 @@ from ._common import (
 )
 from ._lab import add_lab_options, import_lab_files, lab_mode, lab_settings
 
+DAMPING_MODEL_CHOICES = ("linear", "linear+quadratic", "linear+cubic", "linear+quadratic+cubic")
+
 
 def _common(p, kind: str) -> None:
     p.add_argument(
@@ -32,12 +35,28 @@ def _common(p, kind: str) -> None:
         "--ship",
         metavar="FILE",
         default=None,
-        help="ship file (TOML) whose other coefficients are kept; default C11 (representative)",
+        help="ship file (TOML) whose other coefficients are kept; default C11 (representative); decay: without "
+        "--ship, --gm or --roll-period no ship.toml is written (the damping needs only the records)",
     )
     p.add_argument(
         "--out",
         default=f"jaxroll-out/calibrate-{kind}",
         help=f"output folder (default ./jaxroll-out/calibrate-{kind})",
+    )
+    p.add_argument(
+        "--start",
+        type=float,
+        default=None,
+        metavar="S",
+        help="analyse from this time [s, model scale: the record file's own time] (decay: default the release, "
+        "found in each record)",
+    )
+    p.add_argument(
+        "--stop",
+        type=float,
+        default=None,
+        metavar="S",
+        help="analyse up to this time [s, model scale: the record file's own time] (default: the end)",
     )
     p.add_argument(
         "--resample",
@@ -75,9 +94,36 @@ def register(sub) -> None:
         help="keep the ship's roll period in the ODE fit (default: fit it)",
     )
     d.add_argument(
+        "--damping-model",
+        choices=DAMPING_MODEL_CHOICES,
+        default="linear+quadratic",
+        help="damping terms fitted (the others 0; all kept >= 0): linear b1, linear+quadratic b1, b2 (default), "
+        "linear+cubic b1, b3, or linear+quadratic+cubic; every model's information criterion is reported",
+    )
+    bias = d.add_mutually_exclusive_group()
+    bias.add_argument(
+        "--bias-correction",
+        action="store_true",
+        help="extinction method: remove the first-order conversion's bias by simulation (docs/calibration.md)",
+    )
+    bias.add_argument(
         "--no-bias-correction",
         action="store_true",
-        help="extinction method: plain first-order conversion of a, b, c (docs/calibration.md)",
+        help="extinction method: plain first-order conversion of a, b, c (the default)",
+    )
+    d.add_argument(
+        "--gm",
+        type=float,
+        default=None,
+        metavar="M",
+        help="GM0 of the ship tested [m, full scale]: with it (or --roll-period, or --ship) a ship.toml is written",
+    )
+    d.add_argument(
+        "--roll-period",
+        type=float,
+        default=None,
+        metavar="S",
+        help="natural roll period of the ship tested [s, full scale] (a warning when the records' differs by > 2 %%)",
     )
     d.set_defaults(func=run_decay)
     c = kinds.add_parser(
@@ -170,31 +216,36 @@ def _load(args, kind):
     from ..io import load_records
 
     if lab_mode(args):
-        return import_lab_files(
+        records = import_lab_files(
             args.records, kind or "roll", lab_settings(args, kind or "roll"), resample=args.resample
         )
-    return load_records(args.records, kind=kind, resample=args.resample)
+    else:
+        records = load_records(args.records, kind=kind, resample=args.resample)
+    if kind != "decay" and (args.start is not None or args.stop is not None):  # decay: the fits take them
+        records = [r.window(args.start, args.stop) for r in records]
+    return records
 
 
 def _finish(args, kind, ship, fitted, payload, figures, fit=None) -> int:
+    """Write the set (ship.toml unless `fitted` is None) and say which files were written."""
     from .. import ship_to_toml
     from ..io import load_ship
 
     out = Path(args.out)
     layout = kind if kind != "roll" else f"roll-{'pdf' if args.estimator == 'pdf' else 'time-domain'}"
     with OutputFolder(out) as tmp:  # one set: never a new ship.toml beside an old calibration.json
-        atomic_write_text(tmp / "ship.toml", ship_to_toml(fitted))
-        load_ship(tmp / "ship.toml")  # the file must feed straight back into `jaxroll pdf --ship`
+        if fitted is not None:
+            atomic_write_text(tmp / "ship.toml", ship_to_toml(fitted))
+            load_ship(tmp / "ship.toml")  # the file must feed straight back into `jaxroll pdf --ship`
         for name, fig in figures.items():
             save_figure(fig, tmp / name)
         write_json(tmp / "calibration.json", payload)
-        write_netcdf(
+        nc = write_netcdf(
             tmp / "calibration.nc", f"calibrate-{layout}", payload, None if fit is None else {"fit": fit}
         )
-    print(
-        f"wrote {out / 'ship.toml'}, {out / 'calibration.json'}, {out / 'calibration.nc'}, "
-        + ", ".join(str(out / n) for n in figures)
-    )
+    names = [*(["ship.toml"] if fitted is not None else []), "calibration.json"]
+    names += [*(["calibration.nc"] if nc else []), *figures]
+    print("wrote " + ", ".join(str(out / n) for n in names))
     return 0
 
 
@@ -205,9 +256,11 @@ def _base_config(args, ship, records):
         "kind": args.kind,
         "records": [r.source for r in records],
         "ship_file": args.ship,
-        "ship": ship_to_dict(ship),
+        "ship": None if ship is None else ship_to_dict(ship),
         "resample": args.resample,
     }
+    if args.start is not None or args.stop is not None:
+        config["start_model_s"], config["stop_model_s"] = args.start, args.stop
     if lab_mode(args):
         config["lab_import"] = [r.meta["imported_from"] for r in records]
     return config
@@ -215,6 +268,34 @@ def _base_config(args, ship, records):
 
 def _fmt(e) -> str:
     return f"{e.value:.5g} ± {e.std_error:.2g}"
+
+
+def _decay_ship_arg(args):
+    """The ship of a decay calibration, or None: --ship, else the default ship with --gm/--roll-period, else none
+    (the damping needs only the records; no ship.toml is written)."""
+    import equinox as eqx
+    import jax.numpy as jnp
+
+    for name in ("gm", "roll_period"):
+        v = getattr(args, name)
+        if v is not None and not (math.isfinite(v) and v > 0):
+            raise CLIError(f"--{name.replace('_', '-')} must be > 0 (full scale); got {v:g}.")
+    if args.ship is None and args.gm is None and args.roll_period is None:
+        return None
+    ship = load_ship_arg(args.ship)
+    if args.gm is not None:
+        ship = eqx.tree_at(lambda s: s.gm0, ship, jnp.asarray(args.gm))
+    if args.roll_period is not None:
+        ship = eqx.tree_at(lambda s: s.roll_period, ship, jnp.asarray(args.roll_period))
+    return ship
+
+
+def _zeta_line(fit) -> str:
+    eq = fit.equivalent_damping_table()
+    return ", ".join(
+        f"{a:.2f}° {z:.5f} ± {s:.1g}"
+        for a, z, s in list(zip(eq["amplitude_deg"], eq["zeta"], eq["zeta_std_error"]))[::3]
+    )
 
 
 def run_decay(args) -> int:
@@ -225,52 +306,80 @@ def run_decay(args) -> int:
         decay_agreement,
         fit_decay_ode,
         fit_extinction,
-        nonnegative_damping,
     )
-    from ..plotting import plot_decay_fit, plot_extinction
+    from ..plotting import plot_decay_fit, plot_equivalent_damping, plot_extinction
 
-    ship = load_ship_arg(args.ship)
+    ship = _decay_ship_arg(args)
     records = _load(args, "decay")
     t0 = time.time()
-    ext = fit_extinction(records, ship, correct_bias=not args.no_bias_correction)
-    ode = fit_decay_ode(records, ship, fit_period=not args.fixed_period)
+    window = {"start_model_s": args.start, "stop_model_s": args.stop}
+    ext = fit_extinction(
+        records, ship, damping_model=args.damping_model, correct_bias=args.bias_correction, **window
+    )
+    comparison = {}
+    # the models compared by the extinction curve: an ODE fit per model would add ~30 s of compilation each
+    # (docs/calibration.md, "Damping models"); warnings are said once
+    for model in DAMPING_MODEL_CHOICES:
+        f = (
+            ext
+            if model == args.damping_model
+            else fit_extinction(records, ship, damping_model=model, **window)
+        )
+        comparison[model] = f.information_criteria()
+    ode = fit_decay_ode(
+        records, ship, damping_model=args.damping_model, fit_period=not args.fixed_period, **window
+    )
     chosen = ode if args.method == "ode" else ext
-    fitted = calibrated_ship(ship, decay=chosen, name=args.name)
+    fitted = None if ship is None else calibrated_ship(ship, decay=chosen, name=args.name)
     agree = decay_agreement(ext, ode)
+    for r in ode.records:
+        print(
+            f"{r['source']}: analysed from {r['start_model_s']:.3f} s ("
+            + ("release found" if r["start_from"] == "release found" else "--start")
+            + f"; model scale) to {r['stop_model_s']:.3f} s; initial amplitude {r['initial_amplitude_deg']:.2f}°, "
+            f"roll offset {r['roll_offset_deg']:+.3f}°, observed period {r['observed_period_s']:.4g} s full scale"
+        )
     for f in (ext, ode):
         print(
-            f"{f.method:>10}: b1 = {_fmt(f.damping['b1'])} 1/s, b2 = {_fmt(f.damping['b2'])} 1/rad, "
-            f"b3 = {_fmt(f.damping['b3'])} s/rad²"
-            + (f", Tφ = {_fmt(f.roll_period)} s" if f.method == "ode" else "")
+            f"{f.method:>10} ({f.damping_model}): "
+            + ", ".join(
+                f"{k} = {_fmt(f.damping[k])} {f.damping[k].unit.replace('^2', '²')}"
+                for k in f.fitted_parameters
+            )
+            + f", Tφ = {_fmt(f.roll_period)} s ({'fitted' if f.method == 'ode' else 'observed'})"
         )
+        print(f"{'':>10} ζ_eq(A): {_zeta_line(f)}")
+    best = min(comparison, key=lambda m: comparison[m]["bic"])
+    print(
+        "damping models (extinction curve, BIC; smaller is better): "
+        + ", ".join(f"{m} {c['bic']:.1f}" for m, c in comparison.items())
+        + f"; best {best}, written {args.damping_model}"
+    )
     print("agreement (difference / combined SE): " + ", ".join(f"{k} {v:+.2f}" for k, v in agree.items()))
     fig1, ax1 = plt.subplots(figsize=(6, 4))
     plot_extinction([ext, ode], ax=ax1)
     fig2, ax2 = plt.subplots(figsize=(8, 4))
     plot_decay_fit(ode, ax=ax2)
-    constrained = nonnegative_damping(("b1", "b2", "b3"), chosen.b, chosen.damping_covariance)[1]
-    written_damping = {  # the fit's estimates; where constrained, the value ship.toml holds (no interval: not fitted)
-        k: (
-            {**e, "value": constrained[k]["written"], "fitted_value": e["value"], "ci95": None}
-            if k in constrained
-            else e
-        )
-        for k, e in chosen.to_dict()["damping"].items()
-    }
+    fig3, ax3 = plt.subplots(figsize=(6, 4))
+    plot_equivalent_damping([ext, ode], ax=ax3)
     payload = {
         "config": {
             **_base_config(args, ship, records),
             "method_written": args.method,
             "fit_period": not args.fixed_period,
-            "bias_correction": not args.no_bias_correction,
+            "bias_correction": args.bias_correction,
+            "damping_model": args.damping_model,
         },
         "estimates": {"extinction": ext.to_dict(), "ode": ode.to_dict()},
-        # what ship.toml holds: the fit's estimates, but a negative coefficient held at 0 and the others moved to the
-        # constrained fit (`constrained`: fitted and written values; a warning says so)
+        "model_comparison": {
+            m: {"aic": c["aic"], "bic": c["bic"], "method": "extinction"} for m, c in comparison.items()
+        },
+        # the damping of the chosen fit (ship.toml's, when one is written; b >= 0 by the fits' parametrisation)
         "written": {
-            "damping": written_damping,
-            "roll_period_s": float(fitted.roll_period),
-            "constrained": constrained,
+            "damping": chosen.to_dict()["damping"],
+            "roll_period_s": chosen.roll_period.value,
+            "ship_written": fitted is not None,
+            "constrained": {},
         },
         "agreement_z": agree,
         "run_time_s": time.time() - t0,
@@ -281,7 +390,7 @@ def run_decay(args) -> int:
         ship,
         fitted,
         payload,
-        {"extinction.png": fig1, "decay_fit.png": fig2},
+        {"extinction.png": fig1, "decay_fit.png": fig2, "equivalent_damping.png": fig3},
         chosen.to_xarray(),
     )
 

@@ -39,6 +39,20 @@ def register(sub) -> None:
     )
     imp.add_argument("--gzip", action="store_true", help="write .csv.gz")
     imp.add_argument(
+        "--start",
+        type=float,
+        default=None,
+        metavar="S",
+        help="keep the samples from this time [s, model scale: the file's own time] (default: the first)",
+    )
+    imp.add_argument(
+        "--stop",
+        type=float,
+        default=None,
+        metavar="S",
+        help="keep the samples up to this time [s, model scale: the file's own time] (default: the last)",
+    )
+    imp.add_argument(
         "--resample",
         action="store_true",
         help="interpolate irregularly sampled data onto the nominal rate (gaps are still refused)",
@@ -93,6 +107,8 @@ def run_import(args) -> int:
             f"--out {str(out)!r} names one file but {len(args.files)} FILEs are given; give a folder."
         )
     records = import_lab_files(args.files, args.kind, settings, resample=args.resample)
+    if args.start is not None or args.stop is not None:
+        records = [r.window(args.start, args.stop) for r in records]
     texts = [record_to_text(r, decimals="shortest") for r in records]
     if single:
         data = texts[0].encode()
@@ -114,6 +130,14 @@ def run_import(args) -> int:
             f"{rec.model_time[-1] - rec.model_time[0]:.6g} s model = {rec.time[-1] - rec.time[0]:.6g} s full scale "
             f"(λ = {rec.scale:g}); {cols}"
         )
+        if rec.kind == "decay":
+            from ..calibration import find_release
+
+            i = find_release(rec)
+            print(
+                f"  release found at {rec.model_time[i]:.3f} s model scale ({rec.time[i]:.1f} s full scale); "
+                "`jaxroll calibrate decay` analyses from there (or from --start)"
+            )
     return 0
 
 

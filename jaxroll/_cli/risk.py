@@ -397,7 +397,7 @@ def run(args) -> int:
         )
         save_figure(fig, tmp / "risk.png")
         write_json(tmp / "risk.json", payload)
-        write_netcdf(
+        nc = write_netcdf(
             tmp / "risk.nc",
             "risk",
             payload,
@@ -447,5 +447,5 @@ def run(args) -> int:
             f"{name} (independent amplitudes): P = {probability_text(t['probability'], t['probability_complement'])}, "
             f"most probable largest {t['most_probable_largest_deg']:.1f}°{closure_note(t['theory_details'])}"
         )
-    print(f"wrote {out}/risk.json, risk.nc, risk.png")
+    print(f"wrote {out}/risk.json, {'risk.nc, ' if nc else ''}risk.png")
     return 0

@@ -293,6 +293,7 @@ SPLITTING_LONG_NAMES = {
     "splitting_n_successes": "runs of each stage that reached the next level",
     "splitting_simulated_seconds": "simulated realization-seconds of the estimate",
     "splitting_total_simulated_seconds": "simulated realization-seconds, the pilot included",
+    "splitting_continuation_simulated_seconds": "realization-seconds of the runs continued after the last stage",
 }
 
 RISK = Layout(
@@ -683,17 +684,24 @@ _DIAGNOSTICS = {
     "*diagnostics_rss": "rad2",
 }
 CALIBRATE_DECAY = SHIP + Layout(
-    labels={"estimates": "method"},
-    arrays={"estimates/*/damping_covariance": ("parameter", "parameter_2")},
+    labels={"estimates": "method", "estimates/*/records": "record", "model_comparison": "damping_model"},
+    arrays={
+        **{f"estimates/*/damping_{m}": ("parameter", "parameter_2") for m in ("covariance", "correlation")},
+        "estimates/*/equivalent_damping/*": ("amplitude",),
+        "estimates/*/amplitude_range_deg": ("range_bound",),
+    },
     units={
         "estimates_damping_covariance": "mixed: products of the parameters' units (b1 s-1, b2 rad-1, b3 s rad-2)",
-        "agreement_z_*": "1",
+        **dict.fromkeys(("estimates_damping_correlation", "estimates_information_criteria_*"), "1"),
+        **dict.fromkeys(("estimates_equivalent_damping_zeta*", "model_comparison_*", "agreement_z_*"), "1"),
+        "estimates_equivalent_damping_b_e*": "s-1",
+        **{f"written_constrained_b{i}_*": u for i, u in ((1, "s-1"), (2, "rad-1"), (3, "s rad-2"))},
         **_DIAGNOSTICS,
     },
     long_names={"estimates_damping_covariance": "covariance of (b1, b2, b3)"},
-    coords={"method": (None, "fit (extinction curve or ODE)")},
-    index={"parameter": ("b1", "b2", "b3"), "parameter_2": ("b1", "b2", "b3")},
-    text=("estimates/*/config",),
+    coords={"method": (None, "fit (extinction curve or ODE)"), "damping_model": (None, "damping model")},
+    index=dict.fromkeys(("parameter", "parameter_2"), ("b1", "b2", "b3")),
+    text=("estimates/*/config", "estimates/*/fitted_parameters"),
 )
 
 CALIBRATE_CAPTIVE = Layout(

@@ -32,7 +32,6 @@ from ._captive import (
     fit_captive as fit_captive,
 )
 from ._decay import (
-    DecayFit as DecayFit,
     Extremes as Extremes,
     damping_to_extinction as damping_to_extinction,
     decay_agreement as decay_agreement,
@@ -41,6 +40,15 @@ from ._decay import (
     extinction_to_damping as extinction_to_damping,
     fit_decay_ode as fit_decay_ode,
     fit_extinction as fit_extinction,
+)
+from ._decay_inputs import (
+    DecaySegment as DecaySegment,
+    decay_segment as decay_segment,
+    find_release as find_release,
+)
+from ._decay_results import (
+    DAMPING_MODELS as DAMPING_MODELS,
+    DecayFit as DecayFit,
 )
 from ._inputs import (
     PAPER_WINDOW_MODEL_S as PAPER_WINDOW_MODEL_S,
@@ -78,4 +86,5 @@ from ._virtual_tank import (
     virtual_decay_record as virtual_decay_record,
     virtual_roll_record as virtual_roll_record,
     virtual_sea as virtual_sea,
+    write_lab_file as write_lab_file,
 )

@@ -11,7 +11,8 @@ import numpy as np
 
 from ..ship._ship import Ship
 from ._captive import CaptiveFit
-from ._decay import DecayFit, _decay_ship
+from ._decay import _decay_ship
+from ._decay_results import DecayFit
 from ._least_squares import _set_params
 from ._roll_pdf import RollFit
 from ._time_domain import TIME_DOMAIN_PARAMETERS, ship_with

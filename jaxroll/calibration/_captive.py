@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import warnings
 from collections.abc import Sequence
 from typing import Any
 
@@ -21,7 +22,7 @@ from ..sea._grim import grim_transfer
 from ..sea._spectra import GRAVITY, wave_frequencies_from_encounter
 from ..ship._restoring import delta_gm
 from ..ship._ship import Ship
-from ._inputs import PAPER_WINDOW_MODEL_S, _as_list, _check_kind, check_wave_heights
+from ._inputs import PAPER_WINDOW_MODEL_S, _as_list, _check_kind, check_wave_heights, lab_records
 from ._least_squares import Estimate, LeastSquaresInfo, _estimates, _least_squares, _sandwich
 
 
@@ -206,6 +207,24 @@ def _ratio_estimate(sy, sx, clusters) -> Estimate:
     return Estimate(r, math.sqrt(var_r2) / (2 * r), "-")
 
 
+def _check_delta_gm_unit(ratio: float, records: Sequence[Record]) -> None:
+    """Warn when σ_obs/σ_thr is beyond 5 either way (the paper's is 0.8): a ΔGM column's unit slip, named when
+    its factor fits (mm or cm labelled m, m labelled mm, full-scale values in a model-scale file)."""
+    if 0.2 <= ratio <= 5.0:
+        return
+    lam = records[0].scale
+    slips = ((1e3, "ΔGM in mm labelled m"), (1e2, "ΔGM in cm labelled m"), (1e-3, "ΔGM in m labelled mm"))
+    slips += ((lam, f"full-scale ΔGM in a model-scale file (λ = {lam:g})"),) if lam != 1 else ()
+    likely = next((w for f, w in slips if abs(math.log(ratio / f)) < math.log(1.5)), None)
+    warnings.warn(
+        f"{records[0].source} (and the other captive records): σ_obs/σ_thr = {ratio:.3g}: the measured ΔGM is "
+        f"{ratio:.3g} × the theory's (tanks find 0.5–1.5)"
+        + (f"; likely {likely}" if likely else "")
+        + ": check the delta_gm column's unit (CLI --units delta_gm=mm) and the ship's ΔGM coefficients.",
+        stacklevel=3,
+    )
+
+
 def fit_captive(
     records: Record | Sequence[Record],
     ship: Ship,
@@ -237,6 +256,7 @@ def fit_captive(
     records = _as_list(records)
     _check_kind(records, "captive")
     wave_heights = check_wave_heights(records, window_model_s)
+    records = lab_records(records, window_model_s)  # the rest before the waves said
     series, clusters = [], []
     cid = 0
     for r in records:
@@ -260,6 +280,7 @@ def fit_captive(
     theta, j, res, info = _least_squares(_scale_residual, jnp.ones(1), (jnp.asarray(x), jnp.asarray(y)))
     ls = Estimate(float(theta[0]), float(np.sqrt(_sandwich(j, res, clusters)[0, 0])), "-")
     ratio = _ratio_estimate(y**2, x**2, clusters)
+    _check_delta_gm_unit(ratio.value, records)
     # groups
     groups = []
     keys = [(r.wave_height, r.wave_period, float(r.meta["heel_deg"])) for r in records]

@@ -1,8 +1,13 @@
 """Free-roll decay records → damping b1, b2, b3 (formulas: docs/calibration.md §1).
 
+Both fits analyse each record from its release (found, or a given start; `_decay_inputs`), about its roll offset,
+with a damping model (`DAMPING_MODELS`: linear, linear+quadratic by default, linear+cubic, all three) whose
+coefficients are kept ≥ 0 by fitting their logarithms; the results (`DecayFit`, with the equivalent linear damping
+ζ_eq(A)) are in `_decay_results`.
+
 - `fit_extinction`: the extinction curve Δφ = aφ_m + bφ_m² + cφ_m³ (decrement per half swing against the mean
-  amplitude of the swing), fitted to the extremes and converted to b1, b2, b3 by energy balance
-  (`extinction_to_damping`);
+  amplitude of the swing), fitted to the extremes and converted to b1, b2, b3 by energy balance at the observed
+  period (`extinction_to_damping`);
 - `fit_decay_ode`: the roll equation itself, integrated with diffrax and fitted to the whole time series by
   Levenberg–Marquardt (forward-mode derivatives through the solver, `diffrax.ForwardMode()`)."""
 
@@ -10,8 +15,8 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import warnings
 from collections.abc import Sequence
-from typing import Any
 
 import equinox as eqx
 import jax.numpy as jnp
@@ -22,8 +27,10 @@ from .._config import require_float64
 from ..io._records import Record, RecordError
 from ..ship._restoring import restoring_moment
 from ..ship._ship import Ship
+from ._decay_inputs import check_angle_unit, decay_segment
+from ._decay_results import DecayFit, check_damping_model
 from ._inputs import _as_list, _check_kind, _noise_std
-from ._least_squares import Estimate, LeastSquaresInfo, _estimates, _gauss_newton_covariance, _least_squares
+from ._least_squares import Estimate, _estimates, _gauss_newton_covariance, _least_squares
 
 
 def extinction_to_damping(a, b, c, omega0):
@@ -126,182 +133,6 @@ def decay_extremes(
     return Extremes(np.asarray(times), np.asarray(values))
 
 
-@dataclasses.dataclass(frozen=True)
-class DecayFit:
-    """Damping from free-decay records by one method ("extinction" or "ode").
-
-    `damping`: Estimates of b1 [1/s], b2 [1/rad], b3 [s/rad²]; `damping_covariance` (3×3, SI); `extinction`:
-    a [-], b [1/rad], c [1/rad²] (extinction method, and implied by the ODE fit's b's); `roll_period`: Tφ [s]
-    (fitted by the ODE method; the ship's own for the extinction method); `info`: solver diagnostics;
-    `curves`: data for the figures.
-    """
-
-    method: str
-    damping: dict[str, Estimate]
-    damping_covariance: np.ndarray
-    extinction: dict[str, Estimate]
-    roll_period: Estimate
-    omega0: float
-    info: LeastSquaresInfo
-    curves: dict[str, Any]
-    config: dict[str, Any]
-
-    @property
-    def b(self) -> np.ndarray:
-        """(b1 [1/s], b2 [1/rad], b3 [s/rad²]) as an array."""
-        return np.array([self.damping[k].value for k in ("b1", "b2", "b3")])
-
-    def _repr_html_(self) -> str:
-        """Jupyter's view: the damping and roll period with their standard errors and intervals."""
-        from .._display import estimates_table
-
-        rows = {
-            **self.damping,
-            "Tφ": self.roll_period,
-            **{f"extinction {k}": v for k, v in self.extinction.items()},
-        }
-        return estimates_table(
-            f"Decay fit ({self.method})",
-            rows,
-            note="Tφ: fitted" if self.method == "ode" else "Tφ: the ship's (not fitted)",
-        )
-
-    def to_dict(self) -> dict[str, Any]:
-        """The fit as JSON-ready values (the CLI's calibration.json)."""
-        return {
-            "method": self.method,
-            "damping": {k: v.to_dict() for k, v in self.damping.items()},
-            "damping_covariance": self.damping_covariance.tolist(),
-            "extinction_coefficients_rad": {k: v.to_dict() for k, v in self.extinction.items()},
-            "roll_period": self.roll_period.to_dict(),
-            "omega0_rad_s": self.omega0,
-            "diagnostics": self.info.to_dict(),
-            "config": self.config,
-        }
-
-    def to_xarray(self):
-        """The fit as an `xarray.Dataset` on `parameter` (b1, b2, b3; `estimates_dataset`): estimates, standard
-        errors, 95 % intervals and covariance, the solver's diagnostics, the extinction coefficients a, b, c
-        (`extinction_*`), the roll period Tφ and ω0; `method` and the configuration as attributes."""
-        from .._labels import config_attrs
-        from ._least_squares import estimates_dataset
-
-        extra = {
-            "roll_period_s": ((), self.roll_period.value, "s", "roll period Tφ"),
-            "roll_period_std_error_s": ((), self.roll_period.std_error, "s", "standard error of Tφ"),
-            "omega0_rad_s": ((), self.omega0, "rad s-1", "natural roll frequency ω0"),
-        }
-        for k, e in self.extinction.items():
-            unit = {"-": "1", "1/rad": "rad-1", "1/rad^2": "rad-2"}.get(e.unit, e.unit)
-            extra[f"extinction_{k}"] = (
-                (),
-                e.value,
-                unit,
-                f"extinction coefficient {k} (decrement per half cycle)",
-            )
-            extra[f"extinction_{k}_std_error"] = ((), e.std_error, unit, f"standard error of {k}")
-        return estimates_dataset(
-            self.damping,
-            self.damping_covariance,
-            info=self.info,
-            residual_unit="rad",
-            extra=extra,
-            attrs={"method": self.method, **config_attrs(self.config)},
-        )
-
-
-def _extinction_residual(theta, args):
-    x, y = args
-    return (theta[0] * x + theta[1] * x**2 + theta[2] * x**3) - y
-
-
-def _fit_abc(ext: Sequence[Extremes]):
-    pm = np.concatenate([e.mean_amplitude for e in ext])
-    dec = np.concatenate([e.decrement for e in ext])
-    theta, j, _, info = _least_squares(
-        _extinction_residual, jnp.zeros(3), (jnp.asarray(pm), jnp.asarray(dec))
-    )
-    return theta, _gauss_newton_covariance(j, info.sigma), info, pm, dec
-
-
-def _extinction_thresholds(record: Record, hysteresis_deg, min_amplitude_deg) -> tuple[float, float]:
-    sigma = math.degrees(_noise_std(record.roll))
-    h = hysteresis_deg if hysteresis_deg is not None else 3 * sigma
-    a_min = min_amplitude_deg if min_amplitude_deg is not None else max(0.5, 10 * sigma)
-    return h, a_min
-
-
-def fit_extinction(
-    records: Record | Sequence[Record],
-    ship: Ship,
-    *,
-    hysteresis_deg: float | None = None,
-    min_amplitude_deg: float | None = None,
-    correct_bias: bool = True,
-) -> DecayFit:
-    """Damping from the extinction curve of one or more decay records (pooled decrements).
-
-    Fits Δφ = aφ_m + bφ_m² + cφ_m³ [rad] by least squares (optimistix Levenberg–Marquardt; the problem is
-    linear, so it converges in a step) and converts with `extinction_to_damping` at ω0 = 2π/Tφ of `ship`.
-    Standard errors are Gauss–Newton, s²(JᵀJ)⁻¹, propagated linearly to b1, b2, b3.
-
-    The conversion is first order in the damping and ignores the restoring nonlinearity: on the default ship
-    from 20° it biases b1 and b2 by about 1 % and b3 by 0.1–0.2 s/rad² (docs/calibration.md). With
-    `correct_bias` (default) the bias is removed by simulation: find b such that a noise-free decay of the
-    ship with damping b, sampled and analysed like the record, gives the measured a, b, c (two fixed-point
-    iterations b ← b + (b̂ − b̂_sim)). The raw conversion is kept in `curves["uncorrected"]`.
-    """
-    require_float64("jaxroll.fit_extinction")
-    records = _as_list(records)
-    _check_kind(records, "decay")
-    thresholds = [_extinction_thresholds(r, hysteresis_deg, min_amplitude_deg) for r in records]
-    ext = [decay_extremes(r, hysteresis_deg=h, min_amplitude_deg=a) for r, (h, a) in zip(records, thresholds)]
-    theta, cov_abc, info, pm, dec = _fit_abc(ext)
-    omega0 = float(ship.omega0)
-    m = np.diag([2 * omega0 / math.pi, 0.75, 8 / (3 * math.pi * omega0)])
-    b_raw = m @ theta
-    cov_b = m @ cov_abc @ m.T
-    b = b_raw.copy()
-    if correct_bias:
-        starts = []
-        for r, e in zip(records, ext):
-            i0 = int(np.argmin(np.abs(r.time - e.time[0])))
-            starts.append((i0, float(e.value[0])))
-        for _ in range(2):
-            sim_ext = []
-            s = eqx.tree_at(lambda x: x.damping, ship, jnp.asarray(np.maximum(b, [0.0, 0.0, -np.inf])))
-            for r, (h, a), (i0, phi0) in zip(records, thresholds, starts):
-                ts = jnp.asarray(r.time[i0:] - r.time[i0])
-                phi = np.concatenate([r.roll[:i0], np.asarray(_decay_solution_jit(s, phi0, 0.0, ts))])
-                sim = dataclasses.replace(r, channels={"roll": phi})
-                sim_ext.append(decay_extremes(sim, hysteresis_deg=h, min_amplitude_deg=a))
-            b = b + (b_raw - m @ _fit_abc(sim_ext)[0])
-    periods = [2 * np.median(np.diff(e.time)) for e in ext]
-    return DecayFit(
-        method="extinction",
-        damping=_estimates(("b1", "b2", "b3"), b, cov_b, ("1/s", "1/rad", "s/rad^2")),
-        damping_covariance=cov_b,
-        extinction=_estimates(("a", "b", "c"), theta, cov_abc, ("-", "1/rad", "1/rad^2")),
-        roll_period=Estimate(float(ship.roll_period), 0.0, "s"),
-        omega0=omega0,
-        info=info,
-        curves={
-            "mean_amplitude": pm,
-            "decrement": dec,
-            "extremes": ext,
-            "uncorrected": b_raw,
-            "observed_period_s": float(np.mean(periods)),
-        },
-        config={
-            "hysteresis_deg": [h for h, _ in thresholds],
-            "min_amplitude_deg": [a for _, a in thresholds],
-            "correct_bias": correct_bias,
-            "records": [r.source for r in records],
-            "omega0_from": "ship roll_period",
-        },
-    )
-
-
 def _decay_ship(ship: Ship, b, period_ratio) -> Ship:
     """`ship` with damping b and roll period Tφ·period_ratio (restoring a3…a9 scaled with ω0², GZ shape
     kept)."""
@@ -345,85 +176,310 @@ def decay_solution(ship: Ship, phi0, dphi0, ts, *, rtol: float = 1e-9, atol: flo
     return sol.ys[:, 0]
 
 
+def _decay_base_ship(ship: Ship | None, period: float) -> Ship:
+    """The ship a decay fit integrates: `ship` (its GZ shape) or, without one, the default ship's particulars with
+    linear restoring at the observed roll period `period` [s] — the damping in 1/s needs only the record."""
+    if ship is not None:
+        return ship
+    from ..ship._ship import c11_representative
+
+    base = c11_representative()
+    return eqx.tree_at(
+        lambda s: (s.roll_period, s.restoring, s.damping),
+        base,
+        (jnp.asarray(float(period)), jnp.zeros_like(base.restoring), jnp.zeros(3)),
+    )
+
+
+def _prepare(records, start_model_s, stop_model_s, hysteresis_deg, min_amplitude_deg):
+    """Each record's analysed segment, its extremes about the roll offset, the pooled observed period [s] and the
+    amplitude range [rad]."""
+    segs = [decay_segment(r, start_model_s=start_model_s, stop_model_s=stop_model_s) for r in records]
+    thresholds, ext = [], []
+    for s in segs:
+        unit_note = check_angle_unit(s)
+        centred = dataclasses.replace(s.analysed, channels={"roll": s.analysed.roll - s.offset})
+        h, a = _extinction_thresholds(centred, hysteresis_deg, min_amplitude_deg)
+        thresholds.append((h, a))
+        try:
+            ext.append(decay_extremes(centred, hysteresis_deg=h, min_amplitude_deg=a))
+        except RecordError as e:
+            if unit_note is None:
+                raise
+            raise RecordError(f"{e} {unit_note.removeprefix(s.record.source + ': ')}") from None
+    periods = [2 * float(np.median(np.diff(e.time))) for e in ext]
+    amps = np.concatenate([np.abs(e.value) for e in ext])
+    return segs, thresholds, ext, periods, (float(amps.min()), float(amps.max()))
+
+
+def _period_std_error(ext: Sequence[Extremes]) -> float:
+    """Standard error [s] of the observed period, twice the mean time between extremes, from their scatter."""
+    d = np.concatenate([np.diff(e.time) for e in ext])
+    return 2 * float(np.std(d, ddof=1)) / math.sqrt(d.size) if d.size > 1 else 0.0
+
+
+def _check_ship_period(ship: Ship | None, observed: float) -> None:
+    if ship is None:
+        return
+    diff = float(ship.roll_period) / observed - 1
+    if abs(diff) > 0.02:
+        warnings.warn(
+            f"the ship's roll period {float(ship.roll_period):.4g} s differs from the records' observed "
+            f"{observed:.4g} s by {100 * diff:+.1f} %; the damping is converted and fitted with the observed period "
+            "(give the ship's --roll-period, or a ship file that matches the model tested).",
+            stacklevel=3,
+        )
+
+
+def _b_scales(omega: float) -> np.ndarray:
+    """b = scale · β with β dimensionless (β1 = b1/ω, β2 = b2, β3 = b3·ω)."""
+    return np.array([omega, 1.0, 1 / omega])
+
+
+def _extinction_residual(theta, args):
+    x, y, idx = args
+    coef = jnp.zeros(3).at[jnp.asarray(idx)].set(jnp.exp(theta))
+    return (coef[0] * x + coef[1] * x**2 + coef[2] * x**3) - y
+
+
+def _fit_abc(ext: Sequence[Extremes], idx: tuple[int, ...]):
+    """(a, b, c) ≥ 0 of the model's terms (a = e^θ: positive by construction), their covariance, info."""
+    pm = np.concatenate([e.mean_amplitude for e in ext])
+    dec = np.concatenate([e.decrement for e in ext])
+    # start: the linear least-squares fit of the model's terms, floored at a small positive value
+    x = np.stack([pm, pm**2, pm**3], axis=1)[:, idx]
+    lin = np.linalg.lstsq(x, dec, rcond=None)[0]
+    floor = np.array([1e-4, 1e-3, 1e-2])[list(idx)]
+    theta0 = np.log(np.maximum(lin, floor))
+    theta, j, _, info = _least_squares(
+        _extinction_residual, jnp.asarray(theta0), (jnp.asarray(pm), jnp.asarray(dec), tuple(idx))
+    )
+    coef = np.zeros(3)
+    coef[list(idx)] = np.exp(theta)
+    g = np.zeros((3, len(idx)))
+    g[list(idx), range(len(idx))] = np.exp(theta)
+    cov = g @ _gauss_newton_covariance(j, info.sigma) @ g.T
+    return coef, cov, info, pm, dec
+
+
+def _extinction_thresholds(record: Record, hysteresis_deg, min_amplitude_deg) -> tuple[float, float]:
+    sigma = math.degrees(_noise_std(record.roll))
+    h = hysteresis_deg if hysteresis_deg is not None else 3 * sigma
+    a_min = min_amplitude_deg if min_amplitude_deg is not None else max(0.5, 10 * sigma)
+    return h, a_min
+
+
+def _record_summaries(segs, periods, offsets) -> tuple[dict, ...]:
+    return tuple(
+        {
+            **s.config(),
+            "roll_offset_deg": math.degrees(o),
+            "observed_period_s": p,
+            "initial_amplitude_deg": math.degrees(s.peak),
+        }
+        for s, p, o in zip(segs, periods, offsets)
+    )
+
+
+def fit_extinction(
+    records: Record | Sequence[Record],
+    ship: Ship | None = None,
+    *,
+    damping_model: str = "linear+quadratic",
+    hysteresis_deg: float | None = None,
+    min_amplitude_deg: float | None = None,
+    correct_bias: bool = False,
+    start_model_s: float | None = None,
+    stop_model_s: float | None = None,
+) -> DecayFit:
+    """Damping from the extinction curve of one or more decay records (pooled decrements).
+
+    Each record is analysed from its release (found, `decay_segment`) or from `start_model_s` to `stop_model_s`
+    [s, model scale, the record's own time], about its roll offset. Fits Δφ = aφ_m + bφ_m² + cφ_m³ [rad] with the
+    terms of `damping_model` (`DAMPING_MODELS`; the others 0) by least squares, the coefficients kept ≥ 0 by
+    fitting their logarithms, and converts with `extinction_to_damping` at the **observed** ω = 2π/T (T: twice
+    the median time between extremes; a `UserWarning` when `ship`'s period differs by more than 2 %). Standard
+    errors are Gauss–Newton, propagated linearly to b1, b2, b3. `ship` (optional) only gives the GZ shape the bias
+    correction simulates with (without one: linear restoring).
+
+    The conversion is first order in the damping. On realistic records (ζ ≈ 0.005–0.05, releases 8–20°,
+    docs/calibration.md) its bias in ζ_eq is well under the standard error, so `correct_bias` is off by default.
+    With it, the bias is removed by simulation: b such that a noise-free decay at the observed period with
+    damping b, sampled and analysed like the record, gives the measured a, b, c (two multiplicative updates b ←
+    b · b̂/b̂_sim, which keep b ≥ 0). The raw conversion is kept in `curves["uncorrected"]`.
+    """
+    require_float64("jaxroll.fit_extinction")
+    idx = tuple(["b1", "b2", "b3"].index(n) for n in check_damping_model(damping_model))
+    records = _as_list(records)
+    _check_kind(records, "decay")
+    segs, thresholds, ext, periods, amp_range = _prepare(
+        records, start_model_s, stop_model_s, hysteresis_deg, min_amplitude_deg
+    )
+    period = float(np.mean(periods))
+    _check_ship_period(ship, period)
+    omega = 2 * math.pi / period
+    theta, cov_abc, info, pm, dec = _fit_abc(ext, idx)
+    m = np.diag([2 * omega / math.pi, 0.75, 8 / (3 * math.pi * omega)])
+    b_raw = m @ theta
+    cov_b = m @ cov_abc @ m.T
+    b = b_raw.copy()
+    if correct_bias:
+        base = _decay_base_ship(ship, period)
+        ratio = period / float(base.roll_period)
+        for _ in range(2):
+            sim_ext = []
+            s = _decay_ship(base, jnp.asarray(b), ratio)
+            for seg, (h, a), e in zip(segs, thresholds, ext):
+                r = seg.analysed
+                i0 = int(np.argmin(np.abs(r.time - e.time[0])))
+                ts = jnp.asarray(r.time[i0:] - r.time[i0])
+                phi = np.concatenate(
+                    [r.roll[:i0] - seg.offset, np.asarray(_decay_solution_jit(s, e.value[0], 0.0, ts))]
+                )
+                sim = dataclasses.replace(r, channels={"roll": phi})
+                sim_ext.append(decay_extremes(sim, hysteresis_deg=h, min_amplitude_deg=a))
+            b_sim = m @ _fit_abc(sim_ext, idx)[0]
+            b = np.where(b_sim > 0, b * b_raw / np.where(b_sim > 0, b_sim, 1.0), b)
+    return DecayFit(
+        method="extinction",
+        damping=_estimates(("b1", "b2", "b3"), b, cov_b, ("1/s", "1/rad", "s/rad^2")),
+        damping_covariance=cov_b,
+        extinction=_estimates(("a", "b", "c"), theta, cov_abc, ("-", "1/rad", "1/rad^2")),
+        roll_period=Estimate(period, _period_std_error(ext), "s"),
+        omega0=omega,
+        info=info,
+        curves={
+            "mean_amplitude": pm,
+            "decrement": dec,
+            "extremes": ext,
+            "uncorrected": b_raw,
+            "observed_period_s": period,
+        },
+        config={
+            "hysteresis_deg": [h for h, _ in thresholds],
+            "min_amplitude_deg": [a for _, a in thresholds],
+            "correct_bias": correct_bias,
+            "records": [r.source for r in records],
+            "omega0_from": "observed period (twice the median time between extremes)",
+            "damping_model": damping_model,
+        },
+        damping_model=damping_model,
+        amplitude_range=amp_range,
+        records=_record_summaries(segs, periods, [s.offset for s in segs]),
+    )
+
+
 def _decay_residual(theta, args):
-    ship, fit_period, series = args
-    omega_ship = ship.omega0
-    n_global = 4 if fit_period else 3
-    ratio = jnp.exp(theta[3]) if fit_period else jnp.asarray(1.0)
-    b = jnp.stack([theta[0] * omega_ship, theta[1], theta[2] / omega_ship])
+    ship, fit_period, idx, omega_ref, series = args
+    n_b = len(idx)
+    n_global = n_b + (1 if fit_period else 0)
+    ratio = jnp.exp(theta[n_b]) if fit_period else jnp.asarray(1.0)
+    scales = jnp.asarray(_b_scales(omega_ref))
+    b = jnp.zeros(3).at[jnp.asarray(idx)].set(scales[jnp.asarray(idx)] * jnp.exp(theta[:n_b]))
     s = _decay_ship(ship, b, ratio)
     out = []
     for k, (ts, phi) in enumerate(series):
-        out.append(
-            decay_solution(s, theta[n_global + 2 * k], theta[n_global + 2 * k + 1] * omega_ship, ts) - phi
-        )
+        p = theta[n_global + 3 * k : n_global + 3 * k + 3]
+        out.append(decay_solution(s, p[0], p[1] * omega_ref, ts) + p[2] - phi)
     return jnp.concatenate(out)
 
 
 _decay_solution_jit = filter_jit(decay_solution)
 
 
+def _start_rate(t: np.ndarray, phi: np.ndarray, period: float) -> float:
+    """φ̇ at the first sample [rad/s]: slope of a quadratic through the first T/20."""
+    n = max(3, int(np.searchsorted(t, t[0] + period / 20)))
+    c = np.polyfit(t[:n] - t[0], phi[:n], 2)
+    return float(c[1])
+
+
 def fit_decay_ode(
     records: Record | Sequence[Record],
-    ship: Ship,
+    ship: Ship | None = None,
     *,
+    damping_model: str = "linear+quadratic",
     fit_period: bool = True,
     initial_damping=None,
-    start_s: float | None = None,
+    start_model_s: float | None = None,
+    stop_model_s: float | None = None,
     samples_per_period: int = 50,
+    start_s: float | None = None,
 ) -> DecayFit:
     """Damping (and the roll period) by fitting the roll equation to decay time series (diffrax + optimistix).
 
-    Unknowns: β1 = b1/ω0, β2 = b2, β3 = b3·ω0 (dimensionless, so Levenberg–Marquardt sees similar scales), the
-    period ratio Tφ/Tφ_ship (if `fit_period`; a3…a9 scale with ω0² so the GZ shape is kept), and the initial
-    state (φ, φ̇) of each record at its first extreme (or at `start_s` [s, full scale]). Residuals are φ_model
-    − φ_meas at every sample; the Jacobian comes from forward-mode differentiation through the solver
-    (`adjoint=diffrax.ForwardMode()`); standard errors are s²(JᵀJ)⁻¹ with s the residual std.
+    Each record is analysed from its release (found, `decay_segment`) or from `start_model_s` to `stop_model_s`
+    [s, model scale, the record's own time]. Unknowns: the damping coefficients of `damping_model`
+    (`DAMPING_MODELS`; the others 0) as β_k = e^{θ_k} (β1 = b1/ω, β2 = b2, β3 = b3·ω: dimensionless, similar
+    scales for Levenberg–Marquardt, and b ≥ 0 by construction), the period ratio (if `fit_period`), and per record
+    the state (φ, φ̇) at its first analysed sample and a **roll offset** (the level it decays about). The model is
+    `ship`'s GZ shape scaled to the fitted period, or without a ship linear restoring (the damping in 1/s needs
+    only the record). Residuals are φ_model + offset − φ_meas at every sample; the Jacobian comes from
+    forward-mode differentiation through the solver; standard errors are s²(JᵀJ)⁻¹ with s the residual std,
+    propagated to b by the delta method.
 
-    `initial_damping`: starting (b1, b2, b3) (default: the ship's, with β1 ≥ 0.01 and β2 ≥ 0.05).
-    `samples_per_period`: records sampled more densely than this many samples per roll period are decimated (every
-    k-th sample) before the fit: a 10⁶-row record then fits in seconds, and the standard errors are not made
-    over-confident by residuals correlated over neighbouring samples. The factor k is in `config["decimation"]`."""
+    The start is the extinction curve of the same records (positive, observed period), so the fit converges in
+    a few steps. `initial_damping`: starting (b1, b2, b3) instead. `samples_per_period`: records sampled more
+    densely are decimated (every k-th sample; `config["decimation"]`): a 10⁶-row record fits in seconds, and
+    the standard errors are not made over-confident by residuals correlated over neighbouring samples.
+    `start_s` [s, full scale]: deprecated, use `start_model_s`."""
     require_float64("jaxroll.fit_decay_ode")
+    names = check_damping_model(damping_model)
+    idx = tuple(["b1", "b2", "b3"].index(n) for n in names)
     if not (isinstance(samples_per_period, int) and samples_per_period >= 8):
         raise ValueError(f"`samples_per_period` must be an integer >= 8; got {samples_per_period!r}.")
     records = _as_list(records)
     _check_kind(records, "decay")
-    omega_ship = float(ship.omega0)
-    starts, series, decimation = [], [], []
-    for r in records:
-        if start_s is None:
-            i0 = int(np.argmax(np.abs(r.roll[: max(int(round(ship.roll_period / r.dt)), 2)])))
-        else:
-            i0 = int(np.searchsorted(r.time, start_s))
-            if i0 >= r.time.size - 16:
-                raise RecordError(f"{r.source}: start_s = {start_s} s leaves fewer than 16 samples.")
-        k = max(1, int(ship.roll_period / r.dt) // samples_per_period)
+    if start_s is not None:
+        warnings.warn(
+            "`start_s` [s, full scale] is deprecated: give `start_model_s` [s, model scale, the record's time].",
+            DeprecationWarning,
+            stacklevel=2,
+        )
+        start_model_s = start_s / math.sqrt(records[0].scale)
+    segs, _, ext, periods, amp_range = _prepare(records, start_model_s, stop_model_s, None, None)
+    period0 = float(np.mean(periods))
+    _check_ship_period(ship, period0)
+    base = _decay_base_ship(ship, period0)
+    ratio0 = period0 / float(base.roll_period)
+    omega_ref = 2 * math.pi / period0
+    if initial_damping is None:
+        m = np.diag([2 * omega_ref / math.pi, 0.75, 8 / (3 * math.pi * omega_ref)])
+        b0 = m @ _fit_abc(ext, idx)[0]
+    else:
+        b0 = np.asarray(initial_damping, dtype=float)
+    beta0 = np.asarray(b0)[list(idx)] / _b_scales(omega_ref)[list(idx)]
+    beta0 = np.maximum(beta0, np.array([1e-4, 1e-3, 1e-3])[list(idx)])
+    series, starts, decimation = [], [], []
+    for s in segs:
+        r = s.analysed
+        k = max(1, int(period0 / r.dt) // samples_per_period)
         decimation.append(k)
-        ts = jnp.asarray(r.time[i0::k] - r.time[i0])
-        series.append((ts, jnp.asarray(r.roll[i0::k])))
-        starts.append((float(r.roll[i0]), 0.0))
-    b0 = np.asarray(ship.damping if initial_damping is None else initial_damping, dtype=float)
-    beta0 = [max(b0[0] / omega_ship, 0.01), max(b0[1], 0.05), b0[2] * omega_ship]
-    n_rec = len(records)
-    theta0 = np.concatenate([beta0, [0.0] if fit_period else [], np.ravel(starts)])
-    n_global = 4 if fit_period else 3
-
-    args = (ship, fit_period, tuple(series))
-    theta, j, r, info = _least_squares(_decay_residual, jnp.asarray(theta0), args)
+        ts = r.time[::k] - r.time[0]
+        series.append((jnp.asarray(ts), jnp.asarray(r.roll[::k])))
+        phi0 = float(r.roll[0]) - s.offset
+        starts.append([phi0, _start_rate(r.time, r.roll, period0) / omega_ref, s.offset])
+    theta0 = np.concatenate([np.log(beta0), [math.log(ratio0)] if fit_period else [], np.ravel(starts)])
+    n_b = len(idx)
+    n_global = n_b + (1 if fit_period else 0)
+    base_fixed = base  # with a fixed period: the ship's own
+    args = (base_fixed, fit_period, idx, omega_ref, tuple(series))
+    theta, j, res, info = _least_squares(_decay_residual, jnp.asarray(theta0), args)
     cov_theta = _gauss_newton_covariance(j, info.sigma)
-    # Jacobian of (b1, b2, b3, Tφ) with respect to θ (global part).
-    ratio = math.exp(theta[3]) if fit_period else 1.0
-    d = np.diag([omega_ship, 1.0, 1 / omega_ship])
-    b = d @ theta[:3]
-    cov_b = d @ cov_theta[:3, :3] @ d.T
-    period = float(ship.roll_period) * ratio
-    period_se = period * math.sqrt(cov_theta[3, 3]) if fit_period else 0.0
+    scales = _b_scales(omega_ref)
+    b = np.zeros(3)
+    b[list(idx)] = scales[list(idx)] * np.exp(theta[:n_b])
+    g = np.zeros((3, n_b))
+    g[list(idx), range(n_b)] = b[list(idx)]
+    cov_b = g @ cov_theta[:n_b, :n_b] @ g.T
+    ratio = math.exp(theta[n_b]) if fit_period else 1.0
+    period = float(base_fixed.roll_period) * ratio
+    period_se = period * math.sqrt(cov_theta[n_b, n_b]) if fit_period else 0.0
     omega = 2 * math.pi / period
-    # Extinction coefficients implied by the fitted b's (for the figure and the comparison of methods).
     m = np.diag([math.pi / (2 * omega), 4 / 3, 3 * math.pi * omega / 8])
     abc = m @ b
-    fitted = r + np.concatenate([np.asarray(p) for _, p in series])
+    fitted = res + np.concatenate([np.asarray(p) for _, p in series])
+    per_record = theta[n_global:].reshape(len(segs), 3)
     return DecayFit(
         method="ode",
         damping=_estimates(("b1", "b2", "b3"), b, cov_b, ("1/s", "1/rad", "s/rad^2")),
@@ -434,27 +490,48 @@ def fit_decay_ode(
         info=info,
         curves={
             "time": [np.asarray(ts) for ts, _ in series],
+            "model_time": [
+                s.start_model_s + np.asarray(ts) / math.sqrt(s.record.scale)
+                for (ts, _), s in zip(series, segs)
+            ],
             "measured": [np.asarray(p) for _, p in series],
             "fitted": np.split(fitted, np.cumsum([p.size for _, p in series])[:-1]),
-            "initial_state": theta[n_global:].reshape(n_rec, 2) * np.array([1.0, omega_ship]),
+            "initial_state": per_record[:, :2] * np.array([1.0, omega_ref]),
+            "before": [
+                (
+                    s.record.model_time[: np.searchsorted(s.record.model_time, s.start_model_s)][::k],
+                    s.record.roll[: np.searchsorted(s.record.model_time, s.start_model_s)][::k],
+                )
+                for s, k in zip(segs, decimation)
+            ],
+            "released": [s.released for s in segs],
+            "start_model_s": [s.start_model_s for s in segs],
         },
         config={
             "fit_period": fit_period,
-            "start_s": start_s,
+            "start_model_s": start_model_s,
+            "stop_model_s": stop_model_s,
             "records": [r.source for r in records],
             "decimation": decimation,
+            "damping_model": damping_model,
+            "restoring": "the ship's GZ shape" if ship is not None else "linear (no ship given)",
             "solver": "diffrax Tsit5 (rtol 1e-9), optimistix LevenbergMarquardt, jac fwd",
         },
+        damping_model=damping_model,
+        amplitude_range=amp_range,
+        records=_record_summaries(segs, periods, per_record[:, 2]),
     )
 
 
 def decay_agreement(a: DecayFit, b: DecayFit) -> dict[str, float]:
-    """z-scores (difference / combined standard error) of b1, b2, b3 between two decay fits.
+    """z-scores (difference / combined standard error) of the damping coefficients both decay fits estimated.
 
     The two methods use the same record, so their errors are positively correlated and |z| is conservative.
     """
     out = {}
     for k in ("b1", "b2", "b3"):
+        if k not in a.fitted_parameters or k not in b.fitted_parameters:
+            continue
         ea, eb = a.damping[k], b.damping[k]
         se = math.hypot(ea.std_error, eb.std_error)
         out[k] = (ea.value - eb.value) / se if se > 0 else float("inf")

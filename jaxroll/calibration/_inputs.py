@@ -1,9 +1,12 @@
 """What every calibration fit does with its records first: a list of records of one kind, the paper's analysis
-window, the sensor noise of a record."""
+window, the sensor noise of a record, and records as labs hand them over — the rest before the test, a roll
+offset, an angle unit that the amplitudes contradict (`lab_records`; a decay's own release: `_decay_inputs`)."""
 
 from __future__ import annotations
 
+import dataclasses
 import math
+import warnings
 from collections.abc import Sequence
 
 import numpy as np
@@ -125,4 +128,114 @@ def check_wave_heights(
                 "n_records": len(recs),
             }
         )
+    return out
+
+
+def _offset_terms(phi: np.ndarray) -> np.ndarray:
+    """(φ_n + 2φ_{n+1} + φ_{n+2})/4 over the extremes of φ between hysteresis crossings [rad] (each cancels an
+    amplitude that grows or decays linearly); empty when there are fewer than three extremes."""
+    x = phi - float(np.median(phi))
+    h = max(3 * _noise_std(phi), 0.02 * float(np.max(np.abs(x))))
+    s = np.sign(x[0]) or 1.0
+    idx = []
+    best = 0
+    for i, v in enumerate(x):  # extremes between hysteresis crossings
+        if s * v < -h:
+            idx.append(best)
+            s, best = -s, i
+        elif s * v > s * x[best]:
+            best = i
+    ext = phi[idx]
+    return (ext[:-2] + 2 * ext[1:-1] + ext[2:]) / 4 if ext.size >= 3 else np.zeros(0)
+
+
+def roll_offset(phi: np.ndarray) -> float:
+    """The level a roll oscillates about [rad] (a model heeled by a fraction of a degree): the median of
+    (φ_n + 2φ_{n+1} + φ_{n+2})/4 over its extremes (`_offset_terms`), or the median of φ when there are fewer than
+    three extremes."""
+    phi = np.asarray(phi, dtype=float)
+    terms = _offset_terms(phi)
+    return float(np.median(terms)) if terms.size else float(np.median(phi))
+
+
+def check_roll_unit(peak: float, source: str, subject: str, test: str) -> str | None:
+    """A warning (also returned) when a roll amplitude `peak` [rad] says the angle unit is wrong: tank tests roll
+    from a few degrees to a few tens, so a peak under 1° that would be 2–60° read as radians is radians labelled
+    degrees, and one over 45° probably degrees labelled radians (beyond 90° the loaders refuse it). `subject`
+    ("the decay starts at", "the roll reaches") and `test` ("decay test") word the message."""
+    deg = math.degrees(peak)
+    message = None
+    if deg < 1.0 and 2.0 <= math.degrees(deg) <= 60.0:
+        message = (
+            f"{source}: {subject} only {deg:.3g}°; if the roll column is in radians labelled degrees it would be "
+            f"{math.degrees(deg):.3g}°, a usual {test} — check the roll unit (CLI --units roll=rad or --units-file)."
+        )
+    elif deg > 45.0:
+        message = (
+            f"{source}: {subject} {deg:.3g}°, beyond any {test}; if the roll column is in degrees labelled radians "
+            f"it would be {math.radians(deg):.3g}° — check the roll unit (CLI --units roll=deg)."
+        )
+    if message:
+        warnings.warn(message, stacklevel=3)
+    return message
+
+
+def waves_arrive(record: Record) -> int:
+    """Index of the first sample after the rest at the start of a captive or free-running record (the tank calm
+    before the waves reach the probe): the first where the wave (without one, the roll) leaves its median by more
+    than 5 noise std and 0.2 of its std. 0 or a few samples for a record in waves from its start."""
+    x = np.asarray(record.wave if "wave" in record.channels else record.roll, dtype=float)
+    above = np.nonzero(np.abs(x - np.median(x)) > max(5 * _noise_std(x), 0.2 * float(np.std(x))))[0]
+    return int(above[0]) if above.size else 0
+
+
+def lab_records(records: Sequence[Record], windows_model_s) -> list[Record]:
+    """Captive and free-running records as labs hand them over, made ready for a fit (a decay's: `decay_segment`),
+    each within its analysis window (`windows_model_s`: one (start, stop) [s, model scale, the record's own time]
+    or one per record):
+
+    - the rest before the waves reach the probe found (`waves_arrive`): a `UserWarning` when the window starts
+      more than a wave period inside it (the calm part would enter the statistics);
+    - roll records: the roll offset removed where it is significant (`roll_offset` over the window after the
+      rest, beyond 3 standard errors; what was removed in `meta["roll_offset_deg"]`, else 0) and the angle unit checked against the largest roll excursion of all
+      the records (`check_roll_unit`: one record below the parametric-roll threshold may roll under 1°, a test's
+      set of records does not).
+
+    **Returns:** the records (roll about its offset); the others unchanged."""
+    out, peaks = [], []
+    for k, r in enumerate(records):
+        lo, hi = windows_model_s if np.ndim(windows_model_s) == 1 else windows_model_s[k]
+        t = r.model_time
+        t_arrive = float(t[waves_arrive(r)])
+        period = r.wave_period / math.sqrt(r.scale) if "wave_period_full_s" in r.meta else 0.0
+        if t_arrive - t[0] > period and lo < t_arrive - period:
+            warnings.warn(
+                f"{r.source}: the tank is calm until {t_arrive:.1f} s (model scale), when the waves reach the probe; "
+                f"the analysis window starts at {lo:g} s, inside that rest: give a later --start (or --window; "
+                "every time in model-scale seconds of the record's own time).",
+                stacklevel=3,
+            )
+        if "roll" not in r.channels:
+            out.append(r)
+            continue
+        keep = (t >= max(lo, t_arrive)) & (t <= hi)
+        phi = np.asarray(r.roll, dtype=float)
+        terms = _offset_terms(phi[keep]) if keep.sum() > 16 else np.zeros(0)
+        offset = float(np.median(terms)) if terms.size > 8 else 0.0
+        # removed where it is significant: > 3 standard errors of the median (neighbouring terms share extremes)
+        se = 1.2533 * float(np.std(terms)) / math.sqrt(terms.size / 2) if terms.size > 8 else math.inf
+        offset = offset if abs(offset) > 3 * se else 0.0
+        peaks.append((float(np.max(np.abs(phi[keep] - offset), initial=0.0)), r.source))
+        out.append(
+            dataclasses.replace(
+                r,
+                channels={**r.channels, "roll": phi - offset},
+                meta={**r.meta, "roll_offset_deg": math.degrees(offset)},
+            )
+        )
+    if (
+        peaks
+    ):  # one unit for a test's records: one below the parametric-roll threshold may roll under 1°, not all
+        subject = "the roll reaches" if len(peaks) == 1 else "the largest roll of the records reaches"
+        check_roll_unit(*max(peaks), subject, "tank test")
     return out

@@ -404,5 +404,6 @@ def fit_roll_kalman(
             "process_noise_start": q0,
             "measurement_noise_start": s0,
             "records": [r.source for r in records],
+            "roll_offset_deg": [r.meta["roll_offset_deg"] for r in records],
         },
     )

@@ -26,7 +26,14 @@ from ..roll._monte_carlo import simulate_chunk
 from ..roll._observers import AbstractObserver
 from ..sea._spectra import ITTC
 from ..ship._ship import Ship
-from ._inputs import PAPER_WINDOW_MODEL_S, _as_list, _check_kind, _noise_std, check_wave_heights
+from ._inputs import (
+    PAPER_WINDOW_MODEL_S,
+    _as_list,
+    _check_kind,
+    _noise_std,
+    check_wave_heights,
+    lab_records,
+)
 from ._least_squares import (
     _PARAMS,
     Estimate,
@@ -456,6 +463,7 @@ def fit_roll_pdf(
         )
     bands = tuple(float(q) for q in bands)
     check_wave_heights(records, window_model_s)
+    records = lab_records(records, window_model_s)  # the rest said, the roll offset removed
     groups = group_by_sea_state(records)
     for (hs, t01), recs in groups.items():
         if len(recs) < 3:
@@ -622,6 +630,7 @@ def fit_roll_pdf(
             "method": method,
             "dt_s": dt_model,
             "window_model_s": list(window_model_s),
+            "roll_offset_deg": [r.meta["roll_offset_deg"] for r in records],
             "bands": list(bands),
             "estimators": list(estimators),
             "theory": None if theory is None else getattr(theory, "__name__", repr(theory)),

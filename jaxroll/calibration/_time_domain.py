@@ -40,7 +40,7 @@ from ..sea._grim import _fft_length, grim_transfer
 from ..sea._spectra import GRAVITY, wave_frequencies_from_encounter
 from ..ship._restoring import parametric_excitation
 from ..ship._ship import Ship
-from ._inputs import PAPER_WINDOW_MODEL_S, _as_list, _noise_std, check_wave_heights
+from ._inputs import PAPER_WINDOW_MODEL_S, _as_list, _noise_std, check_wave_heights, lab_records, waves_arrive
 from ._least_squares import _least_squares
 from ._time_domain_results import (
     ParameterEstimate,
@@ -245,7 +245,8 @@ def check_roll_record(record: Record, what: str = "time-domain calibration") -> 
 def analysis_span(record: Record, span_model_s: tuple[float, float] | None) -> tuple[int, int]:
     """Sample indices [i0, i1) of the analysis span: `span_model_s` (model-scale seconds, as the paper's
     70–340 s); by default the paper's window if the record covers it, else the record less an edge margin of
-    5·T01 (full scale) at each end, where the probe reconstruction of ζ_G is not exact."""
+    5·T01 (full scale) at each end, where the probe reconstruction of ζ_G is not exact (from the waves' arrival
+    at the probe when the record starts with the tank at rest, `waves_arrive`)."""
     t_model = record.model_time
     tol = 0.5 / float(record.meta["sampling_hz"])
     if span_model_s is None:
@@ -259,7 +260,7 @@ def analysis_span(record: Record, span_model_s: tuple[float, float] | None) -> t
                     "`wave_period_full_s` to set the edge margins (5·T01); give `span_model_s`."
                 )
             edge = DEFAULT_EDGE_WAVE_PERIODS * record.wave_period / math.sqrt(record.scale)
-            span_model_s = (t_model[0] + edge, t_model[-1] - edge)
+            span_model_s = (t_model[waves_arrive(record)] + edge, t_model[-1] - edge)  # after any rest
             if not span_model_s[1] > span_model_s[0]:
                 raise ValueError(
                     f"{record.source}: the record ({t_model[-1] - t_model[0]:.1f} s model scale) is shorter than "
@@ -327,6 +328,10 @@ def check_time_domain_inputs(
             )
     spans = [analysis_span(r, span_model_s) for r in records]
     check_wave_heights(records, span_model_s)
+    # the rest said, the roll offset removed (over each analysis span)
+    records = lab_records(
+        records, [(r.model_time[i0], r.model_time[i1 - 1]) for r, (i0, i1) in zip(records, spans)]
+    )
     if not check_window:
         return CheckedInputs(params, records, spans, float(dt), math.nan, 0)
     if window is None:
@@ -690,6 +695,7 @@ def fit_roll_time_domain(
             f"{INNER_ITERATIONS} iterations)",
             "coordinates": {nm: TIME_DOMAIN_PARAMETERS[nm][1] for nm in params},
             "records": [rec.source for rec in records],
+            "roll_offset_deg": [rec.meta["roll_offset_deg"] for rec in records],
         },
     )
 

@@ -110,29 +110,84 @@ def virtual_decay_record(
     seed: int = 0,
     max_dt: float = 0.25,
     realization: int | None = None,
+    rest_model_s: float = 0.0,
+    roll_offset_deg: float = 0.0,
+    drift_deg_per_min: float = 0.0,
+    speed_model_m_s: float | None = None,
 ) -> Record:
     """A free-decay record from the ship's own roll equation (P = 0), released from rest at
     `initial_roll_deg`.
 
     Integrated with the project's RK4 (`jaxroll.roll_time_series`) at ≤ `max_dt` [s, full scale]; sampled at
-    `sampling_hz` (model scale); Gaussian sensor noise of std `roll_noise_deg` [deg] added (numpy `seed`)."""
+    `sampling_hz` (model scale); Gaussian sensor noise of std `roll_noise_deg` [deg] added (numpy `seed`).
+
+    A record as a lab hands it over (docs/calibration.md, "Records as labs hand them over"): `rest_model_s` [s,
+    model scale] of the model at rest before it is heeled by hand (over 1.5 s model scale) and released, so the
+    release is at t = `rest_model_s` + 1.5 s; a roll offset `roll_offset_deg` [deg] (a model heeled by a
+    fraction of a degree: the decay is about it) and a linear sensor drift `drift_deg_per_min` [deg per model-scale
+    minute] added to the whole record; `speed_model_m_s` [m/s, model scale] only goes into the header (the
+    damping it brings is in `ship`)."""
     record_dt = math.sqrt(scale) / sampling_hz
-    n = int(round(duration_model_s * sampling_hz)) + 1
+    n_decay = int(round(duration_model_s * sampling_hz)) + 1
     sub, dt = _integration_grid(record_dt, max_dt)
-    steps = (n - 1) * sub
+    steps = (n_decay - 1) * sub
     zeros = jnp.zeros(steps + 1)
     phi, _, capsized = _simulate_roll(ship, zeros, zeros, dt, steps, math.radians(initial_roll_deg))
     if capsized:
         raise ValueError(f"the decay from {initial_roll_deg}° capsizes the ship; start from a smaller angle.")
+    phi = phi[::sub][:n_decay]
+    if rest_model_s > 0:
+        n_rest = int(round(rest_model_s * sampling_hz))
+        n_ramp = int(round(1.5 * sampling_hz))
+        ramp = 0.5 * (1 - np.cos(np.pi * np.arange(n_ramp) / n_ramp)) * math.radians(initial_roll_deg)
+        phi = np.concatenate([np.zeros(n_rest), ramp, phi])
+    n = phi.size
     rng = np.random.default_rng(seed)
-    roll = phi[::sub][:n] + np.radians(_noise(rng, roll_noise_deg, n))
+    t_model = np.arange(n) / sampling_hz
+    roll = (
+        phi
+        + np.radians(_noise(rng, roll_noise_deg, n))
+        + math.radians(roll_offset_deg)
+        + math.radians(drift_deg_per_min) * t_model / 60
+    )
     meta: dict[str, Any] = {"initial_roll_deg": float(initial_roll_deg)}
     if realization is not None:
         meta["realization"] = realization
+    if speed_model_m_s is not None:
+        meta["speed_model_m_s"] = float(speed_model_m_s)
     meta["generator"] = f"jaxroll virtual tank (ship {ship.name!r})"
     return make_record(
         "decay", np.arange(n) * record_dt, {"roll": roll}, scale=scale, sampling_hz=sampling_hz, **meta
     )
+
+
+def write_lab_file(record: Record, path, *, angle_unit: str = "rad", units_file: bool = True):
+    """Write `record` as a lab writes a motion record (model scale): columns `time,x,y,z,phi,theta,psi` (s, m,
+    m, m, then the angles in `angle_unit`, "rad" or "deg"; only `phi` is the roll, the rest 0 apart from a
+    little noise-free sway), the names on the first line, and the units in a side file `<stem>_units.csv` of two
+    rows (the names, then the units) when `units_file` (else on a second line under the names).
+
+    **Returns:** `(data file, units file or None)`."""
+    from pathlib import Path
+
+    if angle_unit not in ("rad", "deg"):
+        raise ValueError(f"`angle_unit` must be 'rad' or 'deg'; got {angle_unit!r}.")
+    path = Path(path)
+    t = record.model_time
+    phi = record.roll if angle_unit == "rad" else np.degrees(record.roll)
+    zero = np.zeros_like(t)
+    data = np.column_stack([t, zero, 1e-3 * np.sin(0.3 * t), zero, phi, zero, zero])
+    names = "time,x,y,z,phi,theta,psi"
+    units = f"s,m,m,m,{angle_unit},{angle_unit},{angle_unit}"
+    body = "\n".join(",".join(f"{v:.7g}" for v in row) for row in data) + "\n"
+    side = None
+    if units_file:
+        side = path.with_name(path.name.split(".")[0] + "_units.csv")
+        side.write_text(f"{names}\n{units}\n")
+        path.write_text(f"{names}\n{body}")
+    else:
+        path.write_text(f"{names}\n{units}\n{body}")
+    return path, side
 
 
 def _sea_meta(sea, scale, probe_x_model_m, speed_model_m_s, realization):

@@ -21,6 +21,7 @@ from typing import Any
 
 import numpy as np
 
+from ._lab_units import read_units_file
 from ._records import (
     _FROUDE_POWER,
     _NUMERIC_KEYS,
@@ -502,6 +503,7 @@ def import_record(
     wave: str | int | None = None,
     delta_gm: str | int | None = None,
     units: Mapping[str, str] | None = None,
+    units_file: str | Path | None = None,
     scale: float,
     full_scale: bool = False,
     sampling_hz: float | None = None,
@@ -526,6 +528,8 @@ def import_record(
     - `units`: units by column (`{"roll": "deg", "wave": "mm"}`) where the file gives none; time s, ms or min;
       roll deg or rad (mrad); wave and delta_gm m, cm or mm. A unit given here that contradicts the file's is
       an error.
+    - `units_file`: a side file of two rows, the column names and their units (`read_units_file`), for a file
+      whose header has names but no units; a column is looked up by its name, else by its position.
     - `scale`: λ ≥ 1 of the model (1 for full-scale data).
     - `full_scale`: the file's time and lengths are already full scale (default: model scale, as tank records
       are); the record is kept at model scale λ all the same.
@@ -636,6 +640,23 @@ def import_record(
             f", header line {table.layout['header_line']}" if table.layout["header_line"] else ", no header"
         )
     # --- units, scale, sampling ---
+    if units_file is not None:
+        side = read_units_file(units_file)
+        folded = {k.lower(): v for k, v in side.items()}
+        for role in specs:
+            if file_units[role] is None:
+                position = f"#{_column_index(table, specs[role], role) + 1}" if hdf5 is None else None
+                file_units[role] = (
+                    side.get(names[role]) or folded.get(names[role].lower()) or side.get(position)
+                )
+                if file_units[role] is None and units.get(role) is None:
+                    listed = ", ".join(k for k in side if not k.startswith("#"))
+                    raise _err(
+                        str(units_file),
+                        None,
+                        f"no unit for column {labels[role]} of {source}: the units file names {listed}; add the "
+                        f"column there, or give its unit (CLI --units {role}=…).",
+                    )
     record_units, factors, read_units = {}, {}, {}
     for role in specs:
         native, factor, read = _resolve_unit(

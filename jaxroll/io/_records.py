@@ -215,12 +215,31 @@ class Record:
             raise RecordError(f"{self.source}: header key `{key}` is missing.")
         return self.meta[key]
 
-    def window(self, start_model_s: float, stop_model_s: float) -> Record:
-        """The samples with start ≤ t ≤ stop, the bounds in **model-scale seconds** (the paper's 70–340 s).
+    def check_model_time(self, t_model_s: float, name: str) -> None:
+        """`RecordError` (naming `name`, e.g. "start") unless `t_model_s` [s, model scale, the record's own time]
+        lies within the record (half a sample's tolerance)."""
+        tm = self.model_time
+        tol = 0.5 / float(self.meta["sampling_hz"])
+        if not (tm[0] - tol <= t_model_s <= tm[-1] + tol):
+            raise RecordError(
+                f"{self.source}: {name} = {t_model_s:g} s (model scale) is outside the record, which covers "
+                f"{tm[0]:.3f}–{tm[-1]:.3f} s model scale ({self.time[0]:.1f}–{self.time[-1]:.1f} s full scale)."
+            )
+
+    def window(self, start_model_s: float | None, stop_model_s: float | None) -> Record:
+        """The samples with start ≤ t ≤ stop, the bounds in **model-scale seconds** of the record's own time (the
+        paper's 70–340 s; the time scale of every start, stop and window jaxroll takes); None: the record's first
+        (last) sample.
 
         **Raises:** `RecordError` if the record does not cover the window (it names the last line)."""
         t_model = self.model_time
         tol = 0.5 / float(self.meta["sampling_hz"])
+        if start_model_s is None or stop_model_s is None:  # one bound given: it must lie in the record
+            for name, v in (("start", start_model_s), ("stop", stop_model_s)):
+                if v is not None:
+                    self.check_model_time(v, name)
+        start_model_s = float(t_model[0]) if start_model_s is None else start_model_s
+        stop_model_s = float(t_model[-1]) if stop_model_s is None else stop_model_s
         if not stop_model_s > start_model_s:
             raise RecordError(
                 f"{self.source}: analysis window {start_model_s}–{stop_model_s} s is empty "

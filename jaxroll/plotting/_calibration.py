@@ -61,25 +61,68 @@ def plot_extinction(fits: DecayFit | Sequence[DecayFit], *, ax=None):
 
 def plot_decay_fit(fit: DecayFit, *, index: int = 0, ax=None):
     """Measured decay (dots) and the fitted roll equation (line) of record `index` of an ODE fit, with
-    residuals."""
+    residuals, against the record's own time [s, model scale]; the part before the analysis (the rest before the
+    release) in light grey and the release found (or the start given) as a vertical line."""
     if fit.method != "ode":
         raise ValueError("plot_decay_fit needs a fit from `fit_decay_ode` (it draws the fitted time series).")
     ax = _axes(ax, (8.0, 4.0))
-    t = fit.curves["time"][index]
+    t = fit.curves.get("model_time", fit.curves["time"])[index]
     meas = np.degrees(fit.curves["measured"][index])
     model = np.degrees(fit.curves["fitted"][index])
+    if "before" in fit.curves:
+        tb, pb = fit.curves["before"][index]
+        if len(tb):
+            ax.plot(tb, np.degrees(pb), ".", color="0.8", ms=2, label="before the analysis")
+        start = fit.curves["start_model_s"][index]
+        released = fit.curves["released"][index]
+        ax.axvline(
+            start,
+            color="C2",
+            lw=1,
+            ls="--",
+            label=f"{'release found' if released else 'start'}: {start:.2f} s",
+        )
     ax.plot(t, meas, ".", color="0.4", ms=2, label="measured")
-    ax.plot(t, model, "C3-", lw=1, label="fitted roll equation")
+    ax.plot(t, model, "C3-", lw=1, label="fitted roll equation (with offset)")
     ax.plot(t, meas - model, "C0-", lw=0.6, label="residual")
-    ax.set_xlabel("time since the first extreme [s, full scale]")
+    ax.set_xlabel(
+        "time [s, model scale: the record's own]" if "model_time" in fit.curves else "time [s, full scale]"
+    )
     ax.set_ylabel("roll [deg]")
     b = fit.damping
     ax.set_title(
-        f"b1 = {b['b1'].value:.4g} ± {b['b1'].std_error:.2g} 1/s, b2 = {b['b2'].value:.3g} ± "
-        f"{b['b2'].std_error:.2g} 1/rad, b3 = {b['b3'].value:.3g} ± {b['b3'].std_error:.2g} s/rad²",
+        f"{fit.damping_model}: "
+        + ", ".join(f"{k} = {b[k].value:.4g} ± {b[k].std_error:.2g}" for k in fit.fitted_parameters)
+        + f", Tφ = {fit.roll_period.value:.4g} s",
         fontsize=9,
     )
-    ax.legend(loc="upper right")
+    ax.legend(loc="upper right", fontsize=7)
+    return ax
+
+
+def plot_equivalent_damping(fits: DecayFit | Sequence[DecayFit], *, ax=None):
+    """The equivalent linear damping ratio ζ_eq(A) [-] of each fit with its 95 % band: solid over the amplitudes
+    the records cover, dotted beyond (an extrapolation of the damping model)."""
+    from ..calibration import DecayFit
+
+    fits = [fits] if isinstance(fits, DecayFit) else list(fits)
+    ax = _axes(ax)
+    for i, f in enumerate(fits):
+        lo, hi = np.degrees(f.amplitude_range)
+        a = np.linspace(0.0, hi * 1.3, 120)
+        eq = f.equivalent_damping(a, warn=False)
+        z, se, out = eq["zeta"], eq["zeta_std_error"], eq["extrapolated"]
+        color = f"C{[0, 3][i % 2]}"
+        inside = ~out
+        ax.plot(a[inside], z[inside], color=color, label=f"{f.method} ({f.damping_model})")
+        ax.fill_between(a[inside], (z - 1.96 * se)[inside], (z + 1.96 * se)[inside], color=color, alpha=0.2)
+        ax.plot(np.where(out, a, np.nan), np.where(out, z, np.nan), color=color, ls=":")
+    ax.axvspan(*np.degrees(fits[0].amplitude_range), color="0.9", zorder=0, label="amplitudes in the records")
+    ax.set_xlabel("roll amplitude A [deg]")
+    ax.set_ylabel("equivalent damping ratio ζ_eq [-]")
+    ax.set_xlim(0, None)
+    ax.legend(fontsize=8)
+    ax.set_title("ζ_eq(A) = B_e(A)/(2ω) with 95 % band (dotted: extrapolated)", fontsize=9)
     return ax
 
 
