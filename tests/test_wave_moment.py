@@ -234,6 +234,8 @@ def test_per_unit_inertia_and_the_table(c11):
         half, (np.asarray(table.values[0]) + np.asarray(table.values[1])) / 2, rtol=0, atol=1e-18
     )
     assert complex(table.transfer(2.5, math.pi / 2)) == 0
+    with pytest.raises(ValueError, match="outside the wave-moment table's headings"):
+        table.transfer(0.5, 2.0)
     p = hydrostatic_particulars(hull, loading)
     w = 0.01
     long_wave = (

@@ -206,8 +206,16 @@ class WaveMoment(eqx.Module):
         return jnp.where(inside, jax.lax.complex(re, im), jnp.zeros((), dtype=row.dtype))
 
     def at_heading(self, heading: ArrayLike) -> Complex[Array, " n"]:
-        """The table's row at heading χ [rad] (scalar), linear between the grid's headings [rad/s² per m]."""
+        """The table's row at heading χ [rad] (scalar), linear between the grid's headings [rad/s² per m].
+
+        **Raises:** `ValueError` for a (concrete) heading outside the table's headings: never extrapolated."""
         chi = jnp.asarray(heading, dtype=float)
+        c, grid = _concrete(chi), _concrete(self.headings)
+        if c is not None and grid is not None and not grid[0] - 1e-12 <= c <= grid[-1] + 1e-12:
+            raise ValueError(
+                f"heading χ = {float(c):.6g} rad is outside the wave-moment table's headings "
+                f"({grid[0]:.6g}–{grid[-1]:.6g} rad): tabulate the moment there (`wave_moment(..., headings=...)`)."
+            )
         if self.headings.size == 1:
             return self.values[0]
         j = jnp.clip(jnp.searchsorted(self.headings, chi, side="right") - 1, 0, self.headings.size - 2)
