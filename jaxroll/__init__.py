@@ -123,6 +123,7 @@ if _typing.TYPE_CHECKING:
         SplittingResult as SplittingResult,
         SuperpositionExcitation as SuperpositionExcitation,
         SweepResult as SweepResult,
+        WaveMomentExcitation as WaveMomentExcitation,
         amplitude_samples as amplitude_samples,
         check_time_step as check_time_step,
         default_chunk_size as default_chunk_size,
@@ -169,12 +170,14 @@ if _typing.TYPE_CHECKING:
     from .ship import (
         Hull as Hull,
         Ship as Ship,
+        WaveMoment as WaveMoment,
         box_hull as box_hull,
         c11_hull as c11_hull,
         c11_hull_ship as c11_hull_ship,
         c11_representative as c11_representative,
         delta_gm as delta_gm,
         equilibrium as equilibrium,
+        froude_krylov_roll_moment as froude_krylov_roll_moment,
         gz_curve as gz_curve,
         hull_hydrostatics as hull_hydrostatics,
         hydrostatic_particulars as hydrostatic_particulars,
@@ -186,6 +189,7 @@ if _typing.TYPE_CHECKING:
         righting_lever as righting_lever,
         ship_from_hull as ship_from_hull,
         vanishing_angle as vanishing_angle,
+        wave_moment as wave_moment,
         wigley_hull as wigley_hull,
     )
 
@@ -213,7 +217,7 @@ _NAMES = {  # subpackage (or private module) -> the names `jaxroll` takes from i
         "DEFAULT_SENSITIVITY_STATISTICS SENSITIVITY_PARAMETERS AbstractExcitation AbstractObserver "
         "AmplitudeHistogram AmplitudeStatistics CapsizeCounts FilterExcitation FirstMaxima MaximaStatistics "
         "MaxRoll MaxRollStatistics RealizationEnd RollProblem SampledExcitation SensitivityResult "
-        "SplittingPilot SplittingResult SuperpositionExcitation SweepResult amplitude_samples check_time_step "
+        "SplittingPilot SplittingResult SuperpositionExcitation SweepResult WaveMomentExcitation amplitude_samples check_time_step "
         "default_chunk_size default_duration default_memory_budget envelope_record_every hilbert_envelope "
         "monte_carlo monte_carlo_amplitudes monte_carlo_max_roll monte_carlo_maxima monte_carlo_sensitivity "
         "monte_carlo_splitting monte_carlo_splitting_angles parametric_band realization_mesh roll_acceleration roll_time_series "
@@ -226,9 +230,10 @@ _NAMES = {  # subpackage (or private module) -> the names `jaxroll` takes from i
         "superpose"
     ),
     "ship": (
-        "Hull Ship box_hull c11_hull c11_hull_ship c11_representative delta_gm equilibrium gz_curve "
-        "hull_hydrostatics hydrostatic_particulars loading_condition metacentric_height parametric_excitation "
-        "restoring_moment restoring_potential righting_lever ship_from_hull vanishing_angle wigley_hull"
+        "Hull Ship WaveMoment box_hull c11_hull c11_hull_ship c11_representative delta_gm equilibrium "
+        "froude_krylov_roll_moment gz_curve hull_hydrostatics hydrostatic_particulars loading_condition "
+        "metacentric_height parametric_excitation restoring_moment restoring_potential righting_lever "
+        "ship_from_hull vanishing_angle wave_moment wigley_hull"
     ),
 }
 _LAZY = {name: module for module, names in _NAMES.items() for name in names.split()}

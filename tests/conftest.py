@@ -57,6 +57,7 @@ SLOWEST_FILES_FIRST = (
     "test_scaling.py",  # 147
     "test_hydrostatics.py",  # 143
     "test_docs.py",  # 141
+    "test_wave_moment.py",  # 132 (-n 0, load ~4; issue 44's session)
     "test_effective_wave.py",  # 125
     "test_maxima.py",  # 120
     "test_sensitivity.py",  # 117

@@ -21,6 +21,7 @@ from ._excitation import (
     FilterExcitation as FilterExcitation,
     SampledExcitation as SampledExcitation,
     SuperpositionExcitation as SuperpositionExcitation,
+    WaveMomentExcitation as WaveMomentExcitation,
 )
 from ._monte_carlo import (
     default_duration as default_duration,

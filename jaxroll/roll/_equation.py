@@ -37,7 +37,13 @@ from ..ship._restoring import (
 )
 from ..ship._ship import Ship
 from ..ship._validity import warn_outside_validity
-from ._excitation import BLOCK, AbstractExcitation, FilterExcitation, SuperpositionExcitation
+from ._excitation import (
+    BLOCK,
+    AbstractExcitation,
+    FilterExcitation,
+    SuperpositionExcitation,
+    WaveMomentExcitation,
+)
 
 
 def roll_acceleration(ship: Ship, phi, dphi, p, m=0.0) -> Float[Array, "..."]:
@@ -296,15 +302,15 @@ MOMENT_KEY = 0x7FFFFFFE  # the moment excitation of a realization keyed k draws 
 
 
 def as_dtype(tree, dtype):
-    """`tree` with its floating array leaves cast to `dtype` (Grim's effective wave is left as it is: Method 1
-    synthesises in float64)."""
+    """`tree` with its floating array leaves cast to `dtype` (Grim's effective wave and a wave-moment excitation are
+    left as they are: Method 1 and the moment synthesise in float64)."""
 
     def cast(x):
         if isinstance(x, jax.Array | np.ndarray) and jnp.issubdtype(x.dtype, jnp.floating):
             return jnp.asarray(x).astype(dtype)
         return x
 
-    return jax.tree.map(cast, tree, is_leaf=lambda x: isinstance(x, EffectiveWave))
+    return jax.tree.map(cast, tree, is_leaf=lambda x: isinstance(x, EffectiveWave | WaveMomentExcitation))
 
 
 def _drive(problem: RollProblem, key, num_steps: int, dtype, per_source_step, inner, done=None):

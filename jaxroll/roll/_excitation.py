@@ -1,4 +1,5 @@
-"""Sources of Grim's effective wave ζ_G(t) for one realization: shaping filter, superposition, or a record.
+"""Sources of Grim's effective wave ζ_G(t) for one realization: shaping filter, superposition, or a record; and
+the direct wave roll moment M_w(t) (`WaveMomentExcitation`).
 
 The integrator (`jaxroll.simulate`) advances in *source steps* of m time steps (m = `excitation.substeps`): the
 shaping filter is stepped exactly once per source step of H = m·dt, and every source delivers ζ_G [m] at the 2m
@@ -18,11 +19,13 @@ import jax
 import jax.numpy as jnp
 import jax.random as jr
 import numpy as np
-from jaxtyping import Array, Float, PRNGKeyArray
+from jaxtyping import Array, Complex, Float, PRNGKeyArray
 
 from .._compiled import cached_program
 from ..sea._filters import ShapingFilter, psd_sqrt
 from ..sea._grim import EffectiveWave, superpose, superposition_length
+from ..sea._spectra import AbstractWaveSpectrum, encounter_branches, heading_angle, heading_cosine
+from ..ship._wave_moment import WaveMoment
 
 BLOCK = 128  # source steps per noise block (block j of a realization keyed k draws from fold_in(k, j))
 START_KEY = 0x7FFFFFFF  # the filter's stationary start draws from fold_in(k, START_KEY)
@@ -375,6 +378,96 @@ class SuperpositionExcitation(AbstractExcitation):
             x.astype(dtype) for x in superpose(self.wave, key, n, self.dt)
         )  # synthesised in float64
         return (zeta, dzeta), zeta[0]
+
+    def block_inputs(self, key, state, index, m):
+        return _half_step_values(*state, index, m, jnp.asarray(self.dt, state[0].dtype))
+
+    def advance(self, state, values, m):
+        return state, tuple(values[j] for j in range(2 * m))
+
+
+class WaveMomentExcitation(AbstractExcitation):
+    """The direct wave roll moment per unit roll inertia M_w(t) [rad/s²] of a long-crested sea, synthesised by FFT
+    over the whole trial like `SuperpositionExcitation`.
+
+    Components sit at encounter frequencies ω_e,j = 2πj/(M dt); each wave frequency ω that meets the ship at ω_e,j
+    (one in head and beam seas, up to three in following seas: `jaxroll.sea.encounter_frequency`) adds an
+    independent complex Gaussian amplitude of variance S(ω)Δω_e/|dω_e/dω| times the transfer F(ω, χ)/I44 of the
+    `WaveMoment` (conjugated where ω − kU cos χ < 0). M_w(t) is exactly Gaussian with the spectrum
+    Σ |F/I44|² S/|dω_e/dω|. Synthesised in float64 whatever the run's dtype.
+    """
+
+    sea: AbstractWaveSpectrum
+    omega: Float[Array, " n"]
+    transfer: Complex[Array, " n"]
+    speed: Float[Array, ""]
+    following: bool = eqx.field(static=True)
+    dt: float = eqx.field(static=True)
+    substeps: int = eqx.field(static=True, default=1)
+
+    def __init__(
+        self,
+        sea: AbstractWaveSpectrum,
+        moment: WaveMoment,
+        dt: float,
+        *,
+        speed: float = 0.0,
+        heading: str | float = "head",
+    ):
+        """**Arguments:** `sea`: one-sided sea spectrum; `moment`: the hull's [`WaveMoment`][jaxroll.ship.WaveMoment]
+        table (per unit inertia); `dt`: time step [s]; `speed`: U [m/s] ≥ 0; `heading`: `"head"`, `"following"` or
+        χ [rad] in [0, π] (0 following, π/2 beam, π head; χ ∈ (0, π): waves from port).
+
+        **Raises:** `ValueError` for a heading outside [0, π], a negative speed, or a heading outside the table's."""
+        chi, cos_chi = heading_angle(heading), heading_cosine(heading)
+        if not (math.isfinite(float(speed)) and float(speed) >= 0):
+            raise ValueError(f"`speed` must be a finite number >= 0 [m/s]; got {speed!r}.")
+        lo, hi = float(moment.headings[0]), float(moment.headings[-1])
+        if not lo - 1e-12 <= chi <= hi + 1e-12:
+            raise ValueError(
+                f"heading χ = {math.degrees(chi):.4g}° is outside the wave-moment table's headings "
+                f"({math.degrees(lo):.4g}–{math.degrees(hi):.4g}°): tabulate the moment at this heading "
+                "(`jaxroll.ship.wave_moment(..., headings=...)`)."
+            )
+        self.sea = sea
+        self.omega = moment.omega
+        self.transfer = moment.at_heading(chi)
+        self.speed = jnp.asarray(float(speed) * abs(cos_chi), dtype=float)  # U|cos χ|: the encounter shift
+        self.following = cos_chi > 0
+        self.dt = float(dt)
+
+    def transfer_at(self, omega) -> Complex[Array, "..."]:
+        """F/I44 [rad/s² per m] at wave frequencies ω [rad/s] (linear between the table's, 0 above it)."""
+        re = jnp.interp(omega, self.omega, self.transfer.real, right=0.0)
+        im = jnp.interp(omega, self.omega, self.transfer.imag, right=0.0)
+        return jax.lax.complex(re, im)
+
+    def init(self, key, num_steps, m, dtype):
+        n = _padded_length(num_steps, m)
+        size = superposition_length(n)
+        if size > 2**24:
+            raise ValueError(
+                f"superposition of {n} samples is too long for one FFT; shorten the trial or lengthen dt."
+            )
+        domega = 2 * np.pi / (size * self.dt)
+        omega_e = jnp.arange(size // 2 + 1, dtype=float) * domega
+        omegas, weights = encounter_branches(omega_e, self.speed, self.following)
+        branches = 3 if self.following else 1
+        interior = (omega_e > 0) & (omega_e < omega_e[-1])
+        coef = jnp.zeros(omega_e.shape, dtype=self.transfer.dtype)
+        xy = jr.normal(key, (branches, 2, omega_e.size))
+        for b in range(branches):
+            f = self.transfer_at(omegas[:, b])
+            if b == 2:  # ω − kU cos χ = −ω_e: the component turns the other way
+                f = jnp.conj(f)
+            valid = interior & (weights[:, b] > 0)
+            var = jnp.where(valid, self.sea(omegas[:, b]) * weights[:, b] * domega, 1.0)
+            amp = jnp.where(valid & (var > 0), jnp.sqrt(jnp.where(var > 0, var, 1.0)) * size / 2, 0.0)
+            coef = coef + f * jax.lax.complex(amp * xy[b, 0], amp * xy[b, 1])
+        mw = jnp.fft.irfft(coef, n=size)[:n]
+        dmw = jnp.fft.irfft(jax.lax.complex(jnp.zeros_like(omega_e), omega_e) * coef, n=size)[:n]
+        mw, dmw = mw.astype(dtype), dmw.astype(dtype)
+        return (mw, dmw), mw[0]
 
     def block_inputs(self, key, state, index, m):
         return _half_step_values(*state, index, m, jnp.asarray(self.dt, state[0].dtype))

@@ -66,3 +66,9 @@ from ._validity import (
     excitation_validity as excitation_validity,
     validity_warnings as validity_warnings,
 )
+from ._wave_moment import (
+    WaveMoment as WaveMoment,
+    froude_krylov_roll_moment as froude_krylov_roll_moment,
+    roll_inertia as roll_inertia,
+    wave_moment as wave_moment,
+)
