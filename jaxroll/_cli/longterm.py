@@ -8,7 +8,6 @@ the partial dataset `longterm.part-i-of-N.nc` (merge the parts with `jaxroll mer
 
 from __future__ import annotations
 
-import argparse
 import math
 import time
 from pathlib import Path
