@@ -29,8 +29,8 @@ from jaxroll.longterm import (
     neyman_allocation,
     parse_scatter,
 )
-from jaxroll.longterm._cells import make_grid
 from jaxroll.longterm._allowance import measured_allowance
+from jaxroll.longterm._cells import make_grid
 from jaxroll.longterm._risk import annual, auto_cells, longterm_probability
 from jaxroll.longterm._theory import class_template, class_theory
 
