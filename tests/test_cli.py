@@ -434,6 +434,12 @@ def test_risk_first_passage(tmp_path, capsys):
     assert f["probability"] < f["independent_probability"]
     assert f["amplitudes_per_cluster"] > 1.5 and f["clusters_per_hour"] > 0 and f["exists"]
     assert 0 < f["capsize_probability"] < 1e-3
+    # the allowance measured against the exact-spectrum sea (H1/3 6 m, T01 10 s, 0 m/s: inside the validated map)
+    from jaxroll.longterm._allowance import MEASURED
+
+    a = f["model_allowance"]
+    assert (a["f_below"], a["f_above"]) == MEASURED[0, 1] and not a["outside_validated_map"]
+    assert a["probability_range"] == pytest.approx([f["probability"] / a["f_below"], f["probability"] * a["f_above"]])
     curve = d["curve"]
     i = curve["angle_deg"].index(30.0)
     assert curve["first_passage"][i] == pytest.approx(

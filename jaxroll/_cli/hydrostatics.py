@@ -328,7 +328,7 @@ def run(args) -> int:
             "ship": ship_to_dict(ship),
         }
         write_json(out / "hydrostatics.json", payload)
-        write_netcdf(out / "hydrostatics.nc", "hydrostatics", payload, sol.to_xarray())
+        nc = write_netcdf(out / "hydrostatics.nc", "hydrostatics", payload, sol.to_xarray())
         atomic_write_text(out / "ship.toml", ship_to_toml(ship))
         if is_mesh:  # the sliced offsets, to inspect and reuse as a TOML hull file
             atomic_write_text(out / "hull.toml", hull_to_toml(hull, header=f"sliced from {args.hull}"))
@@ -353,7 +353,7 @@ def run(args) -> int:
     if is_c11:
         print("Note: the c11 hull is REPRESENTATIVE (parametric), not the real C11 lines.")
     print(
-        f"wrote {final / 'hydrostatics.json'}, hydrostatics.nc, {final / 'ship.toml'}, gz_curves.png, delta_gm.png, "
+        f"wrote {final / 'hydrostatics.json'}, {'hydrostatics.nc, ' if nc else ''}{final / 'ship.toml'}, gz_curves.png, delta_gm.png, "
         "body_plan.png"
     )
     return 0

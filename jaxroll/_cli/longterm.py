@@ -444,8 +444,8 @@ def write_outputs(ds, out: Path, run_time: float | None = None) -> dict:
         save_figure(longterm_polar_figure(ds), tmp / "longterm_polar.png")
         save_figure(longterm_ci_figure(ds, summary), tmp / "longterm_ci.png")
         write_json(tmp / "longterm.json", payload)
-        write_netcdf(tmp / "longterm.nc", "longterm", payload, ds)
-    return summary
+        written = write_netcdf(tmp / "longterm.nc", "longterm", payload, ds)
+    return {**summary, "_netcdf_written": written}
 
 
 def print_summary(summary: dict, out: Path) -> None:
@@ -475,7 +475,9 @@ def print_summary(summary: dict, out: Path) -> None:
         )
     )
     print(
-        f"wrote {out}/longterm.json, longterm.nc, longterm_scatter.png, longterm_polar.png, longterm_ci.png"
+        f"wrote {out}/longterm.json, {'longterm.nc, ' if summary.get('_netcdf_written', True) else ''}"
+        "longterm_scatter.png, longterm_polar.png, "
+        "longterm_ci.png"
     )
 
 

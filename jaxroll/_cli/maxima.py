@@ -296,7 +296,7 @@ def run(args) -> int:
             )
             save_figure(fig, tmp / f"maxima_N0_{k}.png")
         write_json(tmp / "maxima.json", payload)
-        write_netcdf(
+        nc = write_netcdf(
             tmp / "maxima.nc", "maxima", payload, {"": per_trial, "amplitude_pdf": amp.to_xarray(bins)}
         )
     for k, v in per_n0.items():
@@ -310,6 +310,6 @@ def run(args) -> int:
                 f"{p['p_exceed']['30']:.3g} (Monte Carlo maxima: {v['p_exceed']['30']:.3g}){note}"
             )
     print(
-        f"done in {elapsed:.1f} s{' (resumed from the checkpoint; this run only)' if resumed else ''}; wrote {out}/maxima_linear.png, maxima_log.png, maxima_N0_*.png, maxima.json, maxima.nc"
+        f"done in {elapsed:.1f} s{' (resumed from the checkpoint; this run only)' if resumed else ''}; wrote {out}/maxima_linear.png, maxima_log.png, maxima_N0_*.png, maxima.json{', maxima.nc' if nc else ''}"
     )
     return 0

@@ -266,7 +266,7 @@ def run(args) -> int:
         save_figure(fig_lin, tmp / "pdf_linear.png")
         save_figure(fig_log, tmp / "pdf_log.png")
         write_json(tmp / "pdf.json", payload)
-        write_netcdf(tmp / "pdf.nc", "pdf", payload, stats.to_xarray(bins))
+        nc = write_netcdf(tmp / "pdf.nc", "pdf", payload, stats.to_xarray(bins))
     took = f"done in {elapsed:.1f} s" + (f" (resumed; {earlier + elapsed:.1f} s in total)" if resumed else "")
     capsized = f"capsized {stats.n_capsized}/{stats.n_realizations} (P = {stats.capsize_probability:.4f})"
     print(f"{took}; {capsized}")
@@ -293,5 +293,8 @@ def run(args) -> int:
             + ("" if args.theory is not None else "; --theory none leaves them out"))  # fmt: skip
     for name, reason in theories_failed.items():
         print(f"theory overlay: {name} left out: {reason}")
-    print(f"wrote {out / 'pdf_linear.png'}, {out / 'pdf_log.png'}, {out / 'pdf.json'}, {out / 'pdf.nc'}")
+    print(
+        f"wrote {out / 'pdf_linear.png'}, {out / 'pdf_log.png'}, {out / 'pdf.json'}"
+        + (f", {out / 'pdf.nc'}" if nc else "")
+    )
     return 0

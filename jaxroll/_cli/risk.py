@@ -144,6 +144,7 @@ def _first_passage(problem, angle_deg: float, exposure: float, curve_deg, vanish
 
     import numpy as np
 
+    from ..longterm._allowance import measured_allowance
     from ..theory import passage_risk
     from ._theory import first_line
 
@@ -178,6 +179,23 @@ def _first_passage(problem, angle_deg: float, exposure: float, curve_deg, vanish
         "survival (docs/theory.md, 'Exposure risk')",
         "grid": dict(risk.grid),
     }
+    # The allowance measured against an exact-spectrum sea in this sea state's region (docs/validation.md): the
+    # theory is low nearly everywhere, by up to ×16 at speed.
+    below, above, outside, _ = (
+        float(x) for x in measured_allowance(problem.wave.sea.hs, problem.wave.sea.t01, problem.wave.speed)
+    )
+    p = entry["probability"]
+    entry["model_allowance"] = {
+        "probability_range": [p / below, min(1.0, p * above)],
+        "f_below": below,
+        "f_above": above,
+        "outside_validated_map": bool(outside),
+    }
+    if outside:
+        print(
+            "first_passage: this sea state is outside the map the exposure theory was validated on (H1/3 4-8 m, "
+            f"T01 8-12 s, 0-5 m/s): its allowance is the widest measured, x{above:.3g} (docs/validation.md)."
+        )
     return entry, on_curve
 
 

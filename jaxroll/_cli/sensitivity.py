@@ -199,7 +199,7 @@ def run(args) -> int:
     with OutputFolder(out) as tmp:
         save_figure(sensitivity_bar_chart(payload, title=title), tmp / "sensitivity.png")
         write_json(tmp / "sensitivity.json", payload)
-        write_netcdf(tmp / "sensitivity.nc", "sensitivity", payload, {"monte_carlo": res.to_xarray()})
+        nc = write_netcdf(tmp / "sensitivity.nc", "sensitivity", payload, {"monte_carlo": res.to_xarray()})
 
     print(f"Monte Carlo done in {elapsed:.1f} s (capsized {res.n_capsized}); theories in {theory_time:.1f} s")
     for n, t in theory.items():
@@ -214,5 +214,9 @@ def run(args) -> int:
             print(
                 f"  d/d{p:<14s} {mc['value']:+.4g} ± {mc['std_error']:.2g} per {parameters[p]['unit']}   {th}"
             )
-    print(f"wrote {out / 'sensitivity.json'}, {out / 'sensitivity.nc'}, {out / 'sensitivity.png'}")
+    print(
+        f"wrote {out / 'sensitivity.json'}, "
+        + (f"{out / 'sensitivity.nc'}, " if nc else "")
+        + f"{out / 'sensitivity.png'}"
+    )
     return 0

@@ -596,9 +596,9 @@ def run(args) -> int:
             "summary": lines,
         }
         write_json(out / "sgisc.json", payload)
-        write_netcdf(out / "sgisc.nc", "sgisc", payload)
+        nc = write_netcdf(out / "sgisc.nc", "sgisc", payload)
     print("\n".join(lines))
     if is_c11:
         print("Note: the c11 hull is REPRESENTATIVE (parametric), not the real C11 lines.")
-    print(f"wrote {final / 'sgisc.json'}, sgisc.nc, {', '.join(files[1:])}")
+    print(f"wrote {final / 'sgisc.json'}, {'sgisc.nc, ' if nc else ''}{', '.join(files[1:])}")
     return 0

@@ -429,7 +429,7 @@ def run(args) -> int:
         if polar:
             save_figure(sweep_polar_figure(payload), tmp / "sweep_polar.png")
         write_json(tmp / "sweep.json", payload)
-        write_netcdf(tmp / "sweep.nc", "sweep", payload, result.to_xarray())
+        nc = write_netcdf(tmp / "sweep.nc", "sweep", payload, result.to_xarray())
 
     def where(p):
         return f"{heading_phrase(p['heading_deg'])}, U {p['speed_m_s']:g} m/s, H1/3 {p['hs_m']:g} m, T01 {p['t01_s']:g} s"
@@ -450,5 +450,8 @@ def run(args) -> int:
     )
     print(f"done in {elapsed:.1f} s: {capsize}; {exceed}")
     polar_note = f", {out / 'sweep_polar.png'}" if polar else ""
-    print(f"wrote {out / 'sweep.png'}{polar_note}, {out / 'sweep.json'}, {out / 'sweep.nc'}")
+    print(
+        f"wrote {out / 'sweep.png'}{polar_note}, {out / 'sweep.json'}"
+        + (f", {out / 'sweep.nc'}" if nc else "")
+    )
     return 0

@@ -87,7 +87,7 @@ def run(args) -> int:
         save_figure(fig_lin, tmp / "theory_linear.png")
         save_figure(fig_log, tmp / "theory_log.png")
         write_json(tmp / "theory.json", payload)
-        write_netcdf(tmp / "theory.nc", "theory", payload)
+        nc = write_netcdf(tmp / "theory.nc", "theory", payload)
     for name, t in theories.items():
         print(
             f"{name:>12}: mean {t['mean_amplitude_deg']:.2f}°, 99 % {t['quantiles_deg']['99']:.2f}° "
@@ -95,5 +95,5 @@ def run(args) -> int:
         )
     for name, reason in left_out.items():
         print(f"{name:>12}: left out, no law here: {reason}")
-    print(f"wrote {out}/theory_linear.png, theory_log.png, theory.json, theory.nc")
+    print(f"wrote {out}/theory_linear.png, theory_log.png, theory.json" + (", theory.nc" if nc else ""))
     return 0

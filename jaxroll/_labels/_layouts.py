@@ -127,7 +127,14 @@ THEORY_SUMMARY = Layout(
 )
 
 FILTER_FIT = Layout(
-    units={"filter_fit_order": "1"}, long_names={"filter_fit_order": "order of the shaping filter (Method 2)"}
+    arrays={"filter_fit/band_rad_s": ("band_edge",)},
+    units={"filter_fit_order": "1", "filter_fit_band_error": "1"},
+    long_names={
+        "filter_fit_order": "order of the shaping filter (Method 2)",
+        "filter_fit_band_rad_s": "encounter frequencies the roll responds to, where the order was chosen",
+        "filter_fit_band_error": "largest error of the filter's spectrum against S_G on that band",
+    },
+    text=("filter_fit_order_chosen",),
 )
 
 PDF = AMPLITUDES + THEORY_SUMMARY + FILTER_FIT
@@ -258,6 +265,7 @@ FIRST_PASSAGE_UNITS = {
     "first_passage_independent_probability": "1",
     "first_passage_lyapunov_exponent_per_s": "s-1",
     "first_passage_exists": "1",
+    "first_passage_model_allowance_*": "1",
 }
 FIRST_PASSAGE_LONG_NAMES = {
     "first_passage_probability": "P(max |φ| > angle within the exposure): the envelope FPK model followed through "
@@ -271,6 +279,11 @@ FIRST_PASSAGE_LONG_NAMES = {
     "first_passage_independent_probability": "the same model's amplitudes taken as independent",
     "first_passage_lyapunov_exponent_per_s": "Lyapunov exponent of the linearised roll (growth rate of ln A)",
     "first_passage_exists": "sustained parametric roll (Lyapunov exponent > 0; 1: yes)",
+    "first_passage_model_allowance_probability_range": "where the exact-spectrum value lies, by the theory's "
+    "allowance measured in this sea state's region (docs/validation.md)",
+    "first_passage_model_allowance_f_below": "measured factor below: P_exact >= P / f_below",
+    "first_passage_model_allowance_f_above": "measured factor above: P_exact <= f_above P",
+    "first_passage_model_allowance_outside_validated_map": "the sea state is outside the validated map (1: yes)",
 }
 SPLITTING_UNITS = {
     "splitting_standard_error": "1",
