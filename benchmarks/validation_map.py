@@ -272,6 +272,7 @@ def draw(summary, reference, path):
             if i == len(methods) - 1:
                 ax.set_xlabel("T01 [s]", fontsize=8)
     bar = fig.colorbar(im, ax=axes, shrink=0.8, label="P / P_exact\n(geometric mean, 25–45°, 1 h and 3 h)")
+    bar.ax.minorticks_off()
     bar.set_ticks([0.5, 0.8, 1.0, 1.25, 2.0], labels=["0.5", "0.8", "1", "1.25", "2"])
     fig.suptitle("P(roll > angle within the exposure) against an exact-spectrum sea, default ship (C11 representative)"
                  "\nblank: P_exact outside 1e-3–0.95 everywhere, or not run", fontsize=9)  # fmt: skip

@@ -439,7 +439,9 @@ def test_risk_first_passage(tmp_path, capsys):
 
     a = f["model_allowance"]
     assert (a["f_below"], a["f_above"]) == MEASURED[0, 1] and not a["outside_validated_map"]
-    assert a["probability_range"] == pytest.approx([f["probability"] / a["f_below"], f["probability"] * a["f_above"]])
+    assert a["probability_range"] == pytest.approx(
+        [f["probability"] / a["f_below"], f["probability"] * a["f_above"]]
+    )
     curve = d["curve"]
     i = curve["angle_deg"].index(30.0)
     assert curve["first_passage"][i] == pytest.approx(
