@@ -25,7 +25,14 @@ from jaxtyping import Array, Float, PRNGKeyArray
 
 from .._compiled import filter_jit, is_concrete
 from .._config import require_float64
-from ..sea._filters import FilterFit, check_filter_fit, fit_filter, fit_filter_in_band
+from ..sea._filters import (
+    BAND_TOLERANCE,
+    FilterFit,
+    band_error,
+    check_filter_fit,
+    fit_filter,
+    fit_filter_in_band,
+)
 from ..sea._grim import SPECTRUM_GRID, EffectiveWave, spectrum_on_grid
 from ..sea._spectra import AbstractWaveSpectrum
 from ..ship._restoring import (
@@ -120,6 +127,20 @@ def parametric_band(ship: Ship) -> tuple[float, float]:
     top = angle_of_maximum_gz(ship)
     w_top, w0 = float(backbone_frequency(ship, top)), float(ship.omega0)
     return (1 - BAND_MARGIN) * 2 * min(w_top, w0), (1 + BAND_MARGIN) * 2 * w0
+
+
+def _warn_if_off_the_band(fit: FilterFit, ship: Ship, wave: EffectiveWave) -> None:
+    """A warning when a filter of a given order misses S_G by more than `BAND_TOLERANCE` on `parametric_band`."""
+    band = parametric_band(ship)
+    err = band_error(fit.filter, wave, band)
+    if err > BAND_TOLERANCE:
+        warnings.warn(
+            f"the order-{fit.filter.order} shaping filter's spectrum is {100 * err:.0f} % off the effective wave's "
+            f"on {band[0]:.3g}–{band[1]:.3g} rad/s, where the roll is excited parametrically (tolerance "
+            f"{100 * BAND_TOLERANCE:g} %): the roll's tail probabilities are biased there (docs/validation.md). "
+            "filter_order='auto' (--filter-order auto, the default) raises the order where it must.",
+            stacklevel=4,
+        )
 
 
 def check_time_step(dt: float, ship: Ship, wave: EffectiveWave) -> None:
@@ -277,6 +298,8 @@ class RollProblem(eqx.Module):
                 raise ValueError(f"`filter_order` must be an integer >= 3 or 'auto'; got {filter_order!r}.")
             else:
                 fit = fit_filter(wave, order=filter_order, match_frequency=2 * ship.omega0)
+                if validate:
+                    _warn_if_off_the_band(fit, ship, wave)
             if validate:
                 check_filter_fit(fit, dt)
             source = FilterExcitation(fit.filter, dt, substeps)
