@@ -50,7 +50,12 @@ def test_pdf_writes_figures_and_json(tmp_path, capsys):
         6 - d["n_capsized"]
     )
     assert d["n_realizations"] == 6 and d["n_capsized"] + 0 == d["capsize_probability"] * 6
-    assert d["filter_fit"]["order"] == 4
+    # the order chosen on the roll's band (issue 42): 8 in the paper's sea, within 5 % of S_G there
+    f = d["filter_fit"]
+    assert f["order"] == 8 and f["order_chosen"] == "auto" and f["band_error"] <= 0.05
+    assert (
+        f["band_rad_s"] == pytest.approx([0.4177, 0.5665], abs=5e-4) and d["config"]["filter_order"] == "auto"
+    )
     # the paper's figure by default: Roberts, ESAM and the moment method overlaid, each a normalised envelope law
     assert set(d["theory"]) == {"roberts", "esam", "moment"} and d["config"]["theory"] == [
         "roberts",
@@ -776,6 +781,8 @@ def test_library_warnings_are_one_line_and_in_the_json(tmp_path, capsys):
         "120",
         "--speed",
         "5",
+        "--filter-order",
+        "4",
         "--realizations",
         "4",
         "--duration",
@@ -794,13 +801,17 @@ def test_library_warnings_are_one_line_and_in_the_json(tmp_path, capsys):
     err = capsys.readouterr().err
     lines = [line for line in err.splitlines() if "warning" in line.lower()]
     assert lines[0].startswith("jaxroll pdf: warning: dt = 0.5 s may bias the amplitudes by more than ~1 %")
-    assert lines[1] == (
+    assert lines[1].startswith(
+        "jaxroll pdf: warning: the order-4 shaping filter's spectrum is 89 % off the effective wave's on "
+        "0.418–0.567 rad/s, where the roll is excited parametrically"
+    )
+    assert lines[2] == (
         "jaxroll pdf: warning: order-4 shaping filter: filter spectrum at 0.515 rad/s (2ω0) is "
         "0.8147 vs target 0.9078 m² s (10 % off)"
     )
     assert "UserWarning" not in err and ".py:" not in err
     d = json.loads((tmp_path / "pdf.json").read_text())
-    assert d["warnings"] == [line.removeprefix("jaxroll pdf: warning: ") for line in lines[:2]]
+    assert d["warnings"] == [line.removeprefix("jaxroll pdf: warning: ") for line in lines[:3]]
 
 
 @contextlib.contextmanager

@@ -318,6 +318,7 @@ RISK = Layout(
         "splitting/n_successes": _STAGE,
         "splitting/stage_simulated_seconds": _STAGE,
         "splitting/stage_wall_time_s": _STAGE,
+        "first_passage/model_allowance/probability_range": ("bound",),
     },
     names={"curve/angle_deg": "curve_angle_deg"},
     units={
