@@ -29,6 +29,7 @@ from ..sea._filters import (
     BAND_TOLERANCE,
     FilterFit,
     band_error,
+    band_warning,
     check_filter_fit,
     fit_filter,
     fit_filter_in_band,
@@ -293,7 +294,9 @@ class RollProblem(eqx.Module):
                         "filter_order='auto' chooses the order from the concrete ship and sea; when the construction "
                         "is traced give the nominal problem's order (`problem.filter_fit.filter.order`)."
                     )
-                fit = fit_filter_in_band(wave, parametric_band(ship), match_frequency=2 * ship.omega0)
+                fit = fit_filter_in_band(
+                    wave, parametric_band(ship), match_frequency=2 * ship.omega0, warn=False
+                )
             elif isinstance(filter_order, str):
                 raise ValueError(f"`filter_order` must be an integer >= 3 or 'auto'; got {filter_order!r}.")
             else:
@@ -301,7 +304,14 @@ class RollProblem(eqx.Module):
                 if validate:
                     _warn_if_off_the_band(fit, ship, wave)
             if validate:
-                check_filter_fit(fit, dt)
+                check_filter_fit(
+                    fit, dt
+                )  # a filter that cannot be used is an error before the band's warning
+                if fit.band_error is not None and float(fit.band_error) > BAND_TOLERANCE:
+                    warnings.warn(
+                        band_warning(fit.filter.order, float(fit.band_error), np.asarray(fit.band)),
+                        stacklevel=2,
+                    )
             source = FilterExcitation(fit.filter, dt, substeps)
         else:
             fit = None

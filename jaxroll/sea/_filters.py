@@ -406,6 +406,16 @@ def band_error(shaping_filter: ShapingFilter, wave: EffectiveWave, band, *, num:
     return float(np.max(np.abs(s_f - s_g) / level))
 
 
+def band_warning(order: int, err: float, band, tolerance: float = BAND_TOLERANCE, orders=BAND_ORDERS) -> str:
+    """`fit_filter_in_band`'s warning where no order of `orders` follows S_G within `tolerance` on `band`."""
+    return (
+        f"no shaping filter of order {', '.join(map(str, orders))} follows the effective-wave spectrum within "
+        f"{100 * tolerance:g} % on {band[0]:.3g}–{band[1]:.3g} rad/s, where the roll is excited; the best, order "
+        f"{order}, is {100 * err:.0f} % off there, which biases the roll's tail. Use the superposition "
+        "excitation (excitation='superposition', --method superposition) for this sea state."
+    )
+
+
 def fit_filter_in_band(
     wave: EffectiveWave,
     band,
@@ -413,6 +423,7 @@ def fit_filter_in_band(
     match_frequency=None,
     tolerance: float = BAND_TOLERANCE,
     orders=BAND_ORDERS,
+    warn: bool = True,
 ) -> FilterFit:
     """The lowest-order shaping filter whose spectrum follows S_G within `tolerance` on the encounter-frequency
     `band` (lo, hi) [rad/s] the roll responds to (`band_error`), fitted by `fit_filter` at each order of `orders`
@@ -421,6 +432,8 @@ def fit_filter_in_band(
     Why: the tail of the roll is set by S_G over the frequencies 2ω(A) of the amplitudes A it reaches, which a
     softening GZ lowers below 2ω0; the paper's order-4 filter matches the variance and S_G(2ω0) but is 10–100 % off
     elsewhere on that band in some seas, which biases P(roll > angle) (docs/numerics.md, "The filter's order").
+
+    `warn=False`: no warning here (`RollProblem.from_sea` warns after its usability check, `band_warning`).
 
     **Returns:** the `FilterFit`, with `band` and `band_error` set (also in `summary()`).
     """
@@ -442,14 +455,8 @@ def fit_filter_in_band(
         if err <= tolerance:
             break
     fit, err = best
-    if err > tolerance:
-        warnings.warn(
-            f"no shaping filter of order {', '.join(map(str, orders))} follows the effective-wave spectrum within "
-            f"{100 * tolerance:g} % on {lo:.3g}–{hi:.3g} rad/s, where the roll is excited; the best, order "
-            f"{fit.filter.order}, is {100 * err:.0f} % off there, which biases the roll's tail. Use the superposition "
-            "excitation (excitation='superposition', --method superposition) for this sea state.",
-            stacklevel=2,
-        )
+    if err > tolerance and warn:
+        warnings.warn(band_warning(fit.filter.order, err, (lo, hi), tolerance, orders), stacklevel=2)
     return eqx.tree_at(
         lambda f: (f.band, f.band_error),
         fit,
