@@ -51,15 +51,23 @@ def add_sea_options(p: argparse.ArgumentParser) -> None:
     n.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
 
 
-def _filter_order(text: str) -> int | str:
-    """argparse type of --filter-order: 'auto', an integer, or the text as given (refused by `check_filter_order`
-    with the option's name)."""
-    if str(text).strip().lower() == "auto":
-        return "auto"
-    try:
-        return int(text)
-    except ValueError:
-        return text
+def word_or_number(word: str, convert=int):
+    """An argparse type: `word` (any case), a number by `convert`, or the text as given — refused later by the
+    option's own check, with its name (argparse's own refusal would not name the fix)."""
+
+    def parse(text: str):
+        if str(text).strip().lower() == word:
+            return word
+        try:
+            return convert(text)
+        except ValueError:
+            return text
+
+    return parse
+
+
+#: --filter-order: 'auto' or an integer (checked by `check_filter_order`).
+_filter_order = word_or_number("auto", int)
 
 
 def moment_filter_order(args) -> int:

@@ -25,18 +25,10 @@ from ._common import (
     write_json,
     write_netcdf,
 )
-from ._sea import _filter_order, check_filter_order
+from ._sea import _filter_order, check_filter_order, word_or_number
 
-
-def _model_factor(text: str) -> float | str:
-    """argparse type of --model-factor: 'measured', a number, or the text as given (refused by `check_options`
-    with the option's name)."""
-    if str(text).strip().lower() == "measured":
-        return "measured"
-    try:
-        return float(text)
-    except ValueError:
-        return text
+#: --model-factor: 'measured' or a number (checked by `check_options`).
+_model_factor = word_or_number("measured", float)
 
 
 _NAMED = {"head": 180.0, "beam": 90.0, "following": 0.0}
