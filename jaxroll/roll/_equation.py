@@ -131,7 +131,14 @@ def parametric_band(ship: Ship) -> tuple[float, float]:
 
 
 def _warn_if_off_the_band(fit: FilterFit, ship: Ship, wave: EffectiveWave) -> None:
-    """A warning when a filter of a given order misses S_G by more than `BAND_TOLERANCE` on `parametric_band`."""
+    """A warning when the filter misses S_G by more than `BAND_TOLERANCE` on `parametric_band`: under "auto"
+    (`fit.band_error` set) no order followed it (`band_warning`); a given order is told what "auto" would do."""
+    if fit.band_error is not None:
+        if float(fit.band_error) > BAND_TOLERANCE:
+            warnings.warn(
+                band_warning(fit.filter.order, float(fit.band_error), np.asarray(fit.band)), stacklevel=4
+            )
+        return
     band = parametric_band(ship)
     err = band_error(fit.filter, wave, band)
     if err > BAND_TOLERANCE:
@@ -301,17 +308,9 @@ class RollProblem(eqx.Module):
                 raise ValueError(f"`filter_order` must be an integer >= 3 or 'auto'; got {filter_order!r}.")
             else:
                 fit = fit_filter(wave, order=filter_order, match_frequency=2 * ship.omega0)
-                if validate:
-                    _warn_if_off_the_band(fit, ship, wave)
             if validate:
-                check_filter_fit(
-                    fit, dt
-                )  # a filter that cannot be used is an error before the band's warning
-                if fit.band_error is not None and float(fit.band_error) > BAND_TOLERANCE:
-                    warnings.warn(
-                        band_warning(fit.filter.order, float(fit.band_error), np.asarray(fit.band)),
-                        stacklevel=2,
-                    )
+                check_filter_fit(fit, dt)  # a filter that cannot be used is an error before any band warning
+                _warn_if_off_the_band(fit, ship, wave)
             source = FilterExcitation(fit.filter, dt, substeps)
         else:
             fit = None
