@@ -57,7 +57,8 @@ def test_maxima_equal_the_largest_of_the_first_n0_zero_crossing_amplitudes(probl
     amps = amps[(amps > 0) & (t > discard + 1e-9)]
     for j, n in enumerate(n0):
         # the Monte Carlo integrates in float32 like this series, but compiled vmapped: equal to float32 round-off
-        np.testing.assert_allclose(stats.maxima_deg[0, j], np.rad2deg(amps[:n].max()), rtol=1e-5, atol=0)
+        # accumulated over 2 800 steps (2.9e-5 with the order-8 filter of the default, 1e-5 with order 4)
+        np.testing.assert_allclose(stats.maxima_deg[0, j], np.rad2deg(amps[:n].max()), rtol=1e-4, atol=0)
 
 
 def test_incomplete_trials_are_reported_not_hidden(problem):
