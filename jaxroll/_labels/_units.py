@@ -68,8 +68,9 @@ def udunits(text: str) -> str:
                 continue
             name, _, power = factor.partition("^")
             name = _UDUNITS.get(name, name)
-            p = sign * int(power or 1)
-            out.append(name if p == 1 else f"{name}{p}")
+            p = sign * float(power or 1)  # fractional powers too: a noise intensity in rad s-1.5
+            p = int(p) if p.is_integer() else p
+            out.append(name if p == 1 else f"{name}{p:g}")
         return out
 
     return " ".join(factors(num, 1) + factors(den, -1)) or "1"
