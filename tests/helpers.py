@@ -20,7 +20,9 @@ def default_problem(hs: float = 7.0, t01: float = 10.0, *, excitation: str = "fi
     import warnings
 
     with warnings.catch_warnings():  # the order-4 filter's band warning (docs/validation.md)
-        warnings.filterwarnings("ignore", message=".*shaping filter's spectrum is .* off the effective wave's")
+        warnings.filterwarnings(
+            "ignore", message=".*shaping filter's spectrum is .* off the effective wave's"
+        )
         return jxr.RollProblem.from_sea(SHIP, jxr.ITTC(hs, t01), excitation=excitation, dt=dt, filter_order=4)
 
 

@@ -144,7 +144,7 @@ def _first_passage(problem, angle_deg: float, exposure: float, curve_deg, vanish
 
     import numpy as np
 
-    from ..longterm._allowance import measured_allowance
+    from ..longterm import measured_allowance
     from ..theory import passage_risk
     from ._theory import first_line
 

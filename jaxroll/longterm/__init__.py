@@ -3,7 +3,8 @@ loading conditions, per exposure and per year, and the cells that dominate it (d
 
 Stage files in data-flow order: `_scatter.py` (scatter diagrams, IACS Rec. 34), `_cells.py` (the cells, their
 weights and seeds, heading symmetry, parts), `_theory.py` (short-term risk by theory, batched per heading class),
-`_monte_carlo.py` (short-term risk by Monte Carlo per cell, Neyman allocation), `_risk.py` (the long-term integral,
+`_monte_carlo.py` (short-term risk by Monte Carlo per cell, Neyman allocation), `_allowance.py` (the theory's
+allowance measured against an exact-spectrum sea, per region), `_risk.py` (the long-term integral,
 its interval, the per-year conversion, the `auto` rule), `_dataset.py` (the `xarray.Dataset`, merge, summary),
 `_units.py` (the work units: which cells a part computes, checkpoint files, gathering across processes), `_run.py` (`longterm`).
 
@@ -11,6 +12,10 @@ its interval, the per-year conversion, the `auto` rule), `_dataset.py` (the `xar
 names are also re-exported at the top level (`jaxroll.read_scatter`, …).
 """
 
+from ._allowance import (
+    VALIDATED_MAP as VALIDATED_MAP,
+    measured_allowance as measured_allowance,
+)
 from ._cells import (
     HOURS_PER_YEAR as HOURS_PER_YEAR,
     MAX_FROUDE as MAX_FROUDE,

@@ -37,7 +37,7 @@ from ._cells import (
     skipped_cells,
     worker_of,
 )
-from ._dataset import METHODS, UNCERTAINTY, add_longterm, build_dataset
+from ._dataset import METHODS, add_longterm, build_dataset
 from ._monte_carlo import (
     CELL_ESTIMATORS,
     EFFORT_FRACTIONS,
@@ -46,7 +46,7 @@ from ._monte_carlo import (
     cell_problem,
     neyman_allocation,
 )
-from ._risk import AUTO_SHARE, AUTO_TOLERANCE, auto_cells, doubtful, rare_cells
+from ._risk import AUTO_SHARE, AUTO_TOLERANCE, auto_cells, doubtful, fill_cells, rare_cells
 from ._scatter import ScatterDiagram, scatter_diagram
 from ._theory import REFINE_DELTA, class_template, class_theory
 from ._units import _gather, _hash, _load_unit, _responsible_cells, _save_unit, _twin
@@ -521,7 +521,7 @@ def longterm(
 
     # ---- every cell's method, value and interval ------------------------------------------------------------
     cells["theory_outside_validated_map"] = outside & ~is_mc
-    _fill(cells, shape, method, comp_w, beam, left_out, needed, is_mc, factor)
+    fill_cells(cells, shape, method, comp_w, beam, left_out, needed, is_mc, factor)
     if part is not None or n_proc > 1:
         if part is not None:
             mine = np.zeros(shape, bool)
@@ -644,66 +644,6 @@ def _empty(shape, n_angles) -> dict:
         "estimator": z(),
         "cost_trials": f(),
     }
-
-
-def _fill(cells, shape, method, comp_w, beam, left_out, needed, is_mc, factor) -> None:
-    """Method, value and interval of every computation cell (Monte Carlo cells are already filled); `factor`
-    [2, *shape]: each theory cell's (f_below, f_above)."""
-    m = np.full(shape, METHODS.index("zero_weight"))
-    unc = np.zeros(shape, np.int64)
-    m[left_out] = METHODS.index("left_out")
-    unc[left_out] = UNCERTAINTY.index("unknown")
-    exact = (comp_w > 0) & beam
-    m[exact] = METHODS.index("no_excitation")
-    for k in ("probability", "probability_lower", "probability_upper"):
-        cells[k][exact] = 0.0
-    for k in ("capsize_probability", "capsize_lower", "capsize_upper"):
-        cells[k][exact] = 0.0
-    th = needed & ~is_mc
-    if method in ("theory", "auto"):
-        m[th] = METHODS.index("theory")
-        p = cells["theory_probability"][th]
-        c = cells["theory_capsize_probability"][th]
-        doubt = cells["theory_doubtful"][th]
-        f_below, f_above = factor[0][th][:, None], factor[1][th][:, None]
-        cells["probability"][th] = p
-        cells["capsize_probability"][th] = c
-        cells["probability_lower"][th] = np.where(doubt[:, None], 0.0, p / f_below)
-        cells["probability_upper"][th] = np.where(doubt[:, None], 1.0, np.minimum(1.0, p * f_above))
-        cells["capsize_lower"][th] = np.where(doubt, 0.0, c / f_below[:, 0])
-        cells["capsize_upper"][th] = np.where(doubt, 1.0, np.minimum(1.0, c * f_above[:, 0]))
-        # cells left at pass 1 (two passes): [0, min(1, f·r·P1)], r the largest pass-2/pass-1 ratio of the refined
-        # cells of the cell's unit (at least 1; pass 1 was measured above pass 2 wherever they differ):
-        # docs/longterm.md, "Cost"
-        rough = th & ~cells["theory_refined"] & (cells["lyapunov_exponent"] > 0)
-        if rough.any():
-            doubt_r = cells["theory_doubtful"][rough]
-            cells["probability_lower"][rough] = 0.0
-            cells["probability_upper"][rough] = np.where(
-                doubt_r[:, None],
-                1.0,
-                np.minimum(
-                    1.0,
-                    factor[1][rough][:, None]
-                    * cells["theory_pass_ratio"][rough][:, None]
-                    * cells["theory_probability"][rough],
-                ),
-            )
-            cells["capsize_lower"][rough] = 0.0
-            cells["capsize_upper"][rough] = np.where(
-                doubt_r,
-                1.0,
-                np.minimum(
-                    1.0,
-                    factor[1][rough]
-                    * cells["theory_pass_capsize_ratio"][rough]
-                    * cells["theory_capsize_probability"][rough],
-                ),
-            )
-        unc[th] = np.where(doubt, UNCERTAINTY.index("unknown"), UNCERTAINTY.index("model_factor"))
-    m[is_mc] = METHODS.index("monte_carlo")
-    unc[is_mc] = UNCERTAINTY.index("sampling")
-    cells["method"], cells["uncertainty"] = m, unc
 
 
 def _check_time_steps(grid, mask, dt: float) -> None:
