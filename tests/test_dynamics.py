@@ -379,9 +379,10 @@ def test_a_roll_that_dies_out_is_reported_as_not_stationary(getkey):
     pr = stats.per_realization
     assert (
         pr["n_env"][0] == env.size
-    )  # its first half, n_env // 2 samples, is pinned by the sum below (rtol 2e-5)
-    np.testing.assert_allclose(pr["sum_env_first_half"][0], env[: env.size // 2].sum(), rtol=2e-5)
-    np.testing.assert_allclose(pr["sum_env"][0], env.sum(), rtol=2e-5)
+    )  # its first half, n_env // 2 samples, is pinned by the sum below (rtol 1e-4: float32 round-off over 7 200
+    # steps, 2.6e-5 with the default order-8 filter, under 2e-5 with order 4)
+    np.testing.assert_allclose(pr["sum_env_first_half"][0], env[: env.size // 2].sum(), rtol=1e-4)
+    np.testing.assert_allclose(pr["sum_env"][0], env.sum(), rtol=1e-4)
 
 
 def test_stationarity_needs_a_change_both_large_and_significant():
