@@ -391,15 +391,12 @@ def band_error(shaping_filter: ShapingFilter, wave: EffectiveWave, band, *, num:
     """The largest error of the filter's spectrum against S_G on the encounter-frequency `band` (lo, hi) [rad/s]:
     max |S − S_G| / max(S_G, `BAND_FLOOR`·max S_G) over `num` points [-] (relative where S_G carries weight, against
     a tenth of the band's peak where it carries little). Host arithmetic on concrete inputs: S_G interpolated from
-    `spectrum_on_grid` (step 5e-4 rad/s), the filter's |H(iω)|²/π by NumPy."""
+    `spectrum_on_grid` (step 5e-4 rad/s), the filter's from `ShapingFilter.spectrum`."""
     from ._grim import SPECTRUM_GRID, spectrum_on_grid
 
     grid = np.linspace(float(band[0]), float(band[1]), num)
     s_g = np.interp(grid, SPECTRUM_GRID, np.asarray(spectrum_on_grid(wave)))
-    a, c = np.asarray(shaping_filter.a)[-1], np.asarray(shaping_filter.c)
-    s = 1j * grid
-    h = np.polynomial.polynomial.polyval(s, c) / (s**a.size - np.polynomial.polynomial.polyval(s, a))
-    s_f = np.abs(h) ** 2 / np.pi
+    s_f = np.asarray(shaping_filter.spectrum(grid))
     if not np.any(s_g > 0):
         return 0.0 if np.allclose(s_f, 0.0) else math.inf
     level = np.maximum(s_g, BAND_FLOOR * s_g.max())

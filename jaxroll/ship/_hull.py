@@ -465,7 +465,11 @@ def c11_like_offsets(**shape: float) -> tuple[np.ndarray, np.ndarray, np.ndarray
 
 def c11_like_hull(**shape: float) -> Hull:
     """The representative C11-like hull straight from the formula of [`c11_like_offsets`][] (not rounded)."""
-    x, z, y = c11_like_offsets(**shape)
+    return _c11_hull(*c11_like_offsets(**shape))
+
+
+def _c11_hull(x, z, y) -> Hull:
+    """The C11-like hull of offsets x [m], z [m], y [m] (`c11_like_offsets`, rounded or not)."""
     return Hull(
         stations=x,
         waterlines=z,
@@ -491,16 +495,7 @@ def c11_hull() -> Hull:
 
     The offsets of `c11_like_offsets` rounded to 0.1 mm, as the file stores them (the model reads no file:
     tests/test_hydrostatics.py checks that the file holds these numbers)."""
-    x, z, y = (_rounded(a, 4) for a in c11_like_offsets())
-    return Hull(
-        stations=x,
-        waterlines=z,
-        half_breadths=y,
-        lpp=C11_PARTICULARS["lpp"],
-        depth=C11_PARTICULARS["depth"],
-        name="C11-like hull (representative)",
-        provenance=C11_HULL_NOTE,
-    )
+    return _c11_hull(*(_rounded(a, 4) for a in c11_like_offsets()))
 
 
 def _rounded(values: np.ndarray, digits: int) -> np.ndarray:
