@@ -19,6 +19,7 @@ import warnings
 from collections.abc import Sequence
 
 import equinox as eqx
+import jax
 import jax.numpy as jnp
 import numpy as np
 
@@ -30,7 +31,14 @@ from ..ship._ship import Ship
 from ._decay_inputs import check_angle_unit, decay_segment
 from ._decay_results import DecayFit, check_damping_model
 from ._inputs import _as_list, _check_kind, _noise_std
-from ._least_squares import Estimate, _estimates, _gauss_newton_covariance, _least_squares
+from ._least_squares import (
+    SOLVER_HINT,
+    Estimate,
+    FitFailure,
+    _estimates,
+    _gauss_newton_covariance,
+    _least_squares,
+)
 
 
 def extinction_to_damping(a, b, c, omega0):
@@ -144,36 +152,76 @@ def _decay_ship(ship: Ship, b, period_ratio) -> Ship:
     )
 
 
-def decay_solution(ship: Ship, phi0, dphi0, ts, *, rtol: float = 1e-9, atol: float = 1e-12):
-    """φ(t) [rad] of the free decay (P = 0) of `ship` from (φ0, φ̇0) at t = 0, saved at `ts` [s] (diffrax
-    Tsit5,
-    adaptive, forward-mode differentiable)."""
+def _decay_field(t, y, ship):
+    """(φ̇, φ̈) of the free decay (P = 0) of `ship`, per unit roll inertia."""
+    damping = ship.damping[0] + ship.damping[1] * jnp.abs(y[1]) + ship.damping[2] * y[1] ** 2
+    return jnp.stack([y[1], -(y[1] * damping) - restoring_moment(ship, y[0])])
 
-    def field(t, y, args):
-        return jnp.stack(
-            [
-                y[1],
-                -(y[1] * (args.damping[0] + args.damping[1] * jnp.abs(y[1]) + args.damping[2] * y[1] ** 2))
-                - restoring_moment(args, y[0]),
-            ]
+
+def decay_solution(
+    ship: Ship, phi0, dphi0, ts, *, rtol: float = 1e-9, atol: float = 1e-12, max_steps: int = 200_000
+):
+    """φ(t) [rad] of the free decay (P = 0) of `ship` from (φ0, φ̇0) at t = 0, saved at `ts` [s] (increasing,
+    from 0): diffrax's Tsit5 under its PID step-size control (`rtol`, `atol`), forward-mode differentiable; NaN at
+    every sample where the integration fails (a step size that collapses, `max_steps` steps).
+
+    The loop is diffrax's own pieces (the solver's `step`, the controller's `adapt_step_size`, the solver's
+    interpolant read at each sample within an accepted step) in a `lax.while_loop`: the same steps and the same
+    bits as `diffrax.diffeqsolve(..., SaveAt(ts=ts), adjoint=ForwardMode())`, without its host callbacks (it
+    checks `ts` and its own failure with `eqx.error_if`), which JAX's persistent cache does not keep and
+    `jax.export` cannot store: the decay fit's programs were traced and compiled afresh by every process."""
+    import diffrax
+    from jax import lax
+
+    term, solver = diffrax.ODETerm(_decay_field), diffrax.Tsit5(scan_kind="lax")  # as ForwardMode sets it
+    controller = diffrax.PIDController(rtol=rtol, atol=atol)
+    order = solver.error_order(term)
+    ts = jnp.asarray(ts, dtype=float)
+    n, t0, t1 = ts.shape[0], jnp.asarray(0.0), ts[-1]
+    y0 = jnp.stack([jnp.asarray(phi0, dtype=float), jnp.asarray(dphi0, dtype=float)])
+    # a first step of 0.01 s, as `diffeqsolve(dt0=None)` takes for its wrapped term (no estimate made for it)
+    tnext, c_state = controller.init(term, t0, t1, y0, 0.01, ship, solver.func, order)
+    tnext = jnp.minimum(tnext, t1)
+    # the last step ends exactly at t1 once it comes within 100 ulp of it (as in diffrax)
+    t1_floor = lax.fori_loop(0, 100, lambda _, t: jnp.nextafter(t, -jnp.inf), t1)
+
+    def step(state):
+        tprev, tnext, y, s_state, c_state, saved, phi, n_steps, ok = state
+        y1, y_error, dense, s_new, s_result = solver.step(term, tprev, tnext, y, ship, s_state, False)
+        y_error = jnp.where(jnp.isnan(y_error), jnp.inf, y_error)
+        keep, t_a, t_b, _, c_state, c_result = controller.adapt_step_size(
+            tprev, tnext, y, y1, ship, y_error, order, c_state
         )
+        t_a = jnp.minimum(t_a, t1)
+        t_b = jnp.where(t_b > t1_floor, jnp.where(keep, t1, t_a + 0.5 * (t1 - t_a)), t_b)
+        path = solver.interpolation_cls(t0=tprev, t1=tnext, **dense)
 
-    import diffrax  # here: every other command would pay its import (~0.1 s)
+        def save(carry):
+            i, phi = carry
+            return i + 1, phi.at[i].set(path.evaluate(ts[i])[0])
 
-    sol = diffrax.diffeqsolve(
-        diffrax.ODETerm(field),
-        diffrax.Tsit5(),
-        t0=0.0,
-        t1=ts[-1],
-        dt0=None,
-        y0=jnp.stack([jnp.asarray(phi0, dtype=float), jnp.asarray(dphi0, dtype=float)]),
-        args=ship,
-        saveat=diffrax.SaveAt(ts=ts),
-        stepsize_controller=diffrax.PIDController(rtol=rtol, atol=atol),
-        adjoint=diffrax.ForwardMode(),
-        max_steps=200_000,
+        saved, phi = lax.while_loop(
+            lambda c: keep & (c[0] < n) & (ts[jnp.minimum(c[0], n - 1)] <= tnext), save, (saved, phi)
+        )
+        ok = ok & (c_result == diffrax.RESULTS.successful)
+        ok = ok & (~keep | (s_result == diffrax.RESULTS.successful))
+        y = jnp.where(keep, y1, y)
+        s_state = jax.tree.map(lambda a, b: jnp.where(keep, a, b), s_new, s_state)
+        return t_a, t_b, y, s_state, c_state, saved, phi, n_steps + 1, ok
+
+    state = (
+        t0,
+        tnext,
+        y0,
+        solver.init(term, t0, tnext, y0, ship),
+        c_state,
+        jnp.asarray(0),
+        jnp.full(n, jnp.inf),
+        jnp.asarray(0),
+        jnp.asarray(True),
     )
-    return sol.ys[:, 0]
+    state = lax.while_loop(lambda s: (s[0] < t1) & s[8] & (s[7] < max_steps), step, state)
+    return jnp.where(state[8] & (state[0] >= t1), state[6], jnp.nan)
 
 
 def _decay_base_ship(ship: Ship | None, period: float) -> Ship:
@@ -231,9 +279,11 @@ def _check_ship_period(ship: Ship | None, observed: float) -> None:
         )
 
 
-def _b_scales(omega: float) -> np.ndarray:
-    """b = scale · β with β dimensionless (β1 = b1/ω, β2 = b2, β3 = b3·ω)."""
-    return np.array([omega, 1.0, 1 / omega])
+def _b_scales(omega):
+    """b = scale · β with β dimensionless (β1 = b1/ω, β2 = b2, β3 = b3·ω); `omega` [rad/s] a number or an array
+    (traced in the fit's program)."""
+    xp = np if isinstance(omega, float) else jnp
+    return xp.stack([omega, xp.ones_like(omega), 1 / omega])
 
 
 def _extinction_residual(theta, args):
@@ -252,7 +302,10 @@ def _fit_abc(ext: Sequence[Extremes], idx: tuple[int, ...]):
     floor = np.array([1e-4, 1e-3, 1e-2])[list(idx)]
     theta0 = np.log(np.maximum(lin, floor))
     theta, j, _, info = _least_squares(
-        _extinction_residual, jnp.asarray(theta0), (jnp.asarray(pm), jnp.asarray(dec), tuple(idx))
+        _extinction_residual,
+        jnp.asarray(theta0),
+        (jnp.asarray(pm), jnp.asarray(dec), tuple(idx)),
+        stored=True,
     )
     coef = np.zeros(3)
     coef[list(idx)] = np.exp(theta)
@@ -333,9 +386,12 @@ def fit_extinction(
                 r = seg.analysed
                 i0 = int(np.argmin(np.abs(r.time - e.time[0])))
                 ts = jnp.asarray(r.time[i0:] - r.time[i0])
-                phi = np.concatenate(
-                    [r.roll[:i0] - seg.offset, np.asarray(_decay_solution_jit(s, e.value[0], 0.0, ts))]
-                )
+                decay = np.asarray(_decay_solution_jit(s, e.value[0], 0.0, ts))
+                if not np.all(np.isfinite(decay)):
+                    raise FitFailure(
+                        f"the roll equation could not be integrated for the bias correction. {SOLVER_HINT}"
+                    )
+                phi = np.concatenate([r.roll[:i0] - seg.offset, decay])
                 sim = dataclasses.replace(r, channels={"roll": phi})
                 sim_ext.append(decay_extremes(sim, hysteresis_deg=h, min_amplitude_deg=a))
             b_sim = m @ _fit_abc(sim_ext, idx)[0]
@@ -374,7 +430,7 @@ def _decay_residual(theta, args):
     n_b = len(idx)
     n_global = n_b + (1 if fit_period else 0)
     ratio = jnp.exp(theta[n_b]) if fit_period else jnp.asarray(1.0)
-    scales = jnp.asarray(_b_scales(omega_ref))
+    scales = _b_scales(omega_ref)
     b = jnp.zeros(3).at[jnp.asarray(idx)].set(scales[jnp.asarray(idx)] * jnp.exp(theta[:n_b]))
     s = _decay_ship(ship, b, ratio)
     out = []
@@ -463,8 +519,9 @@ def fit_decay_ode(
     n_b = len(idx)
     n_global = n_b + (1 if fit_period else 0)
     base_fixed = base  # with a fixed period: the ship's own
-    args = (base_fixed, fit_period, idx, omega_ref, tuple(series))
-    theta, j, res, info = _least_squares(_decay_residual, jnp.asarray(theta0), args)
+    # ω_ref as an array: a number would key the stored program to this record (`_least_squares(stored=True)`)
+    args = (base_fixed, fit_period, idx, jnp.asarray(omega_ref), tuple(series))
+    theta, j, res, info = _least_squares(_decay_residual, jnp.asarray(theta0), args, stored=True)
     cov_theta = _gauss_newton_covariance(j, info.sigma)
     scales = _b_scales(omega_ref)
     b = np.zeros(3)

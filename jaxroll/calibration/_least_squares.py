@@ -18,7 +18,7 @@ import jax.numpy as jnp
 import numpy as np
 import optimistix as optx
 
-from .._compiled import filter_jit
+from .._compiled import SOLVER_PROGRAM, cached_program, filter_jit
 from ..laws._checks import error_line
 from ..ship._ship import Ship
 
@@ -129,18 +129,23 @@ def estimates_dataset(
 # ------------------------------------------------------------------------------------------------------------
 
 
-@filter_jit
-def _solve(fn, theta0, args, max_steps, rtol, atol):
+def _residual_and_jacobian_impl(fn, theta, args):
+    return fn(theta, args), jax.jacfwd(fn)(theta, args)
+
+
+def _solve_impl(fn, theta0, args, max_steps, rtol, atol):
+    """The solve, and at its end the residuals and their Jacobian: one program (one to load, not two)."""
     solver = optx.LevenbergMarquardt(rtol=rtol, atol=atol)
     sol = optx.least_squares(
         fn, solver, theta0, args, max_steps=max_steps, throw=False, options={"jac": "fwd"}
     )
-    return sol.value, sol.result, sol.stats["num_steps"]
+    return sol.value, sol.result, sol.stats["num_steps"], *_residual_and_jacobian_impl(fn, sol.value, args)
 
 
-@filter_jit
-def _residual_and_jacobian(fn, theta, args):
-    return fn(theta, args), jax.jacfwd(fn)(theta, args)
+_solve, _residual_and_jacobian = filter_jit(_solve_impl), filter_jit(_residual_and_jacobian_impl)
+#: The solve kept between runs (`_least_squares(stored=True)`): a warm process loads it instead of tracing and
+#: lowering it (the decay fits: ~2 s of a warm `jaxroll calibrate decay`).
+_solve_stored = cached_program(compiler_options=SOLVER_PROGRAM)(_solve_impl)
 
 
 class _WithAux(eqx.Module):
@@ -200,29 +205,48 @@ SOLVER_HINT = (
 
 
 def _least_squares(
-    fn, theta0, args, *, max_steps=200, rtol=1e-8, atol=1e-10, stall_steps=None, hint=SOLVER_HINT
+    fn,
+    theta0,
+    args,
+    *,
+    max_steps=200,
+    rtol=1e-8,
+    atol=1e-10,
+    stall_steps=None,
+    hint=SOLVER_HINT,
+    stored=False,
 ):
     """Levenberg–Marquardt (optimistix, forward-mode Jacobian); returns θ̂, J(θ̂), residuals, info.
 
     **Raises:** `FitFailure` (a `ValueError`, so the command line prints it and exits 2) when the model's ODE
-    solver fails during the fit, with `hint` saying what to check.
+    solver fails during the fit (an `EquinoxRuntimeError`, or residuals that are not finite where the fit ends),
+    with `hint` saying what to check.
 
     `fn(theta, args)` should be a module-level function (or an `eqx.Module`) so that its compilation is reused
-    between calls. With `stall_steps`, the solve also stops after that many rejected steps in a row."""
+    between calls. With `stall_steps`, the solve also stops after that many rejected steps in a row. `stored`:
+    the solve (and the final Jacobian) runs as a stored program (`_compiled.cached_program`), for an `fn` without
+    host callbacks whose static arguments (non-array leaves of `args`) do not change from one data set to the
+    next (they key the program: pass numbers that vary as arrays)."""
     theta0 = jnp.asarray(theta0, dtype=float)
     try:
         if stall_steps is None:
-            theta, result, steps = _solve(fn, theta0, args, max_steps, rtol, atol)
+            solve = _solve_stored if stored else _solve
+            theta, result, steps, res, jac = solve(fn, theta0, args, max_steps, rtol, atol)
             msg = "" if result == optx.RESULTS.successful else str(optx.RESULTS[result])
         else:
             theta, msg, steps = _solve_stepwise(fn, theta0, args, max_steps, rtol, atol, stall_steps)
-        res, jac = _residual_and_jacobian(fn, theta, args)
+            res, jac = _residual_and_jacobian(fn, theta, args)
     except eqx.EquinoxRuntimeError as e:
         raise FitFailure(
             f"the roll equation could not be integrated during the fit ({error_line(e)}). {hint}"
         ) from None
     r = np.asarray(res, dtype=float)
     j = np.asarray(jac, dtype=float).reshape(r.size, -1)
+    if not (np.all(np.isfinite(r)) and np.all(np.isfinite(j))):  # a model that returns NaN where it fails
+        raise FitFailure(
+            "the roll equation could not be integrated during the fit (its residuals are not finite where the "
+            f"fit ends). {hint}"
+        )
     n, p = j.shape
     rss = float(r @ r)
     sv = np.linalg.svd(j, compute_uv=False)
