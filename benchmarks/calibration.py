@@ -11,7 +11,8 @@ cache: the first run cold, the next ones warm) on a 100 Hz, 200 s model-scale de
 Tφ 21 s, b = (0.002, 0.045, 0)): a clean one released at t = 0 (a jaxroll record, which the code before issue 43
 also reads) and, for the current tree only, the realistic lab file (9 s at rest, 0.3° offset, noise, drift, radians
 with a units file). `--baseline-tree DIR` times the same command with PYTHONPATH=DIR (e.g. `git worktree add
-/tmp/base acdbadf`), alternated with the current tree. Target (issue 43): warm <= 3 s.
+/tmp/base acdbadf`), alternated with the current tree run by run. Wall and CPU seconds (user + system of the
+child: on a shared host, the CPU time is the steadier figure). Target (issue 43): warm <= 3 s.
 
 Run: `python benchmarks/calibration.py [--repeat 2]`. Output: `name=value` lines.
 """
@@ -20,6 +21,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import resource
 import subprocess
 import sys
 import tempfile
@@ -82,6 +84,18 @@ def _decay_records(folder: Path) -> tuple[Path, Path]:
     return clean, write_lab_file(lab, folder / "lab.csv")[0]
 
 
+def _timed(cmd, env, cwd) -> tuple[float, float, subprocess.CompletedProcess]:
+    """(wall seconds, CPU seconds of the child: user + system, the completed process). Run in `cwd`, away from any
+    tree: `python -m` puts the working directory first on the path, before PYTHONPATH (the baseline measured before
+    issue 43's fix was the current tree's code when run from the repository)."""
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    t0 = time.perf_counter()
+    done = subprocess.run(cmd, env=env, cwd=cwd, capture_output=True, text=True)
+    wall = time.perf_counter() - t0
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return wall, (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime), done
+
+
 def decay_cli(args) -> None:
     folder = Path(tempfile.mkdtemp(prefix="jaxroll-bench-decay-"))
     clean, lab = _decay_records(folder)
@@ -89,32 +103,46 @@ def decay_cli(args) -> None:
     trees = {"current": here, **({"baseline": args.baseline_tree} if args.baseline_tree else {})}
     cases = {"clean": [str(clean)], "lab": [str(lab), "--time", "time", "--roll", "phi", "--scale", "68",
                                            "--units-file", str(lab.with_name("lab_units.csv"))]}  # fmt: skip
-    for tree_name, tree in trees.items():
-        env = {**os.environ, "PYTHONPATH": tree, "JAXROLL_CACHE_DIR": str(folder / f"cache-{tree_name}")}
-        for case, argv in cases.items():
-            if tree_name == "baseline" and case == "lab":
-                continue  # the code before finds no release: "only 0 extremes above 0.50°"
-            times = []
-            for _ in range(1 + args.repeat):
-                cmd = [
-                    sys.executable,
-                    "-m",
-                    "jaxroll",
-                    "calibrate",
-                    "decay",
-                    *argv,
-                    "--out",
-                    str(folder / "out"),
-                ]
-                t0 = time.perf_counter()
-                done = subprocess.run(cmd, env=env, capture_output=True, text=True)
-                times.append(time.perf_counter() - t0)
-                if done.returncode:
-                    print(f"{tree_name}_{case}_error={done.stderr.strip().splitlines()[-1]}")
-                    break
-            print(f"{tree_name}_{case}_cold_s={times[0]:.2f}")
-            if len(times) > 1:
-                print(f"{tree_name}_{case}_warm_s={min(times[1:]):.2f}")
+    runs = [
+        (t, c) for c in cases for t in trees if not (t == "baseline" and c == "lab")
+    ]  # before: no release found
+    times: dict = {run: [] for run in runs}
+    print(f"load_average_before={os.getloadavg()[0]:.2f}")
+    for _ in range(
+        1 + args.repeat
+    ):  # the trees alternated, so that both see the same minutes of a shared host
+        for tree_name, case in runs:
+            if times[tree_name, case] is None:
+                continue
+            env = {
+                **os.environ,
+                "PYTHONPATH": trees[tree_name],
+                "JAXROLL_CACHE_DIR": str(folder / f"cache-{tree_name}"),
+            }
+            cmd = [
+                sys.executable,
+                "-m",
+                "jaxroll",
+                "calibrate",
+                "decay",
+                *cases[case],
+                "--out",
+                str(folder / "out"),
+            ]
+            wall, cpu, done = _timed(cmd, env, folder)
+            if done.returncode:
+                print(f"{tree_name}_{case}_error={done.stderr.strip().splitlines()[-1]}")
+                times[tree_name, case] = None
+                continue
+            times[tree_name, case].append((wall, cpu))
+    for (tree_name, case), t in times.items():
+        if not t:
+            continue
+        print(f"{tree_name}_{case}_cold_s={t[0][0]:.2f} cpu_s={t[0][1]:.2f}")
+        if len(t) > 1:
+            warm = min(t[1:])
+            print(f"{tree_name}_{case}_warm_s={warm[0]:.2f} cpu_s={min(c for _, c in t[1:]):.2f}")
+    print(f"load_average_after={os.getloadavg()[0]:.2f}")
 
 
 if __name__ == "__main__":

@@ -152,6 +152,76 @@ def test_decay_solution_matches_project_integrator():
     np.testing.assert_allclose(np.asarray(phi), rec.roll, rtol=0, atol=1e-6)
 
 
+def test_decay_solution_is_diffraxs_solve_bit_for_bit_and_nan_where_it_fails():
+    """Issue 43: `decay_solution` runs diffrax's Tsit5 step and PID controller in its own loop (no host callback,
+    so its programs can be stored): the same values and forward-mode derivatives as `diffrax.diffeqsolve` with
+    `SaveAt(ts=...)`, to the last bit; NaN at every sample where the integration fails, instead of raising."""
+    import diffrax
+
+    from jaxroll.calibration._decay import _decay_field
+
+    ts = jnp.asarray(np.arange(400) * 0.37)
+
+    def reference(p):
+        return diffrax.diffeqsolve(
+            diffrax.ODETerm(_decay_field),
+            diffrax.Tsit5(),
+            t0=0.0,
+            t1=ts[-1],
+            dt0=None,
+            y0=p,
+            args=DECAY_SHIP,
+            saveat=diffrax.SaveAt(ts=ts),
+            stepsize_controller=diffrax.PIDController(rtol=1e-9, atol=1e-12),
+            adjoint=diffrax.ForwardMode(),
+            max_steps=200_000,
+        ).ys[:, 0]
+
+    p = jnp.asarray([math.radians(12.0), 0.01])
+    ours = eqx.filter_jit(lambda p: decay_solution(DECAY_SHIP, p[0], p[1], ts))
+    np.testing.assert_array_equal(np.asarray(ours(p)), np.asarray(eqx.filter_jit(reference)(p)))
+    np.testing.assert_array_equal(
+        np.asarray(jax.jacfwd(ours)(p)), np.asarray(eqx.filter_jit(jax.jacfwd(reference))(p))
+    )
+    assert "callback" not in jax.jit(lambda p: decay_solution(DECAY_SHIP, p[0], p[1], ts)).lower(p).as_text()
+    short = decay_solution(DECAY_SHIP, p[0], p[1], ts, max_steps=50)  # 50 steps do not reach 148 s
+    assert np.all(np.isnan(np.asarray(short)))
+    capsize = decay_solution(DECAY_SHIP, math.radians(74.0), 0.0, ts)  # beyond the vanishing angle (71.6°)
+    assert np.all(np.isnan(np.asarray(capsize)))
+
+
+def test_decay_fits_are_stored_programs_a_new_process_reads_back(tmp_path, monkeypatch):
+    """Issue 43 (`calibrate decay` warm): with the persistent cache on (as the `jaxroll` command runs), the
+    extinction and ODE fits export their programs once; a new process (here: the loaded programs forgotten) reads
+    them back, tracing nothing, and gives the same estimates to the last bit."""
+    pytest.importorskip("flatbuffers")
+    from jaxroll import _compiled
+    from jaxroll.calibration import _decay
+
+    rec = virtual_decay_record(DECAY_SHIP, initial_roll_deg=20.0, duration_model_s=40.0)
+    monkeypatch.setattr(_compiled, "cache_dir", lambda: tmp_path)
+    monkeypatch.setattr(_compiled, "_LOADED", {})
+    traced = []
+    solution = _decay.decay_solution
+    monkeypatch.setattr(_decay, "decay_solution", lambda *a, **k: traced.append(1) or solution(*a, **k))
+    first = [fit_extinction(rec, BASE), fit_decay_ode(rec, BASE)]
+    stored = sorted(tmp_path.glob("*.npz"))
+    assert len(stored) == 2 and all(p.stat().st_size > 1000 for p in stored)  # programs, not "cannot export"
+    assert traced  # the ODE fit's program traced once, to export it
+    traced.clear()
+    _compiled._LOADED.clear()
+    again = [fit_extinction(rec, BASE), fit_decay_ode(rec, BASE)]
+    assert sorted(tmp_path.glob("*.npz")) == stored and not traced  # read back, not traced or exported again
+    for a, b in zip(first, again):
+        np.testing.assert_array_equal(a.b, b.b)
+        assert a.roll_period == b.roll_period and a.damping == b.damping  # values and standard errors
+    assert (
+        first[1].b[0] > 0
+        and first[1].b[1] > 0
+        and first[1].roll_period.value == pytest.approx(24.4, rel=0.01)
+    )
+
+
 # ------------------------------------------------------------------------------------------------------------
 # Captive
 # ------------------------------------------------------------------------------------------------------------
