@@ -146,6 +146,25 @@ def test_interval_covers_where_the_genealogy_is_thin():
     assert covered["normal"] < covered["t"], covered
 
 
+class Stall(Walk):
+    """The walk, except that runs that entered a level never rise above their entrance score (as clones that entered
+    at the end of the exposure): a pilot's next level would be the last one again."""
+
+    def run(self, key, queue, level, final, angle=None):
+        out, lanes = super().run(key, queue, level, final, angle)
+        if np.any(queue["k"] > 0):  # past stage 0: no run rises, none reaches the event
+            out = {**out, "peak": queue["score"].copy(), "success": np.zeros(queue["k"].size, bool)}
+        return out, lanes
+
+
+def test_pilot_stops_at_a_level_that_does_not_rise():
+    # Before: the levels repeated until `max_levels` (30) — stages with p̂ = 1 that cost a stage each (18 of 300
+    # pilots at 46°, benchmarks/splitting.py --coverage). Now the event follows the first level that stalls.
+    plan, found, _, capped = sp._pilot_plan(Stall(0.4, 60, 10), jax.random.key(0), 100, 0.2, 30, [None])
+    assert [lv is None for lv, _ in plan] == [False, True], plan
+    assert not capped and found == [0.0]
+
+
 def test_genealogy_variance_is_binomial_for_one_stage():
     # One stage, S successes each its own ancestor: the unbiased binomial variance (1 − p̂)/((N − 1) p̂) relative.
     n, s = 200, 13

@@ -160,7 +160,8 @@ def _pilot_plan(stages, key, num: int, stage_probability: float, max_levels: int
     go on to its event (or the end) recording their peak score; where a fraction ≥ p of them reached it, the
     angle's event is the next stage and `num` clones of those that did continue to the next angle; otherwise the
     next level is the ⌈pN⌉-th largest peak (so ≈ p of them reach it), the same runs are run again (the same noise)
-    stopped at it, and `num` clones continue from where they did. At most `max_levels` levels in all.
+    stopped at it, and `num` clones continue from where they did. At most `max_levels` levels in all; a level
+    that would not rise above the last one ends the levels too (the event is the next stage).
     **Returns:** `(plan, probabilities, records, capped)`: per angle the pilot's own product of stage fractions (a
     rough estimate, biased by the levels it chose from the same runs), and whether `max_levels` stopped it."""
     queue = stages.initial(key, num)
@@ -176,8 +177,18 @@ def _pilot_plan(stages, key, num: int, stage_probability: float, max_levels: int
             out, lane_steps = stages.run(_stage_key(key, g), queue, math.inf, True, angle)
             records.append(_record(out, queue, lane_steps, t0))
             success = np.asarray(out["success"], bool)
-            if success.mean() >= stage_probability or count == max_levels:
-                capped |= bool(success.mean() < stage_probability)
+            enough = success.mean() >= stage_probability
+            level = (
+                math.inf
+                if enough
+                else float(np.sort(np.where(success, np.inf, out["peak"].astype(float)))[::-1][rank - 1])
+            )
+            # A level that does not rise above the last one is no level (the ⌈pN⌉-th peak is the clones' own
+            # entrance score, as when they entered near the end of the exposure or with the amplitude clipped at
+            # the vanishing angle): the event is the next stage, as when the levels run out.
+            stalled = level <= (plan[-1][0] if plan and plan[-1][0] is not None else -math.inf)
+            if enough or stalled or count == max_levels:
+                capped |= bool(not enough and not stalled)
                 plan.append((None, j))
                 product *= float(success.mean())
                 found.append(product)
@@ -189,7 +200,6 @@ def _pilot_plan(stages, key, num: int, stage_probability: float, max_levels: int
                     queue, _ = _resample(out, success, _resampling_rng(key, g), num)
                     g += 1
                 break
-            level = float(np.sort(np.where(success, np.inf, out["peak"].astype(float)))[::-1][rank - 1])
             plan.append((level, j))
             count += 1
             # The same runs again (the same noise), each stopped where it reaches the new level: the entrance states.
