@@ -128,16 +128,16 @@ def test_splitting_estimator_and_its_variance_are_unbiased_on_an_exact_chain():
     # standard error of the difference of two means over the same runs: of (V̂ − (Z − mean)²)
     d = var_hat - (est - est.mean()) ** 2 * est.size / (est.size - 1)
     assert abs(d.mean()) < 4 * d.std(ddof=1) / math.sqrt(d.size), (var_hat.mean(), sample_var)
-    # the 95 % interval's coverage (Student's t on the effective ancestors: 0.96 measured over 400 such runs; the
-    # normal quantile 0.92: N = 100 is small); binomial standard error over 600 runs ≈ 0.009
+    # the 95 % interval's coverage (on the effective ancestors: 0.96 measured over 400 such runs; the normal
+    # quantile on the relative variance 0.92: N = 100 is small); binomial standard error over 600 runs ≈ 0.009
     assert 0.93 <= covered["t"] <= 0.99, covered
     assert covered["normal"] < covered["t"], covered
 
 
 def test_interval_covers_where_the_genealogy_is_thin():
     # A rarer event through 9 levels (P = 2.2e-4, exact), N = 100: the successes descend from ~5 effective stage-0
-    # ancestors, the variance estimate is noisy and the normal-quantile interval covered 0.90 in 400 runs; the t
-    # interval on the effective ancestors 0.96. 300 runs: binomial standard error ≈ 0.012.
+    # ancestors, the variance estimate is noisy and the normal-quantile interval covered 0.90 in 400 runs; the
+    # interval on the effective ancestors 0.965. 300 runs: binomial standard error ≈ 0.012.
     walk = Walk(0.4, 120, 20)
     exact, est, _, covered = _replicas(walk, list(range(2, 20, 2)), 100, 300)
     assert exact == pytest.approx(2.2220576e-4, rel=1e-6)

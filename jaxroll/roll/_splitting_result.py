@@ -36,14 +36,19 @@ def effective_ancestors(eves) -> float:
 
 
 def _interval(estimate: float, relative_variance: float, upper_if_zero: float, ancestors: float = math.inf):
-    """95 % interval: log-normal, estimate · exp(±q σ), σ² = log(1 + relative variance) (the estimate is a product
-    of stage fractions, skewed to the right), q Student's t quantile with `ancestors` − 1 degrees of freedom (the
-    variance is estimated from that many effective clusters; the normal 1.96 when infinite): docs/rare_events.md,
-    "Variance and interval". [0, upper_if_zero] when the estimate is 0."""
+    """95 % interval: log-normal, estimate · exp(±q σ), σ² = log(1 + v) (the estimate is a product of stage
+    fractions, skewed to the right). The variance is in effect estimated from G = `ancestors` clusters (the
+    families of the stage-0 ancestors), so, as a cluster-robust variance with few clusters: v = the relative
+    variance × G/(G − 1) and q = Student's t quantile with G − 1 degrees of freedom (at least 1); G infinite: v the
+    relative variance, q = 1.96. docs/rare_events.md, "Variance and interval". [0, upper_if_zero] when the estimate
+    is 0."""
     if estimate <= 0:
         return 0.0, upper_if_zero
-    q = 1.959963984540054 if not math.isfinite(ancestors) else float(_t_quantile(max(ancestors - 1.0, 1.0)))
-    sigma = math.sqrt(math.log1p(max(relative_variance, 0.0)))
+    v, q = max(relative_variance, 0.0), 1.959963984540054
+    if math.isfinite(ancestors):
+        dof = max(ancestors - 1.0, 1.0)
+        v, q = v * ancestors / dof, _t_quantile(dof)
+    sigma = math.sqrt(math.log1p(v))
     return estimate * math.exp(-q * sigma), estimate * math.exp(q * sigma)
 
 
