@@ -238,7 +238,13 @@ def coverage(problem, args, out):
         "coverage_se": cov_se,
         "empirical_relvar": relvar_emp,
         "speedup_realization_s": speedup,
-        "per_run": [r.to_dict() for r in runs],
+        "per_run": {  # what an interval rule needs, run by run
+            "relative_error": [r.relative_error for r in runs],
+            "effective_ancestors": [r.effective_ancestors for r in runs],
+            "n_ancestors": [r.n_ancestors for r in runs],
+            "stages": [int(r.levels_deg.size) for r in runs],
+            "ci95": [list(r.probability_ci95) for r in runs],
+        },
     }
 
 
