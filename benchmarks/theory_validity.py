@@ -23,6 +23,7 @@ from jaxroll.ship import excitation_validity
 
 
 def main() -> None:
+    jaxroll.configure()
     parser = argparse.ArgumentParser(
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
     )

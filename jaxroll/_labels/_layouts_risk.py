@@ -35,6 +35,7 @@ SPLITTING_UNITS = {
     "splitting_capsize_standard_error": "1",
     "splitting_relative_error": "1",
     "splitting_relative_variance_independent": "1",
+    "splitting_effective_ancestors": "1",
     "splitting_conditional_probabilities": "1",
     "splitting_simulated_seconds": "s",
     "splitting_pilot_simulated_seconds": "s",
@@ -49,6 +50,8 @@ SPLITTING_LONG_NAMES = {
     "splitting_levels_deg": "splitting levels of the score (the last is the angle itself)",
     "splitting_conditional_probabilities": "fraction of each stage's runs that reached the next level",
     "splitting_n_successes": "runs of each stage that reached the next level",
+    "splitting_effective_ancestors": "effective number of independent stage-0 ancestors of the successes "
+    "(S²/Σ c_e²): the degrees of freedom of the interval, plus 1",
     "splitting_simulated_seconds": "simulated realization-seconds of the estimate",
     "splitting_total_simulated_seconds": "simulated realization-seconds, the pilot included",
     "splitting_continuation_simulated_seconds": "realization-seconds of the runs continued after the last stage",

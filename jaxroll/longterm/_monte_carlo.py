@@ -147,7 +147,7 @@ def splitting_cell(
 ) -> CellEstimate:
     """A cell by multilevel splitting: `jaxroll.monte_carlo_splitting_angles(problem, key, …)` with every angle
     [deg] from one run of `num_realizations` runs a stage (its pilot, `splitting_pilot`, of max(100, N/10)). Per
-    angle P̂, its log-normal 95 % interval, and the variance SE² (genealogy); an estimate of 0 gets (upper/z)², its
+    angle P̂, its log-normal 95 % interval (t on the effective ancestors), and the variance SE² (genealogy); an estimate of 0 gets (upper/z)², its
     one-sided bound read as z σ (never zero, as the brute force's Agresti–Coull). The capsize probability from the
     run's continued runs, likewise; at 0 of S such runs its upper end is P̂(largest angle)·(1 − 0.05^{1/S}). No
     trial counts (−1).

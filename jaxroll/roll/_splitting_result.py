@@ -24,13 +24,39 @@ def genealogy_relative_variance(eves, num: int, num_stages: int) -> float:
     return 1.0 - (num / (num - 1)) ** num_stages * (1.0 - concentration)
 
 
-def _interval(estimate: float, relative_variance: float, upper_if_zero: float, z: float = 1.959963984540054):
-    """95 % interval: log-normal, estimate · exp(±z σ), σ² = log(1 + relative variance) (the estimate is a product
-    of stage fractions, skewed to the right: docs/rare_events.md, coverage); [0, upper_if_zero] when it is 0."""
+def effective_ancestors(eves) -> float:
+    """The effective number of independent stage-0 ancestors of the last stage's successes, S²/Σ_e c_e² [-]
+    (c_e as in `genealogy_relative_variance`; 0 when S = 0): the number of independent clusters the genealogy
+    variance is in effect estimated from."""
+    eves = np.asarray(eves)
+    if eves.size == 0:
+        return 0.0
+    counts = np.bincount(eves).astype(float)
+    return float(eves.size**2 / np.sum(counts**2))
+
+
+def _interval(estimate: float, relative_variance: float, upper_if_zero: float, ancestors: float = math.inf):
+    """95 % interval: log-normal, estimate · exp(±q σ), σ² = log(1 + v) (the estimate is a product of stage
+    fractions, skewed to the right). The variance is in effect estimated from G = `ancestors` clusters (the
+    families of the stage-0 ancestors), so, as a cluster-robust variance with few clusters: v = the relative
+    variance × G/(G − 1) and q = Student's t quantile with G − 1 degrees of freedom (at least 1); G infinite: v the
+    relative variance, q = 1.96. docs/rare_events.md, "Variance and interval". [0, upper_if_zero] when the estimate
+    is 0."""
     if estimate <= 0:
         return 0.0, upper_if_zero
-    sigma = math.sqrt(math.log1p(max(relative_variance, 0.0)))
-    return estimate * math.exp(-z * sigma), estimate * math.exp(z * sigma)
+    v, q = max(relative_variance, 0.0), 1.959963984540054
+    if math.isfinite(ancestors):
+        dof = max(ancestors - 1.0, 1.0)
+        v, q = v * ancestors / dof, _t_quantile(dof)
+    sigma = math.sqrt(math.log1p(v))
+    return estimate * math.exp(-q * sigma), estimate * math.exp(q * sigma)
+
+
+def _t_quantile(dof: float) -> float:
+    """Student's t 0.975 quantile for `dof` (real, ≥ 1) degrees of freedom."""
+    from scipy.stats import t  # jax's own dependency; imported here, where an interval is asked for
+
+    return float(t.ppf(0.975, dof))
 
 
 @dataclass
@@ -38,7 +64,8 @@ class SplittingResult:
     """A rare exceedance probability by multilevel splitting (`monte_carlo_splitting`); host values.
 
     - `probability`: P̂(max |φ| > `angle_deg` within the exposure after the discard, or capsize) [-];
-      `standard_error` [-] (Lee–Whiteley genealogy estimator); `probability_ci95` [-] (log-normal; docs/rare_events.md).
+      `standard_error` [-] (Lee–Whiteley genealogy estimator); `probability_ci95` [-] (log-normal, Student's t with
+      `effective_ancestors` − 1 degrees of freedom; docs/rare_events.md).
     - `levels_deg`: the stages' levels [deg], the scores ℓ_1 < … < ℓ_{K−1} (â + κ·ê, so they may pass the
       angle) and `angle_deg` last (the last stage's target is the event itself);
       `conditional_probabilities` p̂_k and `n_successes` per stage (NaN and 0 for stages never run: a stage in which
@@ -46,7 +73,8 @@ class SplittingResult:
     - `capsize_probability`, `capsize_standard_error` [-]: P̂(capsize within the duration), from the same runs:
       the last stage's successful runs continued to the end of the exposure with their own noise (as if they had
       not stopped at the event); `n_capsized`: those that capsized; `n_exceeded`: the runs of the angle's event
-      stage that reached it; `n_ancestors`: the distinct stage-0 runs these descend from.
+      stage that reached it; `n_ancestors`: the distinct stage-0 runs these descend from; `effective_ancestors`:
+      S²/Σ c_e², their effective number (`effective_ancestors`).
     - `relative_variance_independent`: Σ (1 − p̂_k)/(N p̂_k), what the stages would give were they independent
       (the genealogy's variance divided by this measures the clones' correlation).
     - Cost: `simulated_seconds` [s] realization-seconds simulated by the estimate's stages (`stage_simulated_seconds`
@@ -69,6 +97,7 @@ class SplittingResult:
     n_capsized: int
     n_exceeded: int
     n_ancestors: int
+    effective_ancestors: float
     relative_variance_independent: float
     simulated_seconds: float
     pilot_simulated_seconds: float
