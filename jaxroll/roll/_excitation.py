@@ -23,8 +23,15 @@ from jaxtyping import Array, Complex, Float, PRNGKeyArray
 
 from .._compiled import cached_program
 from ..sea._filters import ShapingFilter, psd_sqrt
-from ..sea._grim import EffectiveWave, superpose, superposition_length
-from ..sea._spectra import AbstractWaveSpectrum, encounter_branches, heading_angle, heading_cosine
+from ..sea._grim import (
+    EffectiveWave,
+    encounter_components,
+    grim_transfer,
+    superpose,
+    superposition_length,
+    synthesise,
+)
+from ..sea._spectra import GRAVITY, AbstractWaveSpectrum, encounter_branches, heading_angle, heading_cosine
 from ..ship._wave_moment import WaveMoment
 
 BLOCK = 128  # source steps per noise block (block j of a realization keyed k draws from fold_in(k, j))
@@ -357,16 +364,25 @@ class SampledExcitation(AbstractExcitation):
 
 class SuperpositionExcitation(AbstractExcitation):
     """Method 1: component superposition synthesised by FFT over the whole trial (see `jaxroll.superpose`).
-    The synthesis runs in float64 whatever the run's dtype (the integrator leaves `wave` as it is)."""
+    The synthesis runs in float64 whatever the run's dtype (the integrator leaves `wave` as it is).
+
+    `joint=True`: ζ_G is made of the realization's wave components per encounter branch
+    (`jaxroll.sea.encounter_components`), the same components a `WaveMomentExcitation` of the problem makes M_w
+    of, each multiplied by Grim's transfer: the two are then one realization of the sea, correlated as the sea
+    makes them (`RollProblem.from_sea` does this for a ship carrying a wave moment). The same law as `joint=False`,
+    other random numbers."""
 
     wave: EffectiveWave
     dt: float = eqx.field(static=True)
     substeps: int = eqx.field(static=True, default=1)
+    joint: bool = eqx.field(static=True, default=False)
 
-    def __init__(self, wave: EffectiveWave, dt: float):
-        """**Arguments:** `wave`: Grim's effective wave; `dt`: time step [s]."""
+    def __init__(self, wave: EffectiveWave, dt: float, *, joint: bool = False):
+        """**Arguments:** `wave`: Grim's effective wave; `dt`: time step [s]; `joint`: synthesise from the
+        components shared with a `WaveMomentExcitation` (above)."""
         self.wave = wave
         self.dt = float(dt)
+        self.joint = bool(joint)
 
     def init(self, key, num_steps, m, dtype):
         n = _padded_length(num_steps, m)
@@ -374,9 +390,11 @@ class SuperpositionExcitation(AbstractExcitation):
             raise ValueError(
                 f"superposition of {n} samples is too long for one FFT; use the filter method for long trials."
             )
-        zeta, dzeta = (
-            x.astype(dtype) for x in superpose(self.wave, key, n, self.dt)
-        )  # synthesised in float64
+        if self.joint:
+            zeta, dzeta = joint_effective_wave(self.wave, key, n, self.dt)
+        else:
+            zeta, dzeta = superpose(self.wave, key, n, self.dt)  # synthesised in float64
+        zeta, dzeta = zeta.astype(dtype), dzeta.astype(dtype)
         return (zeta, dzeta), zeta[0]
 
     def block_inputs(self, key, state, index, m):
@@ -386,15 +404,34 @@ class SuperpositionExcitation(AbstractExcitation):
         return state, tuple(values[j] for j in range(2 * m))
 
 
+def joint_effective_wave(wave: EffectiveWave, key, num_samples: int, dt: float):
+    """ζ_G [m] and dζ_G/dt [m/s] of the realization keyed `key` on t = 0, dt, … from its wave components
+    (`encounter_components`): Σ_b F_Grim(k_b |cos χ|) a_b, Grim's transfer being real."""
+    size = superposition_length(num_samples)
+    projection = jnp.abs(wave.cos_heading)
+    omega_e, omegas, amps = encounter_components(
+        wave.sea, wave.speed * projection, wave.following, key, size, dt
+    )
+    g = grim_transfer(omegas**2 / GRAVITY * projection, wave.length)
+    coef = jnp.zeros(omega_e.shape, dtype=amps.dtype)
+    for b in range(amps.shape[1]):
+        coef = coef + amps[:, b] * jax.lax.complex(g[:, b], jnp.zeros_like(g[:, b]))
+    return synthesise(coef, omega_e, size, num_samples)
+
+
 class WaveMomentExcitation(AbstractExcitation):
     """The direct wave roll moment per unit roll inertia M_w(t) [rad/s²] of a long-crested sea, synthesised by FFT
     over the whole trial like `SuperpositionExcitation`.
 
     Components sit at encounter frequencies ω_e,j = 2πj/(M dt); each wave frequency ω that meets the ship at ω_e,j
-    (one in head and beam seas, up to three in following seas: `jaxroll.sea.encounter_frequency`) adds an
-    independent complex Gaussian amplitude of variance S(ω)Δω_e/|dω_e/dω| times the transfer F(ω, χ)/I44 of the
-    `WaveMoment` (conjugated where ω − kU cos χ < 0). M_w(t) is exactly Gaussian with the spectrum
-    Σ |F/I44|² S/|dω_e/dω|. Synthesised in float64 whatever the run's dtype.
+    (one in head and beam seas, up to three in following seas: `jaxroll.sea.encounter_frequency`) adds its
+    complex Gaussian amplitude of variance S(ω)Δω_e/|dω_e/dω| (`jaxroll.sea.encounter_components`) times the
+    transfer F(ω, χ)/I44 of the `WaveMoment` (conjugated where ω − kU cos χ < 0). M_w(t) is exactly Gaussian with
+    the spectrum Σ |F/I44|² S/|dω_e/dω| (`spectrum`). Synthesised in float64 whatever the run's dtype.
+
+    The realization keyed k draws the same components as a `SuperpositionExcitation(wave, dt, joint=True)` keyed
+    k: in a `RollProblem` the two make ζ_G and M_w of one realization of the sea (the integrator gives both the
+    realization's key).
     """
 
     sea: AbstractWaveSpectrum
@@ -442,6 +479,13 @@ class WaveMomentExcitation(AbstractExcitation):
         im = jnp.interp(omega, self.omega, self.transfer.imag, right=0.0)
         return jax.lax.complex(re, im)
 
+    def spectrum(self, omega_e) -> Float[Array, "..."]:
+        """One-sided spectrum of M_w, S_M(ω_e) = Σ_b |F(ω_b, χ)/I44|² S(ω_b)/|dω_e/dω| [rad²/s⁴ · s/rad], at
+        encounter frequencies ω_e [rad/s]."""
+        omegas, weights = encounter_branches(jnp.asarray(omega_e, dtype=float), self.speed, self.following)
+        f = self.transfer_at(omegas)
+        return jnp.sum(jnp.abs(f) ** 2 * self.sea(omegas) * weights, axis=-1)
+
     def init(self, key, num_steps, m, dtype):
         n = _padded_length(num_steps, m)
         size = superposition_length(n)
@@ -449,23 +493,14 @@ class WaveMomentExcitation(AbstractExcitation):
             raise ValueError(
                 f"superposition of {n} samples is too long for one FFT; shorten the trial or lengthen dt."
             )
-        domega = 2 * np.pi / (size * self.dt)
-        omega_e = jnp.arange(size // 2 + 1, dtype=float) * domega
-        omegas, weights = encounter_branches(omega_e, self.speed, self.following)
-        branches = 3 if self.following else 1
-        interior = (omega_e > 0) & (omega_e < omega_e[-1])
+        omega_e, omegas, amps = encounter_components(self.sea, self.speed, self.following, key, size, self.dt)
         coef = jnp.zeros(omega_e.shape, dtype=self.transfer.dtype)
-        xy = jr.normal(key, (branches, 2, omega_e.size))
-        for b in range(branches):
+        for b in range(amps.shape[1]):
             f = self.transfer_at(omegas[:, b])
             if b == 2:  # ω − kU cos χ = −ω_e: the component turns the other way
                 f = jnp.conj(f)
-            valid = interior & (weights[:, b] > 0)
-            var = jnp.where(valid, self.sea(omegas[:, b]) * weights[:, b] * domega, 1.0)
-            amp = jnp.where(valid & (var > 0), jnp.sqrt(jnp.where(var > 0, var, 1.0)) * size / 2, 0.0)
-            coef = coef + f * jax.lax.complex(amp * xy[b, 0], amp * xy[b, 1])
-        mw = jnp.fft.irfft(coef, n=size)[:n]
-        dmw = jnp.fft.irfft(jax.lax.complex(jnp.zeros_like(omega_e), omega_e) * coef, n=size)[:n]
+            coef = coef + f * amps[:, b]
+        mw, dmw = synthesise(coef, omega_e, size, n)
         mw, dmw = mw.astype(dtype), dmw.astype(dtype)
         return (mw, dmw), mw[0]
 

@@ -168,3 +168,49 @@ def superpose(
     zeta = jnp.fft.irfft(coef, n=m)[:num_samples]
     dzeta = jnp.fft.irfft(1j * omega.astype(complex) * coef, n=m)[:num_samples]
     return zeta, dzeta
+
+
+#: A realization keyed k draws its wave components (`encounter_components`) from fold_in(k, COMPONENTS_KEY).
+COMPONENTS_KEY = 0x7FFFFFFE
+
+
+def encounter_components(
+    sea: AbstractWaveSpectrum, projected_speed, following: bool, key, size: int, dt: float
+):
+    """The wave components of one realization in encounter frequency, per encounter branch: what Grim's effective
+    wave and the direct wave moment of that realization are both made of (`jaxroll.SuperpositionExcitation` with
+    `joint=True`, `jaxroll.WaveMomentExcitation`), so that their cross-correlation is the sea's.
+
+    At ω_e,j = 2πj/(size·dt), each wave frequency ω_b that meets the ship at ω_e,j (one branch in head and beam
+    seas, up to three in following seas: `jaxroll.sea.encounter_frequency`) has the complex Gaussian amplitude
+    a_jb = √(S(ω_b)/|dω_e/dω| Δω_e) (x + iy)·size/2, x, y standard normals from fold_in(`key`, COMPONENTS_KEY): a
+    process with the transfer T(ω) is the irfft of Σ_b T(ω_b) a_jb (T conjugated on branch 3, where
+    ω − kU cos χ < 0 and the component turns the other way). Zero at ω_e = 0 and at the Nyquist frequency.
+
+    **Arguments:** `sea`: one-sided sea spectrum; `projected_speed`: U|cos χ| [m/s]; `following`: cos χ > 0;
+    `size`: the FFT length (`superposition_length`); `dt` [s].
+
+    **Returns:** `(omega_e [size//2 + 1] rad/s, omegas [size//2 + 1, branches] rad/s, amplitudes (same shape,
+    complex) [m])`, branches 3 in following seas, else 1.
+    """
+    domega = 2 * np.pi / (size * dt)
+    omega_e = jnp.arange(size // 2 + 1, dtype=float) * domega
+    omegas, weights = encounter_branches(omega_e, projected_speed, following)
+    branches = 3 if following else 1
+    interior = (omega_e > 0) & (omega_e < omega_e[-1])
+    xy = jr.normal(jr.fold_in(key, COMPONENTS_KEY), (branches, 2, omega_e.size))
+    amplitudes = []
+    for b in range(branches):
+        valid = interior & (weights[:, b] > 0)
+        var = jnp.where(valid, sea(omegas[:, b]) * weights[:, b] * domega, 1.0)
+        amp = jnp.where(valid & (var > 0), jnp.sqrt(jnp.where(var > 0, var, 1.0)) * size / 2, 0.0)
+        amplitudes.append(jax.lax.complex(amp * xy[b, 0], amp * xy[b, 1]))
+    return omega_e, omegas[:, :branches], jnp.stack(amplitudes, -1)
+
+
+def synthesise(coef, omega_e, size: int, num_samples: int):
+    """The process and its time derivative on t = 0, dt, … (`num_samples` each) from its one-sided FFT
+    coefficients `coef` at `omega_e` [rad/s] (`encounter_components`)."""
+    x = jnp.fft.irfft(coef, n=size)[:num_samples]
+    dx = jnp.fft.irfft(jax.lax.complex(jnp.zeros_like(omega_e), omega_e) * coef, n=size)[:num_samples]
+    return x, dx

@@ -205,6 +205,14 @@ class WaveMoment(eqx.Module):
         im = jnp.interp(omega, self.omega, row.imag)
         return jnp.where(inside, jax.lax.complex(re, im), jnp.zeros((), dtype=row.dtype))
 
+    def per_inertia(self, inertia: ArrayLike) -> "WaveMoment":
+        """The same moment F per another roll inertia I44 [kg m²] (e.g. `roll_inertia` of a ship whose Tφ or GM0
+        differs from the one the table was made for): values × (`inertia` of the table / `inertia`)."""
+        inertia = jnp.asarray(inertia, dtype=float)
+        return eqx.tree_at(
+            lambda t: (t.values, t.inertia), self, (self.values * _complex(self.inertia / inertia), inertia)
+        )
+
     def at_heading(self, heading: ArrayLike) -> Complex[Array, " n"]:
         """The table's row at heading χ [rad] (scalar), linear between the grid's headings [rad/s² per m].
 
