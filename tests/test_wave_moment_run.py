@@ -11,7 +11,7 @@ import jax.random as jr
 import numpy as np
 import pytest
 
-from jaxroll import ITTC, RollProblem, SuperpositionExcitation, WaveMomentExcitation
+from jaxroll import ITTC, EffectiveWave, RollProblem, SuperpositionExcitation, WaveMomentExcitation
 from jaxroll.roll._excitation import _padded_length
 from jaxroll.sea import grim_transfer
 from jaxroll.sea._grim import superposition_length
@@ -87,3 +87,126 @@ def test_effective_wave_and_moment_are_one_realization(moment_ship, heading, spe
         abs(var.mean() / float(problem.wave.variance()) - 1)
         < 3 * var.std(ddof=1) / math.sqrt(40) / var.mean() + 0.01
     )
+
+
+def test_beam_sea_roll_variance_is_the_linear_spectral_integral(moment_ship):
+    r"""Issue 44's target: a ship carrying its wave moment in a small beam sea (ITTC H1/3 1 m, T01 10 s, χ = 90°),
+    the problem from `RollProblem.from_sea` as `jaxroll pdf --heading 90` builds it: the Monte Carlo's E[φ²]
+    (float32, as the Monte Carlo runs; the mean of φ² over 1200–1800 s of 300 trials from rest) within 3 % and 3
+    standard errors of `linear_roll_variance` (∫ |H|² S_M dω_e with the ship's b1; its b2 = 0.5 1/rad changes it by
+    2e-4 at this roll, `damping="equivalent"`). The discard is long for a reason: the free roll a start from rest
+    leaves decays as e^{−b1 t} in energy, 130 s, and its energy is ~(ω/ω0)² ≈ 5 times the forced roll's, so a
+    discard of 400 s leaves a bias of +1.5–3 % (measured: 1.013–1.032 over 400–1000 s; 0.996–1.000 here)."""
+    from jaxroll import monte_carlo_amplitudes
+    from jaxroll.theory import linear_roll_variance
+
+    problem = RollProblem.from_sea(moment_ship, ITTC(1.0, 10.0), heading=math.pi / 2, dt=0.25, phi0=0.0)
+    exact = float(linear_roll_variance(problem))
+    equivalent = float(linear_roll_variance(problem, damping="equivalent"))
+    assert abs(equivalent / exact - 1) < 1e-3
+    stats = monte_carlo_amplitudes(problem, jr.key(1), num_realizations=300, duration=1800.0, discard=1200.0)
+    pr = stats.per_realization
+    per = pr["sum_phi2"] / pr["n_samples"]
+    mc, se = per.mean(), per.std(ddof=1) / math.sqrt(per.size)
+    print(f"E[φ²]: Monte Carlo {mc:.5g} ± {se:.2g} rad², linear {exact:.5g} rad² (ratio {mc / exact:.4f})")
+    assert abs(mc / exact - 1) < 0.03
+    assert abs(mc - exact) < 3 * se + 0.005 * exact
+
+
+def test_ship_file_round_trip_and_rescaling(moment_ship, tmp_path):
+    """The ship file carries the moment as F [N m/m] (`[wave_moment]`): written and read back, the table is the same
+    to round-off; read for a ship of another roll period, F/I44 is divided by that ship's inertia."""
+    from jaxroll.io import load_ship, ship_from_dict, ship_to_dict, ship_to_toml
+    from jaxroll.ship import roll_inertia
+
+    path = tmp_path / "ship.toml"
+    path.write_text(ship_to_toml(moment_ship))
+    back = load_ship(path)
+    a, b = np.asarray(moment_ship.wave_moment.values), np.asarray(back.wave_moment.values)
+    assert np.max(np.abs(a - b)) <= 1e-15 * np.max(np.abs(a))
+    assert np.array_equal(np.asarray(back.wave_moment.omega), np.asarray(moment_ship.wave_moment.omega))
+    assert np.array_equal(np.asarray(back.wave_moment.headings), np.asarray(moment_ship.wave_moment.headings))
+    assert back.wave_moment.source == "froude-krylov"
+    slower = eqx.tree_at(lambda s: s.roll_period, back, 2 * back.roll_period)
+    scaled = slower.wave_moment.per_inertia(roll_inertia(slower))
+    assert np.allclose(np.asarray(scaled.values), a / 4, rtol=1e-14, atol=0)  # I44 ∝ Tφ²
+    problem = RollProblem.from_sea(slower, ITTC(1.0, 10.0), heading=math.pi / 2, dt=0.25)
+    assert np.allclose(
+        np.asarray(problem.moment_excitation.transfer), np.asarray(scaled.at_heading(math.pi / 2))
+    )
+    bad = ship_to_dict(moment_ship)
+    del bad["wave_moment"]["heading_rad"]
+    with pytest.raises(ValueError, match=r"\[wave_moment\] needs exactly the fields"):
+        ship_from_dict(bad, source="x.toml")
+    bad = ship_to_dict(moment_ship)
+    bad["wave_moment"]["moment_real_N"] = bad["wave_moment"]["moment_real_N"][:-1]
+    with pytest.raises(ValueError, match="one row of 401 frequencies per heading"):
+        ship_from_dict(bad, source="x.toml")
+
+
+def test_paper_model_unchanged_where_the_moment_vanishes_and_filter_refused(moment_ship):
+    """In head and following seas (|cos χ| = 1) the moment of a hull symmetric port and starboard vanishes: the
+    problem is the paper's (the filter, no moment), the same as for the ship without the table. At an oblique
+    heading an explicit filter is refused with the reason, and a WaveMomentExcitation beside an independent ζ_G."""
+    plain = eqx.tree_at(lambda s: s.wave_moment, moment_ship, None)
+    sea = ITTC(5.0, 10.0)
+    for heading in ("head", 0.0):
+        a = RollProblem.from_sea(moment_ship, sea, heading=heading)
+        b = RollProblem.from_sea(plain, sea, heading=heading)
+        assert a.moment_excitation is None and type(a.excitation).__name__ == "FilterExcitation"
+        assert np.array_equal(np.asarray(a.excitation.phi), np.asarray(b.excitation.phi))
+    with pytest.raises(ValueError, match="the ship carries a direct wave moment, which at heading χ = 60°"):
+        RollProblem.from_sea(moment_ship, sea, heading=math.pi / 3, excitation="filter")
+    problem = RollProblem.from_sea(moment_ship, sea, heading=math.pi / 3, dt=0.25)
+    with pytest.raises(ValueError, match="needs ζ_G from the same wave components"):
+        RollProblem(
+            moment_ship,
+            SuperpositionExcitation(problem.wave, 0.25),
+            moment_excitation=problem.moment_excitation,
+        )
+
+
+def test_the_time_step_check_counts_the_moments_bandwidth(moment_ship):
+    """ω_max of the time-step check is the larger of ζ_G's and M_w's 99.9 % frequencies: in beam seas ζ_G ≡ 0, and the
+    moment's (≈ 2 rad/s for ITTC T01 10 s: |F|² grows as ω⁴ in long waves) sets the limits."""
+    from jaxroll.roll._equation import excitation_bandwidth
+
+    problem = RollProblem.from_sea(moment_ship, ITTC(1.0, 10.0), heading=math.pi / 2, dt=0.25)
+    w_max = excitation_bandwidth(problem.wave, moment=problem.moment_excitation)
+    assert excitation_bandwidth(problem.wave) == 0.0 and 1.5 < w_max < 2.5, w_max
+    with pytest.warns(UserWarning, match=f"ω_max = {w_max:.3g} rad/s"):
+        RollProblem.from_sea(moment_ship, ITTC(1.0, 10.0), heading=math.pi / 2, dt=0.5)
+    with pytest.raises(ValueError, match="holds 99.9 % of the excitation's variance"):
+        RollProblem.from_sea(moment_ship, ITTC(1.0, 10.0), heading=math.pi / 2, dt=1.0 / w_max * 1.05)
+
+
+def test_theories_refuse_a_ship_whose_moment_joins_the_roll(moment_ship):
+    """Every theory of the parametric roll refuses a wave that meets the ship's moment (never silently leaves it
+    out), names what to use; at head seas they run as for the ship without the table. `linear_roll_variance`
+    refuses a problem without a moment."""
+    from jaxroll import theory
+
+    wave = EffectiveWave(ITTC(5.0, 10.0), moment_ship.lpp, 0.0, math.pi / 3)
+    calls = {
+        "roberts": lambda: theory.roberts_pdf(moment_ship, wave),
+        "esam": lambda: theory.esam_pdf(moment_ship, wave),
+        "moment": lambda: theory.moment_pdf(moment_ship, wave),
+        "envelope_fpk": lambda: theory.envelope_fpk_pdf(moment_ship, wave),
+        "passage_risk": lambda: theory.passage_risk(moment_ship, wave, [0.5], [3600.0]),
+        "roberts ": lambda: theory.theory_law("roberts", moment_ship, wave),
+        "esam ": lambda: theory.theory_summary("esam", moment_ship, wave, np.arange(0.0, 40.0)),
+        "passage_risk ": lambda: theory.passage_risk_batch(moment_ship, [wave], [0.5], [3600.0]),
+    }
+    for name, call in calls.items():
+        with pytest.raises(
+            ValueError, match=f"^{name.strip()}: the ship carries a direct wave moment.*linear_roll_variance"
+        ):
+            call()
+    head = EffectiveWave(ITTC(7.0, 10.0), moment_ship.lpp)
+    plain = eqx.tree_at(lambda s: s.wave_moment, moment_ship, None)
+    a = theory.roberts_pdf(moment_ship, head).mean()
+    assert float(a) == float(theory.roberts_pdf(plain, head).mean())
+    with pytest.raises(ValueError, match="needs a problem with a direct wave moment"):
+        theory.linear_roll_variance(
+            RollProblem.from_sea(plain, ITTC(1.0, 10.0), heading=math.pi / 2, dt=0.25)
+        )

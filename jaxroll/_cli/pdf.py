@@ -27,6 +27,7 @@ from ._sea import (
     check_steps,
     heading_phrase,
     parse_heading,
+    resolved_method,
     sea_config,
 )
 
@@ -177,7 +178,7 @@ def run(args) -> int:
         )
     print(
         f"Monte Carlo: {args.realizations} realizations × {args.duration:g} s, dt {args.dt} s, "
-        f"H1/3 {args.hs} m, T01 {args.t01} s, {heading_phrase(parse_heading(args.heading))}, U {args.speed} m/s, method {args.method}"
+        f"H1/3 {args.hs} m, T01 {args.t01} s, {heading_phrase(parse_heading(args.heading))}, U {args.speed} m/s, method {resolved_method(args, ship)}"
     )
     earlier = 0.0
     resumed = checkpoint_file is not None and checkpoint_file.exists()
@@ -246,6 +247,17 @@ def run(args) -> int:
             payload["total_run_time_s"] = earlier + elapsed
         if fit is not None:
             payload["filter_fit"] = fit.summary()
+        if (
+            problem.moment_excitation is not None
+        ):  # the direct wave moment's exact linear roll, beside the MC's
+            from ..theory import linear_roll_variance
+
+            payload["wave_moment"] = {
+                "source": ship.wave_moment.source,
+                "linear_roll_variance_rad2": float(linear_roll_variance(problem)),
+                "note": "E[φ²] of the linear roll (b1, ω0) driven by the direct wave moment alone: the Monte "
+                "Carlo's roll_moments.E_phi2 in a small sea (docs/wave_moment.md)",
+            }
         if summary.get("theory") and stats.capsize_probability > CAPSIZE_LIMIT_FOR_THEORIES:
             import warnings
 
@@ -280,6 +292,12 @@ def run(args) -> int:
         print(
             f"{name:>13}: mean amplitude {summary['mean_amplitude_deg'][est]:.2f}°, 99 % quantile {q['99']:.1f}°"
             + (f", {beyond:.2g} of the amplitudes beyond {bins[-1]:g}°" if beyond else "")
+        )
+    if "wave_moment" in payload:
+        e_mc, e_lin = summary["roll_moments"]["E_phi2"], payload["wave_moment"]["linear_roll_variance_rad2"]
+        print(
+            f"direct wave moment ({payload['wave_moment']['source']}) in the roll: E[φ²] {e_mc:.4g} rad² (Monte "
+            f"Carlo) against {e_lin:.4g} rad² for the linear roll it alone drives (ratio {e_mc / e_lin:.4f})"
         )
     if summary["reason"]:
         print(f"no statistics: {summary['reason']}")
