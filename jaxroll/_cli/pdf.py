@@ -105,16 +105,16 @@ def check_run_length(duration: float, discard: float, ship) -> None:
         )
 
 
-def check_phi0(phi0_deg: float, ship) -> None:
-    """Refuse φ0 = 0 (the parametric roll equation has no direct excitation: φ ≡ 0 forever) and angles at or
-    beyond the vanishing angle."""
+def check_phi0(phi0_deg: float, ship, direct: bool = False) -> None:
+    """Refuse φ0 = 0 (the parametric roll equation has no direct excitation: φ ≡ 0 forever) unless `direct` (the
+    ship's wave moment joins the roll), and angles at or beyond the vanishing angle."""
     import jax.numpy as jnp
 
     from ..ship import vanishing_angle
 
     if not math.isfinite(phi0_deg):
         raise CLIError(f"--phi0-deg must be finite; got {phi0_deg}.")
-    if phi0_deg == 0:
+    if phi0_deg == 0 and not direct:
         raise CLIError(
             "--phi0-deg 0: the roll equation has parametric excitation only, so a ship started upright stays "
             "upright (φ ≡ 0) and there is no amplitude to estimate. Use the paper's --phi0-deg 5."
@@ -166,7 +166,11 @@ def run(args) -> int:
         checkpoint_file = Path(args.checkpoint) / "checkpoint.npz"
     ship = load_ship_arg(args.ship)
     check_run_length(args.duration, args.discard, ship)
-    check_phi0(args.phi0_deg, ship)
+    check_phi0(
+        args.phi0_deg,
+        ship,
+        direct=resolved_method(args, ship) == "superposition" and ship.wave_moment is not None,
+    )
     bins_check = pdf_bins(args.bin_width_deg, 89.0)  # the width is valid (the grid's top comes later)
     del bins_check
     problem, fit, sea = build_problem(args, ship, phi0_deg=args.phi0_deg)

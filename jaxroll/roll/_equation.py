@@ -52,6 +52,7 @@ from ._excitation import (
     FilterExcitation,
     SuperpositionExcitation,
     WaveMomentExcitation,
+    joint_init,
 )
 
 
@@ -415,7 +416,14 @@ def _drive(problem: RollProblem, key, num_steps: int, dtype, per_source_step, in
         key if isinstance(problem.moment_excitation, WaveMomentExcitation) else jr.fold_in(key, MOMENT_KEY),
     ]
     keys = keys[: len(sources)]
-    inits = [src.init(k, num_steps, m, dtype) for src, k in zip(sources, keys, strict=True)]
+    if getattr(problem.excitation, "joint", False) and isinstance(
+        problem.moment_excitation, WaveMomentExcitation
+    ):
+        inits = joint_init(
+            problem.excitation, problem.moment_excitation, key, num_steps, m, dtype
+        )  # one pass
+    else:
+        inits = [src.init(k, num_steps, m, dtype) for src, k in zip(sources, keys, strict=True)]
 
     def source_step(carry, inputs):
         states, x_start, inner = carry
