@@ -467,9 +467,8 @@ def joint_init(zeta_source, moment_source, key, num_steps: int, m: int, dtype) -
     n = _padded_length(num_steps, m)
     _check_length(n)
     size = superposition_length(n)
-    ref = moment_source if moment_source is not None else None
-    if ref is not None:
-        sea, speed, following = ref.sea, ref.speed, ref.following
+    if moment_source is not None:
+        sea, speed, following = moment_source.sea, moment_source.speed, moment_source.following
     else:
         wave = zeta_source.wave
         sea, speed, following = wave.sea, wave.speed * jnp.abs(wave.cos_heading), wave.following
