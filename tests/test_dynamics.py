@@ -331,7 +331,7 @@ def test_problem_errors():
         jaxroll.RollProblem.from_sea(ship, sea, dt=0.9)
     with pytest.raises(ValueError, match="`dt` must be a finite number > 0"):
         jaxroll.RollProblem.from_sea(ship, sea, dt=-1.0)
-    with pytest.raises(ValueError, match="`excitation` must be 'filter' or 'superposition'"):
+    with pytest.raises(ValueError, match="`excitation` must be 'auto', 'filter' or 'superposition'"):
         jaxroll.RollProblem.from_sea(ship, sea, excitation="magic")
     with pytest.raises(ValueError, match="beyond the angle of vanishing stability"):
         jaxroll.RollProblem.from_sea(ship, sea, phi0=math.radians(80.0))

@@ -273,7 +273,7 @@ def _linear_ship():
 
 @pytest.mark.parametrize(
     ("t01", "trials", "ratio"),
-    [(10.0, 200, 1.0051), (20.0, 800, 0.9863)],  # measured MC / exact (seed 1)
+    [(10.0, 200, 1.0043), (20.0, 800, 1.0152)],  # measured MC / exact (seed 1; float32 normals since item 1)
 )
 def test_monte_carlo_roll_variance_in_a_small_beam_sea_is_the_linear_spectral_integral(
     c11, t01, trials, ratio

@@ -37,9 +37,11 @@ def add_sea_options(p: argparse.ArgumentParser) -> None:
     n.add_argument("--dt", type=float, default=0.5, help="time step [s] (default 0.5)")
     n.add_argument(
         "--method",
-        choices=("filter", "superposition"),
-        default="filter",
-        help="effective wave: Method 2 shaping filter (paper's MCS, default) or Method 1 superposition",
+        choices=("auto", "filter", "superposition"),
+        default="auto",
+        help="effective wave: Method 2 shaping filter (paper's MCS), Method 1 superposition, or auto (default): "
+        "the filter, but superposition when the ship carries a wave moment and the heading is oblique or beam "
+        "(the moment and the effective wave from the same waves, docs/wave_moment.md)",
     )
     n.add_argument(
         "--filter-order",
@@ -163,6 +165,17 @@ def check_steps(dt: float, durations: dict[str, float]) -> None:
             )
 
 
+def resolved_method(args, ship) -> str:
+    """--method with `auto` resolved as `RollProblem.from_sea` resolves it: "superposition" when the ship carries a
+    wave moment and the heading is oblique or beam (|cos χ| < 1), else "filter"."""
+    if args.method != "auto":
+        return args.method
+    moment = (
+        ship.wave_moment is not None and abs(math.cos(math.radians(parse_heading(args.heading)))) < 1 - 1e-15
+    )
+    return "superposition" if moment else "filter"
+
+
 def sea_config(args, ship) -> dict:
     """The sea/numerics part of a run's configuration, for JSON provenance."""
     from .. import ship_to_dict
@@ -177,7 +190,7 @@ def sea_config(args, ship) -> dict:
         "ship": ship_to_dict(ship),
         "ship_file": args.ship,
         "dt_s": args.dt,
-        "method": args.method,
+        "method": resolved_method(args, ship),
         "filter_order": args.filter_order,
         "seed": args.seed,
     }
@@ -208,13 +221,18 @@ def check_sea_options(args) -> None:
     check_filter_order(args)
 
 
-def _sea_from_args(args):
+def _sea_from_args(args, ship):
     """The ITTC sea and the heading [deg] of the options, checked (the beam-sea note printed)."""
     from .. import ITTC
 
     heading_deg = parse_heading(args.heading)
     check_sea_options(args)
-    if heading_deg == 90.0:
+    if heading_deg == 90.0 and ship.wave_moment is not None:
+        print(
+            "Beam seas (χ = 90°): no parametric excitation (Grim's effective wave vanishes); the roll is driven by "
+            "the direct wave moment the ship carries (docs/wave_moment.md)."
+        )
+    elif heading_deg == 90.0:
         print(
             "Beam seas (χ = 90°): the wave number projected on the ship's axis, k·cos χ, is 0, so Grim's effective "
             "wave and the parametric excitation vanish in this model: no parametric roll (the roll only decays "
@@ -229,13 +247,13 @@ def build_problem(args, ship, *, phi0_deg: float = 5.0):
 
     if not math.isfinite(phi0_deg):
         raise CLIError(f"--phi0-deg must be finite; got {phi0_deg}.")
-    sea, heading_deg = _sea_from_args(args)
+    sea, heading_deg = _sea_from_args(args, ship)
     problem = RollProblem.from_sea(
         ship,
         sea,
         speed=args.speed,
         heading=heading_for_api(heading_deg),
-        excitation=args.method,
+        excitation=resolved_method(args, ship),
         dt=args.dt,
         filter_order=args.filter_order,
         phi0=math.radians(phi0_deg),
@@ -259,7 +277,7 @@ class TheoryInputs:
     def filter_fit(self):
         from ..sea import check_filter_fit, fit_filter
 
-        if self._args.method != "filter":
+        if resolved_method(self._args, self.ship) != "filter":
             return None
         fit = fit_filter(
             self.wave, order=moment_filter_order(self._args), match_frequency=2 * self.ship.omega0
@@ -274,5 +292,5 @@ def build_theory_inputs(args, ship) -> TheoryInputs:
     needs; the fit is made when first used (`TheoryInputs`)."""
     from .. import EffectiveWave
 
-    sea, heading_deg = _sea_from_args(args)
+    sea, heading_deg = _sea_from_args(args, ship)
     return TheoryInputs(args, ship, EffectiveWave(sea, ship.lpp, args.speed, heading_for_api(heading_deg)))

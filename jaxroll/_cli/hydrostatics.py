@@ -79,6 +79,14 @@ def register(subparsers) -> None:
     add("--n-heel", type=int, default=15, metavar="N", help="heels in [0, heel-max] (default: 15)")
     add("--wavelength", type=float, metavar="M", help="wave length λ [m] (default: Lpp)")
     add("--name", help="name of the ship in ship.toml")
+    add(
+        "--wave-moment",
+        choices=("froude-krylov", "none"),
+        default="none",
+        help="write the hull's direct wave roll moment into ship.toml: froude-krylov (the incident wave's "
+        "pressure on the hull, every 15° of heading; pdf, maxima, risk, sweep then add it at oblique and beam "
+        "headings, docs/wave_moment.md) or none (default: the paper's parametric-only model)",
+    )
     add_hull_options(p)
     add(
         "--out",
@@ -116,6 +124,7 @@ def _check_options(args) -> None:
 
 
 def run(args) -> int:
+    import equinox as eqx
     import numpy as np
 
     from ..io import hull_to_toml, loading_from_dict, ship_to_dict, ship_to_toml
@@ -128,7 +137,9 @@ def run(args) -> int:
         hull_hydrostatics,
         metacentric_height,
         restoring_fields_from_gz,
+        ship_file_frequencies,
         ship_from_hydrostatics,
+        wave_moment,
     )
 
     _check_options(args)
@@ -198,6 +209,9 @@ def run(args) -> int:
         damping=args.damping,
         name=args.name,
     )
+    if args.wave_moment == "froude-krylov":
+        table = wave_moment(hull, loading, ship, omega=ship_file_frequencies(float(sol.particulars.draught)))
+        ship = eqx.tree_at(lambda s: s.wave_moment, ship, table, is_leaf=lambda x: x is None)
     table_ok = np.asarray(sol.converged)
     rows = [np.asarray(sol.gz_calm), *(np.asarray(sol.gz)[i] for i in (np.argmin(zeta), np.argmax(zeta)))]
     rows = [
@@ -264,6 +278,7 @@ def run(args) -> int:
                 "n_zeta": args.n_zeta,
                 "heel_max_deg": args.heel_max_deg,
                 "n_heel": args.n_heel,
+                "wave_moment": args.wave_moment,
                 "method": (
                     "exact for the mesh: its triangles clipped by the water surface (divergence theorem, no "
                     f"waterplane cap), waves L2-projected on linear functions in {hull.surface.strips} strips along x"
@@ -350,6 +365,11 @@ def run(args) -> int:
     )
     for line in datum_lines(hull, args):
         print(line)
+    if ship.wave_moment is not None:
+        print(
+            f"wave moment (Froude–Krylov) tabulated for {ship.wave_moment.headings.size} headings × "
+            f"{ship.wave_moment.omega.size} frequencies (0–{float(ship.wave_moment.omega[-1]):.3g} rad/s), in ship.toml"
+        )
     if is_c11:
         print("Note: the c11 hull is REPRESENTATIVE (parametric), not the real C11 lines.")
     print(

@@ -27,6 +27,7 @@ from ._sea import (
     check_steps,
     heading_phrase,
     parse_heading,
+    resolved_method,
     sea_config,
 )
 
@@ -104,16 +105,16 @@ def check_run_length(duration: float, discard: float, ship) -> None:
         )
 
 
-def check_phi0(phi0_deg: float, ship) -> None:
-    """Refuse φ0 = 0 (the parametric roll equation has no direct excitation: φ ≡ 0 forever) and angles at or
-    beyond the vanishing angle."""
+def check_phi0(phi0_deg: float, ship, direct: bool = False) -> None:
+    """Refuse φ0 = 0 (the parametric roll equation has no direct excitation: φ ≡ 0 forever) unless `direct` (the
+    ship's wave moment joins the roll), and angles at or beyond the vanishing angle."""
     import jax.numpy as jnp
 
     from ..ship import vanishing_angle
 
     if not math.isfinite(phi0_deg):
         raise CLIError(f"--phi0-deg must be finite; got {phi0_deg}.")
-    if phi0_deg == 0:
+    if phi0_deg == 0 and not direct:
         raise CLIError(
             "--phi0-deg 0: the roll equation has parametric excitation only, so a ship started upright stays "
             "upright (φ ≡ 0) and there is no amplitude to estimate. Use the paper's --phi0-deg 5."
@@ -165,7 +166,11 @@ def run(args) -> int:
         checkpoint_file = Path(args.checkpoint) / "checkpoint.npz"
     ship = load_ship_arg(args.ship)
     check_run_length(args.duration, args.discard, ship)
-    check_phi0(args.phi0_deg, ship)
+    check_phi0(
+        args.phi0_deg,
+        ship,
+        direct=resolved_method(args, ship) == "superposition" and ship.wave_moment is not None,
+    )
     bins_check = pdf_bins(args.bin_width_deg, 89.0)  # the width is valid (the grid's top comes later)
     del bins_check
     problem, fit, sea = build_problem(args, ship, phi0_deg=args.phi0_deg)
@@ -177,7 +182,7 @@ def run(args) -> int:
         )
     print(
         f"Monte Carlo: {args.realizations} realizations × {args.duration:g} s, dt {args.dt} s, "
-        f"H1/3 {args.hs} m, T01 {args.t01} s, {heading_phrase(parse_heading(args.heading))}, U {args.speed} m/s, method {args.method}"
+        f"H1/3 {args.hs} m, T01 {args.t01} s, {heading_phrase(parse_heading(args.heading))}, U {args.speed} m/s, method {resolved_method(args, ship)}"
     )
     earlier = 0.0
     resumed = checkpoint_file is not None and checkpoint_file.exists()
@@ -246,6 +251,17 @@ def run(args) -> int:
             payload["total_run_time_s"] = earlier + elapsed
         if fit is not None:
             payload["filter_fit"] = fit.summary()
+        if (
+            problem.moment_excitation is not None
+        ):  # the direct wave moment's exact linear roll, beside the MC's
+            from ..theory import linear_roll_variance
+
+            payload["wave_moment"] = {
+                "source": ship.wave_moment.source,
+                "linear_roll_variance_rad2": float(linear_roll_variance(problem)),
+                "note": "E[φ²] of the linear roll (b1, ω0) driven by the direct wave moment alone: the Monte "
+                "Carlo's roll_moments.E_phi2 in a small sea (docs/wave_moment.md)",
+            }
         if summary.get("theory") and stats.capsize_probability > CAPSIZE_LIMIT_FOR_THEORIES:
             import warnings
 
@@ -280,6 +296,12 @@ def run(args) -> int:
         print(
             f"{name:>13}: mean amplitude {summary['mean_amplitude_deg'][est]:.2f}°, 99 % quantile {q['99']:.1f}°"
             + (f", {beyond:.2g} of the amplitudes beyond {bins[-1]:g}°" if beyond else "")
+        )
+    if "wave_moment" in payload:
+        e_mc, e_lin = summary["roll_moments"]["E_phi2"], payload["wave_moment"]["linear_roll_variance_rad2"]
+        print(
+            f"direct wave moment ({payload['wave_moment']['source']}) in the roll: E[φ²] {e_mc:.4g} rad² (Monte "
+            f"Carlo) against {e_lin:.4g} rad² for the linear roll it alone drives (ratio {e_mc / e_lin:.4f})"
         )
     if summary["reason"]:
         print(f"no statistics: {summary['reason']}")

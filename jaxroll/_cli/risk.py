@@ -29,6 +29,7 @@ from ._sea import (
     check_steps,
     heading_phrase,
     parse_heading,
+    resolved_method,
     sea_config,
 )
 
@@ -236,8 +237,9 @@ def run(args) -> int:
         raise CLIError(f"--realizations must be >= 1; got {args.realizations}.")
     if args.estimator == "splitting" and args.splitting_trials < 10:
         raise CLIError(f"--splitting-trials must be >= 10; got {args.splitting_trials}.")
-    if (
-        args.estimator == "splitting" and args.method not in SPLITTING_EXCITATIONS
+    if args.estimator == "splitting" and args.method not in (
+        *SPLITTING_EXCITATIONS,
+        "auto",
     ):  # (was after the direct trials)
         raise CLIError(
             f"--estimator splitting needs --method {' or '.join(SPLITTING_EXCITATIONS)} (splitting restarts runs "
@@ -255,6 +257,11 @@ def run(args) -> int:
     budget = memory_budget(args)
     out = Path(args.out)
     ship = load_ship_arg(args.ship)
+    if args.estimator == "splitting" and resolved_method(args, ship) not in SPLITTING_EXCITATIONS:
+        raise CLIError(
+            "--estimator splitting needs the shaping filter, which cannot make the direct wave moment this ship "
+            "carries at this heading (docs/wave_moment.md): use --estimator brute-force."
+        )
     vanishing_deg = math.degrees(float(vanishing_angle(ship)))
     if args.angle >= vanishing_deg:
         raise CLIError(

@@ -17,6 +17,7 @@ from ._sea import (
     heading_for_api,
     moment_filter_order,
     parse_heading,
+    resolved_method,
     sea_config,
 )
 
@@ -118,12 +119,12 @@ def run(args) -> int:
             f"--discard must be in [0, --duration) = [0, {args.duration:g}) s; got {args.discard:g}."
         )
     check_steps(args.dt, {"--duration": args.duration})
-    if args.method != "filter" and any(p in ("hs", "t01", "speed") for p in wrt):
+    if args.method == "superposition" and any(p in ("hs", "t01", "speed") for p in wrt):
         raise CLIError("sea-parameter derivatives need the filter excitation (--method filter).")
     out = Path(args.out)
     ship = load_ship_arg(args.ship)
     problem_fn, params = sensitivity_problem(
-        ship, hs=args.hs, t01=args.t01, speed=args.speed, heading=heading_for_api(parse_heading(args.heading)), excitation=args.method,
+        ship, hs=args.hs, t01=args.t01, speed=args.speed, heading=heading_for_api(parse_heading(args.heading)), excitation=resolved_method(args, ship),
         dt=args.dt, filter_order=args.filter_order, phi0=math.radians(args.phi0_deg),
     )  # fmt: skip
     print(

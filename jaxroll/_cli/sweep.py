@@ -65,7 +65,11 @@ def register(sub) -> None:
     m.add_argument("--phi0-deg", type=float, default=5.0, help="initial roll angle [deg] (5)")
     m.add_argument("--dt", type=float, default=0.5, help="time step [s] (default 0.5)")
     m.add_argument(
-        "--method", choices=("filter", "superposition"), default="filter", help="effective wave method"
+        "--method",
+        choices=("auto", "filter", "superposition"),
+        default="auto",
+        help="effective wave method: auto (default) is the filter, but superposition for a ship carrying a wave "
+        "moment at oblique and beam headings (docs/wave_moment.md)",
     )
     m.add_argument(
         "--filter-order",

@@ -10,7 +10,16 @@ import tomllib
 from pathlib import Path
 from typing import Any
 
+import equinox as eqx
+import numpy as np
+
 from ..ship._ship import _FIELDS, Ship, _parameter_tables, validate_ship
+from ..ship._wave_moment import moment_table
+
+WAVE_MOMENT = "wave_moment"
+"""Optional table of a ship file: the hull's direct wave roll moment F(ω, χ) [N m per m of wave amplitude]
+(`source`, `omega_rad_s`, `heading_rad`, `moment_real_N`, `moment_imag_N`; docs/ship_file.md)."""
+_MOMENT_KEYS = ("source", "omega_rad_s", "heading_rad", "moment_real_N", "moment_imag_N")
 
 DAMPING_SOURCE_KEY = "source"
 """Optional text key of the `[damping]` table: where b1, b2, b3 come from (e.g. a decay test, the simplified
@@ -28,7 +37,47 @@ def ship_to_dict(ship: Ship, *, damping_source: str | None = None) -> dict[str, 
     out.update(_parameter_tables(ship))
     if damping_source is not None:
         out["damping"] = {DAMPING_SOURCE_KEY: str(damping_source), **out["damping"]}
+    table = ship.wave_moment
+    if table is not None:  # F = (F/I44)·I44, rows per heading
+        force = np.asarray(table.values) * float(table.inertia)
+        out[WAVE_MOMENT] = {
+            "source": table.source,
+            "omega_rad_s": np.asarray(table.omega).tolist(),
+            "heading_rad": np.asarray(table.headings).tolist(),
+            "moment_real_N": force.real.tolist(),
+            "moment_imag_N": force.imag.tolist(),
+        }
     return out
+
+
+def _moment_from_dict(table: Any, ship: Ship, source: str):
+    """The `[wave_moment]` table of a ship file as a `WaveMoment` per the ship's roll inertia."""
+    if not isinstance(table, dict):
+        raise ValueError(f"{source}: [{WAVE_MOMENT}] must be a table; got {type(table).__name__}.")
+    unknown, missing = sorted(set(table) - set(_MOMENT_KEYS)), [k for k in _MOMENT_KEYS if k not in table]
+    if unknown or missing:
+        raise ValueError(
+            f"{source}: [{WAVE_MOMENT}] needs exactly the fields {list(_MOMENT_KEYS)}; "
+            + (f"unknown {unknown}" if unknown else f"missing {missing}")
+            + ". See docs/ship_file.md."
+        )
+    try:
+        omega, heading, re, im = (np.asarray(table[k], dtype=float) for k in _MOMENT_KEYS[1:])
+    except (TypeError, ValueError):
+        raise ValueError(
+            f"{source}: [{WAVE_MOMENT}]: omega_rad_s and heading_rad must be lists of numbers, moment_real_N and "
+            "moment_imag_N lists of rows of numbers (one row per heading). See docs/ship_file.md."
+        ) from None
+    shape = (heading.size, omega.size)
+    if re.shape != shape or im.shape != shape:
+        raise ValueError(
+            f"{source}: [{WAVE_MOMENT}]: moment_real_N and moment_imag_N must have one row of {omega.size} "
+            f"frequencies per heading ({heading.size}); got shapes {re.shape} and {im.shape}. See docs/ship_file.md."
+        )
+    try:
+        return moment_table(omega, heading, re + 1j * im, ship, source=str(table["source"]))
+    except ValueError as e:
+        raise ValueError(f"{source}: [{WAVE_MOMENT}]: {e} See docs/ship_file.md.") from None
 
 
 def damping_source(data: dict[str, Any]) -> str | None:
@@ -43,11 +92,11 @@ def ship_from_dict(data: dict[str, Any], *, source: str = "<dict>") -> Ship:
     if not isinstance(data, dict):
         raise ValueError(f"{source}: a ship file must be a TOML table; got {type(data).__name__}.")
     known_sections = {s for s, *_ in _FIELDS}
-    unknown = sorted(set(data) - known_sections - {"name", "provenance"})
+    unknown = sorted(set(data) - known_sections - {"name", "provenance", WAVE_MOMENT})
     if unknown:
         raise ValueError(
             f"{source}: unknown top-level field(s) {unknown}; allowed: name, provenance, "
-            f"{', '.join(f'[{s}]' for s in sorted(known_sections))}. See docs/ship_file.md."
+            f"{', '.join(f'[{s}]' for s in sorted(known_sections))}, [{WAVE_MOMENT}]. See docs/ship_file.md."
         )
     values: dict[str, Any] = {"restoring": [0.0] * 4, "damping": [0.0] * 3, "delta_gm": [0.0] * 7}
     missing = []
@@ -95,6 +144,13 @@ def ship_from_dict(data: dict[str, Any], *, source: str = "<dict>") -> Ship:
         provenance=provenance,
     )
     validate_ship(ship)
+    if WAVE_MOMENT in data:
+        ship = eqx.tree_at(
+            lambda s: s.wave_moment,
+            ship,
+            _moment_from_dict(data[WAVE_MOMENT], ship, source),
+            is_leaf=lambda x: x is None,
+        )
     return ship
 
 
@@ -110,9 +166,32 @@ def load_ship(path: str | Path) -> Ship:
     return ship_from_dict(data, source=str(path))
 
 
+def _toml_numbers(values, indent: str, per_line: int = 6) -> str:
+    """A TOML array of floats (exact `repr`s), `per_line` to a line."""
+    rows = [
+        ", ".join(repr(float(v)) for v in values[i : i + per_line]) for i in range(0, len(values), per_line)
+    ]
+    return "[\n" + ",\n".join(indent + "    " + r for r in rows) + ",\n" + indent + "]"
+
+
 def ship_to_toml(ship: Ship, *, damping_source: str | None = None) -> str:
-    """The ship file text (TOML) of `ship`; `damping_source` is written as `[damping] source` when given."""
+    """The ship file text (TOML) of `ship`; `damping_source` is written as `[damping] source` when given, the
+    wave moment (if the ship carries one) as `[wave_moment]`, six numbers to a line."""
     import tomli_w
 
+    data = ship_to_dict(ship, damping_source=damping_source)
+    moment = data.pop(WAVE_MOMENT, None)
     lines = ["# jaxroll ship file: SI units, full scale, radians. Format: docs/ship_file.md\n"]
-    return "".join(lines) + tomli_w.dumps(ship_to_dict(ship, damping_source=damping_source))
+    text = "".join(lines) + tomli_w.dumps(data)
+    if moment is not None:
+        text += (
+            f"\n[{WAVE_MOMENT}]\n# the hull's roll moment F(ω, χ) [N m per m of wave amplitude] about G, one row "
+            "per heading (docs/wave_moment.md)\n"
+            f"source = {tomli_w.dumps({'s': moment['source']})[4:]}"
+            f"omega_rad_s = {_toml_numbers(moment['omega_rad_s'], '')}\n"
+            f"heading_rad = {_toml_numbers(moment['heading_rad'], '')}\n"
+        )
+        for key in ("moment_real_N", "moment_imag_N"):
+            rows = ",\n".join("    " + _toml_numbers(r, "    ") for r in moment[key])
+            text += f"{key} = [\n{rows},\n]\n"
+    return text

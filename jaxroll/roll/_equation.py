@@ -35,7 +35,7 @@ from ..sea._filters import (
     fit_filter_in_band,
 )
 from ..sea._grim import SPECTRUM_GRID, EffectiveWave, spectrum_on_grid
-from ..sea._spectra import AbstractWaveSpectrum
+from ..sea._spectra import AbstractWaveSpectrum, heading_cosine
 from ..ship._restoring import (
     angle_of_maximum_gz,
     backbone_frequency,
@@ -45,12 +45,14 @@ from ..ship._restoring import (
 )
 from ..ship._ship import Ship
 from ..ship._validity import warn_outside_validity
+from ..ship._wave_moment import roll_inertia
 from ._excitation import (
     BLOCK,
     AbstractExcitation,
     FilterExcitation,
     SuperpositionExcitation,
     WaveMomentExcitation,
+    joint_init,
 )
 
 
@@ -104,14 +106,25 @@ def rk4_step(ship: Ship, y, p, m, h, one=None):
 # ----------------------------------------------------------------------------------------------------------------
 
 
-def excitation_bandwidth(wave: EffectiveWave, fraction: float = 0.999) -> float:
-    """Encounter frequency [rad/s] below which `fraction` of the effective-wave variance lies."""
+def _bandwidth(s, fraction: float) -> float:
+    """The frequency of `SPECTRUM_GRID` [rad/s] below which `fraction` of the variance of spectrum `s` lies."""
     w = SPECTRUM_GRID
-    s = np.asarray(spectrum_on_grid(wave))
+    s = np.asarray(s)
     cum = np.concatenate([[0.0], np.cumsum((s[1:] + s[:-1]) / 2 * np.diff(w))])
     if not cum[-1] > 0:
-        return 0.0  # beam seas: ζ_G ≡ 0, no excitation bandwidth
+        return 0.0  # no excitation (e.g. ζ_G in beam seas)
     return float(np.interp(fraction * cum[-1], cum, w))
+
+
+def excitation_bandwidth(
+    wave: EffectiveWave, fraction: float = 0.999, moment: WaveMomentExcitation | None = None
+) -> float:
+    """Encounter frequency [rad/s] below which `fraction` of the effective-wave variance lies, and (with a direct
+    wave `moment`) of the moment's variance too: the larger of the two."""
+    w_max = _bandwidth(spectrum_on_grid(wave), fraction)
+    if moment is not None:
+        w_max = max(w_max, _bandwidth(moment.spectrum(SPECTRUM_GRID), fraction))
+    return w_max
 
 
 #: Relative margin of `parametric_band` on each side: the roll's own bandwidth and the slow modulation of its
@@ -151,21 +164,24 @@ def _warn_if_off_the_band(fit: FilterFit, ship: Ship, wave: EffectiveWave) -> No
         )
 
 
-def check_time_step(dt: float, ship: Ship, wave: EffectiveWave) -> None:
+def check_time_step(
+    dt: float, ship: Ship, wave: EffectiveWave, moment: WaveMomentExcitation | None = None
+) -> None:
     """Validate the time step [s] against the roll period and the excitation bandwidth.
 
     Error when dt > Tφ/10 or ω_max·dt > 1 (RK4 loses accuracy and may go unstable); a warning when
     dt > Tφ/40 or ω_max·dt > 0.6 (halving dt may then change the mean amplitude by more than ~1 %). ω_max is the
-    encounter frequency below which 99.9 % of the effective-wave variance lies.
+    encounter frequency below which 99.9 % of the effective-wave variance lies, and of the direct wave moment's
+    with a `moment` (`excitation_bandwidth`).
     """
     if not (isinstance(dt, int | float) and math.isfinite(dt) and dt > 0):
         raise ValueError(f"`dt` must be a finite number > 0 [s]; got {dt!r}.")
     t_roll = float(ship.roll_period)
-    w_max = max(excitation_bandwidth(wave), 1e-12)  # > 0 for the messages (beam seas have none)
+    w_max = max(excitation_bandwidth(wave, moment=moment), 1e-12)  # > 0 for the messages (beam seas: none)
     if dt > t_roll / 10 or w_max * dt > 1.0:
         raise ValueError(
             f"dt = {dt} s is too large: it must be <= Tφ/10 = {t_roll / 10:.3g} s and <= 1/ω_max = "
-            f"{1 / w_max:.3g} s (ω_max = {w_max:.3g} rad/s holds 99.9 % of the effective-wave variance). "
+            f"{1 / w_max:.3g} s (ω_max = {w_max:.3g} rad/s holds 99.9 % of the excitation's variance). "
             f"Use dt <= {min(t_roll / 40, 0.6 / w_max):.3g} s for ~1 % accuracy."
         )
     if dt > t_roll / 40 or w_max * dt > 0.6:
@@ -175,6 +191,16 @@ def check_time_step(dt: float, ship: Ship, wave: EffectiveWave) -> None:
             f"{min(t_roll / 40, 0.6 / w_max):.3g} s.",
             stacklevel=3,
         )
+
+
+def _moment_excitation(ship: Ship, sea, speed, heading, dt) -> WaveMomentExcitation | None:
+    """The direct wave moment the ship's table (`ship.wave_moment`, per the ship's own roll inertia) gives at this
+    heading; None without a table, and in head and following seas (|cos χ| = 1), where the moment of a hull
+    symmetric port and starboard vanishes and the paper's model runs unchanged."""
+    if ship.wave_moment is None or abs(heading_cosine(heading)) == 1.0:
+        return None
+    table = ship.wave_moment.per_inertia(roll_inertia(ship))
+    return WaveMomentExcitation(sea, table, dt, speed=speed, heading=heading)
 
 
 class RollProblem(eqx.Module):
@@ -226,6 +252,16 @@ class RollProblem(eqx.Module):
                 f"`moment_excitation.dt` ({moment_excitation.dt}) must equal `excitation.dt` ({excitation.dt})."
             )
         if (
+            isinstance(moment_excitation, WaveMomentExcitation)
+            and isinstance(excitation, FilterExcitation | SuperpositionExcitation)
+            and not getattr(excitation, "joint", False)
+        ):
+            raise ValueError(
+                "a WaveMomentExcitation needs ζ_G from the same wave components, or the direct and parametric "
+                "excitations are wrongly independent: use `SuperpositionExcitation(wave, dt, joint=True)`, or "
+                "`RollProblem.from_sea` with a ship carrying the wave moment."
+            )
+        if (
             moment_excitation is not None
             and isinstance(moment_excitation, FilterExcitation)
             and (moment_excitation.substeps != excitation.substeps)
@@ -246,7 +282,7 @@ class RollProblem(eqx.Module):
         *,
         speed: float = 0.0,
         heading: str | float = "head",
-        excitation: str = "filter",
+        excitation: str = "auto",
         dt: float = 0.5,
         filter_order: int | str = "auto",
         phi0: float = math.radians(5.0),
@@ -262,7 +298,12 @@ class RollProblem(eqx.Module):
         - `speed` [m/s]; `heading`: "head" | "following" | χ [rad] in [0, π] (0 following, π/2 beam, π head;
           long-crested). In beam seas the projected wave number is 0: ζ_G ≡ 0 and the roll only decays.
         - `excitation`: "filter" (Method 2, the paper's for Monte Carlo: a shaping filter fitted once to S_G
-          with extra weight at 2ω0, kept in `filter_fit` for the moment method) or "superposition" (Method 1).
+          with extra weight at 2ω0, kept in `filter_fit` for the moment method), "superposition" (Method 1), or
+          "auto" (default): "filter", but "superposition" when the ship carries a wave moment
+          (`ship.wave_moment`) and the heading is oblique or beam (|cos χ| < 1). Then the direct wave moment
+          M_w(t) joins the roll equation, made with ζ_G of the same wave components
+          (`SuperpositionExcitation(joint=True)`, `WaveMomentExcitation`); a shaping filter cannot make both
+          (docs/wave_moment.md), so "filter" is refused for such a run.
         - `dt`: time step [s] (checked against the roll period and the excitation bandwidth).
         - `filter_order`: order of the shaping filter (Method 2), or `"auto"` (default): order 4 where it follows S_G
           within 5 % on `parametric_band(ship)`, the encounter frequencies the roll responds to, else 8 (`fit_filter_in_band`; the order and its band error in `filter_fit.summary()`). The
@@ -279,14 +320,23 @@ class RollProblem(eqx.Module):
         angle).
         """
         require_float64("jaxroll.RollProblem.from_sea")
-        if excitation not in ("filter", "superposition"):
-            raise ValueError(f"`excitation` must be 'filter' or 'superposition'; got {excitation!r}.")
+        if excitation not in ("auto", "filter", "superposition"):
+            raise ValueError(f"`excitation` must be 'auto', 'filter' or 'superposition'; got {excitation!r}.")
         wave = EffectiveWave(sea, ship.lpp, speed, heading, validate=validate)
+        moment = _moment_excitation(ship, sea, speed, heading, dt)
+        if excitation == "auto":
+            excitation = "filter" if moment is None else "superposition"
+        elif excitation == "filter" and moment is not None:
+            raise ValueError(
+                f"the ship carries a direct wave moment, which at heading χ = {math.degrees(wave.heading):.4g}° "
+                "joins the roll equation: a shaping filter cannot make it with ζ_G from the same waves; use "
+                "excitation='superposition' or 'auto' (--method superposition/auto)."
+            )
         if validate:
             for name, value in (("phi0", phi0), ("dphi0", dphi0)):
                 if not math.isfinite(value):
                     raise ValueError(f"`{name}` must be finite; got {value!r}.")
-            check_time_step(dt, ship, wave)
+            check_time_step(dt, ship, wave, moment)
             warn_outside_validity(ship, wave, stacklevel=2)
             capsize = float(vanishing_angle(ship))
             if abs(phi0) >= capsize:
@@ -314,8 +364,8 @@ class RollProblem(eqx.Module):
             source = FilterExcitation(fit.filter, dt, substeps)
         else:
             fit = None
-            source = SuperpositionExcitation(wave, dt)
-        return cls(ship, source, phi0, dphi0, wave=wave, filter_fit=fit)
+            source = SuperpositionExcitation(wave, dt, joint=moment is not None)
+        return cls(ship, source, phi0, dphi0, moment_excitation=moment, wave=wave, filter_fit=fit)
 
     @property
     def dt(self) -> float:
@@ -360,8 +410,20 @@ def _drive(problem: RollProblem, key, num_steps: int, dtype, per_source_step, in
     sources = [problem.excitation]
     if problem.moment_excitation is not None:
         sources.append(problem.moment_excitation)
-    keys = [key, jr.fold_in(key, MOMENT_KEY)][: len(sources)]
-    inits = [src.init(k, num_steps, m, dtype) for src, k in zip(sources, keys, strict=True)]
+    # a WaveMomentExcitation draws the realization's own wave components (those of a joint ζ_G): the same key
+    keys = [
+        key,
+        key if isinstance(problem.moment_excitation, WaveMomentExcitation) else jr.fold_in(key, MOMENT_KEY),
+    ]
+    keys = keys[: len(sources)]
+    if getattr(problem.excitation, "joint", False) and isinstance(
+        problem.moment_excitation, WaveMomentExcitation
+    ):
+        inits = joint_init(
+            problem.excitation, problem.moment_excitation, key, num_steps, m, dtype
+        )  # one pass
+    else:
+        inits = [src.init(k, num_steps, m, dtype) for src, k in zip(sources, keys, strict=True)]
 
     def source_step(carry, inputs):
         states, x_start, inner = carry

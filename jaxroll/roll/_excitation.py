@@ -23,8 +23,8 @@ from jaxtyping import Array, Complex, Float, PRNGKeyArray
 
 from .._compiled import cached_program
 from ..sea._filters import ShapingFilter, psd_sqrt
-from ..sea._grim import EffectiveWave, superpose, superposition_length
-from ..sea._spectra import AbstractWaveSpectrum, encounter_branches, heading_angle, heading_cosine
+from ..sea._grim import EffectiveWave, grim_transfer, superpose, superposition_length
+from ..sea._spectra import GRAVITY, AbstractWaveSpectrum, encounter_branches, heading_angle, heading_cosine
 from ..ship._wave_moment import WaveMoment
 
 BLOCK = 128  # source steps per noise block (block j of a realization keyed k draws from fold_in(k, j))
@@ -355,28 +355,83 @@ class SampledExcitation(AbstractExcitation):
         return state, tuple(values[j] for j in range(2 * m))
 
 
+#: A realization keyed k draws its wave components (`encounter_components`) from fold_in(k, COMPONENTS_KEY).
+COMPONENTS_KEY = 0x7FFFFFFE
+
+
+def encounter_components(
+    sea: AbstractWaveSpectrum, projected_speed, following: bool, key, size: int, dt: float
+):
+    """The wave components of one realization in encounter frequency, per encounter branch: what Grim's effective
+    wave and the direct wave moment of that realization are both made of (`SuperpositionExcitation(joint=True)`,
+    `WaveMomentExcitation`), so that their cross-correlation is the sea's.
+
+    At ω_e,j = 2πj/(size·dt), each wave frequency ω_b that meets the ship at ω_e,j (one branch in head and beam
+    seas, up to three in following seas: `jaxroll.sea.encounter_frequency`) has the complex Gaussian amplitude
+    a_jb = √(S(ω_b)/|dω_e/dω| Δω_e) (x + iy)·size/2, x, y standard normals (`block_normals` of block
+    COMPONENTS_KEY of the realization keyed `key`): a process with the transfer T(ω) is the irfft of
+    Σ_b T(ω_b) a_jb (T conjugated on branch 3, where ω − kU cos χ < 0 and the component turns the other way).
+    Zero at ω_e = 0 and at the Nyquist frequency.
+
+    **Arguments:** `sea`: one-sided sea spectrum; `projected_speed`: U|cos χ| [m/s]; `following`: cos χ > 0;
+    `size`: the FFT length (`superposition_length`); `dt` [s].
+
+    **Returns:** `(omega_e [size//2 + 1] rad/s, omegas [size//2 + 1, branches] rad/s, amplitudes (same shape,
+    complex) [m])`, branches 3 in following seas, else 1.
+    """
+    domega = 2 * np.pi / (size * dt)
+    omega_e = jnp.arange(size // 2 + 1, dtype=float) * domega
+    omegas, weights = encounter_branches(omega_e, projected_speed, following)
+    branches = 3 if following else 1
+    interior = (omega_e > 0) & (omega_e < omega_e[-1])
+    xy = block_normals(key, COMPONENTS_KEY, (branches, 2, omega_e.size)).astype(omega_e.dtype)
+    amplitudes = []
+    for b in range(branches):
+        valid = interior & (weights[:, b] > 0)
+        var = jnp.where(valid, sea(omegas[:, b]) * weights[:, b] * domega, 1.0)
+        amp = jnp.where(valid & (var > 0), jnp.sqrt(jnp.where(var > 0, var, 1.0)) * size / 2, 0.0)
+        amplitudes.append(jax.lax.complex(amp * xy[b, 0], amp * xy[b, 1]))
+    return omega_e, omegas[:, :branches], jnp.stack(amplitudes, -1)
+
+
+def _synthesise(coefs, omega_e, size: int, num_samples: int, dtype):
+    """The processes and their time derivatives on t = 0, dt, … (`num_samples` each, cast to `dtype`) from their
+    one-sided FFT coefficients `coefs` [processes, size//2 + 1] at `omega_e` [rad/s]: one batched inverse FFT.
+    **Returns:** `[(x, dx), …]` per process."""
+    both = jnp.concatenate([coefs, jax.lax.complex(jnp.zeros_like(omega_e), omega_e) * coefs])
+    out = jnp.fft.irfft(both, n=size, axis=-1)[:, :num_samples].astype(dtype)
+    k = coefs.shape[0]
+    return [(out[i], out[k + i]) for i in range(k)]
+
+
 class SuperpositionExcitation(AbstractExcitation):
     """Method 1: component superposition synthesised by FFT over the whole trial (see `jaxroll.superpose`).
-    The synthesis runs in float64 whatever the run's dtype (the integrator leaves `wave` as it is)."""
+    The synthesis runs in float64 whatever the run's dtype (the integrator leaves `wave` as it is).
+
+    `joint=True`: ζ_G is made of the realization's wave components per encounter branch
+    (`encounter_components`), the same components a `WaveMomentExcitation` of the problem makes M_w of, each
+    multiplied by Grim's transfer: the two are then one realization of the sea, correlated as the sea makes them
+    (`RollProblem.from_sea` does this for a ship carrying a wave moment; the integrator synthesises both in one
+    pass, `joint_init`). The same law as `joint=False`, other random numbers."""
 
     wave: EffectiveWave
     dt: float = eqx.field(static=True)
     substeps: int = eqx.field(static=True, default=1)
+    joint: bool = eqx.field(static=True, default=False)
 
-    def __init__(self, wave: EffectiveWave, dt: float):
-        """**Arguments:** `wave`: Grim's effective wave; `dt`: time step [s]."""
+    def __init__(self, wave: EffectiveWave, dt: float, *, joint: bool = False):
+        """**Arguments:** `wave`: Grim's effective wave; `dt`: time step [s]; `joint`: synthesise from the
+        components shared with a `WaveMomentExcitation` (above)."""
         self.wave = wave
         self.dt = float(dt)
+        self.joint = bool(joint)
 
     def init(self, key, num_steps, m, dtype):
+        if self.joint:
+            return joint_init(self, None, key, num_steps, m, dtype)[0]
         n = _padded_length(num_steps, m)
-        if superposition_length(n) > 2**24:
-            raise ValueError(
-                f"superposition of {n} samples is too long for one FFT; use the filter method for long trials."
-            )
-        zeta, dzeta = (
-            x.astype(dtype) for x in superpose(self.wave, key, n, self.dt)
-        )  # synthesised in float64
+        _check_length(n)
+        zeta, dzeta = (x.astype(dtype) for x in superpose(self.wave, key, n, self.dt))  # in float64
         return (zeta, dzeta), zeta[0]
 
     def block_inputs(self, key, state, index, m):
@@ -385,16 +440,56 @@ class SuperpositionExcitation(AbstractExcitation):
     def advance(self, state, values, m):
         return state, tuple(values[j] for j in range(2 * m))
 
+    def coefficients(self, omegas, amps):
+        """The FFT coefficients of ζ_G from the realization's components (`encounter_components`):
+        Σ_b F_Grim(k_b |cos χ|) a_b, Grim's transfer being real."""
+        projection = jnp.abs(self.wave.cos_heading)
+        g = grim_transfer(omegas**2 / GRAVITY * projection, self.wave.length)
+        coef = jnp.zeros(amps.shape[:1], dtype=amps.dtype)
+        for b in range(amps.shape[1]):
+            coef = coef + amps[:, b] * jax.lax.complex(g[:, b], jnp.zeros_like(g[:, b]))
+        return coef
+
+
+def _check_length(n: int) -> None:
+    if superposition_length(n) > 2**24:
+        raise ValueError(
+            f"superposition of {n} samples is too long for one FFT; use the filter method for long trials, or "
+            "shorten the trial or lengthen dt."
+        )
+
+
+def joint_init(zeta_source, moment_source, key, num_steps: int, m: int, dtype) -> list:
+    """`init` of a joint `SuperpositionExcitation` and (or, when None) its problem's `WaveMomentExcitation` for the
+    realization keyed `key`, from one draw of the wave components (`encounter_components`) and one batched inverse
+    FFT: `[(state, value at t = 0)]` per source given, as each one's own `init` (the same realization)."""
+    sources = [s for s in (zeta_source, moment_source) if s is not None]
+    n = _padded_length(num_steps, m)
+    _check_length(n)
+    size = superposition_length(n)
+    if moment_source is not None:
+        sea, speed, following = moment_source.sea, moment_source.speed, moment_source.following
+    else:
+        wave = zeta_source.wave
+        sea, speed, following = wave.sea, wave.speed * jnp.abs(wave.cos_heading), wave.following
+    omega_e, omegas, amps = encounter_components(sea, speed, following, key, size, sources[0].dt)
+    coefs = jnp.stack([s.coefficients(omegas, amps) for s in sources])
+    return [((x, dx), x[0]) for x, dx in _synthesise(coefs, omega_e, size, n, dtype)]
+
 
 class WaveMomentExcitation(AbstractExcitation):
     """The direct wave roll moment per unit roll inertia M_w(t) [rad/s²] of a long-crested sea, synthesised by FFT
     over the whole trial like `SuperpositionExcitation`.
 
     Components sit at encounter frequencies ω_e,j = 2πj/(M dt); each wave frequency ω that meets the ship at ω_e,j
-    (one in head and beam seas, up to three in following seas: `jaxroll.sea.encounter_frequency`) adds an
-    independent complex Gaussian amplitude of variance S(ω)Δω_e/|dω_e/dω| times the transfer F(ω, χ)/I44 of the
-    `WaveMoment` (conjugated where ω − kU cos χ < 0). M_w(t) is exactly Gaussian with the spectrum
-    Σ |F/I44|² S/|dω_e/dω|. Synthesised in float64 whatever the run's dtype.
+    (one in head and beam seas, up to three in following seas: `jaxroll.sea.encounter_frequency`) adds its
+    complex Gaussian amplitude of variance S(ω)Δω_e/|dω_e/dω| (`jaxroll.sea.encounter_components`) times the
+    transfer F(ω, χ)/I44 of the `WaveMoment` (conjugated where ω − kU cos χ < 0). M_w(t) is exactly Gaussian with
+    the spectrum Σ |F/I44|² S/|dω_e/dω| (`spectrum`). Synthesised in float64 whatever the run's dtype.
+
+    The realization keyed k draws the same components as a `SuperpositionExcitation(wave, dt, joint=True)` keyed
+    k: in a `RollProblem` the two make ζ_G and M_w of one realization of the sea (the integrator gives both the
+    realization's key).
     """
 
     sea: AbstractWaveSpectrum
@@ -442,32 +537,26 @@ class WaveMomentExcitation(AbstractExcitation):
         im = jnp.interp(omega, self.omega, self.transfer.imag, right=0.0)
         return jax.lax.complex(re, im)
 
-    def init(self, key, num_steps, m, dtype):
-        n = _padded_length(num_steps, m)
-        size = superposition_length(n)
-        if size > 2**24:
-            raise ValueError(
-                f"superposition of {n} samples is too long for one FFT; shorten the trial or lengthen dt."
-            )
-        domega = 2 * np.pi / (size * self.dt)
-        omega_e = jnp.arange(size // 2 + 1, dtype=float) * domega
-        omegas, weights = encounter_branches(omega_e, self.speed, self.following)
-        branches = 3 if self.following else 1
-        interior = (omega_e > 0) & (omega_e < omega_e[-1])
-        coef = jnp.zeros(omega_e.shape, dtype=self.transfer.dtype)
-        xy = jr.normal(key, (branches, 2, omega_e.size))
-        for b in range(branches):
+    def spectrum(self, omega_e) -> Float[Array, "..."]:
+        """One-sided spectrum of M_w, S_M(ω_e) = Σ_b |F(ω_b, χ)/I44|² S(ω_b)/|dω_e/dω| [rad²/s⁴ · s/rad], at
+        encounter frequencies ω_e [rad/s]."""
+        omegas, weights = encounter_branches(jnp.asarray(omega_e, dtype=float), self.speed, self.following)
+        f = self.transfer_at(omegas)
+        return jnp.sum(jnp.abs(f) ** 2 * self.sea(omegas) * weights, axis=-1)
+
+    def coefficients(self, omegas, amps):
+        """The FFT coefficients of M_w from the realization's components (`encounter_components`):
+        Σ_b F(ω_b, χ)/I44 a_b, F conjugated on branch 3."""
+        coef = jnp.zeros(amps.shape[:1], dtype=amps.dtype)
+        for b in range(amps.shape[1]):
             f = self.transfer_at(omegas[:, b])
             if b == 2:  # ω − kU cos χ = −ω_e: the component turns the other way
                 f = jnp.conj(f)
-            valid = interior & (weights[:, b] > 0)
-            var = jnp.where(valid, self.sea(omegas[:, b]) * weights[:, b] * domega, 1.0)
-            amp = jnp.where(valid & (var > 0), jnp.sqrt(jnp.where(var > 0, var, 1.0)) * size / 2, 0.0)
-            coef = coef + f * jax.lax.complex(amp * xy[b, 0], amp * xy[b, 1])
-        mw = jnp.fft.irfft(coef, n=size)[:n]
-        dmw = jnp.fft.irfft(jax.lax.complex(jnp.zeros_like(omega_e), omega_e) * coef, n=size)[:n]
-        mw, dmw = mw.astype(dtype), dmw.astype(dtype)
-        return (mw, dmw), mw[0]
+            coef = coef + f * amps[:, b]
+        return coef
+
+    def init(self, key, num_steps, m, dtype):
+        return joint_init(None, self, key, num_steps, m, dtype)[0]
 
     def block_inputs(self, key, state, index, m):
         return _half_step_values(*state, index, m, jnp.asarray(self.dt, state[0].dtype))

@@ -58,7 +58,7 @@ def sweep_sea_states(
     num_realizations: int = 200,
     duration: float = 1800.0,
     discard: float = 0.0,
-    excitation: str = "filter",
+    excitation: str = "auto",
     dt: float = 0.5,
     filter_order: int | str = "auto",
     phi0: float = math.radians(5.0),

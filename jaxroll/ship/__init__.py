@@ -69,6 +69,8 @@ from ._validity import (
 from ._wave_moment import (
     WaveMoment as WaveMoment,
     froude_krylov_roll_moment as froude_krylov_roll_moment,
+    moment_table as moment_table,
     roll_inertia as roll_inertia,
+    ship_file_frequencies as ship_file_frequencies,
     wave_moment as wave_moment,
 )

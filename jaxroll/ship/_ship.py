@@ -9,7 +9,7 @@ A `Ship` holds everything the 1-DOF roll equation needs, at full scale and in SI
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import equinox as eqx
 import jax.numpy as jnp
@@ -18,6 +18,9 @@ from jaxtyping import Array, Float
 
 from .._compiled import as_float
 from .._display import module_repr
+
+if TYPE_CHECKING:
+    from ._wave_moment import WaveMoment
 
 DEFAULT_SHIP_NOTE = (
     "C11 (representative): the particulars are the paper's Table 1 (Katsumura et al., arXiv 2407.02728); "
@@ -44,6 +47,7 @@ class Ship(eqx.Module):
     damping: Float[Array, " 3"]
     delta_gm: Float[Array, " 7"]
     gm_correction: Float[Array, ""]
+    wave_moment: WaveMoment | None
     name: str = eqx.field(static=True, default="unnamed ship")
     provenance: str = eqx.field(static=True, default="")
 
@@ -62,9 +66,16 @@ class Ship(eqx.Module):
         damping,
         delta_gm,
         gm_correction=1.0,
+        wave_moment: WaveMoment | None = None,
         name: str = "unnamed ship",
         provenance: str = "",
     ):
+        """Keyword arguments, SI units (docs/ship_file.md): the particulars `lpp`, `breadth`, `depth`, `draught`
+        [m], `displacement` [kg], `block_coefficient` [-], `gm0` [m], `roll_period` Tφ [s]; `restoring` (a3, a5,
+        a7, a9), `damping` (b1 [1/s], b2 [1/rad], b3 [s/rad²]), `delta_gm` (C0 … C6 [m^(1−k)]), `gm_correction`
+        σ_obs/σ_thr; `wave_moment`: optional direct wave roll moment of the hull
+        ([`WaveMoment`][jaxroll.ship.WaveMoment], `jaxroll.ship.wave_moment`), which every run at a heading with
+        |cos χ| < 1 adds to the roll equation (docs/wave_moment.md; None: the paper's parametric-only model)."""
         scalars = dict(
             lpp=lpp,
             breadth=breadth,
@@ -90,6 +101,7 @@ class Ship(eqx.Module):
             if arr.shape != (size,):
                 raise ValueError(f"Ship `{key}` must have shape ({size},); got {arr.shape}.")
             setattr(self, key, arr)
+        self.wave_moment = wave_moment
         self.name = name
         self.provenance = provenance
 

@@ -205,6 +205,14 @@ class WaveMoment(eqx.Module):
         im = jnp.interp(omega, self.omega, row.imag)
         return jnp.where(inside, jax.lax.complex(re, im), jnp.zeros((), dtype=row.dtype))
 
+    def per_inertia(self, inertia: ArrayLike) -> "WaveMoment":
+        """The same moment F per another roll inertia I44 [kg m²] (e.g. `roll_inertia` of a ship whose Tφ or GM0
+        differs from the one the table was made for): values × (`inertia` of the table / `inertia`)."""
+        inertia = jnp.asarray(inertia, dtype=float)
+        return eqx.tree_at(
+            lambda t: (t.values, t.inertia), self, (self.values * _complex(self.inertia / inertia), inertia)
+        )
+
     def at_heading(self, heading: ArrayLike) -> Complex[Array, " n"]:
         """The table's row at heading χ [rad] (scalar), linear between the grid's headings [rad/s² per m].
 
@@ -236,6 +244,13 @@ DEFAULT_HEADINGS = np.linspace(0.0, math.pi, 13)
 """Headings [rad] of `wave_moment`'s default table (0–180°, step 15°)."""
 
 
+def ship_file_frequencies(draught: float) -> np.ndarray:
+    """The wave frequencies [rad/s] `jaxroll hydrostatics --wave-moment` tabulates for a hull of `draught` d [m]:
+    301 from 0 to max(6, √(g ln 10⁴ / d)) rad/s, past where the pressure at the keel has fallen to e^{−kd} = 10⁻⁴
+    (a ship file of ~100 kB with 13 headings)."""
+    return np.linspace(0.0, max(6.0, math.sqrt(GRAVITY * math.log(1e4) / float(draught))), 301)
+
+
 def wave_moment(
     hull: Hull,
     loading: Loading,
@@ -255,6 +270,12 @@ def wave_moment(
     """
     omega = DEFAULT_OMEGA if omega is None else np.asarray(omega, dtype=float)
     headings = DEFAULT_HEADINGS if headings is None else np.atleast_1d(np.asarray(headings, dtype=float))
+    _check_grid(omega, headings)
+    moment = froude_krylov_roll_moment(hull, loading, omega[None, :], headings[:, None])
+    return moment_table(omega, headings, moment, ship)
+
+
+def _check_grid(omega: np.ndarray, headings: np.ndarray) -> None:
     if omega.ndim != 1 or omega.size < 2 or omega[0] != 0 or not np.all(np.diff(omega) > 0):
         raise ValueError(
             "`omega` must be a 1-D grid of wave frequencies [rad/s] increasing from 0, at least 2 values; "
@@ -266,11 +287,33 @@ def wave_moment(
         or not np.all((headings >= 0) & (headings <= math.pi))
     ):
         raise ValueError(f"`headings` must be increasing angles χ in [0, π] rad; got {headings!r}.")
-    moment = froude_krylov_roll_moment(hull, loading, omega[None, :], headings[:, None])
+
+
+def moment_table(
+    omega: ArrayLike, headings: ArrayLike, moment: ArrayLike, ship: Ship, source: str = "froude-krylov"
+) -> WaveMoment:
+    """A [`WaveMoment`][] from the roll moment F(ω, χ) [N m per m of wave amplitude] on a grid (e.g. read from a
+    ship file): F / I44 of `ship` ([`roll_inertia`][]).
+
+    **Arguments:** `omega` [rad/s], increasing from 0; `headings` χ [rad], increasing, in [0, π]; `moment`:
+    complex F, shape (headings, frequencies), finite; `ship`: whose inertia divides F; `source`: how F was made.
+
+    **Raises:** `ValueError` for a grid as `wave_moment` refuses it, or a moment of another shape or not finite.
+    """
+    omega = np.asarray(omega, dtype=float)
+    headings = np.atleast_1d(np.asarray(headings, dtype=float))
+    _check_grid(omega, headings)
+    moment = jnp.asarray(moment)
+    if moment.shape != (headings.size, omega.size) or not np.all(np.isfinite(np.asarray(moment))):
+        raise ValueError(
+            f"the wave moment must be finite, one row of {omega.size} frequencies per heading "
+            f"({headings.size}); got shape {moment.shape}."
+        )
     inertia = roll_inertia(ship)
     return WaveMoment(
         omega=jnp.asarray(omega),
         headings=jnp.asarray(headings),
-        values=moment / _complex(inertia),
+        values=moment.astype(complex) / _complex(inertia),
         inertia=inertia,
+        source=source,
     )

@@ -44,6 +44,9 @@ from ._excitation import (
     parametric_spectrum as parametric_spectrum,
     welch_parametric_spectrum as welch_parametric_spectrum,
 )
+from ._linear import (
+    linear_roll_variance as linear_roll_variance,  # the direct wave moment's exact linear roll
+)
 from ._moment_branch import MomentBranch as MomentBranch, moment_branch as moment_branch
 
 # --- moment equations ---

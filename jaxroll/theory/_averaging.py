@@ -40,6 +40,7 @@ from ._averaged_law import (
     _with_parameters,
 )
 from ._excitation import ParametricSpectrum, parametric_spectrum
+from ._linear import refuse_wave_moment
 
 _TAIL_EXPONENT = 80.0  # linear Roberts: the grid ends where c2 A + c3 A² = 80 (p below e^-80 of its scale)
 
@@ -392,6 +393,7 @@ def roberts_pdf(
 
     jit-able and differentiable (e.g. `jax.grad` of `.sf(a)` with respect to ship fields or H1/3).
     """
+    refuse_wave_moment(ship, wave, "roberts")
     require_float64("jaxroll.theory.roberts_pdf")
     check_estimator(estimator)
     spectrum = _as_spectrum(ship, wave)
@@ -600,6 +602,7 @@ def esam_pdf(
 
     **Returns:** `AveragedAmplitudeLaw` (`method="esam"`).
     """
+    refuse_wave_moment(ship, wave, "esam")
     require_float64("jaxroll.theory.esam_pdf")
     check_estimator(estimator)
     spectrum = _as_spectrum(ship, wave)

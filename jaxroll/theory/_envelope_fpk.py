@@ -55,6 +55,7 @@ from ..ship._restoring import vanishing_angle
 from ..ship._ship import Ship
 from ._envelope_fpk_law import EnvelopeExcitation, EnvelopeFPKLaw
 from ._excitation import hermite_coefficients
+from ._linear import refuse_wave_moment
 
 _NUM_H = 7  # Hermite coefficients h_0 … h_6 of ΔGM
 
@@ -571,6 +572,7 @@ def envelope_fpk_pdf(
     **Raises:** `ValueError` for bad arguments or (with `throw`) λ ≤ 0; `EquinoxRuntimeError` for the latter
     under `jit`/`grad`.
     """
+    refuse_wave_moment(ship, wave, "envelope_fpk")
     require_float64("jaxroll.theory.envelope_fpk_pdf")
     check_estimator(estimator)
     grid = _grid(num_s, num_s_coarse, num_rho, num_theta, rho_max, a_fine, a_min, num_corrections)

@@ -64,6 +64,7 @@ from ._envelope_fpk import (
     fit_envelope,
 )
 from ._envelope_fpk_law import EnvelopeExcitation
+from ._linear import refuse_wave_moment
 
 
 class PassageRisk(eqx.Module):
@@ -296,6 +297,7 @@ def passage_risk(
     (its vanishing angle unknown while tracing: vmap over sea states with the ship fixed, or
     `passage_risk_batch`).
     """
+    refuse_wave_moment(ship, wave, "passage_risk")
     require_float64("jaxroll.theory.passage_risk")
     grid, angles, durations, order, grids, reuse = _checked(
         ship,
@@ -381,6 +383,8 @@ def passage_risk_batch(
 
     **Raises:** `ValueError` as `passage_risk`, for an empty `waves`, or waves of different kinds.
     """
+    for w in waves if isinstance(waves, list | tuple) else (waves,):
+        refuse_wave_moment(ship, w, "passage_risk")
     require_float64("jaxroll.theory.passage_risk_batch")
     with single_threaded_blas():
         return jax.block_until_ready(

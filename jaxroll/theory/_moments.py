@@ -22,6 +22,7 @@ from ..sea._filters import FilterFit, ShapingFilter, fit_filter
 from ..sea._grim import EffectiveWave
 from ..ship._ship import Ship
 from ._averaging import _harmonic_frequency2
+from ._linear import refuse_wave_moment
 from ._moment_equations import roll_sde
 from ._moment_solver import RESULTS, StationaryMoments, raise_if_failed, stationary_moments, succeeded
 
@@ -447,6 +448,7 @@ def moment_pdf(
         Differentiable with respect to ship and sea parameters (`jax.grad` of e.g. `sf(jnp.deg2rad(20.0))`):
         the filter fit, the Newton root and the PDF fit are differentiated implicitly by optimistix.
     """
+    refuse_wave_moment(ship, wave, "moment")
     require_float64("jaxroll.theory.moment_pdf")
     check_estimator(estimator)
     if envelope not in ENVELOPES:

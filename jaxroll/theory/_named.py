@@ -47,6 +47,7 @@ from ..ship._ship import Ship
 from ..ship._validity import warn_outside_validity
 from ._averaging import _finish, esam_pdf, roberts_pdf
 from ._envelope_fpk import dies_out_error, envelope_fpk_pdf
+from ._linear import refuse_wave_moment, wave_moment_refusal
 from ._moment_equations import _roll_sde, moment_equations, zero_pattern
 from ._moment_solver import RESULTS, succeeded, tables_as_inputs
 from ._moments import (
@@ -287,6 +288,7 @@ def theory_law(
     method); a `UserWarning` when the moment method falls back to closure order 4 (unless `warn=False`). Under
     `jax.jit`, `grad` or `vmap` the public function itself is called (it is the same computation).
     """
+    refuse_wave_moment(ship, wave, name)
     require_float64("jaxroll.theory.theory_law")
     _check_name(name)
     check_estimator(estimator)
@@ -375,6 +377,11 @@ def iter_theory_summaries(
     if not all(0 < q < 1 for q in levels):
         raise ValueError(f"`levels` must lie strictly between 0 and 1; got {levels!r}.")
     edges = np.deg2rad(bins)
+    if ship.wave_moment is not None and getattr(wave, "projected", False):  # `refuse_wave_moment`, every name
+        errors = [(name, ValueError(wave_moment_refusal(name))) for name in names]
+        if not return_exceptions and errors:
+            raise errors[0][1]
+        return iter(errors)
     warn_outside_validity(ship, wave, names)
     # Each theory's program is traced (or loaded) and compiled in a thread of its own: XLA compiles without the
     # GIL, so one theory's compilation overlaps another's tracing and the caller's own work (`jaxroll pdf`: the
