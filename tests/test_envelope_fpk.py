@@ -69,11 +69,12 @@ def test_normalised_and_mean_is_integral(laws_7m):
 
 
 def test_mean_equals_lyapunov_exponent_over_damping(laws_7m):
-    """Stationarity of ṡ = −δ(a) + ξ gives E[A] = λ/c (c = 4 b2 ω/3π, b3 = 0) when the phase dynamics does not
-    depend on a; the softening GZ keeps the default ship within 1 % (7 m: λ/c = 9.76°, mean 9.78°)."""
+    """Stationarity of ṡ = −δ(a) + ξ gives E[A] = λ/c (c = 4 b2 ω/3π, b3 = 0) when neither the phase dynamics nor
+    the coupling depends on a; the softening GZ moves both (through the detuning and the resonant level over the
+    locking band), and the default ship stays within 2.5 % (7 m: 1.7 % since the resonant level, 1 % before)."""
     ship, _, env, _ = laws_7m
     c = 4 * float(ship.damping[1]) * float(env.excitation.omega) / (3 * np.pi)
-    assert abs(float(env.lyapunov_exponent) / c / float(env.mean()) - 1) < 0.01
+    assert abs(float(env.lyapunov_exponent) / c / float(env.mean()) - 1) < 0.025
 
 
 def _linear_ship(c1):
@@ -95,6 +96,47 @@ def test_small_excitation_limit_is_roberts():
         errors.append(abs((float(lam) + 0.01 / 2) / k - 1))
     assert errors[2] < errors[1] < errors[0]
     assert errors[1] < 0.05 and errors[2] < 0.01
+
+
+@pytest.mark.parametrize("hs, speed, measured", [(6.0, 0.0, 1.01), (8.0, 5.0, 0.96)])
+def test_lyapunov_exponent_is_the_linearised_rolls_in_the_exact_sea(hs, speed, measured):
+    """λ against the growth rate of the linearised roll φ̈ + b1φ̇ + (ω0² + P(t))φ = 0 simulated directly under
+    the superposed (exactly Gaussian) effective wave: RK4 at 0.2 s, 16 × 10 000 s, 3 % standard error. T01 10 s,
+    head seas. Before the resonant level over the locking band and the mean stiffness in the detuning (issue 42)
+    the model's λ was ×0.73 of it at 8 m, 5 m/s (where S_G is asymmetric about 2ω); measured now ×1.01 and ×0.96
+    (32 × 20 000 s)."""
+    from jaxroll.sea._grim import superpose
+
+    ship = SHIP
+    sea = jaxroll.ITTC(hs, 10.0)
+    wave = jaxroll.EffectiveWave(sea, ship.lpp, speed, "head")
+    dt, n, runs = 0.2, 50_000, 16
+
+    @jax.jit
+    def growth(key):
+        zeta, _ = superpose(wave, key, 2 * n + 1, dt / 2)
+        p = jaxroll.parametric_excitation(ship, zeta)
+
+        def f(y, q):
+            return jnp.array([y[1], -ship.damping[0] * y[1] - (ship.omega0**2 + q) * y[0]])
+
+        def step(carry, i):
+            y, log_growth = carry
+            k1 = f(y, p[2 * i])
+            k2 = f(y + dt / 2 * k1, p[2 * i + 1])
+            k3 = f(y + dt / 2 * k2, p[2 * i + 1])
+            k4 = f(y + dt * k3, p[2 * i + 2])
+            y = y + dt / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+            norm = jnp.hypot(y[0], y[1] / ship.omega0)
+            return (y / norm, log_growth + jnp.log(norm)), None
+
+        (_, log_growth), _ = jax.lax.scan(step, (jnp.array([1.0, 0.0]), 0.0), jnp.arange(n))
+        return log_growth / (n * dt)
+
+    rates = np.asarray(jax.lax.map(growth, jax.random.split(jax.random.key(3), runs)))
+    simulated, se = rates.mean(), rates.std(ddof=1) / np.sqrt(runs)
+    lam = float(theory.envelope_lyapunov_exponent(ship, wave)[0])
+    assert abs(lam / simulated - 1) < 0.05 + 3 * se / simulated, (lam, simulated, se, measured)
 
 
 def test_roll_dies_out_below_threshold():
@@ -217,7 +259,7 @@ def test_theory_command_runs_envelope_fpk(tmp_path):
     edges = np.asarray(d["bins_deg"], float)
     assert np.sum(np.asarray(t["pdf"]) * np.diff(edges)) == pytest.approx(1 - t["mass_beyond_grid"], abs=1e-9)
     assert t["method"] == "envelope_fpk" and t["grid"]["num_theta"] == 20 and t["estimator"] == "envelope"
-    assert t["mean_amplitude_deg"] == pytest.approx(9.77, abs=0.01)  # default grid (docs/theory.md §6)
+    assert t["mean_amplitude_deg"] == pytest.approx(9.76, abs=0.01)  # default grid (docs/theory.md §6)
 
 
 # ------------------------------------------------------------------------------------------------------------
@@ -404,4 +446,4 @@ def test_theory_summary_is_the_public_law_and_summary():
     np.testing.assert_allclose(
         list(got["parameters"].values()), list(ref_details["parameters"].values()), rtol=1e-12
     )
-    assert summary["mean_amplitude_deg"] == pytest.approx(9.77, abs=0.005)
+    assert summary["mean_amplitude_deg"] == pytest.approx(9.764, abs=0.005)

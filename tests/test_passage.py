@@ -88,10 +88,13 @@ def default_grid_risks():
     }
 
 
-def test_within_a_factor_1_25_of_the_direct_monte_carlo(default_grid_risks):
-    """Issue 34's target: wherever the Monte Carlo's P lies in [1e-3, 0.95], theory / MC within [1/1.25, 1.25];
-    the independent-amplitude route of the same model misses it (measured ×1.16–2.29; ×1.15 worst here)."""
-    checked, worst, independent_worst = 0, 1.0, 1.0
+def test_against_the_order_4_monte_carlo(default_grid_risks):
+    """Issue 34's comparison (docs/theory.md §7's table): the order-4 filter's Monte Carlo, itself 10–20 % low at
+    T01 10 s against the exact sea (docs/validation.md). Wherever its P lies in [1e-3, 0.95] the theory is within
+    ×1.25 of it (measured ×0.90–1.22 since the resonant level over the locking band, ×0.85–1.00 before: the theory
+    moved towards the exact sea, above this low reference); the independent-amplitude route of the same model
+    misses it (×1.8 and more)."""
+    checked, ratios, independent_worst = 0, [], 1.0
     for case in _reference_cases():
         risk = default_grid_risks[case["hs"]]
         j = [3600.0, 10800.0].index(3600.0 * case["hours"])
@@ -99,21 +102,37 @@ def test_within_a_factor_1_25_of_the_direct_monte_carlo(default_grid_risks):
             if not 1e-3 <= p_mc <= 0.95:
                 continue
             p = float(risk.probability[i, j])
-            ratio = p / p_mc
-            assert 1 / 1.25 <= ratio <= 1.25, (
-                case["hs"],
-                case["hours"],
-                case["angles_deg"][i],
-                p,
-                p_mc,
-                (lo, hi),
-            )
-            worst = max(worst, ratio, 1 / ratio)
+            ratios.append(p / p_mc)
+            assert 1 / 1.25 <= p / p_mc <= 1.25, (case["hs"], case["hours"], case["angles_deg"][i], p, p_mc)
             independent_worst = max(independent_worst, float(risk.independent_probability[i, j]) / p_mc)
             checked += 1
     assert checked >= 12
     assert independent_worst > 1.8  # what treating the amplitudes as independent gives (same model)
-    assert worst < 1.2  # measured 1.174
+    assert max(max(ratios), 1 / min(ratios)) < 1.23  # measured 1.222 (5 m, 40°, 3 h)
+
+
+EXACT = json.loads((REFERENCE.parent / "exact_reference.json").read_text())["cells"]
+
+
+def test_against_the_exact_sea_at_t01_10s():
+    """The exact-spectrum reference (benchmarks/exact_reference.py, 12 000 trials a cell) at H1/3 6 and 8 m, T01
+    10 s, head seas, 0 m/s, 25–45°, 1 h and 3 h: within ×1.25 wherever 1e-3 ≤ P_exact ≤ 0.95 and at least 25
+    exceedances (measured ×0.81–0.95; before the resonant level over the locking band ×0.75–0.94)."""
+    angles = [25.0, 30.0, 35.0, 40.0, 45.0]
+    checked = 0
+    for hs in (6.0, 8.0):
+        risk = theory.passage_risk(SHIP, _wave(hs), np.deg2rad(angles), [3600.0, 10800.0])
+        cell = EXACT[f"hs{hs:g}_t10_chi180_u0"]
+        for i, a in enumerate(angles):
+            for j, hours in enumerate(("1", "3")):
+                x = cell["exceedances"][hours][f"{a:g}"]
+                p_exact = x / cell["trials"]
+                if not (1e-3 <= p_exact <= 0.95 and x >= 25):
+                    continue
+                ratio = float(risk.probability[i, j]) / p_exact
+                assert 1 / 1.25 <= ratio <= 1.25, (hs, hours, a, ratio)
+                checked += 1
+    assert checked >= 10
 
 
 def test_clusters_and_rates_are_consistent(default_grid_risks):
@@ -208,7 +227,7 @@ def test_block_thomas_with_inverted_pivots_equals_a_dense_solve():
     q = np.asarray(fpk._solve(md, fpk._factorise(md, 0.0, False, kill), rhs))
     dense = np.zeros((ns * m, ns * m))
     for i in range(ns):
-        block = fpk._slice_operator(md, jnp.exp(md.sc[i])) + jnp.diag(md.diag_s[i] - kill[i])
+        block = fpk._slice_operator(md, jnp.exp(md.sc[i]), md.level[i]) + jnp.diag(md.diag_s[i] - kill[i])
         dense[i * m : (i + 1) * m, i * m : (i + 1) * m] = np.asarray(block)
         if i > 0:
             dense[i * m : (i + 1) * m, (i - 1) * m : i * m] = np.diag(np.asarray(md.lower[i]))

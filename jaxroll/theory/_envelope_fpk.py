@@ -19,9 +19,11 @@ the reduced system is Markov in (s, ρ, θ) (Itô):
     dρ = γ(1/ρ − ρ) dt + √(2γ) dB1,
     dθ = [Δ − 2ν(a, ρ) − w(ρ) cos θ/(2ω)] dt + (√(2γ)/ρ) dB2,   ν = (Ω(a)² + P_s(ρ) − ω²)/(2ω).
 
-Its stationary Fokker–Planck equation is solved by finite volumes: the exact Rayleigh equilibrium flux in ρ,
-Scharfetter–Gummel (exponentially fitted) fluxes in θ, upwind fluxes in s with defect corrections to second
-order, reflecting ends (the top is the vanishing angle), and a block-tridiagonal direct solve over the s slices
+The Lorentzian misses the sea's level away from 2ω, where a roll of other amplitude or in another wave group locks
+on: w is scaled by √(S̄/L̄), the sea's S_G and the Lorentzian averaged over the band the roll locks to,
+2(ω + ν(a, ρ)) ± E|w|/(2ω) (`_resonant_level`; issue 42). Its stationary Fokker–Planck equation is solved by finite
+volumes: the exact Rayleigh equilibrium flux in ρ, Scharfetter–Gummel (exponentially fitted) fluxes in θ, upwind
+fluxes in s with defect corrections to second order, reflecting ends (the top is the vanishing angle), and a block-tridiagonal direct solve over the s slices
 (block-Thomas in `lax.scan`: no iteration, no tolerance, differentiable). The envelope (time-sampled) law is the
 s-marginal; the zero-crossing (per half cycle) law weights it by the half-cycle rate (ω + ψ̇)/π,
 ψ̇ = ν + w cos θ/(4ω). The Lyapunov exponent of the linearised roll is Khasminskii's E_π[ṡ] on the a → 0 slice,
@@ -157,11 +159,13 @@ class _Model(eqx.Module):
     th: jax.Array  # θ centres [nθ]
     xi: jax.Array  # ṡ from the excitation at the (ρ, θ) centres [m]
     wr: jax.Array  # w(ρ) [1/s²]
+    level: jax.Array  # √(S̄/L̄) at the slice centres [ns, nρ] (`_resonant_level`; None without amplitudes)
+    level0: jax.Array  # the same at a → 0 [nρ]
     ps_dev: jax.Array  # P_s(ρ) − E[P] [1/s²]
     shift: jax.Array
     l_rho: jax.Array  # ρ operator ⊗ I_θ [m, m]
     theta_diffusion: jax.Array  # γ/ρ² [nρ]
-    restoring: jax.Array  # a1 … a9
+    restoring: jax.Array  # a1 + E[P] = ω², a3 … a9
     lower: jax.Array  # s coupling to slice i−1 [ns, m]
     upper: jax.Array  # s coupling to slice i+1 [ns, m]
     diag_s: jax.Array  # s outflow [ns, m]
@@ -207,6 +211,29 @@ def _linear_frequency(ship: Ship, wave):
     return scale, h, omega
 
 
+def _resonant_level(wave, exc: EnvelopeExcitation, restoring, omega, a, ps_dev, wr, rho):
+    """Factor [-] on the coupling w(ρ) at amplitudes a [rad], shape [n_a, nρ]: √(S̄/L̄), with S̄ the sea's S_G and L̄
+    the fitted Lorentzian, each averaged over the band the roll locks to — centred on the roll's own excitation
+    frequency 2(ω + ν(a, ρ)), half-width b = E|w(ρ)|/(2ω) (the θ equation's locking range at the envelope's
+    Rayleigh mean) — and each relative to its level at 2ω (where the fit makes the two equal). The Lorentzian keeps
+    the envelope's correlation time; the factor puts the sea's own spectrum where the roll feeds on it
+    (docs/theory.md §6, "The resonant level over the locking band")."""
+    x = 2 * omega + 2 * _detune(restoring, omega, a)[:, None] + ps_dev[None, :] / omega
+    rayleigh = rho * jnp.exp(-(rho**2) / 2)
+    half = jnp.sum(rayleigh * jnp.abs(wr)) / jnp.sum(rayleigh) / (2 * omega)
+    y = x[..., None] + half * jnp.linspace(-1.0, 1.0, _BAND_POINTS)
+    carrier = 2 * omega
+    s = wave.spectrum(jnp.concatenate([y.ravel(), carrier[None]]))
+    sea = jnp.mean(s[:-1].reshape(y.shape), axis=-1) / jnp.where(s[-1] > 0, s[-1], 1.0)
+    lorentz = jnp.mean(
+        (exc.gamma**2 + exc.shift**2) / (exc.gamma**2 + (y - carrier - exc.shift) ** 2), axis=-1
+    )
+    return jnp.where(s[-1] > 0, jnp.sqrt(sea / lorentz), 1.0)
+
+
+_BAND_POINTS = 17  # the band's mean by 17 equally spaced points
+
+
 def _amplitude_edges(a_top, grid: _Grid, snap: tuple = ()):
     """s = ln a edges: coarse cells on [a_min, a_fine], fine ones on [a_fine, a_top]; `snap`: static pairs
     (index into the fine edges, s) that move those edges onto given levels (`_envelope_fpk_passage`)."""
@@ -223,6 +250,7 @@ def _build_model(
     h,
     omega,
     exc: EnvelopeExcitation,
+    wave,
     grid: _Grid,
     amplitude: bool = True,
     absorbing_top: bool = False,
@@ -255,6 +283,8 @@ def _build_model(
     lrho = lrho.at[j, j + 1].add(kr / mc[j + 1] / drho).at[j, j].add(-kr / mc[j] / drho)
     lrho = lrho.at[j + 1, j + 1].add(-kr / mc[j + 1] / drho).at[j + 1, j].add(kr / mc[j] / drho)
 
+    # the mean stiffness E[P] = ω² − a1 is part of the roll's own frequency: ν = 0 at a = 0, mean ρ
+    restoring = ship.restoring_coefficients.at[0].set(omega**2)
     phase = dict(
         omega=omega,
         b1=ship.damping[0],
@@ -266,18 +296,21 @@ def _build_model(
         shift=exc.shift,
         l_rho=jnp.kron(lrho, jnp.eye(nt)),
         theta_diffusion=exc.gamma / rho**2,
-        restoring=ship.restoring_coefficients,
+        level0=_resonant_level(wave, exc, restoring, omega, jnp.zeros(1), ps_dev, wr, rho)[0],
+        restoring=restoring,
         grid=grid,
     )
     if not amplitude:
         return _Model(
-            **phase, **dict.fromkeys(("se", "sc", "ds", "lower", "upper", "diag_s", "vp", "vm", "i_norm"))
+            **phase,
+            **dict.fromkeys(("se", "sc", "ds", "lower", "upper", "diag_s", "vp", "vm", "i_norm", "level")),
         )
     # s: F_{i+1/2} = v⁺ q_i + v⁻ q_{i+1}, v = −δ(e^s) + ξ at the interior faces; zero at both ends (reflecting)
     se = _amplitude_edges(vanishing_angle(ship), grid, snap)
     sc = (se[1:] + se[:-1]) / 2
     ds = jnp.diff(se)
-    vf = -_delta(ship, omega, jnp.exp(se))[:, None] + xi[None, :]
+    level_f = _resonant_level(wave, exc, phase["restoring"], omega, jnp.exp(se), ps_dev, wr, rho)
+    vf = -_delta(ship, omega, jnp.exp(se))[:, None] + jnp.repeat(level_f, nt, axis=1) * xi[None, :]
     vf = vf.at[0].set(0.0)
     vf = vf.at[-1].set(jnp.maximum(vf[-1], 0.0) if absorbing_top else 0.0)  # outflow only: nothing comes back
     vp, vm = jnp.maximum(vf, 0.0), jnp.minimum(vf, 0.0)
@@ -292,6 +325,7 @@ def _build_model(
         vp=vp,
         vm=vm,
         i_norm=jnp.argmin(jnp.abs(sc - math.log(math.radians(3.0)))),
+        level=_resonant_level(wave, exc, phase["restoring"], omega, jnp.exp(sc), ps_dev, wr, rho),
     )
 
 
@@ -302,8 +336,9 @@ def _bernoulli(x):
     return jnp.where(small, 1 - x / 2 + x * x / 12, xs / jnp.expm1(xs))
 
 
-def _slice_operator(md: _Model, a):
-    """m × m generator of the (ρ, θ) dynamics at amplitude a (θ drift depends on a through Ω(a))."""
+def _slice_operator(md: _Model, a, level=1.0):
+    """m × m generator of the (ρ, θ) dynamics at amplitude a (θ drift depends on a through Ω(a)); `level`: the
+    coupling's factor there (`_resonant_level`)."""
     nr, nt = md.grid.num_rho, md.grid.num_theta
     dth = 2 * jnp.pi / nt
     th_f = md.th + dth / 2
@@ -311,7 +346,7 @@ def _slice_operator(md: _Model, a):
         md.shift
         - 2 * _detune(md.restoring, md.omega, a)
         - md.ps_dev[:, None] / md.omega
-        - md.wr[:, None] * jnp.cos(th_f)[None, :] / (2 * md.omega)
+        - (level * md.wr)[:, None] * jnp.cos(th_f)[None, :] / (2 * md.omega)
     )
     dd = md.theta_diffusion[:, None]
     pe = mu * dth / dd
@@ -343,7 +378,7 @@ def _factorise_slices(md: _Model, inv_dt, normalise: bool, killing, first: int, 
     kill = jnp.zeros((md.sc.shape[0], m)) if killing is None else killing
 
     def factor(g_prev, i):
-        b = _slice_operator(md, jnp.exp(md.sc[i])) + jnp.diag(md.diag_s[i] - inv_dt - kill[i])
+        b = _slice_operator(md, jnp.exp(md.sc[i]), md.level[i]) + jnp.diag(md.diag_s[i] - inv_dt - kill[i])
         lo, up = md.lower[i], md.upper[i]
         if normalise:
             is_norm = i == md.i_norm
@@ -448,29 +483,37 @@ def _protocol(md: _Model, a0, duration: float, discard: float, time_step: float)
 def _lyapunov(md: _Model):
     """λ = E_π[ξ] − b1/2 [1/s], π the stationary law of (ρ, θ) at a → 0 (Khasminskii)."""
     e_norm = jnp.zeros(md.m).at[md.k_norm].set(1.0)
-    l0 = _slice_operator(md, jnp.zeros(())).at[md.k_norm].set(e_norm)
+    l0 = _slice_operator(md, jnp.zeros(()), md.level0).at[md.k_norm].set(e_norm)
     pi = jnp.linalg.solve(l0, e_norm)
-    return jnp.sum(pi * md.xi) / jnp.sum(pi) - md.b1 / 2
+    xi = jnp.repeat(md.level0, md.grid.num_theta) * md.xi
+    return jnp.sum(pi * xi) / jnp.sum(pi) - md.b1 / 2
 
 
 def _cell_laws(md: _Model, qs):
     """Cell probabilities of the envelope law and of the zero-crossing law from the density q [ns, m]."""
-    nr, nt = md.grid.num_rho, md.grid.num_theta
     qs = jnp.maximum(qs, 0.0)  # round-off negatives far in the tails
     cells = qs * md.ds[:, None]
     cells = cells / jnp.sum(cells)
     mass_env = jnp.sum(cells, axis=1)
     # half-cycle rate ∝ ω + ψ̇,  ψ̇ = ν(a, ρ) + w cos θ/(4ω)
-    psi_rt = md.ps_dev[:, None] / (2 * md.omega) + md.wr[:, None] * jnp.cos(md.th)[None, :] / (4 * md.omega)
-    psidot = _detune(md.restoring, md.omega, jnp.exp(md.sc))[:, None] + psi_rt.reshape(1, nr * nt)
+    psidot = _phase_velocity(md)
     zc = jnp.sum(cells * (md.omega + psidot), axis=1)
     return mass_env, zc / jnp.sum(zc)
+
+
+def _phase_velocity(md: _Model):
+    """ψ̇ = ν(a, ρ) + w cos θ/(4ω) [rad/s] in every cell [ns, m] (the averaged roll's phase velocity)."""
+    psi = md.ps_dev[:, None, None] / (2 * md.omega) + md.level.T[:, :, None] * md.wr[:, None, None] * jnp.cos(
+        md.th
+    )[None, None, :] / (4 * md.omega)
+    psi = jnp.moveaxis(psi, 1, 0).reshape(md.sc.shape[0], -1)  # [ns, nρ·nθ]
+    return _detune(md.restoring, md.omega, jnp.exp(md.sc))[:, None] + psi
 
 
 def _prepare(ship, wave, excitation, grid, amplitude=True):
     scale, h, omega = _linear_frequency(ship, wave)
     exc = fit_envelope(wave, omega) if excitation is None else excitation
-    return _build_model(ship, scale, h, omega, exc, grid, amplitude), exc
+    return _build_model(ship, scale, h, omega, exc, wave, grid, amplitude), exc
 
 
 @filter_jit
