@@ -161,7 +161,10 @@ def reference_row(case: dict, estimator: str = "envelope") -> dict:
 
 
 def _moment_worker(cases, results):
+    import jaxroll
     from jaxroll import theory
+
+    jaxroll.configure()  # a spawned process: float64 again (the moment method needs it)
 
     for i, (hs, r) in cases:
         ship, _, wave = case_inputs(hs, r)
