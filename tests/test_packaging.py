@@ -60,8 +60,25 @@ def test_package_metadata():
     assert "ruff" in " ".join(project["optional-dependencies"]["dev"])
 
 
-def test_json_outputs_record_versions(tmp_path):
-    from jaxroll._cli._common import write_json
+def test_json_outputs_record_versions(tmp_path, monkeypatch):
+    import warnings
+
+    import jaxroll._cli as cli
+    from jaxroll._cli._common import WARNINGS, write_json
+
+    # A command run in this process before leaves none of its warnings behind (the JSON below once got an earlier
+    # test's `warnings`, by the order the test workers took the files in).
+    seen = []
+
+    def command(args):
+        warnings.simplefilter("always")  # inside main's catch_warnings: pytest's "error" comes back after it
+        warnings.warn("a warning of the command")
+        seen.extend(WARNINGS)
+        return 0
+
+    monkeypatch.setattr(cli, "_run", command)
+    assert cli.main(["ship", "show"]) == 0
+    assert seen == ["a warning of the command"] and WARNINGS == []
 
     write_json(tmp_path / "out.json", {"config": {"hs_m": 7.0}, "mean_amplitude_deg": 9.8})
     data = json.loads((tmp_path / "out.json").read_text())

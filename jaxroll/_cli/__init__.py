@@ -81,12 +81,16 @@ def main(argv: Sequence[str] | None = None) -> int:
 
     WARNINGS.clear()
     COMMAND_LINE[:] = ["jaxroll", *(sys.argv[1:] if argv is None else argv)]
-    with warnings.catch_warnings():
-        warnings.showwarning = functools.partial(_warning_line, args.command)
-        # The command's own process, set up fully: float64, XLA:CPU's platform-independent math and small loops
-        # compiled whole, one JAX device per CPU core (docs/architecture.md, "Process-wide settings").
-        configure()
-        return _run(args)
+    try:
+        with warnings.catch_warnings():
+            warnings.showwarning = functools.partial(_warning_line, args.command)
+            # The command's own process, set up fully: float64, XLA:CPU's platform-independent math and small loops
+            # compiled whole, one JAX device per CPU core (docs/architecture.md, "Process-wide settings").
+            configure()
+            return _run(args)
+    finally:  # a command's warnings and words are its own: none left for what runs next in this process
+        WARNINGS.clear()
+        COMMAND_LINE.clear()
 
 
 def _warning_line(command: str, message, category, filename, lineno, file=None, line=None) -> None:
