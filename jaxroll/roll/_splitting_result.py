@@ -15,24 +15,23 @@ def genealogy_relative_variance(eves, num: int, num_stages: int) -> float:
     the number of the last stage's successes descending from stage-0 run e, S = Σ c_e, N runs a stage and K stages
     (K − 1 multinomial resamplings). Unbiased for Var(P̂) once multiplied by P̂²; one stage gives the binomial
     (1 − p̂)/((N − 1) p̂). 0 when S = 0. [-]"""
-    eves = np.asarray(eves)
-    s = eves.size
-    if s == 0:
+    if np.size(eves) == 0:
         return 0.0
-    counts = np.bincount(eves).astype(float)
-    concentration = float(np.sum(counts**2)) / s**2
-    return 1.0 - (num / (num - 1)) ** num_stages * (1.0 - concentration)
+    return 1.0 - (num / (num - 1)) ** num_stages * (1.0 - _concentration(eves))
 
 
 def effective_ancestors(eves) -> float:
     """The effective number of independent stage-0 ancestors of the last stage's successes, S²/Σ_e c_e² [-]
     (c_e as in `genealogy_relative_variance`; 0 when S = 0): the number of independent clusters the genealogy
     variance is in effect estimated from."""
+    return 0.0 if np.size(eves) == 0 else 1.0 / _concentration(eves)
+
+
+def _concentration(eves) -> float:
+    """Σ_e c_e²/S² of a non-empty genealogy (`eves`: the stage-0 ancestor of each of the S successes)."""
     eves = np.asarray(eves)
-    if eves.size == 0:
-        return 0.0
     counts = np.bincount(eves).astype(float)
-    return float(eves.size**2 / np.sum(counts**2))
+    return float(np.sum(counts**2)) / eves.size**2
 
 
 def _interval(estimate: float, relative_variance: float, upper_if_zero: float, ancestors: float = math.inf):
