@@ -1303,13 +1303,20 @@ class Finaliser:
 folder = pathlib.Path(tempfile.mkdtemp())
 n, lost = int(sys.argv[1]), 0
 rng = random.Random(0)
+
+
+def interrupt(sent):
+    sent.append(time.monotonic())
+    signal.pthread_kill(main, signal.SIGINT)
+
+
 for trial in range(n):
     _cli._STATE.update(raised=None, deferred=None)  # a new command each trial
     _atomic.clear_interrupt()
-    threading.Timer(rng.uniform(0.0, 0.03), signal.pthread_kill, (main, signal.SIGINT)).start()
-    try:
-        t_end = time.monotonic() + 0.06
-        while time.monotonic() < t_end:  # the units: a finaliser runs, then a unit is saved
+    sent = []
+    try:  # (the Timer's start waits for its thread: under load the Ctrl-C can land there already)
+        threading.Timer(rng.uniform(0.0, 0.03), interrupt, (sent,)).start()
+        while not sent or time.monotonic() < sent[0] + 0.03:  # the units: a finaliser runs, then a unit is saved
             Finaliser()
             _save_unit(folder, "unit", {"p": np.arange(4.0)})
         _atomic.atomic_write_bytes(folder / "out", b"the output set")  # what --out would receive
