@@ -288,6 +288,7 @@ class RollProblem(eqx.Module):
         phi0: float = math.radians(5.0),
         dphi0: float = 0.0,
         substeps: int | None = None,
+        noise_rank: int | None = None,
         validate: bool = True,
     ) -> "RollProblem":
         """The roll problem of `ship` in the sea state `sea`: Grim's effective wave, its excitation, initial roll.
@@ -312,6 +313,8 @@ class RollProblem(eqx.Module):
         - `phi0` [rad], `dphi0` [rad/s]: initial condition (the paper's 5°, 0).
         - `substeps`: time steps per shaping-filter step (None: chosen from the bridge's interpolation error,
           `FilterExcitation`); give it when the construction is traced, to keep the nominal problem's random stream.
+        - `noise_rank`: normals per shaping-filter step (None: the principal directions of the step's noise that
+          keep every state variance within 1e-6, `choose_noise_rank`); give it with `substeps` when traced.
         - `validate`: check the inputs and gate the filter fit (default). `False` skips those concrete checks so
           that the construction can be traced (e.g. differentiated in the ship or sea parameters); validate the
           nominal problem first.
@@ -361,7 +364,7 @@ class RollProblem(eqx.Module):
             if validate:
                 check_filter_fit(fit, dt)  # a filter that cannot be used is an error before any band warning
                 _warn_if_off_the_band(fit, ship, wave)
-            source = FilterExcitation(fit.filter, dt, substeps)
+            source = FilterExcitation(fit.filter, dt, substeps, noise_rank)
         else:
             fit = None
             source = SuperpositionExcitation(wave, dt, joint=moment is not None)
