@@ -111,7 +111,8 @@ def longterm_polar_figure(ds, angle_index: int | None = None):
     """Operational guidance: the long-term probability of exceeding each angle (`angle_index`: one only) and of
     capsize per exposure, given the heading and speed (the sea states and loadings weighted as in the assessment),
     as polar charts over the heading class χ' ∈ [0°, 180°] (port and starboard alike) × speed; each panel says
-    what it shows under its colour bar.
+    what it shows under its colour bar. For a ship carrying a direct wave moment each angle has two panels: the
+    total, and the parametric-only probability (`parametric_probability`: the moment off).
 
     **Returns:** the matplotlib `Figure`."""
     import matplotlib.pyplot as plt
@@ -132,10 +133,16 @@ def longterm_polar_figure(ds, angle_index: int | None = None):
             )
         return out
 
-    panels = [
-        (given_heading_and_speed(np.nan_to_num(ds["probability"].values[..., a])), _angle_label(ds, a))
-        for a in _angles(ds, angle_index)
-    ]
+    # a ship carrying a direct wave moment: each angle's total beside its parametric-only share (docs/longterm.md)
+    moment = "direct_moment" in ds and bool(ds["direct_moment"].values.any())
+    panels = []
+    for a in _angles(ds, angle_index):
+        label = _angle_label(ds, a)
+        panels.append((given_heading_and_speed(np.nan_to_num(ds["probability"].values[..., a])),
+                       label + ("\nwith the direct wave moment" if moment else "")))  # fmt: skip
+        if moment:
+            p = np.nan_to_num(ds["parametric_probability"].values[..., a])
+            panels.append((given_heading_and_speed(p), label + "\nparametric only (the moment off)"))
     panels.append(
         (
             given_heading_and_speed(np.nan_to_num(ds["capsize_probability"].values)),
