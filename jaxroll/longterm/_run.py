@@ -129,6 +129,10 @@ def longterm(
       simulated under `auto` where material); or one number f ≥ 1 for every cell (docs/longterm.md, "Model
       allowance"). `skip_weight`: leave out
       the lightest cells up to this total weight (a bound on their contribution, added to the interval).
+    - A ship carrying a direct wave moment (`ship.wave_moment`): its cells off head and following seas are
+      simulated with the moment (superposition, brute force; `"auto"` simulates them all, `"theory"` is refused),
+      beam seas included, and each cell also gets `parametric_probability`, the moment off (docs/longterm.md, "The
+      direct wave moment").
     - Monte Carlo: `dt` [s], `excitation` ("filter" | "superposition"), `filter_order`, `phi0` [rad], `seed` (cell
       c uses `jax.random.key(SEED_STRIDE·seed + c + 1)`, recorded), `estimator` (a name in `CELL_ESTIMATORS`:
       `"brute_force"`, or `"splitting"`: the rare cells by multilevel splitting, the others by brute force),

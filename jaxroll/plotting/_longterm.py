@@ -138,15 +138,18 @@ def longterm_polar_figure(ds, angle_index: int | None = None):
     panels = []
     for a in _angles(ds, angle_index):
         label = _angle_label(ds, a)
-        panels.append((given_heading_and_speed(np.nan_to_num(ds["probability"].values[..., a])),
-                       label + ("\nwith the direct wave moment" if moment else "")))  # fmt: skip
-        if moment:
-            p = np.nan_to_num(ds["parametric_probability"].values[..., a])
-            panels.append((given_heading_and_speed(p), label + "\nparametric only (the moment off)"))
+        total = given_heading_and_speed(np.nan_to_num(ds["probability"].values[..., a]))
+        panels.append((total, label + ("\nwith the direct wave moment" if moment else ""), None))
+        if moment:  # on the total's colour scale, so that the two compare at a glance
+            p = given_heading_and_speed(np.nan_to_num(ds["parametric_probability"].values[..., a]))
+            top = max(float(total.max()), float(p.max()))
+            panels[-1] = (*panels[-1][:2], top)
+            panels.append((p, label + "\nparametric only (the moment off)", top))
     panels.append(
         (
             given_heading_and_speed(np.nan_to_num(ds["capsize_probability"].values)),
             f"P(capsize within {_hours(ds):g} h)",
+            None,
         )
     )
     rows, cols = _grid(len(panels))
@@ -156,8 +159,8 @@ def longterm_polar_figure(ds, angle_index: int | None = None):
     )  # fmt: skip
     for ax in axes.flat[len(panels) :]:
         ax.set_visible(False)
-    for ax, (values, what) in zip(axes.flat, panels, strict=False):
-        vmax = max(float(values.max()), 1e-12)
+    for ax, (values, what, top) in zip(axes.flat, panels, strict=False):
+        vmax = max(float(values.max()) if top is None else top, 1e-12)
         mesh = polar_risk_chart(ax, classes, speeds, values, label="", vmax=vmax, fmt="{:.2g}")
         bar = fig.colorbar(mesh, ax=ax, shrink=0.8, location="bottom", pad=0.02, format="%.2g",
                            label=f"{what}\nper exposure, given heading and speed")  # fmt: skip
