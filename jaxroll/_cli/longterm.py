@@ -98,7 +98,9 @@ def register(sub) -> None:
         choices=("theory", "monte-carlo", "auto"),
         default="theory",
         help="theory in every cell (default); Monte Carlo in every cell; auto: theory everywhere and "
-        "Monte Carlo where a cell dominates or the theory fails a validity check",
+        "Monte Carlo where a cell dominates or the theory fails a validity check. A ship carrying a direct wave "
+        "moment ([wave_moment]) has no theory off head and following seas: auto simulates those cells, theory "
+        "refuses them",
     )
     r.add_argument(
         "--realizations",
@@ -164,7 +166,8 @@ def register(sub) -> None:
         "--excitation",
         choices=("filter", "superposition"),
         default="filter",
-        help="effective wave of the Monte Carlo: Method 2 shaping filter (default) or superposition",
+        help="effective wave of the Monte Carlo: Method 2 shaping filter (default) or superposition; the cells "
+        "where a ship's direct wave moment joins the roll run the superposition (both from the same waves)",
     )
     n.add_argument(
         "--filter-order",
@@ -449,6 +452,12 @@ def print_summary(summary: dict, out: Path) -> None:
             f"P(roll > {angle}° within {hours:g} h) = {row['probability']:.4g} (95 % {lo:.4g}–{hi:.4g}); "
             f"per year: P = {y['probability']:.4g}, {y['rate']:.4g} exposures with an exceedance"
         )
+        if "parametric_probability" in row:  # a ship carrying a direct wave moment: the parametric-only share
+            plo, phi = row["parametric_probability_ci95"]
+            print(
+                f"  parametric only (direct wave moment off): P = {row['parametric_probability']:.4g} (95 % "
+                f"{plo:.4g}–{phi:.4g}), {row['parametric_share']:.3g} of the total"
+            )
         for cell in row["dominating_cells"][:3]:
             print(
                 f"  {cell['share']:6.1%}  H_s {cell['hs_m']:g} m, T_z {cell['tz_s']:g} s, χ {cell['heading_deg']:g}°, "

@@ -397,6 +397,9 @@ LONGTERM = Layout(
                 "capsize_probability",
                 "capsize_probability_ci95",
                 "capsize_per_year",
+                "parametric_probability",
+                "parametric_probability_ci95",
+                "parametric_share",
             )
         },
     },
@@ -415,6 +418,10 @@ LONGTERM = Layout(
         "longterm_capsize_probability": "P(capsize within one exposure), the cells' weighted mean",
         "longterm_capsize_probability_ci95": "95 % interval of the long-term capsize probability",
         "longterm_capsize_per_year": "P(at least one capsize in a year)",
+        "longterm_parametric_probability": "the long-term probability with the direct wave moment off: the "
+        "parametric-only roll",
+        "longterm_parametric_probability_ci95": "95 % interval of the parametric-only long-term probability",
+        "longterm_parametric_share": "parametric-only over total long-term probability",
         "left_out_weight": "weight of the cells left out (a bound on their contribution)",
         "cells": "number of cells by method",
         "monte_carlo_estimators": "number of Monte Carlo cells by estimator",

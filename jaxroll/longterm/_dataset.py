@@ -13,6 +13,7 @@ import math
 
 import numpy as np
 
+from ._moment import LONGTERM_PARAMETRIC_VARS, MOMENT_EXCITATION, dataset_variables, longterm_variables
 from ._monte_carlo import EFFORT_FRACTIONS, ESTIMATORS, Z95, binomial_variance
 from ._risk import annual, longterm_probability
 
@@ -42,6 +43,7 @@ _LONGTERM_VARS = (
     "longterm_capsize_per_year",
     "left_out_weight",
     "exposures_per_year",
+    *LONGTERM_PARAMETRIC_VARS,
 )
 #: The interval's ends (the `bound` dimension, as every `*_ci95` of the labelled outputs).
 BOUNDS = ("lower", "upper")
@@ -235,6 +237,7 @@ def build_dataset(grid, cells: dict, config: dict, attrs: dict):
             },
         ),
     }
+    data.update(dataset_variables(to_cells, angle_dims, CELL_DIMS, cells))
     if "computed" in cells:
         data["computed"] = (
             CELL_DIMS,
@@ -420,6 +423,7 @@ def add_longterm(ds):
             {"units": "year-1", "long_name": "exposures per year N_y = hours at sea per year / exposure"},
         ),
     }
+    new.update(longterm_variables(ds, w, p0, var, lo, hi, longterm_probability))
     ds = ds.drop_vars([v for v in _LONGTERM_VARS if v in ds])
     # + 0.0: a negative zero (1 − Π (1 − 0) in floating point) would be printed "-0" (issue 45)
     ds = ds.assign({k: xr.Variable(d, np.asarray(a, float) + 0.0, at) for k, (d, a, at) in new.items()})
@@ -541,6 +545,10 @@ def merge_parts(datasets, names=None):
     return add_longterm(out)
 
 
+def _moment_cell(cell) -> bool:
+    return "direct_moment" in cell and bool(cell["direct_moment"])
+
+
 def risk_command(ds, index: dict) -> str:
     """The `jaxroll risk` command line that reproduces a Monte Carlo cell of `ds` trial for trial (its direct
     estimate), `index` the cell's coordinates by dim (hs, tz, heading_deg, speed, ship) as positions. Quoted for a POSIX
@@ -562,7 +570,7 @@ def risk_command(ds, index: dict) -> str:
         "--seed", str(int(cell.seed) - 1),
         "--angle", f"{float(ds.angle_deg[0]):g}",
         "--dt", repr(cfg["dt_s"]),
-        "--method", str(cfg["excitation"]),
+        "--method", str(cfg["excitation"]) if not _moment_cell(cell) else MOMENT_EXCITATION,
         "--filter-order", str(cfg["filter_order"]),
     ]  # fmt: skip
     if ship_file:
@@ -651,6 +659,7 @@ def longterm_summary(ds, top: int = 10) -> dict:
     cfg = config_of(ds)
     methods = {m: int((ds["method"].values == i).sum()) for i, m in enumerate(METHODS) if m != "not_computed"}
     per_angle = {}
+    moment = "direct_moment" in ds and bool(ds["direct_moment"].values.any())
     for a, angle in enumerate(float(x) for x in ds.angle_deg.values):
         per_angle[f"{angle:g}"] = {
             "probability": float(ds.longterm_probability[a]),
@@ -666,6 +675,12 @@ def longterm_summary(ds, top: int = 10) -> dict:
             },
             "dominating_cells": dominating_cells(ds, a, top),
         }
+        if moment:  # the parametric-only roll beside the total (docs/longterm.md)
+            per_angle[f"{angle:g}"].update(
+                parametric_probability=float(ds.longterm_parametric_probability[a]),
+                parametric_probability_ci95=[float(x) for x in ds.longterm_parametric_probability_ci95[a]],
+                parametric_share=float(ds.longterm_parametric_share[a]),
+            )
     hours = cfg["exposure_s"] / 3600.0
     return {
         "exposure_hours": hours,

@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import math
 import os
-import warnings
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
@@ -19,15 +18,12 @@ import numpy as np
 
 from .._config import require_float64
 from ..io import dataset_attrs, ship_to_dict
-from ..roll import SPLITTING_EXCITATIONS, check_time_step
-from ..sea import ITTC, EffectiveWave
+from ..roll import SPLITTING_EXCITATIONS
 from ..ship import c11_representative, vanishing_angle
 from ._allowance import measured_allowance
 from ._cells import (
-    BEAM_DEG,
     HOURS_PER_YEAR,
     MAX_SEED,
-    SEED_STRIDE,
     _integer,
     _real,
     check_exposure,
@@ -37,7 +33,17 @@ from ._cells import (
     skipped_cells,
     worker_of,
 )
+from ._configuration import THEORY, check_time_steps, run_config
 from ._dataset import METHODS, add_longterm, build_dataset
+from ._moment import (
+    MOMENT_EXCITATION,
+    PARAMETRIC_KEYS,
+    empty_parametric,
+    fill_parametric,
+    moment_classes,
+    parametric_only,
+    refuse_theory,
+)
 from ._monte_carlo import (
     CELL_ESTIMATORS,
     EFFORT_FRACTIONS,
@@ -52,11 +58,6 @@ from ._theory import REFINE_DELTA, class_template, class_theory
 from ._units import _gather, _hash, _load_unit, _responsible_cells, _save_unit, _twin
 
 METHOD_NAMES = ("theory", "monte-carlo", "auto")
-#: What the theory cells are computed with (recorded in the configuration).
-THEORY = (
-    "jaxroll.theory.passage_risk (by passage_risk_batch, 3 inverse iterations): the envelope FPK model followed "
-    "through the exposure (large rolls in groups); cells with λ <= 0 are 0 exactly"
-)
 
 
 def _check(value, ok: bool, message: str):
@@ -128,6 +129,10 @@ def longterm(
       simulated under `auto` where material); or one number f ≥ 1 for every cell (docs/longterm.md, "Model
       allowance"). `skip_weight`: leave out
       the lightest cells up to this total weight (a bound on their contribution, added to the interval).
+    - A ship carrying a direct wave moment (`ship.wave_moment`): its cells off head and following seas are
+      simulated with the moment (superposition, brute force; `"auto"` simulates them all, `"theory"` is refused),
+      beam seas included, and each cell also gets `parametric_probability`, the moment off (docs/longterm.md, "The
+      direct wave moment").
     - Monte Carlo: `dt` [s], `excitation` ("filter" | "superposition"), `filter_order`, `phi0` [rad], `seed` (cell
       c uses `jax.random.key(SEED_STRIDE·seed + c + 1)`, recorded), `estimator` (a name in `CELL_ESTIMATORS`:
       `"brute_force"`, or `"splitting"`: the rare cells by multilevel splitting, the others by brute force),
@@ -239,10 +244,15 @@ def longterm(
     shape = grid.shape
     n_angles = angles_deg.size
     comp_w = grid.comp_weight
-    beam = np.broadcast_to(grid.beam[None, :, None, None, None], shape)
+    # the direct wave moment joins the roll of these cells (a ship carrying one, off head and following seas): a
+    # beam sea is no longer 0, and only the Monte Carlo covers them (docs/longterm.md, "The direct wave moment")
+    moment = np.broadcast_to(moment_classes(grid)[:, :, None, None, None], shape)
+    beam = np.broadcast_to(grid.beam[None, :, None, None, None], shape) & ~moment
     positive = comp_w > 0
     left_out = skipped_cells(comp_w, positive & ~beam, skip_weight)
     needed = positive & ~beam & ~left_out
+    if method == "theory":
+        refuse_theory(grid, needed & moment)
     below, above, outside, covered = measured_allowance(
         grid.scatter.hs[:, None], grid.scatter.t01[None, :], np.asarray(grid.speeds, float)[:, None, None]
     )
@@ -259,7 +269,10 @@ def longterm(
     workers, me = n_part * n_proc, (i_part - 1) * n_proc + proc
     run_theory = method in ("theory", "auto")
     if method in ("monte-carlo",):  # the time step against every cell, before any simulation
-        _check_time_steps(grid, needed, dt)
+        check_time_steps(grid, needed, dt)
+    elif method == "auto":
+        check_time_steps(grid, needed & moment, dt)
+    needed_all, needed = needed, needed & ~moment  # the theory's cells (all of them but the moment cells)
 
     # ---- theory --------------------------------------------------------------------------------------------
     cells = _empty(shape, n_angles)
@@ -367,6 +380,7 @@ def longterm(
         )
 
     # ---- which cells get a Monte Carlo, and how many trials -------------------------------------------------
+    needed = needed_all
     trials = np.zeros(shape, np.int64)
     if method == "monte-carlo":
         trials[needed] = realizations
@@ -376,13 +390,13 @@ def longterm(
             flat(comp_w),
             flat(np.nan_to_num(cells["theory_probability"])),
             flat(cells["theory_doubtful"] | uncovered),
-            flat(needed),
+            flat(needed & ~moment),
             auto_share,
             auto_tolerance,
         )
         chosen = (dominant | material).reshape(shape)
         if chosen.any():
-            _check_time_steps(grid, chosen, dt)
+            check_time_steps(grid, chosen, dt)
             n = neyman_allocation(
                 comp_w[chosen],
                 cells["theory_probability"][chosen][:, 0],
@@ -390,6 +404,7 @@ def longterm(
                 max(2, realizations // 4),
             )
             trials[chosen] = n
+        trials[needed & moment] = realizations  # no theory there: every moment cell simulated
     # which Monte Carlo cells are rare (splitting): auto by the theory, monte-carlo by each cell's pilot
     rare = np.zeros(shape, bool)
     if estimator == "splitting" and method == "auto":
@@ -399,22 +414,24 @@ def longterm(
     # ---- Monte Carlo, one cell at a time --------------------------------------------------------------------
     mc_cells = [tuple(int(x) for x in c) for c in np.argwhere(trials > 0)]
     mine_mc = [j for j in range(len(mc_cells)) if worker_of(j, workers) == me]
-    total = int(sum(trials[mc_cells[j]] for j in mine_mc))
+    # a moment cell off beam seas is simulated twice: with the moment, and without it (its parametric-only share)
+    twice = moment & ~np.broadcast_to(grid.beam[None, :, None, None, None], shape)
+    total = int(sum(trials[mc_cells[j]] * (1 + twice[mc_cells[j]]) for j in mine_mc))
     done_trials = [0]
     run_options = {"chunk_size": chunk_size, "memory_budget": memory_budget}
     if n_proc > 1:
         run_options["devices"] = jax.local_devices()
     mc_here = np.zeros(shape, bool)
-    for j in mine_mc:
-        c = mc_cells[j]
+
+    def simulate_cell(c, ship, excitation, name_c, kind="monte_carlo"):
         s, k, u, i, jj = c
-        ship, hs, t01 = ships[s], float(grid.scatter.hs[i]), float(grid.scatter.t01[jj])
+        hs, t01 = float(grid.scatter.hs[i]), float(grid.scatter.t01[jj])
         speed, heading = float(grid.speeds[u]), float(grid.classes_deg[k])
-        name_c = "splitting" if rare[c] or screened else "brute_force"
+        screened_c = screened and name_c == "splitting"
         spec = {
-            "kind": "monte_carlo",
+            "kind": kind,
             "estimator": name_c,
-            **({"rare_below": float(rare_below)} if screened else {}),
+            **({"rare_below": float(rare_below)} if screened_c else {}),
             "ship": ship_to_dict(ship),
             "heading_deg": heading,
             "speed": speed,
@@ -458,7 +475,7 @@ def longterm(
                 num_realizations=int(trials[c]),
                 progress=inner,
                 checkpoint=None if checkpoint is None else Path(checkpoint) / name,
-                **({"brute_force_above": float(rare_below)} if screened else {}),
+                **({"brute_force_above": float(rare_below)} if screened_c else {}),
                 **run_options,
             )
             r = {
@@ -479,6 +496,24 @@ def longterm(
         done_trials[0] = base + int(trials[c])
         if progress is not None:
             progress(done_trials[0], total, "monte_carlo")
+        return r
+
+    for j in mine_mc:
+        c = mc_cells[j]
+        if moment[c]:  # the superposition makes both excitations; no splitting (it restarts a filter's state)
+            r = simulate_cell(c, ships[c[0]], MOMENT_EXCITATION, "brute_force")
+            if twice[c]:
+                rp = simulate_cell(
+                    c, parametric_only(ships[c[0]]), excitation, "brute_force", "parametric_only"
+                )
+                for key, name_ in zip(
+                    PARAMETRIC_KEYS, ("probability", "lower", "upper", "variance"), strict=True
+                ):
+                    cells[key][c] = rp[name_]
+        else:
+            r = simulate_cell(
+                c, ships[c[0]], excitation, "splitting" if rare[c] or screened else "brute_force"
+            )
         cells["probability"][c] = r["probability"]
         cells["probability_lower"][c], cells["probability_upper"][c] = r["lower"], r["upper"]
         cells["variance"][c] = r["variance"]
@@ -510,6 +545,7 @@ def longterm(
         "n_exceeded_effort",
         "estimator",
         "cost_trials",
+        *PARAMETRIC_KEYS,
     )
     if n_proc > 1:
         got = _gather({k: np.nan_to_num(cells[k], nan=0.0) for k in mc_keys}, mc_here)
@@ -522,6 +558,7 @@ def longterm(
     # ---- every cell's method, value and interval ------------------------------------------------------------
     cells["theory_outside_validated_map"] = outside & ~is_mc
     fill_cells(cells, shape, method, comp_w, beam, left_out, needed, is_mc, factor)
+    fill_parametric(cells, moment, np.broadcast_to(grid.beam[None, :, None, None, None], shape))
     if part is not None or n_proc > 1:
         if part is not None:
             mine = np.zeros(shape, bool)
@@ -550,6 +587,9 @@ def longterm(
                 "theory_pass1_probability",
                 "theory_pass1_capsize_probability",
                 "cost_trials",
+                "parametric_probability",
+                "parametric_lower",
+                "parametric_upper",
             ):
                 extra = (1,) * (cells[k].ndim - len(shape))
                 cells[k] = np.where(not_mine.reshape(shape + extra), np.nan, cells[k])
@@ -565,7 +605,7 @@ def longterm(
                 extra = (1,) * (cells[k].ndim - len(shape))
                 cells[k] = np.where(not_mine.reshape(shape + extra), 0, cells[k]).astype(cells[k].dtype)
             cells["method"] = np.where(not_mine, METHODS.index("not_computed"), cells["method"])
-    config = _config(
+    config = run_config(
         grid,
         files,
         angles_deg,
@@ -643,112 +683,8 @@ def _empty(shape, n_angles) -> dict:
         "uncertainty": z(),
         "estimator": z(),
         "cost_trials": f(),
+        **empty_parametric(shape, n_angles),
     }
-
-
-def _check_time_steps(grid, mask, dt: float) -> None:
-    """`check_time_step` for every cell of `mask` (errors only; the warnings come with the cells' problems)."""
-    seen = set()
-    for s, k, u, i, j in np.argwhere(mask):
-        key = (s, k, u, i, j)
-        if key in seen:
-            continue
-        seen.add(key)
-        wave = EffectiveWave(
-            ITTC(float(grid.scatter.hs[i]), float(grid.scatter.t01[j])),
-            grid.ships[s].lpp,
-            float(grid.speeds[u]),
-            math.radians(float(grid.classes_deg[k])),
-        )
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            try:
-                check_time_step(dt, grid.ships[s], wave)
-            except ValueError as e:
-                raise ValueError(
-                    f"sea state H_s {grid.scatter.hs[i]:g} m, T_z {grid.scatter.tz[j]:g} s, heading "
-                    f"{grid.classes_deg[k]:g}°, U {grid.speeds[u]:g} m/s: {e}"
-                ) from None
-
-
-def _config(
-    grid,
-    files,
-    angles_deg,
-    exposure,
-    method,
-    realizations,
-    discard,
-    dt,
-    excitation,
-    filter_order,
-    phi0,
-    seed,
-    hours_per_year,
-    auto_share,
-    auto_tolerance,
-    model_factor,
-    skip_weight,
-    estimator,
-    refine_delta,
-    rare_below,
-) -> dict:
-    """The whole configuration (JSON-able): what the dataset's `config_json` attribute holds."""
-    from ..io import to_jsonable
-
-    sc = grid.scatter
-    return to_jsonable(
-        {
-            "scatter": {
-                "name": sc.name,
-                "source": sc.source,
-                "hs_m": sc.hs,
-                "tz_s": sc.tz,
-                "counts": sc.counts,
-                "total": sc.total,
-                "t01_over_tz": float(sc.t01[0] / sc.tz[0]),
-            },
-            "ships": [
-                {"name": n, "file": f, "weight": float(w), "coefficients": ship_to_dict(s)}
-                for n, f, w, s in zip(grid.ship_names, files, grid.ship_weights, grid.ships, strict=True)
-            ],
-            "headings_deg": grid.headings_deg,
-            "heading_weights": grid.heading_weights,
-            "heading_classes_deg": grid.classes_deg,
-            "heading_convention": "χ between the course and the wave direction: 0° following, 90° beam, 180° head; χ and "
-            "360° − χ computed once (port/starboard symmetry)",
-            "speeds_m_s": grid.speeds,
-            "speed_weights": grid.speed_weights,
-            "angles_deg": angles_deg,
-            "exposure_s": float(exposure),
-            "hours_per_year": float(hours_per_year),
-            "method": method,
-            "theory": THEORY if method != "monte-carlo" else None,
-            "realizations": int(realizations),
-            "discard_s": float(discard),
-            "dt_s": float(dt),
-            "excitation": excitation,
-            "filter_order": filter_order if filter_order == "auto" else int(filter_order),
-            "phi0_deg": math.degrees(phi0),
-            "seed": int(seed),
-            "cell_seed_rule": f"s_c = {SEED_STRIDE}·seed + c + 1 (c: the computation cell's index)",
-            "auto_share": float(auto_share),
-            "auto_tolerance": float(auto_tolerance),
-            "model_factor": model_factor if model_factor == "measured" else float(model_factor),
-            "skip_weight": float(skip_weight),
-            "refine_delta": float(refine_delta),
-            "estimator": estimator,
-            "rare_below": float(rare_below),
-            "rare_rule": (
-                "estimator 'splitting': a Monte Carlo cell is estimated by multilevel splitting where its "
-                "probability at the largest angle is below rare_below — the theory's (method auto) or its "
-                "splitting pilot's (method monte-carlo); the other Monte Carlo cells by brute force"
-                if estimator == "splitting"
-                else None
-            ),
-            "beam_deg": BEAM_DEG,
-        }
-    )
 
 
 def merge_longterm(datasets, names=None):

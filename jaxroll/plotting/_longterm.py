@@ -111,7 +111,8 @@ def longterm_polar_figure(ds, angle_index: int | None = None):
     """Operational guidance: the long-term probability of exceeding each angle (`angle_index`: one only) and of
     capsize per exposure, given the heading and speed (the sea states and loadings weighted as in the assessment),
     as polar charts over the heading class χ' ∈ [0°, 180°] (port and starboard alike) × speed; each panel says
-    what it shows under its colour bar.
+    what it shows under its colour bar. For a ship carrying a direct wave moment each angle has two panels: the
+    total, and the parametric-only probability (`parametric_probability`: the moment off).
 
     **Returns:** the matplotlib `Figure`."""
     import matplotlib.pyplot as plt
@@ -132,14 +133,23 @@ def longterm_polar_figure(ds, angle_index: int | None = None):
             )
         return out
 
-    panels = [
-        (given_heading_and_speed(np.nan_to_num(ds["probability"].values[..., a])), _angle_label(ds, a))
-        for a in _angles(ds, angle_index)
-    ]
+    # a ship carrying a direct wave moment: each angle's total beside its parametric-only share (docs/longterm.md)
+    moment = "direct_moment" in ds and bool(ds["direct_moment"].values.any())
+    panels = []
+    for a in _angles(ds, angle_index):
+        label = _angle_label(ds, a)
+        total = given_heading_and_speed(np.nan_to_num(ds["probability"].values[..., a]))
+        panels.append((total, label + ("\nwith the direct wave moment" if moment else ""), None))
+        if moment:  # on the total's colour scale, so that the two compare at a glance
+            p = given_heading_and_speed(np.nan_to_num(ds["parametric_probability"].values[..., a]))
+            top = max(float(total.max()), float(p.max()))
+            panels[-1] = (*panels[-1][:2], top)
+            panels.append((p, label + "\nparametric only (the moment off)", top))
     panels.append(
         (
             given_heading_and_speed(np.nan_to_num(ds["capsize_probability"].values)),
             f"P(capsize within {_hours(ds):g} h)",
+            None,
         )
     )
     rows, cols = _grid(len(panels))
@@ -149,8 +159,8 @@ def longterm_polar_figure(ds, angle_index: int | None = None):
     )  # fmt: skip
     for ax in axes.flat[len(panels) :]:
         ax.set_visible(False)
-    for ax, (values, what) in zip(axes.flat, panels, strict=False):
-        vmax = max(float(values.max()), 1e-12)
+    for ax, (values, what, top) in zip(axes.flat, panels, strict=False):
+        vmax = max(float(values.max()) if top is None else top, 1e-12)
         mesh = polar_risk_chart(ax, classes, speeds, values, label="", vmax=vmax, fmt="{:.2g}")
         bar = fig.colorbar(mesh, ax=ax, shrink=0.8, location="bottom", pad=0.02, format="%.2g",
                            label=f"{what}\nper exposure, given heading and speed")  # fmt: skip

@@ -17,6 +17,7 @@ from ._averaging import (
     energy_averaged_pdf as energy_averaged_pdf,
     esam_additive_pdf as esam_additive_pdf,
     esam_pdf as esam_pdf,
+    moment_energy_diffusion as moment_energy_diffusion,
     parametric_energy_diffusion as parametric_energy_diffusion,
     roberts_coefficients as roberts_coefficients,
     roberts_log_normaliser as roberts_log_normaliser,

@@ -512,6 +512,14 @@ def additive_energy_diffusion(orbits: Orbits, intensity: ArrayLike) -> Float[Arr
     return jnp.asarray(intensity, dtype=float) * orbits.mean_rate_squared
 
 
+def moment_energy_diffusion(orbits: Orbits, moment) -> Float[Array, " n"]:
+    """σ_H²(H) = π S_M⁺(Ω) ⟨φ̇²⟩ [1/s⁵] for the energy rate φ̇ M_w of a direct wave moment M_w [rad/s²] (one-sided
+    spectrum S_M⁺ = `moment.spectrum`, e.g. a `WaveMomentExcitation`): the moment's spectrum taken as white at the
+    orbit's frequency Ω(H) (its fundamental; exact for a linear orbit, π S_M⁺ being the intensity of a white
+    moment of that level: `additive_energy_diffusion`)."""
+    return jnp.pi * moment.spectrum(orbits.frequency) * orbits.mean_rate_squared
+
+
 def energy_averaged_pdf(
     orbits: Orbits,
     sigma_h2: Float[Array, " n"],
@@ -548,7 +556,7 @@ def energy_averaged_pdf(
 
 
 @filter_jit
-def _esam(ship, spectrum, estimator, mean_shift, num, max_amplitude, num_theta, num_harmonics):
+def _esam(ship, spectrum, estimator, mean_shift, num, max_amplitude, num_theta, num_harmonics, moment=None):
     rc = roberts_coefficients(ship, spectrum, mean_shift=mean_shift)
     shift = spectrum.mean if mean_shift else jnp.zeros(())
     a_eff = _restoring_poly(ship, shift)
@@ -559,6 +567,13 @@ def _esam(ship, spectrum, estimator, mean_shift, num, max_amplitude, num_theta, 
     )
     sigma_h2 = parametric_energy_diffusion(orbits, spectrum)
     s0 = jnp.where(exists, ship.damping[0] / rc.k, 0.0)
+    extra = {}
+    if moment is not None:  # the additive moment keeps the roll alive (never dies out) and p ∝ A near 0
+        sigma_h2 = sigma_h2 + moment_energy_diffusion(orbits, moment)
+        # p ∝ A^{1 − b1/K} at large A where the parametric diffusion dominates: normalisable for ν < −1 too
+        exists = _existence(jnp.zeros(()), bounded, rc.c2, rc.c3) | (rc.nu < -1)
+        s0 = jnp.zeros(())
+        extra = {"S_M_at_omega": moment.spectrum(rc.omega)}
     parameters = {
         "nu": rc.nu,
         "c2": rc.c2,
@@ -569,6 +584,7 @@ def _esam(ship, spectrum, estimator, mean_shift, num, max_amplitude, num_theta, 
         "mean_stiffness_shift": shift,
         "S_P_at_2omega": spectrum(2 * rc.omega),
         "lyapunov_exponent": rc.lyapunov_exponent,
+        **extra,
     }
     return energy_averaged_pdf(
         orbits, sigma_h2, s0, estimator=estimator, exists=exists, parameters=parameters
@@ -586,6 +602,7 @@ def esam_pdf(
     num_theta: int = 256,
     num_harmonics: int = 6,
     throw: bool = True,
+    moment=None,
 ) -> AveragedAmplitudeLaw:
     r"""Energy-based stochastic averaging (ESAM): stationary roll-amplitude PDF with the full nonlinear restoring.
 
@@ -599,14 +616,21 @@ def esam_pdf(
     vanishes is cut where Roberts' linear law is negligible (at most π), or at `max_amplitude` [rad].
 
     **Arguments:** as `roberts_pdf`; `num_theta`: θ points per orbit; `num_harmonics`: d_2 … d_{2·num}.
+    `moment`: the direct wave moment M_w (`problem.moment_excitation`, a `WaveMomentExcitation`: its one-sided
+    spectrum S_M⁺(ω_e) [rad²/s³]) acting with the parametric term: its energy diffusion π S_M⁺(Ω)⟨φ̇²⟩
+    (`moment_energy_diffusion`) adds to the parametric one (the cross terms of M_w at Ω and P at 2Ω average out),
+    so p ∝ A near 0 and the law exists whatever K. It holds where the roll is resonant — the moment's energy near
+    ω0 makes the roll, not the quasi-static following of shorter waves, which averaging leaves out
+    (docs/theory.md §8). A ship carrying a moment at an oblique or beam heading without `moment` is refused.
 
-    **Returns:** `AveragedAmplitudeLaw` (`method="esam"`).
+    **Returns:** `AveragedAmplitudeLaw` (`method="esam"`; with `moment`, `parameters["S_M_at_omega"]`).
     """
-    refuse_wave_moment(ship, wave, "esam")
+    if moment is None:
+        refuse_wave_moment(ship, wave, "esam")
     require_float64("jaxroll.theory.esam_pdf")
     check_estimator(estimator)
     spectrum = _as_spectrum(ship, wave)
-    out = _esam(ship, spectrum, estimator, mean_shift, num, max_amplitude, num_theta, num_harmonics)
+    out = _esam(ship, spectrum, estimator, mean_shift, num, max_amplitude, num_theta, num_harmonics, moment)
     return _finish(out, throw)
 
 
