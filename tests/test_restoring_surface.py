@@ -188,3 +188,31 @@ def test_monte_carlo_with_the_surface_against_the_polynomial_model(c11):
     assert 0 < left <= rough.n_capsized
     assert any(f"{left} of 100 realizations left the ship's GZ surface" in str(w.message) for w in caught)
     assert run(ship, 9.0).n_capsized < left
+
+
+def test_cli_hydrostatics_writes_the_surface_and_a_malformed_one_is_refused(c11, tmp_path, capsys):
+    """`jaxroll hydrostatics c11 --gz-surface` writes the surface of the same table (the library's coefficients to
+    round-off) and its errors; `jaxroll ship show --ship` of a file whose section is malformed exits 2 with one line."""
+    import json
+
+    from jaxroll._cli import main
+
+    out = tmp_path / "hs"
+    assert main(["hydrostatics", "c11", "--gz-surface", "--out", str(out)]) == 0
+    printed = capsys.readouterr().out
+    assert "GZ(φ, ζ_mid) surface (|φ| <= 70°" in printed and "(GZ_calm + ΔGM·φ: rms 0.91 m)" in printed
+    surface = load_ship(out / "ship.toml").restoring_surface
+    mine = c11[4].restoring_surface
+    np.testing.assert_allclose(np.asarray(surface.coefficients), np.asarray(mine.coefficients), rtol=1e-9)
+    assert surface.source == "jaxroll hydrostatics c11"
+    payload = json.loads((out / "hydrostatics.json").read_text())
+    assert payload["config"]["gz_surface"] is True
+    assert payload["fits"]["gz_surface_fit_rms_m"] == pytest.approx(float(mine.fit_rms), rel=1e-9)
+    assert payload["fits"]["polynomial_model_rms_m"] > 0.8
+    assert "restoring_surface" in payload["ship"]
+    bad = tmp_path / "bad.toml"
+    bad.write_text((out / "ship.toml").read_text().replace("zeta_min_m = -6.0", "zeta_min_m = 0.5"))
+    assert main(["ship", "show", "--ship", str(bad)]) == 2
+    err = capsys.readouterr().err
+    assert "[restoring_surface]: the GZ surface's wave range [zeta_min, zeta_max] = [0.5, 6.0] m" in err
+    assert err.count("\n") == 1

@@ -391,7 +391,7 @@ class RealizationEnd(eqx.Module):
 
     capsized: Array
     capsize_time: Array
-    left_range: Array
+    left_range: Array | bool = False
 
 
 MOMENT_KEY = 0x7FFFFFFE  # the moment excitation of a realization keyed k draws from fold_in(k, MOMENT_KEY)
