@@ -534,7 +534,8 @@ def simulate(
         phi, dphi, alive, k_cap, obs, k, left = inner
         one = runtime_one(phi)  # φ is finite: P at the 2m + 1 half steps and the RK4 stages are computed once
         keep = lambda v: computed_once(v, one)  # noqa: E731
-        p = [jax.tree.map(keep, wave_restoring_terms(ship, x)) for x in xs[0]]
+        p = [wave_restoring_terms(ship, x) for x in xs[0]]
+        p = [(keep(v[0]), v[1]) if isinstance(v, tuple) else keep(v) for v in p]
         mw = xs[1] if two_sources else [0.0] * len(p)
         outs = []
         for s in range(m):
@@ -542,9 +543,10 @@ def simulate(
             ok = jnp.isfinite(phi1) & jnp.isfinite(dphi1) & (jnp.abs(phi1) < problem.capsize_angle)
             inside = k < num_steps
             if surface is not None:
-                on = functools.reduce(
-                    jnp.logical_and, (in_surface_range(surface, phi1, -z) for z in xs[0][2 * s : 2 * s + 3])
-                )
+                # ζ at the step's middle and end (its start is the last step's end; the source step's first start
+                # is checked too, for the run's first step)
+                zs = xs[0][2 * s : 2 * s + 3] if s == 0 else xs[0][2 * s + 1 : 2 * s + 3]
+                on = functools.reduce(jnp.logical_and, (in_surface_range(surface, phi1, -z) for z in zs))
                 left = left | ((alive & ok & ~on & inside) if ragged else (alive & ok & ~on))
                 ok = ok & on
             newly = alive & ~ok & inside if ragged else alive & ~ok
