@@ -60,8 +60,9 @@ from ._excitation import (
 def roll_acceleration(ship: Ship, phi, dphi, p, m=0.0) -> Float[Array, "..."]:
     """φ̈ [rad/s²] at roll φ [rad], rate φ̇ [rad/s], parametric term P [1/s²] and roll moment M_w [rad/s²].
 
-    For a ship with a GZ surface (`ship.restoring_surface`) `p` is what `jaxroll.ship._restoring_surface.
-    wave_restoring_terms` gives, (P, d): the surface's restoring in that wave."""
+    For a ship with a GZ surface (`ship.restoring_surface`), `p` may be the pair (P, d) that
+    `wave_restoring_terms` (`jaxroll.ship._restoring_surface`) gives: the surface's restoring in that wave; a lone P
+    is the polynomial model's."""
     b1, b2, b3 = ship.damping[0], ship.damping[1], ship.damping[2]
     damping = dphi * (b1 + b2 * jnp.abs(dphi) + b3 * dphi * dphi)
     return m - damping - restoring_in_waves(ship, phi, p)

@@ -58,9 +58,7 @@ def simulate_chunk(
 
     states, outputs, end = jax.vmap(jax.checkpoint(one) if remat else one)(indices)
     summed, per = observer.reduce(problem, states, outputs, end, valid)
-    if (
-        problem.ship.restoring_surface is not None
-    ):  # which ended by leaving the GZ surface (`monte_carlo` counts)
+    if problem.ship.restoring_surface is not None:  # which ended by leaving it (`monte_carlo` counts them)
         per = {**per, LEFT_SURFACE: end.left_range & valid}
     return summed, per
 
