@@ -91,7 +91,8 @@ def test_small_heel_reduction_to_the_polynomial_model(c11):
 
 def test_the_roll_equation_restores_with_the_surface(c11):
     """The RK4 stage's restoring (ζ-part formed once, `wave_restoring_terms`) is (ω0²/GM0)·GZ(φ, ζ) of
-    `gz_in_waves`, with the correction r = σ_obs/σ_thr on the whole wave part; without a surface, the paper's."""
+    `gz_in_waves`, with the correction r = σ_obs/σ_thr on the whole wave part; without a surface, the paper's; in
+    float32 within 2e-4 of the largest value."""
     _, _, _, ship, surfaced = c11
     phi = jnp.linspace(-1.2, 1.2, 25)
     for r in (1.0, 0.7):
@@ -101,6 +102,14 @@ def test_the_roll_equation_restores_with_the_surface(c11):
                 got = restoring_in_waves(s, phi, wave_restoring_terms(s, -zeta_mid))
                 want = s.omega0**2 / s.gm0 * gz_in_waves(s, phi, zeta_mid)
                 np.testing.assert_allclose(np.asarray(got), np.asarray(want), rtol=1e-12, atol=1e-15)
+    # in float32 (the Monte Carlo's) over the whole range: within 7e-5 of the largest restoring (measured)
+    from jaxroll.roll._equation import as_dtype
+
+    s32 = as_dtype(surfaced, jnp.float32)
+    pp, zz = (jnp.asarray(v) for v in np.meshgrid(np.linspace(-1.22, 1.22, 101), np.linspace(-6, 6, 61)))
+    r64 = np.asarray(restoring_in_waves(surfaced, pp, wave_restoring_terms(surfaced, -zz)))
+    r32 = restoring_in_waves(s32, pp.astype(jnp.float32), wave_restoring_terms(s32, -zz.astype(jnp.float32)))
+    assert r32.dtype == jnp.float32 and np.max(np.abs(np.asarray(r32) - r64)) < 2e-4 * np.max(np.abs(r64))
     assert bool(in_surface_range(surfaced.restoring_surface, 1.2, 6.0))
     assert not bool(in_surface_range(surfaced.restoring_surface, 1.23, 0.0))
     assert not bool(in_surface_range(surfaced.restoring_surface, 0.0, -6.01))
