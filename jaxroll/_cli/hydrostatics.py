@@ -87,6 +87,13 @@ def register(subparsers) -> None:
         "pressure on the hull, every 15° of heading; pdf, maxima, risk, sweep then add it at oblique and beam "
         "headings, docs/wave_moment.md) or none (default: the paper's parametric-only model)",
     )
+    add(
+        "--gz-surface",
+        action="store_true",
+        help="write the hull's GZ(φ, ζ_mid) surface in waves into ship.toml ([restoring_surface], fitted to the "
+        "table: 0–heel-max, ±zeta-max): the roll equation then restores with it instead of GZ_calm(φ) + ΔGM(ζ)·φ, "
+        "and a run that leaves its range ends there, counted (docs/hydrostatics.md)",
+    )
     add_hull_options(p)
     add(
         "--out",
@@ -134,6 +141,8 @@ def run(args) -> int:
         c11_representative,
         default_heel_grid,
         default_zeta_grid,
+        fit_restoring_surface,
+        gz_in_waves,
         hull_hydrostatics,
         metacentric_height,
         restoring_fields_from_gz,
@@ -212,6 +221,16 @@ def run(args) -> int:
     if args.wave_moment == "froude-krylov":
         table = wave_moment(hull, loading, ship, omega=ship_file_frequencies(float(sol.particulars.draught)))
         ship = eqx.tree_at(lambda s: s.wave_moment, ship, table, is_leaf=lambda x: x is None)
+    polynomial_rms = None
+    if args.gz_surface:
+        zz, pp = np.meshgrid(np.asarray(sol.zeta_mid), np.asarray(sol.heels), indexing="ij")
+        polynomial_rms = float(
+            np.sqrt(np.mean((np.asarray(gz_in_waves(ship, pp, zz)) - np.asarray(sol.gz)) ** 2))
+        )
+        surface = fit_restoring_surface(
+            sol, ship, source=f"jaxroll hydrostatics {'c11' if is_c11 else Path(args.hull).name}"
+        )
+        ship = eqx.tree_at(lambda s: s.restoring_surface, ship, surface, is_leaf=lambda x: x is None)
     table_ok = np.asarray(sol.converged)
     rows = [np.asarray(sol.gz_calm), *(np.asarray(sol.gz)[i] for i in (np.argmin(zeta), np.argmax(zeta)))]
     rows = [
@@ -279,6 +298,7 @@ def run(args) -> int:
                 "heel_max_deg": args.heel_max_deg,
                 "n_heel": args.n_heel,
                 "wave_moment": args.wave_moment,
+                "gz_surface": bool(args.gz_surface),
                 "method": (
                     "exact for the mesh: its triangles clipped by the water surface (divergence theorem, no "
                     f"waterplane cap), waves L2-projected on linear functions in {hull.surface.strips} strips along x"
@@ -334,6 +354,15 @@ def run(args) -> int:
                     f"c{k}": float(c) for k, c in enumerate(np.asarray(sol.delta_gm_coefficients))
                 },
                 "delta_gm_fit_rms_m": float(sol.delta_gm_fit_rms),
+                **(
+                    {
+                        "gz_surface_fit_rms_m": float(ship.restoring_surface.fit_rms),
+                        "gz_surface_fit_max_error_m": float(ship.restoring_surface.fit_max_error),
+                        "polynomial_model_rms_m": polynomial_rms,
+                    }
+                    if polynomial_rms is not None
+                    else {}
+                ),
             },
             "balance_check": {
                 "max_relative_volume_error": float(sol.max_volume_error),
@@ -369,6 +398,14 @@ def run(args) -> int:
         print(
             f"wave moment (Froude–Krylov) tabulated for {ship.wave_moment.headings.size} headings × "
             f"{ship.wave_moment.omega.size} frequencies (0–{float(ship.wave_moment.omega[-1]):.3g} rad/s), in ship.toml"
+        )
+    if ship.restoring_surface is not None:
+        rs = ship.restoring_surface
+        print(
+            f"GZ(φ, ζ_mid) surface (|φ| <= {args.heel_max_deg:g}°, ζ_mid in [{float(rs.zeta_min):g}, "
+            f"{float(rs.zeta_max):g}] m; {rs.coefficients.shape[0]} × {rs.coefficients.shape[1]} terms beyond the "
+            f"polynomial model) against the table: rms {float(rs.fit_rms):.2g} m, max {float(rs.fit_max_error):.2g} m "
+            f"(GZ_calm + ΔGM·φ: rms {polynomial_rms:.2g} m), in ship.toml"
         )
     if is_c11:
         print("Note: the c11 hull is REPRESENTATIVE (parametric), not the real C11 lines.")

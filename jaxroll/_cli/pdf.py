@@ -245,6 +245,9 @@ def run(args) -> int:
             "theory": theories,
             "capsize_angle_deg": capsize_deg,
         }
+        left = stats.config.get("n_left_gz_surface_range")  # a ship with a GZ surface: ended by leaving it
+        if left is not None:
+            config["n_left_gz_surface_range"] = left
         payload = {"config": config, **summary, "run_time_s": elapsed}
         if resumed:
             payload["resumed_from_checkpoint"] = True
@@ -285,6 +288,8 @@ def run(args) -> int:
         nc = write_netcdf(tmp / "pdf.nc", "pdf", payload, stats.to_xarray(bins))
     took = f"done in {elapsed:.1f} s" + (f" (resumed; {earlier + elapsed:.1f} s in total)" if resumed else "")
     capsized = f"capsized {stats.n_capsized}/{stats.n_realizations} (P = {stats.capsize_probability:.4f})"
+    if left:
+        capsized += f", of which {left} left the ship's GZ surface (not extrapolated)"
     print(f"{took}; {capsized}")
     if stats.n_capsized:
         print(f"the statistics below are conditional on no capsize: {caption}")

@@ -47,6 +47,8 @@ SHIP = Layout(
         "*damping_b3": "cubic roll damping b3",
         "*correction_gm_ratio": "GM-variation correction σ_obs/σ_thr",
     },
+    # the GZ surface's table of coefficients (rows: φ³, φ⁵, …; columns: ζ¹, ζ², …) as JSON text: each has its unit
+    text=("ship/restoring_surface/coefficients", "*/ship/restoring_surface/coefficients"),
 )
 
 # --------------------------------------------------------------------------------------------------------------

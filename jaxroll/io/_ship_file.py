@@ -13,6 +13,7 @@ from typing import Any
 import equinox as eqx
 import numpy as np
 
+from ..ship._restoring_surface import RestoringSurface
 from ..ship._ship import _FIELDS, Ship, _parameter_tables, validate_ship
 from ..ship._wave_moment import moment_table
 
@@ -20,6 +21,19 @@ WAVE_MOMENT = "wave_moment"
 """Optional table of a ship file: the hull's direct wave roll moment F(ω, χ) [N m per m of wave amplitude]
 (`source`, `omega_rad_s`, `heading_rad`, `moment_real_N`, `moment_imag_N`; docs/ship_file.md)."""
 _MOMENT_KEYS = ("source", "omega_rad_s", "heading_rad", "moment_real_N", "moment_imag_N")
+
+RESTORING_SURFACE = "restoring_surface"
+"""Optional table of a ship file: the hull's GZ(φ, ζ_mid) surface beyond the polynomial model (`source`,
+`heel_max_rad`, `zeta_min_m`, `zeta_max_m`, `coefficients`, `fit_rms_m`, `fit_max_error_m`; docs/ship_file.md)."""
+_SURFACE_KEYS = (
+    "source",
+    "heel_max_rad",
+    "zeta_min_m",
+    "zeta_max_m",
+    "coefficients",
+    "fit_rms_m",
+    "fit_max_error_m",
+)
 
 DAMPING_SOURCE_KEY = "source"
 """Optional text key of the `[damping]` table: where b1, b2, b3 come from (e.g. a decay test, the simplified
@@ -47,7 +61,62 @@ def ship_to_dict(ship: Ship, *, damping_source: str | None = None) -> dict[str, 
             "moment_real_N": force.real.tolist(),
             "moment_imag_N": force.imag.tolist(),
         }
+    surface = ship.restoring_surface
+    if surface is not None:
+        out[RESTORING_SURFACE] = {
+            "source": surface.source,
+            "heel_max_rad": float(surface.heel_max),
+            "zeta_min_m": float(surface.zeta_min),
+            "zeta_max_m": float(surface.zeta_max),
+            "coefficients": np.asarray(surface.coefficients).tolist(),
+            "fit_rms_m": float(surface.fit_rms),
+            "fit_max_error_m": float(surface.fit_max_error),
+        }
     return out
+
+
+def _surface_from_dict(table: Any, source: str) -> RestoringSurface:
+    """The `[restoring_surface]` table of a ship file as a `RestoringSurface`."""
+    where = f"{source}: [{RESTORING_SURFACE}]"
+    if not isinstance(table, dict):
+        raise ValueError(f"{where} must be a table; got {type(table).__name__}.")
+    unknown, missing = sorted(set(table) - set(_SURFACE_KEYS)), [k for k in _SURFACE_KEYS if k not in table]
+    if unknown or missing:
+        raise ValueError(
+            f"{where} needs exactly the fields {list(_SURFACE_KEYS)}; "
+            + (f"unknown {unknown}" if unknown else f"missing {missing}")
+            + ". See docs/ship_file.md."
+        )
+    values = {}
+    for key in _SURFACE_KEYS[1:]:
+        v = table[key]
+        try:
+            arr = np.asarray(v, dtype=float)
+        except (TypeError, ValueError):
+            arr = None
+        if (
+            arr is None
+            or isinstance(v, bool)
+            or (key == "coefficients") != (arr.ndim == 2)
+            or (key != "coefficients" and arr.ndim != 0)
+        ):
+            what = (
+                "rows of numbers (one row per heel power φ³, φ⁵, …)" if key == "coefficients" else "a number"
+            )
+            raise ValueError(f"{where} {key} must be {what}; got {v!r}. See docs/ship_file.md.")
+        values[key] = arr
+    try:
+        return RestoringSurface(
+            values["coefficients"],
+            heel_max=values["heel_max_rad"],
+            zeta_min=values["zeta_min_m"],
+            zeta_max=values["zeta_max_m"],
+            fit_rms=values["fit_rms_m"],
+            fit_max_error=values["fit_max_error_m"],
+            source=str(table["source"]),
+        )
+    except ValueError as e:
+        raise ValueError(f"{where}: {e} See docs/ship_file.md.") from None
 
 
 def _moment_from_dict(table: Any, ship: Ship, source: str):
@@ -92,11 +161,12 @@ def ship_from_dict(data: dict[str, Any], *, source: str = "<dict>") -> Ship:
     if not isinstance(data, dict):
         raise ValueError(f"{source}: a ship file must be a TOML table; got {type(data).__name__}.")
     known_sections = {s for s, *_ in _FIELDS}
-    unknown = sorted(set(data) - known_sections - {"name", "provenance", WAVE_MOMENT})
+    unknown = sorted(set(data) - known_sections - {"name", "provenance", WAVE_MOMENT, RESTORING_SURFACE})
     if unknown:
         raise ValueError(
             f"{source}: unknown top-level field(s) {unknown}; allowed: name, provenance, "
-            f"{', '.join(f'[{s}]' for s in sorted(known_sections))}, [{WAVE_MOMENT}]. See docs/ship_file.md."
+            f"{', '.join(f'[{s}]' for s in sorted(known_sections))}, [{WAVE_MOMENT}], [{RESTORING_SURFACE}]. See "
+            "docs/ship_file.md."
         )
     values: dict[str, Any] = {"restoring": [0.0] * 4, "damping": [0.0] * 3, "delta_gm": [0.0] * 7}
     missing = []
@@ -149,6 +219,13 @@ def ship_from_dict(data: dict[str, Any], *, source: str = "<dict>") -> Ship:
             lambda s: s.wave_moment,
             ship,
             _moment_from_dict(data[WAVE_MOMENT], ship, source),
+            is_leaf=lambda x: x is None,
+        )
+    if RESTORING_SURFACE in data:
+        ship = eqx.tree_at(
+            lambda s: s.restoring_surface,
+            ship,
+            _surface_from_dict(data[RESTORING_SURFACE], source),
             is_leaf=lambda x: x is None,
         )
     return ship

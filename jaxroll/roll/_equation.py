@@ -13,6 +13,7 @@ Carlo (docs/numerics.md, "Monte Carlo kernel").
 
 from __future__ import annotations
 
+import functools
 import math
 import warnings
 
@@ -36,12 +37,12 @@ from ..sea._filters import (
 )
 from ..sea._grim import SPECTRUM_GRID, EffectiveWave, spectrum_on_grid
 from ..sea._spectra import AbstractWaveSpectrum, heading_cosine
-from ..ship._restoring import (
-    angle_of_maximum_gz,
-    backbone_frequency,
-    parametric_excitation,
-    restoring_moment,
-    vanishing_angle,
+from ..ship._restoring import angle_of_maximum_gz, backbone_frequency, parametric_excitation, vanishing_angle
+from ..ship._restoring_surface import (
+    in_surface_range,
+    refuse_restoring_surface,
+    restoring_in_waves,
+    wave_restoring_terms,
 )
 from ..ship._ship import Ship
 from ..ship._validity import warn_outside_validity
@@ -57,10 +58,14 @@ from ._excitation import (
 
 
 def roll_acceleration(ship: Ship, phi, dphi, p, m=0.0) -> Float[Array, "..."]:
-    """φ̈ [rad/s²] at roll φ [rad], rate φ̇ [rad/s], parametric term P [1/s²] and roll moment M_w [rad/s²]."""
+    """φ̈ [rad/s²] at roll φ [rad], rate φ̇ [rad/s], parametric term P [1/s²] and roll moment M_w [rad/s²].
+
+    For a ship with a GZ surface (`ship.restoring_surface`), `p` may be the pair (P, d) that
+    `wave_restoring_terms` (`jaxroll.ship._restoring_surface`) gives: the surface's restoring in that wave; a lone P
+    is the polynomial model's."""
     b1, b2, b3 = ship.damping[0], ship.damping[1], ship.damping[2]
     damping = dphi * (b1 + b2 * jnp.abs(dphi) + b3 * dphi * dphi)
-    return m - damping - restoring_moment(ship, phi) - p * phi
+    return m - damping - restoring_in_waves(ship, phi, p)
 
 
 def roll_vector_field(t, y, args):
@@ -347,6 +352,13 @@ class RollProblem(eqx.Module):
                     f"the initial roll {math.degrees(phi0):.4g}° is beyond the angle of vanishing stability "
                     f"({math.degrees(capsize):.1f}°)."
                 )
+            surface = ship.restoring_surface
+            if surface is not None and abs(phi0) > float(surface.heel_max):
+                raise ValueError(
+                    f"the initial roll {math.degrees(phi0):.4g}° is beyond the ship's GZ surface (|φ| <= "
+                    f"{math.degrees(float(surface.heel_max)):.4g}°): start inside it, or widen the surface (jaxroll "
+                    "hydrostatics --gz-surface --heel-max-deg)."
+                )
         if excitation == "filter":
             if filter_order == "auto":
                 if not is_concrete((ship, wave)):
@@ -377,10 +389,13 @@ class RollProblem(eqx.Module):
 
 
 class RealizationEnd(eqx.Module):
-    """Capsize outcome of one realization: whether |φ| passed the vanishing angle (or diverged), and when [s]."""
+    """Capsize outcome of one realization: whether |φ| passed the vanishing angle (or diverged), and when [s];
+    `left_range`: whether it ended instead by leaving its ship's GZ surface (`ship.restoring_surface`: |φ| beyond the
+    surface's heel range or ζ_mid beyond its wave range), which counts as capsized too (never extrapolated)."""
 
     capsized: Array
     capsize_time: Array
+    left_range: Array | bool = False
 
 
 MOMENT_KEY = 0x7FFFFFFE  # the moment excitation of a realization keyed k draws from fold_in(k, MOMENT_KEY)
@@ -516,18 +531,28 @@ def simulate(
             f"lengthen dt)."
         )
     two_sources = problem.moment_excitation is not None
+    surface = ship.restoring_surface  # its range ends a realization that leaves it, as a capsize does
     ragged = num_steps % m != 0  # the last source step runs past num_steps: mask its extra time steps
 
     def per_source_step(inner, xs):
-        phi, dphi, alive, k_cap, obs, k = inner
+        phi, dphi, alive, k_cap, obs, k, left = inner
         one = runtime_one(phi)  # φ is finite: P at the 2m + 1 half steps and the RK4 stages are computed once
-        p = [computed_once(parametric_excitation(ship, x), one) for x in xs[0]]
+        keep = lambda v: computed_once(v, one)  # noqa: E731
+        p = [wave_restoring_terms(ship, x) for x in xs[0]]
+        p = [(keep(v[0]), v[1]) if isinstance(v, tuple) else keep(v) for v in p]
         mw = xs[1] if two_sources else [0.0] * len(p)
         outs = []
         for s in range(m):
             phi1, dphi1 = rk4_step(ship, (phi, dphi), p[2 * s : 2 * s + 3], mw[2 * s : 2 * s + 3], h, one)
             ok = jnp.isfinite(phi1) & jnp.isfinite(dphi1) & (jnp.abs(phi1) < problem.capsize_angle)
             inside = k < num_steps
+            if surface is not None:
+                # ζ at the step's middle and end (its start is the last step's end; the source step's first start
+                # is checked too, for the run's first step)
+                zs = xs[0][2 * s : 2 * s + 3] if s == 0 else xs[0][2 * s + 1 : 2 * s + 3]
+                on = functools.reduce(jnp.logical_and, (in_surface_range(surface, phi1, -z) for z in zs))
+                left = left | ((alive & ok & ~on & inside) if ragged else (alive & ok & ~on))
+                ok = ok & on
             newly = alive & ~ok & inside if ragged else alive & ~ok
             k_cap = jnp.where(newly, (k + 1).astype(k_cap.dtype), k_cap)
             alive = alive & ~newly
@@ -544,7 +569,7 @@ def simulate(
             ) % record_every == 0:  # source steps start at multiples of m: step k + 1 is a multiple of r
                 outs.append(out)
             k = k + 1
-        return (phi, dphi, alive, k_cap, obs, k), jax.tree.map(lambda *o: jnp.stack(o), *outs)
+        return (phi, dphi, alive, k_cap, obs, k, left), jax.tree.map(lambda *o: jnp.stack(o), *outs)
 
     obs_state = as_dtype(obs_state, dtype)
     # The carry is per realization from the start (under vmap: batched), as it is after the first step; else vmap
@@ -555,18 +580,19 @@ def simulate(
         lambda x: jnp.where(same, x, x),
         (problem.phi0, problem.dphi0, jnp.array(True), jnp.array(-1, jnp.int32), obs_state),
     )
-    inner = (*per_realization, jnp.array(0))
+    inner = (*per_realization, jnp.array(0), jnp.where(same, False, False))
     done = None if finished is None else (lambda inner: ~inner[2] | finished(inner[4]))
     inner, outs = _drive(problem, key, num_steps, dtype, per_source_step, inner, done)
-    _, _, alive, k_cap, obs_state, _ = inner
+    _, _, alive, k_cap, obs_state, _, left = inner
     outs = jax.tree.map(lambda o: o.reshape(-1, *o.shape[2:])[: num_steps // record_every], outs)
-    end = RealizationEnd(~alive, jnp.where(alive, jnp.inf, k_cap.astype(float) * h))
+    end = RealizationEnd(~alive, jnp.where(alive, jnp.inf, k_cap.astype(float) * h), left)
     return obs_state, outs, end
 
 
 def forcing_series(problem: RollProblem, key: PRNGKeyArray, num_steps: int, *, dtype=jnp.float64):
     """P [1/s²] and M_w [rad/s²] at the (start, middle, end) of each of `num_steps` steps, [num_steps, 3] each,
     exactly as `simulate` forms them for the realization keyed `key` (M_w = 0 without a moment excitation)."""
+    refuse_restoring_surface(problem.ship, "forcing_series (and the sensitivities built on it)")
     problem = as_dtype(problem, dtype)
     m = problem.excitation.substeps
 

@@ -8,11 +8,13 @@ from __future__ import annotations
 
 import math
 import os
+import warnings
 from collections.abc import Callable, Sequence
 
 import jax
 import jax.numpy as jnp
 import jax.random as jr
+import numpy as np
 
 from .._config import require_float64
 from .._display import progress_bar
@@ -55,7 +57,33 @@ def simulate_chunk(
         )
 
     states, outputs, end = jax.vmap(jax.checkpoint(one) if remat else one)(indices)
-    return observer.reduce(problem, states, outputs, end, valid)
+    summed, per = observer.reduce(problem, states, outputs, end, valid)
+    if problem.ship.restoring_surface is not None:  # which ended by leaving it (`monte_carlo` counts them)
+        per = {**per, LEFT_SURFACE: end.left_range & valid}
+    return summed, per
+
+
+LEFT_SURFACE = "left_gz_surface_range"
+"""The per-realization flag `simulate_chunk` adds for a ship with a GZ surface: the realization ended by leaving the
+surface's range (counted with the capsizes); `monte_carlo` records their number as `config["n_left_gz_surface_range"]`
+and warns."""
+
+
+def _count_left_surface(problem: RollProblem, per: dict, config: dict) -> None:
+    """Move the left-the-surface flags out of `per` into `config` (their count), with a warning when any left."""
+    if LEFT_SURFACE not in per:
+        return
+    n = int(np.sum(np.asarray(per.pop(LEFT_SURFACE))))
+    config["n_left_gz_surface_range"] = n
+    if n:
+        s = problem.ship.restoring_surface
+        warnings.warn(
+            f"{n} of {config['num_realizations']} realizations left the ship's GZ surface (|φ| <= "
+            f"{math.degrees(float(s.heel_max)):.4g}°, ζ_mid in [{float(s.zeta_min):.3g}, {float(s.zeta_max):.3g}] m) "
+            "and ended there, counted with the capsizes (never extrapolated): widen the surface (jaxroll "
+            "hydrostatics --gz-surface with a larger --heel-max-deg or --zeta-max) for their fate.",
+            stacklevel=3,
+        )
 
 
 def _check_count(name: str, value) -> None:
@@ -144,6 +172,7 @@ def monte_carlo(
         "dt_s": problem.dt,
         "chunk_size": chunk_size,
     }
+    _count_left_surface(problem, per, config)
     return observer.result(summed, per, config)
 
 

@@ -41,6 +41,7 @@ import jax.random as jr
 import numpy as np
 
 from .._config import require_float64
+from ..ship._restoring_surface import refuse_restoring_surface
 from ._equation import RollProblem
 from ._excitation import FilterExcitation
 from ._splitting_result import (
@@ -247,6 +248,7 @@ def _checked(problem, angles_deg, exposure, discard, stage_probability, max_leve
         )
     if problem.moment_excitation is not None:
         raise ValueError(f"{name} does not support a moment excitation (M_w); use monte_carlo_max_roll.")
+    refuse_restoring_surface(problem.ship, f"{name} (its levels are the calm restoring energy)")
     capsize_deg = math.degrees(float(problem.capsize_angle))
     try:
         angles = tuple(float(a) for a in angles_deg)

@@ -52,6 +52,12 @@ from ._restoring import (
     righting_lever as righting_lever,
     vanishing_angle as vanishing_angle,
 )
+from ._restoring_surface import (
+    RestoringSurface as RestoringSurface,
+    fit_restoring_surface as fit_restoring_surface,
+    gz_in_waves as gz_in_waves,
+    in_surface_range as in_surface_range,
+)
 from ._ship import (
     DEFAULT_SHIP_NOTE as DEFAULT_SHIP_NOTE,
     PLAUSIBLE as PLAUSIBLE,

@@ -20,6 +20,7 @@ from .._compiled import as_float
 from .._display import module_repr
 
 if TYPE_CHECKING:
+    from ._restoring_surface import RestoringSurface
     from ._wave_moment import WaveMoment
 
 DEFAULT_SHIP_NOTE = (
@@ -48,6 +49,7 @@ class Ship(eqx.Module):
     delta_gm: Float[Array, " 7"]
     gm_correction: Float[Array, ""]
     wave_moment: WaveMoment | None
+    restoring_surface: RestoringSurface | None
     name: str = eqx.field(static=True, default="unnamed ship")
     provenance: str = eqx.field(static=True, default="")
 
@@ -67,6 +69,7 @@ class Ship(eqx.Module):
         delta_gm,
         gm_correction=1.0,
         wave_moment: WaveMoment | None = None,
+        restoring_surface: RestoringSurface | None = None,
         name: str = "unnamed ship",
         provenance: str = "",
     ):
@@ -75,7 +78,10 @@ class Ship(eqx.Module):
         a7, a9), `damping` (b1 [1/s], b2 [1/rad], b3 [s/rad²]), `delta_gm` (C0 … C6 [m^(1−k)]), `gm_correction`
         σ_obs/σ_thr; `wave_moment`: optional direct wave roll moment of the hull
         ([`WaveMoment`][jaxroll.ship.WaveMoment], `jaxroll.ship.wave_moment`), which every run at a heading with
-        |cos χ| < 1 adds to the roll equation (docs/wave_moment.md; None: the paper's parametric-only model)."""
+        |cos χ| < 1 adds to the roll equation (docs/wave_moment.md; None: the paper's parametric-only model);
+        `restoring_surface`: optional GZ(φ, ζ_mid) surface of the hull in waves
+        ([`RestoringSurface`][jaxroll.ship.RestoringSurface]), used in the roll equation in place of
+        GZ_calm(φ) + ΔGM(ζ)φ (docs/hydrostatics.md; None: the polynomial model)."""
         scalars = dict(
             lpp=lpp,
             breadth=breadth,
@@ -102,6 +108,7 @@ class Ship(eqx.Module):
                 raise ValueError(f"Ship `{key}` must have shape ({size},); got {arr.shape}.")
             setattr(self, key, arr)
         self.wave_moment = wave_moment
+        self.restoring_surface = restoring_surface
         self.name = name
         self.provenance = provenance
 

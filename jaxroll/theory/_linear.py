@@ -16,6 +16,7 @@ import numpy as np
 from jaxtyping import Array, Float
 
 from ..sea._spectra import GRAVITY
+from ..ship._restoring_surface import refuse_restoring_surface
 
 _COARSE = 20001  # points from 0 to the top encounter frequency
 _FINE = 4001  # points within ±40 half-widths of the resonance
@@ -94,6 +95,9 @@ def wave_moment_refusal(theory: str) -> str:
 def refuse_wave_moment(ship, wave, theory: str) -> None:
     """Raise `ValueError` (`wave_moment_refusal`) when `ship` carries a wave moment (`ship.wave_moment`) and `wave`
     (an `EffectiveWave`) is at an oblique or beam heading (|cos χ| < 1), where the moment joins the roll equation:
-    the parametric-only theories would silently leave it out. Static checks only (works when traced)."""
+    the parametric-only theories would silently leave it out. Static checks only (works when traced). A ship with a
+    GZ surface (`ship.restoring_surface`) is refused at every heading: the theories know only its small-heel
+    reduction."""
+    refuse_restoring_surface(ship, theory)
     if getattr(ship, "wave_moment", None) is not None and getattr(wave, "projected", False):
         raise ValueError(wave_moment_refusal(theory))

@@ -43,6 +43,7 @@ from ..laws._abstract import (
     check_estimator,
 )
 from ..sea._filters import FilterFit, ShapingFilter, fitted_form
+from ..ship._restoring_surface import restoring_surface_refusal
 from ..ship._ship import Ship
 from ..ship._validity import warn_outside_validity
 from ._averaging import _finish, esam_pdf, roberts_pdf
@@ -377,8 +378,11 @@ def iter_theory_summaries(
     if not all(0 < q < 1 for q in levels):
         raise ValueError(f"`levels` must lie strictly between 0 and 1; got {levels!r}.")
     edges = np.deg2rad(bins)
-    if ship.wave_moment is not None and getattr(wave, "projected", False):  # `refuse_wave_moment`, every name
-        errors = [(name, ValueError(wave_moment_refusal(name))) for name in names]
+    if ship.restoring_surface is not None or (
+        ship.wave_moment is not None and getattr(wave, "projected", False)
+    ):
+        refusal = restoring_surface_refusal if ship.restoring_surface is not None else wave_moment_refusal
+        errors = [(name, ValueError(refusal(name))) for name in names]  # `refuse_wave_moment`, every name
         if not return_exceptions and errors:
             raise errors[0][1]
         return iter(errors)
