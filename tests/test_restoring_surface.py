@@ -225,3 +225,29 @@ def test_cli_hydrostatics_writes_the_surface_and_a_malformed_one_is_refused(c11,
     err = capsys.readouterr().err
     assert "[restoring_surface]: the GZ surface's wave range [zeta_min, zeta_max] = [0.5, 6.0] m" in err
     assert err.count("\n") == 1
+
+
+def test_longterm_simulates_every_cell_of_a_surface_ship_and_theory_refuses_it(c11, tmp_path):
+    """`longterm`: no theory knows the GZ surface — `method="theory"` refuses the ship, `"auto"` simulates all its
+    cells (brute force; beam seas stay 0: no excitation), with the trials `monte-carlo` gives them (the same
+    numbers)."""
+    import jaxroll as jxr
+
+    surfaced = c11[4]
+    csv = tmp_path / "sea.csv"
+    csv.write_text("hs_m,7.5\n5.0,1\n")
+    run = dict(
+        headings=np.radians([180.0, 90.0]),
+        angles=np.radians([10.0]),
+        exposure=300.0,
+        discard=100.0,
+        realizations=8,
+        seed=1,
+    )
+    with pytest.raises(ValueError, match="carries a GZ.*surface.*method='auto'"):
+        jxr.longterm(csv, [surfaced], method="theory", **run)
+    auto = jxr.longterm(csv, [surfaced], method="auto", **run)
+    mc = jxr.longterm(csv, [surfaced], method="monte-carlo", **run)
+    p_auto, p_mc = (np.asarray(r["probability"].values).ravel() for r in (auto, mc))
+    np.testing.assert_array_equal(p_auto, p_mc)
+    assert np.nanmax(p_auto) > 0 and 0.0 in p_auto  # head seas roll, beam seas are 0 exactly

@@ -43,6 +43,7 @@ from ._moment import (
     moment_classes,
     parametric_only,
     refuse_theory,
+    surface_ships,
 )
 from ._monte_carlo import (
     CELL_ESTIMATORS,
@@ -248,11 +249,14 @@ def longterm(
     # beam sea is no longer 0, and only the Monte Carlo covers them (docs/longterm.md, "The direct wave moment")
     moment = np.broadcast_to(moment_classes(grid)[:, :, None, None, None], shape)
     beam = np.broadcast_to(grid.beam[None, :, None, None, None], shape) & ~moment
+    # a ship with a GZ(φ, ζ) surface (`ship.restoring_surface`): no theory knows it, every cell is simulated
+    surface = np.broadcast_to(surface_ships(grid)[:, None, None, None, None], shape)
+    simulated = moment | surface  # the cells only the Monte Carlo (brute force) covers
     positive = comp_w > 0
     left_out = skipped_cells(comp_w, positive & ~beam, skip_weight)
     needed = positive & ~beam & ~left_out
     if method == "theory":
-        refuse_theory(grid, needed & moment)
+        refuse_theory(grid, needed & moment, needed & surface)
     below, above, outside, covered = measured_allowance(
         grid.scatter.hs[:, None], grid.scatter.t01[None, :], np.asarray(grid.speeds, float)[:, None, None]
     )
@@ -271,8 +275,8 @@ def longterm(
     if method in ("monte-carlo",):  # the time step against every cell, before any simulation
         check_time_steps(grid, needed, dt)
     elif method == "auto":
-        check_time_steps(grid, needed & moment, dt)
-    needed_all, needed = needed, needed & ~moment  # the theory's cells (all of them but the moment cells)
+        check_time_steps(grid, needed & simulated, dt)
+    needed_all, needed = needed, needed & ~simulated  # the theory's cells (all but the simulated-only ones)
 
     # ---- theory --------------------------------------------------------------------------------------------
     cells = _empty(shape, n_angles)
@@ -390,7 +394,7 @@ def longterm(
             flat(comp_w),
             flat(np.nan_to_num(cells["theory_probability"])),
             flat(cells["theory_doubtful"] | uncovered),
-            flat(needed & ~moment),
+            flat(needed & ~simulated),
             auto_share,
             auto_tolerance,
         )
@@ -404,7 +408,7 @@ def longterm(
                 max(2, realizations // 4),
             )
             trials[chosen] = n
-        trials[needed & moment] = realizations  # no theory there: every moment cell simulated
+        trials[needed & simulated] = realizations  # no theory there: every such cell simulated
     # which Monte Carlo cells are rare (splitting): auto by the theory, monte-carlo by each cell's pilot
     rare = np.zeros(shape, bool)
     if estimator == "splitting" and method == "auto":
@@ -500,8 +504,9 @@ def longterm(
 
     for j in mine_mc:
         c = mc_cells[j]
-        if moment[c]:  # the superposition makes both excitations; no splitting (it restarts a filter's state)
-            r = simulate_cell(c, ships[c[0]], MOMENT_EXCITATION, "brute_force")
+        if moment[c] or surface[c]:  # no splitting (it restarts a filter's state, and knows no GZ surface);
+            # the superposition makes both excitations of a moment cell
+            r = simulate_cell(c, ships[c[0]], MOMENT_EXCITATION if moment[c] else excitation, "brute_force")
             if twice[c]:
                 rp = simulate_cell(
                     c, parametric_only(ships[c[0]]), excitation, "brute_force", "parametric_only"
