@@ -317,3 +317,18 @@ def test_cli_hydrostatics_wave_moment_bem(box, tmp_path, capsys):
         "box: panels up to 7.5 m long are too coarse for the shortest wave asked" in err
         and "λ/6 = 7.13 m" in err
     )
+
+
+def test_the_lid_changes_nothing_below_the_irregular_frequencies(box):
+    """`lid=True` (capytaine's lid just below the waterplane) removes the irregular frequencies; below the first one
+    (≈ 1.8 rad/s for this box, capytaine's estimate) the answers are the same within the discretisation."""
+    pytest.importorskip("capytaine")
+    from jaxroll.ship import bem_roll_coefficients
+
+    plain = bem_roll_coefficients(*box, omega=[0.8], headings=[math.pi / 2], panel_size=3.0)
+    lid = bem_roll_coefficients(*box, omega=[0.8], headings=[math.pi / 2], panel_size=3.0, lid=True)
+    assert lid.lid and lid.n_panels > plain.n_panels and math.isinf(lid.irregular_frequency)
+    assert 1.5 < plain.irregular_frequency < 2.2
+    assert lid.added_inertia[1] == pytest.approx(plain.added_inertia[1], rel=0.02)
+    assert lid.radiation_damping[1] == pytest.approx(plain.radiation_damping[1], rel=0.02)
+    assert abs(lid.excitation[0, 1] - plain.excitation[0, 1]) < 0.02 * abs(plain.excitation[0, 1])

@@ -221,6 +221,7 @@ def _bem_roll_record(c, ship, loading) -> dict:
         "n_panels": c.n_panels,
         "panel_size_m": c.panel_size,
         "lid": c.lid,
+        "irregular_frequency_rad_s": c.irregular_frequency if math.isfinite(c.irregular_frequency) else None,
         "omega_rad_s": c.omega,
         "heading_deg": np.degrees(c.headings),
         "added_inertia_kg_m2": c.added_inertia,
@@ -507,6 +508,11 @@ def run(args) -> int:
             f"{dry}; B44/I44 = {r['radiation_b1_per_s']:.3g} 1/s beside the ship's b1 = {r['ship_b1_per_s']:.3g} 1/s "
             "(Tφ and b1 of the roll equation include them: not added again)"
         )
+        if bem.irregular_frequency < bem.omega[-1]:
+            print(
+                f"Note: irregular frequencies from ≈ {bem.irregular_frequency:.3g} rad/s (capytaine's estimate) lie "
+                "in the range solved: --bem-lid removes them."
+            )
         if r["dry_gyradius_m"] is None:
             print(
                 "Warning: A44(ω0) exceeds the roll inertia Δ g GM0/ω0² that the roll period implies: the roll period "

@@ -105,6 +105,8 @@ class BemRollCoefficients:
       in the panel size, checked against `froude_krylov`), not used;
     - `added_inertia`: A44(ω) [kg m²] (n,); `radiation_damping`: B44(ω) [N m s/rad] (n,);
     - `n_panels`, `panel_size` [m] (the longest edge), `lid` (an interior lid removed the irregular frequencies),
+      `irregular_frequency` [rad/s] (capytaine's estimate of the lowest one, for a box of the hull's waterplane and
+      draught; inf with the lid): results above it may be spoiled without the lid,
       `solver_seconds` (wall time inside capytaine) and `seconds` (the whole call).
     """
 
@@ -119,6 +121,7 @@ class BemRollCoefficients:
     n_panels: int
     panel_size: float
     lid: bool
+    irregular_frequency: float
     solver_seconds: float
     seconds: float
 
@@ -227,6 +230,7 @@ def bem_roll_coefficients(
         n_panels=mesh.n_panels + (0 if body.lid_mesh is None else body.lid_mesh.nb_faces),
         panel_size=mesh.panel_size,
         lid=lid,
+        irregular_frequency=float(body.first_irregular_frequency_estimate(g=GRAVITY)),
         solver_seconds=solver_seconds,
         seconds=time.perf_counter() - start,
     )
