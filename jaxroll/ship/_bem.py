@@ -106,7 +106,8 @@ class BemRollCoefficients:
     - `added_inertia`: A44(ω) [kg m²] (n,); `radiation_damping`: B44(ω) [N m s/rad] (n,);
     - `n_panels`, `panel_size` [m] (the longest edge), `lid` (an interior lid removed the irregular frequencies),
       `irregular_frequency` [rad/s] (capytaine's estimate of the lowest one, for a box of the hull's waterplane and
-      draught; inf with the lid): results above it may be spoiled without the lid,
+      draught; with the lid, that of the thin layer under it, far above): results above it may be spoiled without
+      the lid,
       `solver_seconds` (wall time inside capytaine) and `seconds` (the whole call).
     """
 
