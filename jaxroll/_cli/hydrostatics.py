@@ -101,7 +101,7 @@ def register(subparsers) -> None:
         type=float,
         metavar="W",
         help="--wave-moment bem: highest wave frequency [rad/s] (default: where the incident pressure at the keel "
-        "is 1 %%, 2.0 rad/s for c11)",
+        "is 5 %%, 1.6 rad/s for c11)",
     )
     add(
         "--bem-headings",
@@ -197,7 +197,7 @@ def _bem(args, hull, loading, gm0):
     try:
         c = bem_roll_coefficients(hull, loading, omega=omega, headings=headings, panel_size=args.bem_panel_size,
                                   lid=args.bem_lid)  # fmt: skip
-    except (MeshNotFitError, BemNotInstalledError, ValueError) as e:
+    except (MeshNotFitError, BemNotInstalledError, ValueError, RuntimeError) as e:
         raise CLIError(str(e)) from None
     period = args.roll_period
     if period is None and args.roll_gyradius is not None:

@@ -21,7 +21,8 @@ from jaxtyping import ArrayLike
 
 from ._bem_mesh import PANELS_PER_WAVELENGTH, BemMesh, bem_mesh, check_panel_size, wavelength
 from ._equilibrium import equilibrium
-from ._hydrostatics import GRAVITY
+from ._hull import Hull
+from ._hydrostatics import GRAVITY, Loading
 from ._ship import Ship
 from ._wave_moment import WaveMoment, froude_krylov_roll_moment, moment_table
 
@@ -29,7 +30,7 @@ DEFAULT_FREQUENCIES = 40
 """Wave frequencies of `bem_roll_coefficients`' default grid."""
 DEFAULT_HEADINGS = np.linspace(0.0, math.pi, 7)
 """Headings χ [rad] of `bem_roll_coefficients`' default grid (0–180°, every 30°)."""
-KEEL_PRESSURE = 0.01
+KEEL_PRESSURE = 0.05
 """The default grid ends where the incident wave's pressure at the keel has fallen to this fraction, e^{−kd}."""
 
 BEM_EXTRA = 'pip install "jaxroll[bem]"'
@@ -62,8 +63,9 @@ def capytaine_missing() -> bool:
 def bem_frequencies(
     draught: float, n: int = DEFAULT_FREQUENCIES, omega_max: float | None = None
 ) -> np.ndarray:
-    """`n` wave frequencies [rad/s], ω_max/n to ω_max; by default ω_max = √(g ln(1/0.01)/d), where the incident
-    pressure at the keel of a hull of `draught` d [m] has fallen to 1 % (2.0 rad/s for d = 11.5 m)."""
+    """`n` wave frequencies [rad/s], ω_max/n to ω_max; by default ω_max = √(g ln(1/0.05)/d), where the incident
+    pressure at the keel of a hull of `draught` d [m] has fallen to 5 % (1.60 rad/s for d = 11.5 m: panels of
+    3.8 m, 3 400 on the C11-like hull)."""
     top = (
         math.sqrt(GRAVITY * math.log(1 / KEEL_PRESSURE) / float(draught)) if omega_max is None else omega_max
     )
@@ -145,8 +147,8 @@ def _body(cpt, mesh: BemMesh, lid: bool, name: str):
 
 
 def bem_roll_coefficients(
-    hull,
-    loading,
+    hull: Hull,
+    loading: Loading,
     *,
     omega: ArrayLike | None = None,
     headings: ArrayLike | None = None,
@@ -163,14 +165,15 @@ def bem_roll_coefficients(
     - `hull`, `loading`: as [`froude_krylov_roll_moment`][] (the waterline: `sinkage` and `trim` [m], by default the
         calm-water [`equilibrium`][]).
     - `omega`: wave frequencies [rad/s] > 0, increasing (default: 40 up to where the incident pressure at the keel
-        is 1 %, [`bem_frequencies`][]).
+        is 5 %, [`bem_frequencies`][]).
     - `headings`: χ [rad] in [0, π], increasing (default: every 30°).
     - `panel_size`: the longest panel edge [m] of an offsets hull (default: 0.95 λ/6 of the highest frequency); a
         mesh hull keeps its own panels.
     - `lid`: add capytaine's lid inside the waterplane, which removes the irregular frequencies (more panels).
 
     **Raises:** `BemNotInstalledError` (capytaine missing: the extra named), `MeshNotFitError` (a mesh open below
-    the waterline, or panels longer than λ/6 of the shortest wave), `ValueError` for a bad grid.
+    the waterline, or panels longer than λ/6 of the shortest wave), `ValueError` for a bad grid, `RuntimeError`
+    where capytaine fails on a problem (its exception named).
     """
     start = time.perf_counter()
     cpt = _capytaine()
@@ -201,9 +204,12 @@ def bem_roll_coefficients(
     t0 = time.perf_counter()
     results = solver.solve_all(problems, keep_details=False, progress_bar=False, _check_wavelength=False)
     solver_seconds = time.perf_counter() - t0
-    failed = [r for r in results if not hasattr(r, "forces")]
+    failed = [r for r in results if hasattr(r, "exception")]
     if failed:
-        raise RuntimeError(f"capytaine failed on {len(failed)} of {len(results)} problems: {failed[0]}")
+        raise RuntimeError(
+            f"capytaine failed on {len(failed)} of its {len(results)} problems (e.g. ω = {float(failed[0].problem.omega):.4g} "
+            f"rad/s: {failed[0].exception!r}); please report it with the hull."
+        )
     grid = np.concatenate([[0.0], omega])
     n, m = grid.size, headings.size
     added, damping = np.empty(n), np.zeros(n)

@@ -28,7 +28,8 @@ import math
 
 import numpy as np
 
-from ._hydrostatics import GRAVITY
+from ._hull import Hull
+from ._hydrostatics import GRAVITY, Loading
 
 PANELS_PER_WAVELENGTH = 6.0
 """A BEM panel's longest edge must be at most λ/6 of the shortest wave solved (the usual rule for constant panels)."""
@@ -99,7 +100,7 @@ def _subdivide(points: np.ndarray, pieces: np.ndarray) -> np.ndarray:
     return np.concatenate([*out, points[-1:]])
 
 
-def offsets_panels(hull, panel_size: float, extra_levels=()) -> np.ndarray:
+def offsets_panels(hull: Hull, panel_size: float, extra_levels=()) -> np.ndarray:
     """Quadrilateral panels (m, 4, 3) [m, hull frame] of the starboard half of an offsets hull's closed surface:
     bottom, side, deck and end sections, every station and waterline of the table kept and each interval divided so
     that no panel edge exceeds `panel_size` [m]. `extra_levels`: heights z [m] also made panel edges (the waterline,
@@ -226,7 +227,9 @@ def _to_bem_frame(points, hull, sinkage, trim):
     return np.stack([xi * c + zeta * s, -points[..., 1], -xi * s + zeta * c], axis=-1), theta
 
 
-def bem_mesh(hull, loading, *, sinkage, trim, panel_size: float | None = None) -> BemMesh:
+def bem_mesh(
+    hull: Hull, loading: Loading, *, sinkage: float, trim: float, panel_size: float | None = None
+) -> BemMesh:
     """The wetted starboard half of `hull` in `loading` as BEM panels ([`BemMesh`][]), in the BEM frame of the
     waterline given by `sinkage` [m] (draught amidships) and `trim` [m] (d_FP − d_AP).
 
