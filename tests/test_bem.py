@@ -311,6 +311,17 @@ def test_cli_hydrostatics_wave_moment_bem(box, tmp_path, capsys):
     record = json.loads((tmp_path / "hs" / "hydrostatics.json").read_text())["bem"]
     assert record["added_inertia_at_roll_frequency_kg_m2"] == pytest.approx(a0, rel=1e-9)
     assert record["dry_gyradius_m"] == pytest.approx(4.2, rel=1e-9)
+    import xarray as xr
+
+    with xr.open_dataset(
+        tmp_path / "hs" / "hydrostatics.nc"
+    ) as ds:  # the labelled twin: the table and the record
+        assert ds["ship_wave_moment_added_inertia_kg_m2"].attrs["units"] == "kg m2"
+        assert ds["ship_wave_moment_moment_real_N"].dims == (
+            "wave_moment_heading_rad",
+            "wave_moment_omega_rad_s",
+        )
+        assert float(ds["bem_added_inertia_at_roll_frequency_kg_m2"]) == pytest.approx(a0, rel=1e-9)
     assert main([*base, "--bem-panel-size", "9", "--out", str(tmp_path / "coarse")]) == 2
     err = capsys.readouterr().err
     assert (

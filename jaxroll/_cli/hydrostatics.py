@@ -217,21 +217,19 @@ def _bem_roll_record(c, ship, loading) -> dict:
     i44 = float(roll_inertia(ship))
     dry = i44 - a44
     mass = float(loading.displacement)
-    return {
+    return {  # the arrays are in the ship's [wave_moment] (payload["ship"])
         "n_panels": c.n_panels,
         "panel_size_m": c.panel_size,
         "lid": c.lid,
         "irregular_frequency_rad_s": c.irregular_frequency if math.isfinite(c.irregular_frequency) else None,
-        "omega_rad_s": c.omega,
-        "heading_deg": np.degrees(c.headings),
-        "added_inertia_kg_m2": c.added_inertia,
-        "radiation_damping_N_m_s": c.radiation_damping,
-        "capytaine_seconds": c.solver_seconds,
-        "seconds": c.seconds,
+        "n_frequencies": int(c.omega.size - 1),
+        "n_headings": int(c.headings.size),
+        "capytaine_s": c.solver_seconds,
+        "total_s": c.seconds,
         "roll_frequency_rad_s": w0,
         "roll_inertia_kg_m2": i44,
         "added_inertia_at_roll_frequency_kg_m2": a44,
-        "added_inertia_share": a44 / i44,
+        "added_inertia_fraction": a44 / i44,
         "dry_inertia_kg_m2": dry,
         "dry_gyradius_m": math.sqrt(dry / mass) if dry > 0 else None,
         "radiation_damping_at_roll_frequency_N_m_s": b44,
@@ -498,13 +496,13 @@ def run(args) -> int:
     if bem is not None:
         r = payload["bem"]
         print(
-            f"BEM (capytaine, {r['n_panels']} panels ≤ {r['panel_size_m']:.3g} m, {bem.omega.size - 1} frequencies × "
-            f"{bem.headings.size} headings): {r['capytaine_seconds']:.1f} s in capytaine, {r['seconds']:.1f} s in all"
+            f"BEM (capytaine, {r['n_panels']} panels ≤ {r['panel_size_m']:.3g} m, {r['n_frequencies']} frequencies × "
+            f"{bem.headings.size} headings): {r['capytaine_s']:.1f} s in capytaine, {r['total_s']:.1f} s in all"
         )
         dry = "" if r["dry_gyradius_m"] is None else f", dry k_xx = {r['dry_gyradius_m']:.4g} m"
         print(
             f"at ω0 = {r['roll_frequency_rad_s']:.4g} rad/s: A44 = {r['added_inertia_at_roll_frequency_kg_m2']:.4g} "
-            f"kg m² = {100 * r['added_inertia_share']:.1f} % of I44 = Δ g GM0/ω0² (Tφ = {float(ship.roll_period):.4g} s)"
+            f"kg m² = {100 * r['added_inertia_fraction']:.1f} % of I44 = Δ g GM0/ω0² (Tφ = {float(ship.roll_period):.4g} s)"
             f"{dry}; B44/I44 = {r['radiation_b1_per_s']:.3g} 1/s beside the ship's b1 = {r['ship_b1_per_s']:.3g} 1/s "
             "(Tφ and b1 of the roll equation include them: not added again)"
         )
