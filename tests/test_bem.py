@@ -135,6 +135,16 @@ def test_capytaine_missing_names_the_extra(box, monkeypatch, tmp_path, capsys):
     )
 
 
+def test_bem_options_without_the_bem_are_refused(tmp_path, capsys):
+    from jaxroll._cli import main
+
+    argv = ["hydrostatics", "c11", "--bem-lid", "--bem-headings", "13", "--out", str(tmp_path / "hs")]
+    assert main(argv) == 2
+    assert capsys.readouterr().err.strip() == (
+        "jaxroll hydrostatics: error: --bem-headings, --bem-lid set(s) the BEM: give --wave-moment bem, or leave it out."
+    )
+
+
 def test_ship_file_carries_a44_b44_and_old_files_load(tmp_path):
     """A BEM table's A44(ω), B44(ω) round-trip through the ship file; a file without them (froude-krylov) loads as
     before; one of the two alone, or a wrong length, is refused."""

@@ -155,6 +155,20 @@ def _check_options(args) -> None:
             raise CLIError(f"{flag} must be at least {least} (the polynomial fits need them); got {value}.")
     if args.wave_moment == "bem":
         _check_bem_options(args)
+    else:
+        given = [
+            flag
+            for flag, value, default in (
+                ("--bem-frequencies", args.bem_frequencies, 40),
+                ("--bem-omega-max", args.bem_omega_max, None),
+                ("--bem-headings", args.bem_headings, 7),
+                ("--bem-panel-size", args.bem_panel_size, None),
+                ("--bem-lid", args.bem_lid, False),
+            )
+            if value != default
+        ]
+        if given:
+            raise CLIError(f"{', '.join(given)} set(s) the BEM: give --wave-moment bem, or leave it out.")
     if args.out.exists() and not args.out.is_dir():
         raise CLIError(f"--out {str(args.out)!r} exists and is not a folder.")
     check_hull_options(args)
