@@ -81,11 +81,46 @@ def register(subparsers) -> None:
     add("--name", help="name of the ship in ship.toml")
     add(
         "--wave-moment",
-        choices=("froude-krylov", "none"),
+        choices=("froude-krylov", "bem", "none"),
         default="none",
         help="write the hull's direct wave roll moment into ship.toml: froude-krylov (the incident wave's "
         "pressure on the hull, every 15° of heading; pdf, maxima, risk, sweep then add it at oblique and beam "
-        "headings, docs/wave_moment.md) or none (default: the paper's parametric-only model)",
+        "headings, docs/wave_moment.md), bem (Froude–Krylov + diffraction, with the added inertia A44(ω) and "
+        'radiation damping B44(ω), from capytaine: pip install "jaxroll[bem]") or none (default: the paper\'s '
+        "parametric-only model)",
+    )
+    add(
+        "--bem-frequencies",
+        type=int,
+        default=40,
+        metavar="N",
+        help="--wave-moment bem: frequencies (default: 40)",
+    )
+    add(
+        "--bem-omega-max",
+        type=float,
+        metavar="W",
+        help="--wave-moment bem: highest wave frequency [rad/s] (default: where the incident pressure at the keel "
+        "is 5 %%, 1.6 rad/s for c11)",
+    )
+    add(
+        "--bem-headings",
+        type=int,
+        default=7,
+        metavar="N",
+        help="--wave-moment bem: headings 0–180° (default: 7)",
+    )
+    add(
+        "--bem-panel-size",
+        type=float,
+        metavar="M",
+        help="--wave-moment bem: longest panel edge [m] of an offsets hull (default: 0.95 λ/6 of the highest "
+        "frequency; a mesh file keeps its own panels)",
+    )
+    add(
+        "--bem-lid",
+        action="store_true",
+        help="--wave-moment bem: a lid in the waterplane (no irregular frequencies)",
     )
     add(
         "--gz-surface",
@@ -125,9 +160,103 @@ def _check_options(args) -> None:
     for flag, value, least in (("--n-zeta", args.n_zeta, 7), ("--n-heel", args.n_heel, 5)):
         if value < least:
             raise CLIError(f"{flag} must be at least {least} (the polynomial fits need them); got {value}.")
+    if args.wave_moment == "bem":
+        _check_bem_options(args)
+    else:
+        given = [
+            flag
+            for flag, value, default in (
+                ("--bem-frequencies", args.bem_frequencies, 40),
+                ("--bem-omega-max", args.bem_omega_max, None),
+                ("--bem-headings", args.bem_headings, 7),
+                ("--bem-panel-size", args.bem_panel_size, None),
+                ("--bem-lid", args.bem_lid, False),
+            )
+            if value != default
+        ]
+        if given:
+            raise CLIError(f"{', '.join(given)} set(s) the BEM: give --wave-moment bem, or leave it out.")
     if args.out.exists() and not args.out.is_dir():
         raise CLIError(f"--out {str(args.out)!r} exists and is not a folder.")
     check_hull_options(args)
+
+
+def _check_bem_options(args) -> None:
+    """`--wave-moment bem`: capytaine installed, and the BEM options."""
+    from ..ship import BEM_EXTRA, capytaine_missing
+
+    if capytaine_missing():
+        raise CLIError(f"--wave-moment bem needs capytaine, which is not installed: {BEM_EXTRA}.")
+    for flag, value, least in (
+        ("--bem-frequencies", args.bem_frequencies, 2),
+        ("--bem-headings", args.bem_headings, 2),
+    ):
+        if value < least:
+            raise CLIError(f"{flag} must be at least {least}; got {value}.")
+    check_positive(args, "bem_omega_max", "bem_panel_size")
+    if args.roll_gyradius is not None and args.added_inertia != 0:
+        raise CLIError(
+            "--added-inertia and --wave-moment bem: the BEM gives the added inertia A44(ω0); give --roll-gyradius "
+            "alone (the dry k_xx), or --roll-period."
+        )
+
+
+def _bem(args, hull, loading, gm0):
+    """capytaine's coefficients, and the roll period: Tφ given, or from the dry gyradius and A44(ω0)."""
+    import numpy as np
+
+    from ..ship import (
+        BemNotInstalledError,
+        MeshNotFitError,
+        bem_frequencies,
+        bem_roll_coefficients,
+        bem_roll_period,
+    )
+
+    omega = bem_frequencies(float(loading.draught), args.bem_frequencies, args.bem_omega_max)
+    headings = np.linspace(0.0, math.pi, args.bem_headings)
+    try:
+        c = bem_roll_coefficients(hull, loading, omega=omega, headings=headings, panel_size=args.bem_panel_size,
+                                  lid=args.bem_lid)  # fmt: skip
+    except (MeshNotFitError, BemNotInstalledError, ValueError, RuntimeError) as e:
+        raise CLIError(str(e)) from None
+    period = args.roll_period
+    if period is None and args.roll_gyradius is not None:
+        period = bem_roll_period(c, float(loading.displacement), gm0, args.roll_gyradius)
+    return c, period
+
+
+def _bem_roll_record(c, ship, loading) -> dict:
+    """A44 and B44 at the roll frequency beside the inertia and damping of the roll equation (docs/wave_moment.md)."""
+    import numpy as np
+
+    from ..ship import roll_inertia
+
+    w0 = float(ship.omega0)
+    a44 = float(np.interp(w0, c.omega, c.added_inertia))
+    b44 = float(np.interp(w0, c.omega, c.radiation_damping))
+    i44 = float(roll_inertia(ship))
+    dry = i44 - a44
+    mass = float(loading.displacement)
+    return {  # the arrays are in the ship's [wave_moment] (payload["ship"])
+        "n_panels": c.n_panels,
+        "panel_size_m": c.panel_size,
+        "lid": c.lid,
+        "irregular_frequency_rad_s": c.irregular_frequency if math.isfinite(c.irregular_frequency) else None,
+        "n_frequencies": int(c.omega.size - 1),
+        "n_headings": int(c.headings.size),
+        "capytaine_s": c.solver_seconds,
+        "total_s": c.seconds,
+        "roll_frequency_rad_s": w0,
+        "roll_inertia_kg_m2": i44,
+        "added_inertia_at_roll_frequency_kg_m2": a44,
+        "added_inertia_fraction": a44 / i44,
+        "dry_inertia_kg_m2": dry,
+        "dry_gyradius_m": math.sqrt(dry / mass) if dry > 0 else None,
+        "radiation_damping_at_roll_frequency_N_m_s": b44,
+        "radiation_b1_per_s": b44 / i44,
+        "ship_b1_per_s": float(ship.damping[0]),
+    }
 
 
 def run(args) -> int:
@@ -209,6 +338,11 @@ def run(args) -> int:
             "cannot float there (deck or keel far out of the water) or the loading is inconsistent. Reduce "
             "--zeta-max or --heel-max-deg, or check the loading (--draught/--displacement, --kg, --lcg)."
         )
+    bem = None
+    if args.wave_moment == "bem":
+        bem, bem_period = _bem(args, hull, loading, float(sol.particulars.gm))
+        if gyradius is not None:  # the roll period of the dry inertia and the BEM's A44 at it
+            roll_period, gyradius = bem_period, None
     ship = ship_from_hydrostatics(
         sol,
         hull,
@@ -221,6 +355,12 @@ def run(args) -> int:
     if args.wave_moment == "froude-krylov":
         table = wave_moment(hull, loading, ship, omega=ship_file_frequencies(float(sol.particulars.draught)))
         ship = eqx.tree_at(lambda s: s.wave_moment, ship, table, is_leaf=lambda x: x is None)
+    elif bem is not None:
+        from ..ship import bem_wave_moment
+
+        ship = eqx.tree_at(
+            lambda s: s.wave_moment, ship, bem_wave_moment(bem, ship), is_leaf=lambda x: x is None
+        )
     polynomial_rms = None
     if args.gz_surface:
         zz, pp = np.meshgrid(np.asarray(sol.zeta_mid), np.asarray(sol.heels), indexing="ij")
@@ -371,6 +511,8 @@ def run(args) -> int:
             },
             "ship": ship_to_dict(ship),
         }
+        if bem is not None:
+            payload["bem"] = _bem_roll_record(bem, ship, loading)
         write_json(out / "hydrostatics.json", payload)
         nc = write_netcdf(out / "hydrostatics.nc", "hydrostatics", payload, sol.to_xarray())
         atomic_write_text(out / "ship.toml", ship_to_toml(ship))
@@ -394,7 +536,30 @@ def run(args) -> int:
     )
     for line in datum_lines(hull, args):
         print(line)
-    if ship.wave_moment is not None:
+    if bem is not None:
+        r = payload["bem"]
+        print(
+            f"BEM (capytaine, {r['n_panels']} panels ≤ {r['panel_size_m']:.3g} m, {r['n_frequencies']} frequencies × "
+            f"{bem.headings.size} headings): {r['capytaine_s']:.1f} s in capytaine, {r['total_s']:.1f} s in all"
+        )
+        dry = "" if r["dry_gyradius_m"] is None else f", dry k_xx = {r['dry_gyradius_m']:.4g} m"
+        print(
+            f"at ω0 = {r['roll_frequency_rad_s']:.4g} rad/s: A44 = {r['added_inertia_at_roll_frequency_kg_m2']:.4g} "
+            f"kg m² = {100 * r['added_inertia_fraction']:.1f} % of I44 = Δ g GM0/ω0² (Tφ = {float(ship.roll_period):.4g} s)"
+            f"{dry}; B44/I44 = {r['radiation_b1_per_s']:.3g} 1/s beside the ship's b1 = {r['ship_b1_per_s']:.3g} 1/s "
+            "(Tφ and b1 of the roll equation include them: not added again)"
+        )
+        if bem.irregular_frequency < bem.omega[-1]:
+            print(
+                f"Note: irregular frequencies from ≈ {bem.irregular_frequency:.3g} rad/s (capytaine's estimate) lie "
+                "in the range solved: --bem-lid removes them."
+            )
+        if r["dry_gyradius_m"] is None:
+            print(
+                "Warning: A44(ω0) exceeds the roll inertia Δ g GM0/ω0² that the roll period implies: the roll period "
+                "is too short for this hull (check --roll-period)."
+            )
+    elif ship.wave_moment is not None:
         print(
             f"wave moment (Froude–Krylov) tabulated for {ship.wave_moment.headings.size} headings × "
             f"{ship.wave_moment.omega.size} frequencies (0–{float(ship.wave_moment.omega[-1]):.3g} rad/s), in ship.toml"

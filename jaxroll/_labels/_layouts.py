@@ -22,8 +22,30 @@ PERCENTILE = {"percentile": ("percent", "quantile level (the JSON keys 50, 90, 9
 # The ship's coefficients (ship_to_dict, the ship file's tables)
 # --------------------------------------------------------------------------------------------------------------
 
+# A ship file's `[wave_moment]` table (docs/ship_file.md), in every output that writes the ship
+_WAVE_MOMENT = ("wave_moment_heading_rad", "wave_moment_omega_rad_s")
 SHIP = Layout(
+    arrays={
+        "ship/wave_moment/omega_rad_s": _WAVE_MOMENT[1:],
+        "ship/wave_moment/heading_rad": _WAVE_MOMENT[:1],
+        "ship/wave_moment/moment_real_N": _WAVE_MOMENT,
+        "ship/wave_moment/moment_imag_N": _WAVE_MOMENT,
+        "ship/wave_moment/added_inertia_kg_m2": _WAVE_MOMENT[1:],
+        "ship/wave_moment/radiation_damping_N_m_s": _WAVE_MOMENT[1:],
+    },
+    names={
+        "ship/wave_moment/omega_rad_s": "wave_moment_omega_rad_s",
+        "ship/wave_moment/heading_rad": "wave_moment_heading_rad",
+    },
     units={
+        "*moment_real_N": "N",
+        "*moment_imag_N": "N",
+        "*added_inertia_kg_m2": "kg m2",
+        "*radiation_damping_N_m_s": "N m s rad-1",
+        "*inertia_at_roll_frequency_kg_m2": "kg m2",
+        "*roll_inertia_kg_m2": "kg m2",
+        "*dry_inertia_kg_m2": "kg m2",
+        "*damping_at_roll_frequency_N_m_s": "N m s rad-1",
         "*restoring_a3": "s-2 rad-2",
         "*restoring_a5": "s-2 rad-4",
         "*restoring_a7": "s-2 rad-6",
@@ -41,6 +63,12 @@ SHIP = Layout(
         "*correction_gm_ratio": "1",
     },
     long_names={
+        "wave_moment_omega_rad_s": "wave frequency ω of the wave-moment table",
+        "wave_moment_heading_rad": "heading χ of the wave-moment table (0 following, π/2 beam, π head)",
+        "*moment_real_N": "real part of the wave roll moment F(ω, χ) about G per m of wave amplitude",
+        "*moment_imag_N": "imaginary part of the wave roll moment F(ω, χ) about G per m of wave amplitude",
+        "*added_inertia_kg_m2": "added roll inertia A44(ω) about G",
+        "*radiation_damping_N_m_s": "roll radiation damping B44(ω) about G",
         "*restoring_a3": "restoring coefficient a3 (a1 = ω0²)",
         "*damping_b1": "linear roll damping b1",
         "*damping_b2": "quadratic roll damping b2",

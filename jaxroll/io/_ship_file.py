@@ -21,6 +21,8 @@ WAVE_MOMENT = "wave_moment"
 """Optional table of a ship file: the hull's direct wave roll moment F(ω, χ) [N m per m of wave amplitude]
 (`source`, `omega_rad_s`, `heading_rad`, `moment_real_N`, `moment_imag_N`; docs/ship_file.md)."""
 _MOMENT_KEYS = ("source", "omega_rad_s", "heading_rad", "moment_real_N", "moment_imag_N")
+_RADIATION_KEYS = ("added_inertia_kg_m2", "radiation_damping_N_m_s")
+"""Optional keys of `[wave_moment]` (a BEM table, `source = "bem"`): A44(ω) and B44(ω) about G on `omega_rad_s`."""
 
 RESTORING_SURFACE = "restoring_surface"
 """Optional table of a ship file: the hull's GZ(φ, ζ_mid) surface beyond the polynomial model (`source`,
@@ -61,6 +63,9 @@ def ship_to_dict(ship: Ship, *, damping_source: str | None = None) -> dict[str, 
             "moment_real_N": force.real.tolist(),
             "moment_imag_N": force.imag.tolist(),
         }
+        if table.added_inertia is not None:
+            out[WAVE_MOMENT][_RADIATION_KEYS[0]] = np.asarray(table.added_inertia).tolist()
+            out[WAVE_MOMENT][_RADIATION_KEYS[1]] = np.asarray(table.radiation_damping).tolist()
     surface = ship.restoring_surface
     if surface is not None:
         out[RESTORING_SURFACE] = {
@@ -123,10 +128,12 @@ def _moment_from_dict(table: Any, ship: Ship, source: str):
     """The `[wave_moment]` table of a ship file as a `WaveMoment` per the ship's roll inertia."""
     if not isinstance(table, dict):
         raise ValueError(f"{source}: [{WAVE_MOMENT}] must be a table; got {type(table).__name__}.")
-    unknown, missing = sorted(set(table) - set(_MOMENT_KEYS)), [k for k in _MOMENT_KEYS if k not in table]
+    unknown = sorted(set(table) - set(_MOMENT_KEYS) - set(_RADIATION_KEYS))
+    missing = [k for k in _MOMENT_KEYS if k not in table]
     if unknown or missing:
         raise ValueError(
-            f"{source}: [{WAVE_MOMENT}] needs exactly the fields {list(_MOMENT_KEYS)}; "
+            f"{source}: [{WAVE_MOMENT}] needs exactly the fields {list(_MOMENT_KEYS)} (and optionally "
+            f"{list(_RADIATION_KEYS)}); "
             + (f"unknown {unknown}" if unknown else f"missing {missing}")
             + ". See docs/ship_file.md."
         )
@@ -143,8 +150,17 @@ def _moment_from_dict(table: Any, ship: Ship, source: str):
             f"{source}: [{WAVE_MOMENT}]: moment_real_N and moment_imag_N must have one row of {omega.size} "
             f"frequencies per heading ({heading.size}); got shapes {re.shape} and {im.shape}. See docs/ship_file.md."
         )
+    radiation = {}
+    if any(k in table for k in _RADIATION_KEYS):
+        try:
+            radiation = dict(zip(("added_inertia", "radiation_damping"), (table[k] for k in _RADIATION_KEYS)))
+        except KeyError:
+            raise ValueError(
+                f"{source}: [{WAVE_MOMENT}]: give both {' and '.join(_RADIATION_KEYS)}, or neither. See "
+                "docs/ship_file.md."
+            ) from None
     try:
-        return moment_table(omega, heading, re + 1j * im, ship, source=str(table["source"]))
+        return moment_table(omega, heading, re + 1j * im, ship, source=str(table["source"]), **radiation)
     except ValueError as e:
         raise ValueError(f"{source}: [{WAVE_MOMENT}]: {e} See docs/ship_file.md.") from None
 
@@ -271,4 +287,7 @@ def ship_to_toml(ship: Ship, *, damping_source: str | None = None) -> str:
         for key in ("moment_real_N", "moment_imag_N"):
             rows = ",\n".join("    " + _toml_numbers(r, "    ") for r in moment[key])
             text += f"{key} = [\n{rows},\n]\n"
+        for key in _RADIATION_KEYS:
+            if key in moment:
+                text += f"{key} = {_toml_numbers(moment[key], '')}\n"
     return text

@@ -3,6 +3,21 @@
 Ship and hull files (TOML) are read and written by `jaxroll.io`.
 """
 
+from ._bem import (
+    BEM_EXTRA as BEM_EXTRA,
+    BemNotInstalledError as BemNotInstalledError,
+    BemRollCoefficients as BemRollCoefficients,
+    bem_frequencies as bem_frequencies,
+    bem_roll_coefficients as bem_roll_coefficients,
+    bem_roll_period as bem_roll_period,
+    bem_wave_moment as bem_wave_moment,
+    capytaine_missing as capytaine_missing,
+)
+from ._bem_mesh import (
+    BemMesh as BemMesh,
+    MeshNotFitError as MeshNotFitError,
+    bem_mesh as bem_mesh,
+)
 from ._equilibrium import (
     Equilibrium as Equilibrium,
     Particulars as Particulars,

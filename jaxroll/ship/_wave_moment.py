@@ -194,6 +194,23 @@ class WaveMoment(eqx.Module):
     values: Complex[Array, "m n"]
     inertia: Float[Array, ""]
     source: str = eqx.field(static=True, default="froude-krylov")
+    added_inertia: Float[Array, " n"] | None = None
+    radiation_damping: Float[Array, " n"] | None = None
+
+    def radiation(self, omega: ArrayLike) -> tuple[Float[Array, "..."], Float[Array, "..."]]:
+        """(A44, B44) at frequencies ω [rad/s]: the added inertia [kg m²] and radiation damping [N m s/rad] about G
+        of a BEM table (`source = "bem"`), linear between the table's frequencies, the last value above them.
+
+        **Raises:** `ValueError` when the table carries no A44, B44 (a Froude–Krylov table)."""
+        if self.added_inertia is None or self.radiation_damping is None:
+            raise ValueError(
+                f"this wave-moment table ({self.source}) carries no added inertia or radiation damping: "
+                "compute it with the BEM (`jaxroll hydrostatics ... --wave-moment bem`)."
+            )
+        omega = jnp.asarray(omega, dtype=float)
+        return jnp.interp(omega, self.omega, self.added_inertia), jnp.interp(
+            omega, self.omega, self.radiation_damping
+        )
 
     def transfer(self, omega: ArrayLike, heading: ArrayLike) -> Complex[Array, "..."]:
         """F(ω, χ)/I44 [rad/s² per m] at wave frequencies ω [rad/s] and a heading χ [rad] in the grid's range
@@ -234,7 +251,8 @@ class WaveMoment(eqx.Module):
 WaveMoment.__init__.__doc__ = """Fields: `omega`: wave frequencies ω [rad/s], increasing from 0; `headings`: χ [rad], increasing, in
 [0, π]; `values`: F(ω, χ)/I44 [rad/s² per m of wave amplitude], complex, shape (headings, frequencies), phase
 relative to the wave elevation at amidships; `inertia`: I44 [kg m²] that divides F; `source`: how F was computed
-(`"froude-krylov"`).
+(`"froude-krylov"`, or `"bem"`: Froude–Krylov + diffraction); `added_inertia` A44(ω) [kg m²] and
+`radiation_damping` B44(ω) [N m s/rad] about G on the same frequencies (a BEM table), or None.
 """
 
 
@@ -290,15 +308,25 @@ def _check_grid(omega: np.ndarray, headings: np.ndarray) -> None:
 
 
 def moment_table(
-    omega: ArrayLike, headings: ArrayLike, moment: ArrayLike, ship: Ship, source: str = "froude-krylov"
+    omega: ArrayLike,
+    headings: ArrayLike,
+    moment: ArrayLike,
+    ship: Ship,
+    source: str = "froude-krylov",
+    *,
+    added_inertia: ArrayLike | None = None,
+    radiation_damping: ArrayLike | None = None,
 ) -> WaveMoment:
     """A [`WaveMoment`][] from the roll moment F(ω, χ) [N m per m of wave amplitude] on a grid (e.g. read from a
     ship file): F / I44 of `ship` ([`roll_inertia`][]).
 
     **Arguments:** `omega` [rad/s], increasing from 0; `headings` χ [rad], increasing, in [0, π]; `moment`:
-    complex F, shape (headings, frequencies), finite; `ship`: whose inertia divides F; `source`: how F was made.
+    complex F, shape (headings, frequencies), finite; `ship`: whose inertia divides F; `source`: how F was made;
+    `added_inertia` A44(ω) [kg m²] ≥ 0 and `radiation_damping` B44(ω) [N m s/rad] ≥ 0 on `omega` (a BEM's), both or
+    neither.
 
-    **Raises:** `ValueError` for a grid as `wave_moment` refuses it, or a moment of another shape or not finite.
+    **Raises:** `ValueError` for a grid as `wave_moment` refuses it, a moment of another shape or not finite, or
+    A44, B44 of another length, not finite or negative.
     """
     omega = np.asarray(omega, dtype=float)
     headings = np.atleast_1d(np.asarray(headings, dtype=float))
@@ -309,6 +337,16 @@ def moment_table(
             f"the wave moment must be finite, one row of {omega.size} frequencies per heading "
             f"({headings.size}); got shape {moment.shape}."
         )
+    if (added_inertia is None) != (radiation_damping is None):
+        raise ValueError("give both the added inertia A44(ω) and the radiation damping B44(ω), or neither.")
+    radiation = None
+    if added_inertia is not None:
+        radiation = [np.asarray(x, dtype=float) for x in (added_inertia, radiation_damping)]
+        for name, x in zip(("added inertia A44 [kg m²]", "radiation damping B44 [N m s/rad]"), radiation):
+            if x.shape != omega.shape or not np.all(np.isfinite(x)) or np.any(x < 0):
+                raise ValueError(
+                    f"the {name} must be one finite value >= 0 per frequency ({omega.size}); got shape {x.shape}."
+                )
     inertia = roll_inertia(ship)
     return WaveMoment(
         omega=jnp.asarray(omega),
@@ -316,4 +354,6 @@ def moment_table(
         values=moment.astype(complex) / _complex(inertia),
         inertia=inertia,
         source=source,
+        added_inertia=None if radiation is None else jnp.asarray(radiation[0]),
+        radiation_damping=None if radiation is None else jnp.asarray(radiation[1]),
     )
