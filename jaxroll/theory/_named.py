@@ -47,7 +47,7 @@ from ..ship._ship import Ship
 from ..ship._validity import warn_outside_validity
 from ._averaging import _finish, esam_pdf, roberts_pdf
 from ._envelope_fpk import dies_out_error, envelope_fpk_pdf
-from ._linear import refuse_wave_moment, wave_moment_refusal
+from ._linear import moment_joins, refuse_wave_moment, wave_moment_refusal
 from ._moment_equations import _roll_sde, moment_equations, zero_pattern
 from ._moment_solver import RESULTS, succeeded, tables_as_inputs
 from ._moments import (
@@ -377,7 +377,7 @@ def iter_theory_summaries(
     if not all(0 < q < 1 for q in levels):
         raise ValueError(f"`levels` must lie strictly between 0 and 1; got {levels!r}.")
     edges = np.deg2rad(bins)
-    if ship.wave_moment is not None and getattr(wave, "projected", False):  # `refuse_wave_moment`, every name
+    if moment_joins(ship, wave):  # `refuse_wave_moment`, every name
         errors = [(name, ValueError(wave_moment_refusal(name))) for name in names]
         if not return_exceptions and errors:
             raise errors[0][1]
