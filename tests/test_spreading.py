@@ -77,7 +77,8 @@ def _double_integral(sea, length, heading, sp):
     om = np.linspace(1e-3, 4.0, 4001)
     theta = np.linspace(-sp.half_width, sp.half_width, 4001)
     x = om[:, None] ** 2 / G * np.abs(np.cos(heading + theta))[None, :] * length / 2
-    grim = 2 * x * np.sin(x) / (np.pi**2 - x**2 + (np.abs(np.pi - x) < 1e-9))  # removable singularity at x = π
+    # Grim's F = 2x sin x/(π² − x²), x = kL/2, with its removable singularity at x = π (F = 1)
+    grim = 2 * x * np.sin(x) / (np.pi**2 - x**2 + (np.abs(np.pi - x) < 1e-9))
     grim = np.where(np.abs(np.pi - x) < 1e-9, 1.0, grim)
     inner = np.trapezoid(np.asarray(sea(om))[:, None] * grim**2, om, axis=0)
     return float(np.trapezoid(inner * np.asarray(sp(theta)), theta))
