@@ -245,3 +245,54 @@ def test_theories_refuse_a_moment_ship_in_a_spread_head_sea(moment_ship):
     wave = EffectiveWave(ITTC(3.0, 10.0), moment_ship.lpp, 0.0, "head", spreading=Spreading("cosn", 2.0))
     with pytest.raises(ValueError, match="direct wave moment"):
         roberts_pdf(moment_ship, wave)
+
+
+@pytest.mark.parametrize("command", ["pdf", "theory", "maxima", "risk", "sweep"])
+@pytest.mark.parametrize(
+    ("value", "message"),
+    [
+        ("cos2s:0", r"--spreading: the spreading exponent must be a finite number > 0"),
+        ("cosn:-2", r"--spreading: the spreading exponent must be a finite number > 0"),
+        ("cos4:2", r"--spreading: spreading must be cos2s:S, cosn:N"),
+    ],
+)
+def test_cli_refuses_a_bad_spreading_before_any_computation(
+    command, value, message, tmp_path, monkeypatch, capsys
+):
+    """`--spreading` with an exponent ≤ 0 or an unknown kind: `jaxroll CMD: error: --spreading: …`, exit 2, nothing
+    written, no problem built."""
+    import re
+
+    import jaxroll
+    from jaxroll._cli import main
+
+    def boom(*args, **kwargs):
+        raise AssertionError("computation started before the options were checked")
+
+    monkeypatch.setattr(jaxroll.RollProblem, "from_sea", boom)
+    monkeypatch.setattr(jaxroll, "EffectiveWave", boom)
+    out = tmp_path / "out"
+    assert main([command, "--spreading", value, "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert re.search(message, err) and err.count("\n") == 1, err
+    assert not out.exists()
+
+
+def test_cli_theory_in_a_spread_sea(tmp_path, capsys):
+    """`jaxroll theory --spreading cos2s:2`: the theories take the spread S_G (Roberts' median amplitude below the
+    long-crested sea's, as S_G(2ω0) is lower), the JSON records the spreading, the output says so."""
+    import json
+
+    from jaxroll._cli import main
+
+    medians = {}
+    for value in ("none", "cos2s:2"):
+        out = tmp_path / value.replace(":", "_")
+        assert (
+            main(["theory", "--theory", "roberts", "--hs", "5", "--spreading", value, "--out", str(out)]) == 0
+        )
+        d = json.loads((out / "theory.json").read_text())
+        assert d["config"]["spreading"] == value
+        medians[value] = d["theory"]["roberts"]["quantiles_deg"]["50"]
+    assert "Short-crested sea: spreading cos2s:2" in capsys.readouterr().out
+    assert 0 < medians["cos2s:2"] < medians["none"]
