@@ -296,3 +296,45 @@ def test_cli_theory_in_a_spread_sea(tmp_path, capsys):
         medians[value] = d["theory"]["roberts"]["quantiles_deg"]["50"]
     assert "Short-crested sea: spreading cos2s:2" in capsys.readouterr().out
     assert 0 < medians["cos2s:2"] < medians["none"]
+
+
+def test_cli_pdf_in_a_spread_sea(tmp_path, capsys):
+    """`jaxroll pdf --spreading cosn:2`: the Monte Carlo runs (the filter, fitted to the spread S_G), the JSON
+    records the spreading and the sea line names it."""
+    import json
+
+    from jaxroll._cli import main
+
+    out = tmp_path / "run"
+    argv = ["pdf", "--realizations", "6", "--duration", "600", "--theory", "none", "--spreading", "cosn:2"]
+    assert main([*argv, "--out", str(out), "--quiet"]) == 0
+    d = json.loads((out / "pdf.json").read_text())
+    assert d["config"]["spreading"] == "cosn:2" and d["config"]["method"] == "filter"
+    printed = capsys.readouterr().out
+    assert "head seas, short-crested cosn:2" in printed
+
+
+def test_longterm_in_a_spread_sea(tmp_path):
+    """`jaxroll.longterm(spreading=)` by theory on a small scatter (the passage risk takes the spread S_G): head-sea
+    cells below the long-crested ones' (S_G(2ω0) lower), beam seas computed by theory (no longer `no_excitation`:
+    the other directions excite the roll parametrically), the spreading in the configuration and in the recorded
+    `jaxroll risk` command of a cell."""
+    import jaxroll as jxr
+    from jaxroll.longterm import METHODS
+    from jaxroll.longterm._dataset import config_of, risk_command
+
+    csv = tmp_path / "small.csv"
+    csv.write_text("hs_m,8.5,9.5\n5.5,10,20\n7.5,5,0\n")
+    kwargs = dict(headings=[math.pi, math.pi / 2], angles=(math.radians(25.0),), exposure=1800.0)
+    long_crested = jxr.longterm(csv, **kwargs)
+    spread = jxr.longterm(csv, spreading=Spreading("cos2s", 2.0), **kwargs)
+    assert config_of(spread)["spreading"] == "cos2s:2" and config_of(long_crested)["spreading"] == "none"
+    head = dict(hs=5.5, heading_deg=180.0)
+    p0, p1 = (ds.probability.sel(**head).values for ds in (long_crested, spread))
+    print("head seas P(25°):", p0.ravel(), "long-crested;", p1.ravel(), "cos2s:2")
+    assert np.all(p1 < p0)
+    beam = spread.sel(hs=5.5, heading_deg=90.0)
+    assert np.all(beam.method.values == METHODS.index("theory"))
+    assert np.all(long_crested.sel(hs=5.5, heading_deg=90.0).method.values == METHODS.index("no_excitation"))
+    index = {"hs": 0, "tz": 0, "heading_deg": 0, "speed": 0, "ship": 0}
+    assert risk_command(spread, index).endswith("--spreading cos2s:2")

@@ -159,6 +159,14 @@ def heading_phrase(deg: float) -> str:
     return f"{'beam' if deg == 90.0 else 'oblique'} seas (χ = {deg:g}°)"
 
 
+def sea_heading_phrase(args) -> str:
+    """`heading_phrase` of --heading, with the spreading when the sea is short-crested (e.g. 'head seas,
+    short-crested cos2s:10')."""
+    phrase = heading_phrase(parse_heading(args.heading))
+    label = spreading_label(args)
+    return phrase if label == "none" else f"{phrase}, short-crested {label}"
+
+
 def heading_for_api(deg: float) -> str | float:
     """What `RollProblem.from_sea` takes: 'head' / 'following' (today's exact path) or χ [rad]."""
     return heading_label(deg) if deg in (0.0, 180.0) else math.radians(deg)

@@ -20,7 +20,7 @@ import numpy as np
 from .._config import require_float64
 from ..io import dataset_attrs, ship_to_dict
 from ..roll import SPLITTING_EXCITATIONS, check_time_step
-from ..sea import ITTC, EffectiveWave
+from ..sea import ITTC, EffectiveWave, Spreading
 from ..ship import c11_representative, vanishing_angle
 from ._allowance import measured_allowance
 from ._cells import (
@@ -99,6 +99,7 @@ def longterm(
     progress: Callable[[int, int, str], None] | None = None,
     chunk_size: int | None = None,
     memory_budget: float | None = None,
+    spreading: Spreading | None = None,
 ):
     """Long-term probability that the roll exceeds each angle within one exposure, over a wave scatter diagram,
     headings, speeds and loading conditions, with the cells that dominate it (docs/longterm.md).
@@ -134,6 +135,8 @@ def longterm(
       `rare_below` (`"splitting"`: a Monte Carlo cell is rare where its probability at the largest angle is below
       this — by the theory with `"auto"`, by the splitting run's pilot with `"monte-carlo"`; default 1e-3;
       docs/longterm.md, "Rare cells"), `chunk_size`, `memory_budget`.
+    - `spreading`: a `jaxroll.sea.Spreading` (short-crested seas about each heading, every cell; beam seas then
+      have parametric excitation and are computed), or None (long-crested, the default; docs/spreading.md).
     - `part`: `(i, N)` or `"i/N"`: compute only this part's units (a partial dataset, `merge_longterm`).
     - `checkpoint`: a directory; finished units are saved there and a rerun resumes.
     - `progress(done, total, phase)`: called as cells (theory) and trials (Monte Carlo) are done.
@@ -235,11 +238,20 @@ def longterm(
     _check(None, 0 <= skip_weight < 1, f"`skip_weight` must be in [0, 1); got {skip_weight!r}.")
     _check(None, 0 <= refine_delta < 1, f"`refine_delta` must be in [0, 1); got {refine_delta!r}.")
     part = parse_part(part)
+    _check(
+        spreading,
+        spreading is None or isinstance(spreading, Spreading),
+        f"`spreading` must be a jaxroll.sea.Spreading or None; got {spreading!r}.",
+    )
+    spread = (
+        {} if spreading is None else {"spreading": spreading.label(), "directions": spreading.num_directions}
+    )
 
     shape = grid.shape
     n_angles = angles_deg.size
     comp_w = grid.comp_weight
-    beam = np.broadcast_to(grid.beam[None, :, None, None, None], shape)
+    # long-crested beam seas have no parametric excitation (P = 0 exactly); short-crested ones have (other directions)
+    beam = np.broadcast_to(grid.beam[None, :, None, None, None] & (spreading is None), shape)
     positive = comp_w > 0
     left_out = skipped_cells(comp_w, positive & ~beam, skip_weight)
     needed = positive & ~beam & ~left_out
@@ -259,7 +271,7 @@ def longterm(
     workers, me = n_part * n_proc, (i_part - 1) * n_proc + proc
     run_theory = method in ("theory", "auto")
     if method in ("monte-carlo",):  # the time step against every cell, before any simulation
-        _check_time_steps(grid, needed, dt)
+        _check_time_steps(grid, needed, dt, spreading)
 
     # ---- theory --------------------------------------------------------------------------------------------
     cells = _empty(shape, n_angles)
@@ -320,12 +332,15 @@ def longterm(
                 "angles_deg": angles_deg.tolist(),
                 "exposure": float(exposure),
                 "refine_delta": float(refine_delta),
+                **spread,
                 "version": _version(),
             }
             name = f"theory_{_hash(spec)}"
             r = _load_unit(checkpoint, name)
             if r is None:
-                template = class_template(ships[s], float(grid.speeds[u]), float(grid.classes_deg[k]))
+                template = class_template(
+                    ships[s], float(grid.speeds[u]), float(grid.classes_deg[k]), spreading
+                )
                 w_unit = np.sum(
                     [np.where(needed[s, k2, u], comp_w[s, k2, u], 0.0) for k2 in (k, *twins[j])], axis=0
                 )[ij[:, 0], ij[:, 1]]
@@ -382,7 +397,7 @@ def longterm(
         )
         chosen = (dominant | material).reshape(shape)
         if chosen.any():
-            _check_time_steps(grid, chosen, dt)
+            _check_time_steps(grid, chosen, dt, spreading)
             n = neyman_allocation(
                 comp_w[chosen],
                 cells["theory_probability"][chosen][:, 0],
@@ -429,6 +444,7 @@ def longterm(
             "excitation": excitation,
             "filter_order": filter_order if filter_order == "auto" else int(filter_order),
             "phi0": float(phi0),
+            **spread,
             "version": _version(),
         }
         name = f"mc_{_hash(spec)}"
@@ -445,6 +461,7 @@ def longterm(
                 dt=dt,
                 filter_order=filter_order,
                 phi0=phi0,
+                spreading=spreading,
             )
             inner = (
                 None if progress is None else (lambda n, base=base: progress(base + n, total, "monte_carlo"))
@@ -586,6 +603,7 @@ def longterm(
         estimator,
         refine_delta,
         rare_below,
+        spreading,
     )
     attrs = dataset_attrs(config, **({} if part is None else {"part": f"{i_part}/{n_part}"}))
     ds = build_dataset(grid, cells, config, attrs)
@@ -646,7 +664,7 @@ def _empty(shape, n_angles) -> dict:
     }
 
 
-def _check_time_steps(grid, mask, dt: float) -> None:
+def _check_time_steps(grid, mask, dt: float, spreading=None) -> None:
     """`check_time_step` for every cell of `mask` (errors only; the warnings come with the cells' problems)."""
     seen = set()
     for s, k, u, i, j in np.argwhere(mask):
@@ -659,6 +677,7 @@ def _check_time_steps(grid, mask, dt: float) -> None:
             grid.ships[s].lpp,
             float(grid.speeds[u]),
             math.radians(float(grid.classes_deg[k])),
+            spreading=spreading,
         )
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
@@ -692,6 +711,7 @@ def _config(
     estimator,
     refine_delta,
     rare_below,
+    spreading=None,
 ) -> dict:
     """The whole configuration (JSON-able): what the dataset's `config_json` attribute holds."""
     from ..io import to_jsonable
@@ -747,6 +767,7 @@ def _config(
                 else None
             ),
             "beam_deg": BEAM_DEG,
+            "spreading": "none" if spreading is None else spreading.label(),
         }
     )
 
