@@ -487,7 +487,13 @@ def joint_init(zeta_source, moment_source, key, num_steps: int, m: int, dtype) -
 
 def spread_directions(zeta_source, moment_source):
     """`(sea, U [m/s], cos χ_q, w_q)` of a short-crested sea's directions (`jaxroll.sea.Spreading`) behind a joint
-    pair of sources, or None for a long-crested sea."""
+    pair of sources, or None for a long-crested sea. **Raises:** `ValueError` when the two disagree."""
+    if zeta_source is not None and moment_source is not None:
+        if zeta_source.wave.direction_cosines != moment_source.direction_cosines:
+            raise ValueError(
+                "the effective wave and the wave moment of one problem must have the same spreading (both "
+                "long-crested, or built with the same `spreading`): `RollProblem.from_sea(..., spreading=)` does this."
+            )
     if moment_source is not None:
         if moment_source.direction_cosines is None:
             return None
@@ -520,8 +526,9 @@ def _joint_init_spread(sources, directions, key, size: int, n: int, dtype) -> li
 
 
 class WaveMomentExcitation(AbstractExcitation):
-    """The direct wave roll moment per unit roll inertia M_w(t) [rad/s²] of a long-crested sea, synthesised by FFT
-    over the whole trial like `SuperpositionExcitation`.
+    """The direct wave roll moment per unit roll inertia M_w(t) [rad/s²] of a long-crested sea (or, with
+    `spreading`, a short-crested one: summed over its directions), synthesised by FFT over the whole trial like
+    `SuperpositionExcitation`.
 
     Components sit at encounter frequencies ω_e,j = 2πj/(M dt); each wave frequency ω that meets the ship at ω_e,j
     (one in head and beam seas, up to three in following seas: `jaxroll.sea.encounter_frequency`) adds its
@@ -585,9 +592,8 @@ class WaveMomentExcitation(AbstractExcitation):
         self.dt = float(dt)
         if not spread:
             self.transfer = moment.at_heading(chi)
-            self.speed = jnp.asarray(
-                float(speed) * abs(cos_chi), dtype=float
-            )  # U|cos χ|: the encounter shift
+            # U|cos χ|: the encounter shift
+            self.speed = jnp.asarray(float(speed) * abs(cos_chi), dtype=float)
             self.direction_cosines = self.direction_weights = None
             return
         theta, weights = spreading.directions()
