@@ -338,3 +338,20 @@ def test_longterm_in_a_spread_sea(tmp_path):
     assert np.all(long_crested.sel(hs=5.5, heading_deg=90.0).method.values == METHODS.index("no_excitation"))
     index = {"hs": 0, "tz": 0, "heading_deg": 0, "speed": 0, "ship": 0}
     assert risk_command(spread, index).endswith("--spreading cos2s:2")
+
+
+def test_a_joint_pair_of_two_seas_is_refused(moment_ship):
+    """ζ_G of a short-crested sea with the moment of a long-crested one would be two different seas in one run:
+    refused with the reason."""
+    from jaxroll import SuperpositionExcitation, WaveMomentExcitation
+    from jaxroll.roll._excitation import joint_init
+    from jaxroll.ship import roll_inertia
+
+    sea, heading = ITTC(3.0, 10.0), math.radians(120)
+    wave = EffectiveWave(
+        sea, moment_ship.lpp, 0.0, heading, spreading=Spreading("cos2s", 4, num_directions=4)
+    )
+    table = moment_ship.wave_moment.per_inertia(roll_inertia(moment_ship))
+    moment = WaveMomentExcitation(sea, table, 0.25, heading=heading)
+    with pytest.raises(ValueError, match="must have the same spreading"):
+        joint_init(SuperpositionExcitation(wave, 0.25, joint=True), moment, jr.key(0), 400, 1, jnp.float64)
