@@ -157,6 +157,7 @@ if _typing.TYPE_CHECKING:
         EffectiveWave as EffectiveWave,
         FilterFit as FilterFit,
         ShapingFilter as ShapingFilter,
+        Spreading as Spreading,
         breaking_steepness as breaking_steepness,
         encounter_frequency as encounter_frequency,
         encounter_spectrum as encounter_spectrum,
@@ -225,7 +226,7 @@ _NAMES = {  # subpackage (or private module) -> the names `jaxroll` takes from i
         "zero_crossing_amplitudes"
     ),
     "sea": (
-        "ITTC JONSWAP AbstractWaveSpectrum EffectiveWave FilterFit ShapingFilter breaking_steepness "
+        "ITTC JONSWAP AbstractWaveSpectrum EffectiveWave FilterFit ShapingFilter Spreading breaking_steepness "
         "encounter_frequency encounter_spectrum fit_filter fit_filter_in_band grim_transfer sea_steepness spectral_moment "
         "superpose"
     ),

@@ -12,8 +12,8 @@ import math
 from ._common import CLIError
 
 
-def add_sea_options(p: argparse.ArgumentParser) -> None:
-    """--hs --t01 --speed --heading --ship --dt --method --filter-order --seed."""
+def add_sea_options(p: argparse.ArgumentParser, *, spreading: bool = True) -> None:
+    """--hs --t01 --speed --heading [--spreading] --ship --dt --method --filter-order --seed."""
     g = p.add_argument_group("sea state and ship (full scale)")
     g.add_argument("--hs", type=float, default=7.0, help="significant wave height H1/3 [m] (default 7)")
     g.add_argument("--t01", type=float, default=10.0, help="mean wave period T01 [s] (default 10)")
@@ -23,9 +23,11 @@ def add_sea_options(p: argparse.ArgumentParser) -> None:
         type=normalise_heading,
         default="head",
         metavar="DEG",
-        help="heading χ [deg] of the long-crested waves relative to the course: 0 following, 90 beam, 180 head; "
-        "or head / beam / following (default head)",
+        help="heading χ [deg] of the waves (their mean direction when short-crested) relative to the course: "
+        "0 following, 90 beam, 180 head; or head / beam / following (default head)",
     )
+    if spreading:
+        add_spreading_option(g)
     g.add_argument(
         "--ship",
         metavar="FILE",
@@ -51,6 +53,36 @@ def add_sea_options(p: argparse.ArgumentParser) -> None:
         "spectrum within 5 %% where the roll is excited (4 is the paper's; the moment method keeps 4 under auto)",
     )
     n.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+
+
+def add_spreading_option(group) -> None:
+    """--spreading cos2s:S | cosn:N | none (checked by `spreading_from_args`)."""
+    group.add_argument(
+        "--spreading",
+        default="none",
+        metavar="KIND",
+        help="directional spreading of a short-crested sea about --heading: cos2s:S (D ∝ cos^2s(θ/2), e.g. "
+        "cos2s:10 wind sea, cos2s:25 to cos2s:75 swell), cosn:N (D ∝ cos^n θ, e.g. cosn:2), or none "
+        "(long-crested, the default; docs/spreading.md)",
+    )
+
+
+def spreading_from_args(args):
+    """The `jaxroll.sea.Spreading` of --spreading, or None (`none`, or a command without the option). Raises
+    CLIError."""
+    from ..sea import parse_spreading
+
+    text = getattr(args, "spreading", "none")
+    try:
+        return parse_spreading(text)
+    except ValueError as e:
+        raise CLIError(f"--spreading: {e}") from None
+
+
+def spreading_label(args) -> str:
+    """--spreading as the JSON and the printed lines write it: `cos2s:10`, `cosn:2` or `none`."""
+    spreading = spreading_from_args(args)
+    return "none" if spreading is None else spreading.label()
 
 
 def word_or_number(word: str, convert=int):
@@ -127,6 +159,14 @@ def heading_phrase(deg: float) -> str:
     return f"{'beam' if deg == 90.0 else 'oblique'} seas (χ = {deg:g}°)"
 
 
+def sea_heading_phrase(args) -> str:
+    """`heading_phrase` of --heading, with the spreading when the sea is short-crested (e.g. 'head seas,
+    short-crested cos2s:10')."""
+    phrase = heading_phrase(parse_heading(args.heading))
+    label = spreading_label(args)
+    return phrase if label == "none" else f"{phrase}, short-crested {label}"
+
+
 def heading_for_api(deg: float) -> str | float:
     """What `RollProblem.from_sea` takes: 'head' / 'following' (today's exact path) or χ [rad]."""
     return heading_label(deg) if deg in (0.0, 180.0) else math.radians(deg)
@@ -170,9 +210,10 @@ def resolved_method(args, ship) -> str:
     wave moment and the heading is oblique or beam (|cos χ| < 1), else "filter"."""
     if args.method != "auto":
         return args.method
-    moment = (
-        ship.wave_moment is not None and abs(math.cos(math.radians(parse_heading(args.heading)))) < 1 - 1e-15
-    )
+    oblique = abs(math.cos(math.radians(parse_heading(args.heading)))) < 1 - 1e-15
+    # a short-crested sea has oblique directions at every heading
+    spread = spreading_from_args(args) is not None
+    moment = ship.wave_moment is not None and (oblique or spread)
     return "superposition" if moment else "filter"
 
 
@@ -187,6 +228,7 @@ def sea_config(args, ship) -> dict:
         "heading": heading_label(parse_heading(args.heading)),
         "heading_deg": parse_heading(args.heading),
         "heading_convention": "χ between the course and the wave direction: 0° following, 90° beam, 180° head",
+        "spreading": spreading_label(args),
         "ship": ship_to_dict(ship),
         "ship_file": args.ship,
         "dt_s": args.dt,
@@ -219,6 +261,7 @@ def check_sea_options(args) -> None:
     if not (math.isfinite(args.speed) and args.speed >= 0):
         raise CLIError(f"--speed must be >= 0 [m/s] (use --heading for direction); got {args.speed}.")
     check_filter_order(args)
+    spreading_from_args(args)
 
 
 def _sea_from_args(args, ship):
@@ -227,7 +270,12 @@ def _sea_from_args(args, ship):
 
     heading_deg = parse_heading(args.heading)
     check_sea_options(args)
-    if heading_deg == 90.0 and ship.wave_moment is not None:
+    if spreading_from_args(args) is not None:
+        print(
+            f"Short-crested sea: spreading {spreading_label(args)} about the mean heading χ = {heading_deg:g}° "
+            "(Grim's effective wave summed over directions; docs/spreading.md)."
+        )
+    elif heading_deg == 90.0 and ship.wave_moment is not None:
         print(
             "Beam seas (χ = 90°): no parametric excitation (Grim's effective wave vanishes); the roll is driven by "
             "the direct wave moment the ship carries (docs/wave_moment.md)."
@@ -257,6 +305,7 @@ def build_problem(args, ship, *, phi0_deg: float = 5.0):
         dt=args.dt,
         filter_order=args.filter_order,
         phi0=math.radians(phi0_deg),
+        spreading=spreading_from_args(args),
     )
     return problem, problem.filter_fit, sea
 
@@ -293,4 +342,7 @@ def build_theory_inputs(args, ship) -> TheoryInputs:
     from .. import EffectiveWave
 
     sea, heading_deg = _sea_from_args(args, ship)
-    return TheoryInputs(args, ship, EffectiveWave(sea, ship.lpp, args.speed, heading_for_api(heading_deg)))
+    wave = EffectiveWave(
+        sea, ship.lpp, args.speed, heading_for_api(heading_deg), spreading=spreading_from_args(args)
+    )
+    return TheoryInputs(args, ship, wave)

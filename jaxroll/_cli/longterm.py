@@ -25,7 +25,13 @@ from ._common import (
     write_json,
     write_netcdf,
 )
-from ._sea import _filter_order, check_filter_order, word_or_number
+from ._sea import (
+    _filter_order,
+    add_spreading_option,
+    check_filter_order,
+    spreading_from_args,
+    word_or_number,
+)
 
 #: --model-factor: 'measured' or a number (checked by `check_options`).
 _model_factor = word_or_number("measured", float)
@@ -68,6 +74,7 @@ def register(sub) -> None:
         metavar="LIST",
         help="probability of each heading (default uniform; normalised)",
     )
+    add_spreading_option(g)
     g.add_argument("--speed", default="0", metavar="LIST", help="ship speeds U [m/s] (default 0)")
     g.add_argument(
         "--speed-weights", default=None, metavar="LIST", help="probability of each speed (default uniform)"
@@ -305,6 +312,7 @@ def check_args(args):
     if not (math.isfinite(args.refine_delta) and 0 <= args.refine_delta < 1):
         raise CLIError(f"--refine-delta must be in [0, 1); got {args.refine_delta}.")
     check_filter_order(args)
+    spreading = spreading_from_args(args)
     if not math.isfinite(args.phi0_deg) or args.phi0_deg == 0:
         raise CLIError(
             f"--phi0-deg must be a finite non-zero angle (a ship started upright stays upright); got "
@@ -401,6 +409,7 @@ def check_args(args):
         refine_delta=args.refine_delta,
         estimator=estimator,
         rare_below=args.rare_below,
+        spreading=spreading,
         part=part,
         checkpoint=args.checkpoint,
         chunk_size=args.chunk_size,

@@ -24,9 +24,8 @@ from ._sea import (
     build_problem,
     check_sea_options,
     check_steps,
-    heading_phrase,
-    parse_heading,
     sea_config,
+    sea_heading_phrase,
 )
 
 
@@ -272,7 +271,7 @@ def run(args) -> int:
         "run_time_s": elapsed,
         "resumed_from_checkpoint": resumed,
     }
-    title = f"{ship.name}: H1/3 = {args.hs:g} m, T01 = {args.t01:g} s, U = {args.speed:g} m/s, {heading_phrase(parse_heading(args.heading))}"
+    title = f"{ship.name}: H1/3 = {args.hs:g} m, T01 = {args.t01:g} s, U = {args.speed:g} m/s, {sea_heading_phrase(args)}"
     capsized = {int(k): v["capsize_probability"] for k, v in per_n0.items()}
     with OutputFolder(out) as tmp:
         fig_lin, fig_log = maxima_figures(

@@ -25,10 +25,9 @@ from ._sea import (
     check_positive,
     check_sea_options,
     check_steps,
-    heading_phrase,
-    parse_heading,
     resolved_method,
     sea_config,
+    sea_heading_phrase,
 )
 
 THEORIES = ("roberts", "esam", "moment", "envelope_fpk")
@@ -182,7 +181,7 @@ def run(args) -> int:
         )
     print(
         f"Monte Carlo: {args.realizations} realizations × {args.duration:g} s, dt {args.dt} s, "
-        f"H1/3 {args.hs} m, T01 {args.t01} s, {heading_phrase(parse_heading(args.heading))}, U {args.speed} m/s, method {resolved_method(args, ship)}"
+        f"H1/3 {args.hs} m, T01 {args.t01} s, {sea_heading_phrase(args)}, U {args.speed} m/s, method {resolved_method(args, ship)}"
     )
     earlier = 0.0
     resumed = checkpoint_file is not None and checkpoint_file.exists()
@@ -279,7 +278,7 @@ def run(args) -> int:
         caption = capsize_caption(stats.n_realizations, stats.n_capsized)
         title = (
             f"{ship.name}: H1/3 = {args.hs:g} m, T01 = {args.t01:g} s, U = {args.speed:g} m/s, "
-            f"{heading_phrase(parse_heading(args.heading))}, {caption}"
+            f"{sea_heading_phrase(args)}, {caption}"
         )
         fig_lin, fig_log = amplitude_pdf_figures(payload, title=title)
         save_figure(fig_lin, tmp / "pdf_linear.png")

@@ -27,10 +27,9 @@ from ._sea import (
     check_positive,
     check_sea_options,
     check_steps,
-    heading_phrase,
-    parse_heading,
     resolved_method,
     sea_config,
+    sea_heading_phrase,
 )
 
 
@@ -407,7 +406,7 @@ def run(args) -> int:
     }
     title = (
         f"{ship.name}: H1/3 = {args.hs:g} m, T01 = {args.t01:g} s, U = {args.speed:g} m/s, "
-        f"{heading_phrase(parse_heading(args.heading))}; {args.realizations} trials"
+        f"{sea_heading_phrase(args)}; {args.realizations} trials"
     )
     with OutputFolder(out) as tmp:
         fig = risk_figure(
@@ -430,7 +429,7 @@ def run(args) -> int:
         )
     m, d = result["monte_carlo"], result["direct"]
     print(
-        f"Sea: H1/3 {args.hs} m, T01 {args.t01} s, {heading_phrase(parse_heading(args.heading))}, U {args.speed} m/s; ship {ship.name}"
+        f"Sea: H1/3 {args.hs} m, T01 {args.t01} s, {sea_heading_phrase(args)}, U {args.speed} m/s; ship {ship.name}"
     )
     print(
         f"Direct ({args.realizations} trials of {args.hours:g} h after {args.discard:g} s): "

@@ -35,7 +35,7 @@ def register(sub) -> None:
         "probabilities with respect to ship and sea parameters (docs/sensitivity.md); writes sensitivity.json, "
         "sensitivity.nc and sensitivity.png into --out.",
     )
-    add_sea_options(p)
+    add_sea_options(p, spreading=False)  # the sensitivity problem is long-crested
     m = p.add_argument_group("sensitivities")
     m.add_argument(
         "--wrt",

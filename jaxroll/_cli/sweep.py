@@ -23,11 +23,14 @@ from ._common import (
 )
 from ._sea import (
     _filter_order,
+    add_spreading_option,
     check_filter_order,
     check_steps,
     heading_for_api,
     heading_number,
     heading_phrase,
+    spreading_from_args,
+    spreading_label,
 )
 
 
@@ -51,6 +54,7 @@ def register(sub) -> None:
         help="headings χ [deg] in [0, 180] (0 following, 90 beam, 180 head), or head / following; "
         "e.g. 0,45,90,135,180 (default head)",
     )
+    add_spreading_option(g)
     g.add_argument(
         "--ship", metavar="FILE", default=None, help="ship file (TOML); default: C11 (representative)"
     )
@@ -308,6 +312,7 @@ def run(args) -> int:
     if not 0 < args.confidence < 1:
         raise CLIError(f"--confidence must be in (0, 1); got {args.confidence}.")
     check_filter_order(args)
+    spreading = spreading_from_args(args)
     check_steps(args.dt, {"--duration": args.duration})
     if args.devices is not None and not 1 <= args.devices <= jax.device_count():
         raise CLIError(
@@ -328,7 +333,8 @@ def run(args) -> int:
         for u in speed:
             for height in hs:
                 for period in t01:
-                    check_time_step(args.dt, ship, EffectiveWave(ITTC(height, period), ship.lpp, u, h))
+                    wave = EffectiveWave(ITTC(height, period), ship.lpp, u, h, spreading=spreading)
+                    check_time_step(args.dt, ship, wave)
     main = jax.process_index() == 0
     n_points = len(hs) * len(t01) * len(speed) * len(heading)
     total = n_points * args.realizations
@@ -358,6 +364,7 @@ def run(args) -> int:
         dt=args.dt,
         filter_order=args.filter_order,
         phi0=math.radians(args.phi0_deg),
+        spreading=spreading,
         chunk_size=chunk,
         devices=args.devices,
         checkpoint=args.checkpoint,
@@ -367,6 +374,7 @@ def run(args) -> int:
     config = {
         "sea": {"spectrum": "ITTC"},
         "heading_convention": "χ between the course and the wave direction: 0° following, 90° beam, 180° head",
+        "spreading": spreading_label(args),
         "ship": ship_to_dict(ship),
         "ship_file": args.ship,
         "angle_deg": args.angle,

@@ -20,7 +20,7 @@ THEORY = (
 )
 
 
-def check_time_steps(grid, mask, dt: float) -> None:
+def check_time_steps(grid, mask, dt: float, spreading=None) -> None:
     """`check_time_step` for every cell of `mask` (the direct wave moment's bandwidth too where the ship carries
     one; errors only; the warnings come with the cells' problems)."""
     seen = set()
@@ -34,8 +34,8 @@ def check_time_steps(grid, mask, dt: float) -> None:
             float(grid.speeds[u]),
             math.radians(float(grid.classes_deg[k])),
         )
-        wave = EffectiveWave(sea, grid.ships[s].lpp, speed, chi)
-        moment = _moment_excitation(grid.ships[s], sea, speed, chi, dt)  # None without one
+        wave = EffectiveWave(sea, grid.ships[s].lpp, speed, chi, spreading=spreading)
+        moment = _moment_excitation(grid.ships[s], sea, speed, chi, dt, spreading)  # None without one
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             try:
@@ -68,6 +68,7 @@ def run_config(
     estimator,
     refine_delta,
     rare_below,
+    spreading=None,
 ) -> dict:
     """The whole configuration (JSON-able): what the dataset's `config_json` attribute holds."""
     from ..io import to_jsonable
@@ -123,5 +124,6 @@ def run_config(
                 else None
             ),
             "beam_deg": BEAM_DEG,
+            "spreading": "none" if spreading is None else spreading.label(),
         }
     )

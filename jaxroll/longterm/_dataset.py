@@ -573,6 +573,8 @@ def risk_command(ds, index: dict) -> str:
         "--method", str(cfg["excitation"]) if not _moment_cell(cell) else MOMENT_EXCITATION,
         "--filter-order", str(cfg["filter_order"]),
     ]  # fmt: skip
+    if cfg.get("spreading", "none") != "none":
+        parts += ["--spreading", str(cfg["spreading"])]
     if ship_file:
         parts += ["--ship", str(ship_file)]
     return shlex.join(parts)

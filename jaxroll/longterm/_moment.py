@@ -37,11 +37,12 @@ def parametric_only(ship):
     return eqx.tree_at(lambda s: s.wave_moment, ship, None, is_leaf=lambda x: x is None)
 
 
-def moment_classes(grid) -> np.ndarray:
+def moment_classes(grid, short_crested: bool = False) -> np.ndarray:
     """Per (ship, heading class) of `grid`: the direct wave moment joins the roll (the ship carries one and the
-    class heading is neither head nor following seas). Shape (ships, classes)."""
+    class heading is neither head nor following seas; every class in a short-crested sea, whose directions meet the
+    hull obliquely). Shape (ships, classes)."""
     has = np.array([s.wave_moment is not None for s in grid.ships])
-    oblique = (grid.classes_deg != 0.0) & (grid.classes_deg != 180.0)
+    oblique = (grid.classes_deg != 0.0) & (grid.classes_deg != 180.0) | short_crested
     return has[:, None] & oblique[None, :]
 
 

@@ -239,9 +239,10 @@ def cell_problem(
     dt: float,
     filter_order: int | str,
     phi0: float,
+    spreading=None,
 ) -> RollProblem:
     """The cell's `RollProblem`, built as `jaxroll risk` builds it (the same floats: H_s [m], T01 [s], U [m/s],
-    χ = radians(heading_deg))."""
+    χ = radians(heading_deg); `spreading`: a `jaxroll.sea.Spreading` or None)."""
     return RollProblem.from_sea(
         ship,
         ITTC(hs, t01),
@@ -251,6 +252,7 @@ def cell_problem(
         dt=dt,
         filter_order=filter_order,
         phi0=phi0,
+        spreading=spreading,
     )
 
 

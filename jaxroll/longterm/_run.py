@@ -19,6 +19,7 @@ import numpy as np
 from .._config import require_float64
 from ..io import dataset_attrs, ship_to_dict
 from ..roll import SPLITTING_EXCITATIONS
+from ..sea import Spreading
 from ..ship import c11_representative, vanishing_angle
 from ._allowance import measured_allowance
 from ._cells import (
@@ -101,6 +102,7 @@ def longterm(
     progress: Callable[[int, int, str], None] | None = None,
     chunk_size: int | None = None,
     memory_budget: float | None = None,
+    spreading: Spreading | None = None,
 ):
     """Long-term probability that the roll exceeds each angle within one exposure, over a wave scatter diagram,
     headings, speeds and loading conditions, with the cells that dominate it (docs/longterm.md).
@@ -140,6 +142,8 @@ def longterm(
       `rare_below` (`"splitting"`: a Monte Carlo cell is rare where its probability at the largest angle is below
       this — by the theory with `"auto"`, by the splitting run's pilot with `"monte-carlo"`; default 1e-3;
       docs/longterm.md, "Rare cells"), `chunk_size`, `memory_budget`.
+    - `spreading`: a `jaxroll.sea.Spreading` (short-crested seas about each heading, every cell; beam seas then
+      have parametric excitation and are computed), or None (long-crested, the default; docs/spreading.md).
     - `part`: `(i, N)` or `"i/N"`: compute only this part's units (a partial dataset, `merge_longterm`).
     - `checkpoint`: a directory; finished units are saved there and a rerun resumes.
     - `progress(done, total, phase)`: called as cells (theory) and trials (Monte Carlo) are done.
@@ -241,14 +245,24 @@ def longterm(
     _check(None, 0 <= skip_weight < 1, f"`skip_weight` must be in [0, 1); got {skip_weight!r}.")
     _check(None, 0 <= refine_delta < 1, f"`refine_delta` must be in [0, 1); got {refine_delta!r}.")
     part = parse_part(part)
+    _check(
+        spreading,
+        spreading is None or isinstance(spreading, Spreading),
+        f"`spreading` must be a jaxroll.sea.Spreading or None; got {spreading!r}.",
+    )
+    spread = (
+        {} if spreading is None else {"spreading": spreading.label(), "directions": spreading.num_directions}
+    )
 
     shape = grid.shape
     n_angles = angles_deg.size
     comp_w = grid.comp_weight
     # the direct wave moment joins the roll of these cells (a ship carrying one, off head and following seas): a
     # beam sea is no longer 0, and only the Monte Carlo covers them (docs/longterm.md, "The direct wave moment")
-    moment = np.broadcast_to(moment_classes(grid)[:, :, None, None, None], shape)
-    beam = np.broadcast_to(grid.beam[None, :, None, None, None], shape) & ~moment
+    moment = np.broadcast_to(moment_classes(grid, spreading is not None)[:, :, None, None, None], shape)
+    # long-crested beam seas have no parametric excitation (P = 0 exactly); short-crested ones have (other
+    # directions); with a moment, beam seas roll
+    beam = np.broadcast_to(grid.beam[None, :, None, None, None] & (spreading is None), shape) & ~moment
     # a ship with a GZ(φ, ζ) surface (`ship.restoring_surface`): no theory knows it, every cell is simulated
     surface = np.broadcast_to(surface_ships(grid)[:, None, None, None, None], shape)
     simulated = moment | surface  # the cells only the Monte Carlo (brute force) covers
@@ -273,9 +287,9 @@ def longterm(
     workers, me = n_part * n_proc, (i_part - 1) * n_proc + proc
     run_theory = method in ("theory", "auto")
     if method in ("monte-carlo",):  # the time step against every cell, before any simulation
-        check_time_steps(grid, needed, dt)
+        check_time_steps(grid, needed, dt, spreading)
     elif method == "auto":
-        check_time_steps(grid, needed & simulated, dt)
+        check_time_steps(grid, needed & simulated, dt, spreading)
     needed_all, needed = needed, needed & ~simulated  # the theory's cells (all but the simulated-only ones)
 
     # ---- theory --------------------------------------------------------------------------------------------
@@ -337,12 +351,15 @@ def longterm(
                 "angles_deg": angles_deg.tolist(),
                 "exposure": float(exposure),
                 "refine_delta": float(refine_delta),
+                **spread,
                 "version": _version(),
             }
             name = f"theory_{_hash(spec)}"
             r = _load_unit(checkpoint, name)
             if r is None:
-                template = class_template(ships[s], float(grid.speeds[u]), float(grid.classes_deg[k]))
+                template = class_template(
+                    ships[s], float(grid.speeds[u]), float(grid.classes_deg[k]), spreading
+                )
                 w_unit = np.sum(
                     [np.where(needed[s, k2, u], comp_w[s, k2, u], 0.0) for k2 in (k, *twins[j])], axis=0
                 )[ij[:, 0], ij[:, 1]]
@@ -400,7 +417,7 @@ def longterm(
         )
         chosen = (dominant | material).reshape(shape)
         if chosen.any():
-            check_time_steps(grid, chosen, dt)
+            check_time_steps(grid, chosen, dt, spreading)
             n = neyman_allocation(
                 comp_w[chosen],
                 cells["theory_probability"][chosen][:, 0],
@@ -419,7 +436,8 @@ def longterm(
     mc_cells = [tuple(int(x) for x in c) for c in np.argwhere(trials > 0)]
     mine_mc = [j for j in range(len(mc_cells)) if worker_of(j, workers) == me]
     # a moment cell off beam seas is simulated twice: with the moment, and without it (its parametric-only share)
-    twice = moment & ~np.broadcast_to(grid.beam[None, :, None, None, None], shape)
+    # (in a short-crested sea beam seas have a parametric excitation too: every moment cell twice)
+    twice = moment & ~np.broadcast_to(grid.beam[None, :, None, None, None] & (spreading is None), shape)
     total = int(sum(trials[mc_cells[j]] * (1 + twice[mc_cells[j]]) for j in mine_mc))
     done_trials = [0]
     run_options = {"chunk_size": chunk_size, "memory_budget": memory_budget}
@@ -450,6 +468,7 @@ def longterm(
             "excitation": excitation,
             "filter_order": filter_order if filter_order == "auto" else int(filter_order),
             "phi0": float(phi0),
+            **spread,
             "version": _version(),
         }
         name = f"mc_{_hash(spec)}"
@@ -466,6 +485,7 @@ def longterm(
                 dt=dt,
                 filter_order=filter_order,
                 phi0=phi0,
+                spreading=spreading,
             )
             inner = (
                 None if progress is None else (lambda n, base=base: progress(base + n, total, "monte_carlo"))
@@ -563,7 +583,9 @@ def longterm(
     # ---- every cell's method, value and interval ------------------------------------------------------------
     cells["theory_outside_validated_map"] = outside & ~is_mc
     fill_cells(cells, shape, method, comp_w, beam, left_out, needed, is_mc, factor)
-    fill_parametric(cells, moment, np.broadcast_to(grid.beam[None, :, None, None, None], shape))
+    fill_parametric(
+        cells, moment, np.broadcast_to(grid.beam[None, :, None, None, None] & (spreading is None), shape)
+    )
     if part is not None or n_proc > 1:
         if part is not None:
             mine = np.zeros(shape, bool)
@@ -631,6 +653,7 @@ def longterm(
         estimator,
         refine_delta,
         rare_below,
+        spreading,
     )
     attrs = dataset_attrs(config, **({} if part is None else {"part": f"{i_part}/{n_part}"}))
     ds = build_dataset(grid, cells, config, attrs)

@@ -75,9 +75,10 @@ def _seas(hs: np.ndarray, t01: np.ndarray) -> ITTC:
     )
 
 
-def class_template(ship, speed: float, heading_deg: float) -> EffectiveWave:
-    """The effective wave of a heading class at `speed` [m/s] (its sea is replaced per cell)."""
-    return EffectiveWave(ITTC(1.0, 10.0), ship.lpp, speed, math.radians(heading_deg))
+def class_template(ship, speed: float, heading_deg: float, spreading=None) -> EffectiveWave:
+    """The effective wave of a heading class at `speed` [m/s] (its sea is replaced per cell), short-crested with a
+    `spreading` (`jaxroll.sea.Spreading`)."""
+    return EffectiveWave(ITTC(1.0, 10.0), ship.lpp, speed, math.radians(heading_deg), spreading=spreading)
 
 
 def _solve(

@@ -37,6 +37,7 @@ from ..sea._filters import (
 )
 from ..sea._grim import SPECTRUM_GRID, EffectiveWave, spectrum_on_grid
 from ..sea._spectra import AbstractWaveSpectrum, heading_cosine
+from ..sea._spreading import Spreading
 from ..ship._restoring import angle_of_maximum_gz, backbone_frequency, parametric_excitation, vanishing_angle
 from ..ship._restoring_surface import (
     in_surface_range,
@@ -198,14 +199,15 @@ def check_time_step(
         )
 
 
-def _moment_excitation(ship: Ship, sea, speed, heading, dt) -> WaveMomentExcitation | None:
+def _moment_excitation(ship: Ship, sea, speed, heading, dt, spreading=None) -> WaveMomentExcitation | None:
     """The direct wave moment the ship's table (`ship.wave_moment`, per the ship's own roll inertia) gives at this
-    heading; None without a table, and in head and following seas (|cos χ| = 1), where the moment of a hull
-    symmetric port and starboard vanishes and the paper's model runs unchanged."""
-    if ship.wave_moment is None or abs(heading_cosine(heading)) == 1.0:
+    heading; None without a table, and in long-crested head and following seas (|cos χ| = 1), where the moment of
+    a hull symmetric port and starboard vanishes and the paper's model runs unchanged (a short-crested sea has
+    oblique directions at every heading)."""
+    if ship.wave_moment is None or (spreading is None and abs(heading_cosine(heading)) == 1.0):
         return None
     table = ship.wave_moment.per_inertia(roll_inertia(ship))
-    return WaveMomentExcitation(sea, table, dt, speed=speed, heading=heading)
+    return WaveMomentExcitation(sea, table, dt, speed=speed, heading=heading, spreading=spreading)
 
 
 class RollProblem(eqx.Module):
@@ -295,6 +297,7 @@ class RollProblem(eqx.Module):
         substeps: int | None = None,
         noise_rank: int | None = None,
         validate: bool = True,
+        spreading: Spreading | None = None,
     ) -> "RollProblem":
         """The roll problem of `ship` in the sea state `sea`: Grim's effective wave, its excitation, initial roll.
 
@@ -302,12 +305,17 @@ class RollProblem(eqx.Module):
 
         - `ship`: the roll model; `sea`: one-sided sea spectrum (`ITTC`, `JONSWAP`).
         - `speed` [m/s]; `heading`: "head" | "following" | χ [rad] in [0, π] (0 following, π/2 beam, π head;
-          long-crested). In beam seas the projected wave number is 0: ζ_G ≡ 0 and the roll only decays.
+          the mean direction of a short-crested sea). In long-crested beam seas the projected wave number is 0:
+          ζ_G ≡ 0 and the roll only decays.
+        - `spreading`: a `jaxroll.sea.Spreading` (cos-2s or cos^n) for a short-crested sea, or None (long-crested,
+          the paper's; exactly today's numbers). Grim's effective wave (hence the filter fit and the theories'
+          S_G) and a ship's direct wave moment are summed over the spreading's directions, each with its own
+          encounter frequency (docs/spreading.md); a ship carrying a moment then has it at every heading.
         - `excitation`: "filter" (Method 2, the paper's for Monte Carlo: a shaping filter fitted once to S_G
           with extra weight at 2ω0, kept in `filter_fit` for the moment method), "superposition" (Method 1), or
           "auto" (default): "filter", but "superposition" when the ship carries a wave moment
-          (`ship.wave_moment`) and the heading is oblique or beam (|cos χ| < 1). Then the direct wave moment
-          M_w(t) joins the roll equation, made with ζ_G of the same wave components
+          (`ship.wave_moment`) and the heading is oblique or beam (|cos χ| < 1) or the sea short-crested. Then the
+          direct wave moment M_w(t) joins the roll equation, made with ζ_G of the same wave components
           (`SuperpositionExcitation(joint=True)`, `WaveMomentExcitation`); a shaping filter cannot make both
           (docs/wave_moment.md), so "filter" is refused for such a run.
         - `dt`: time step [s] (checked against the roll period and the excitation bandwidth).
@@ -330,8 +338,8 @@ class RollProblem(eqx.Module):
         require_float64("jaxroll.RollProblem.from_sea")
         if excitation not in ("auto", "filter", "superposition"):
             raise ValueError(f"`excitation` must be 'auto', 'filter' or 'superposition'; got {excitation!r}.")
-        wave = EffectiveWave(sea, ship.lpp, speed, heading, validate=validate)
-        moment = _moment_excitation(ship, sea, speed, heading, dt)
+        wave = EffectiveWave(sea, ship.lpp, speed, heading, spreading=spreading, validate=validate)
+        moment = _moment_excitation(ship, sea, speed, heading, dt, spreading)
         if excitation == "auto":
             excitation = "filter" if moment is None else "superposition"
         elif excitation == "filter" and moment is not None:

@@ -23,8 +23,9 @@ from jaxtyping import Array, Complex, Float, PRNGKeyArray
 
 from .._compiled import cached_program
 from ..sea._filters import ShapingFilter, psd_sqrt
-from ..sea._grim import EffectiveWave, grim_transfer, superpose, superposition_length
+from ..sea._grim import EffectiveWave, direction_cosines, grim_transfer, superpose, superposition_length
 from ..sea._spectra import GRAVITY, AbstractWaveSpectrum, encounter_branches, heading_angle, heading_cosine
+from ..sea._spreading import Spreading
 from ..ship._wave_moment import WaveMoment
 
 BLOCK = 128  # source steps per noise block (block j of a realization keyed k draws from fold_in(k, j))
@@ -495,10 +496,14 @@ class SuperpositionExcitation(AbstractExcitation):
     def advance(self, state, values, m):
         return state, tuple(values[j] for j in range(2 * m))
 
-    def coefficients(self, omegas, amps):
+    def coefficients(self, omegas, amps, direction: int | None = None):
         """The FFT coefficients of ζ_G from the realization's components (`encounter_components`):
-        Σ_b F_Grim(k_b |cos χ|) a_b, Grim's transfer being real."""
-        projection = jnp.abs(self.wave.cos_heading)
+        Σ_b F_Grim(k_b |cos χ|) a_b, Grim's transfer being real; of a short-crested sea's `direction` q (an index
+        into `wave.direction_cosines`) with cos χ_q."""
+        if direction is None:
+            projection = jnp.abs(self.wave.cos_heading)
+        else:
+            projection = abs(self.wave.direction_cosines[direction])
         g = grim_transfer(omegas**2 / GRAVITY * projection, self.wave.length)
         coef = jnp.zeros(amps.shape[:1], dtype=amps.dtype)
         for b in range(amps.shape[1]):
@@ -522,6 +527,9 @@ def joint_init(zeta_source, moment_source, key, num_steps: int, m: int, dtype) -
     n = _padded_length(num_steps, m)
     _check_length(n)
     size = superposition_length(n)
+    directions = spread_directions(zeta_source, moment_source)
+    if directions is not None:
+        return _joint_init_spread(sources, directions, key, size, n, dtype)
     if moment_source is not None:
         sea, speed, following = moment_source.sea, moment_source.speed, moment_source.following
     else:
@@ -532,9 +540,50 @@ def joint_init(zeta_source, moment_source, key, num_steps: int, m: int, dtype) -
     return [((x, dx), x[0]) for x, dx in _synthesise(coefs, omega_e, size, n, dtype)]
 
 
+def spread_directions(zeta_source, moment_source):
+    """`(sea, U [m/s], cos χ_q, w_q)` of a short-crested sea's directions (`jaxroll.sea.Spreading`) behind a joint
+    pair of sources, or None for a long-crested sea. **Raises:** `ValueError` when the two disagree."""
+    if zeta_source is not None and moment_source is not None:
+        if zeta_source.wave.direction_cosines != moment_source.direction_cosines:
+            raise ValueError(
+                "the effective wave and the wave moment of one problem must have the same spreading (both "
+                "long-crested, or built with the same `spreading`): `RollProblem.from_sea(..., spreading=)` does this."
+            )
+    if moment_source is not None:
+        if moment_source.direction_cosines is None:
+            return None
+        return (
+            moment_source.sea,
+            moment_source.speed,
+            moment_source.direction_cosines,
+            moment_source.direction_weights,
+        )
+    wave = zeta_source.wave
+    if wave.spreading is None:
+        return None
+    return wave.sea, wave.speed, wave.direction_cosines, wave.direction_weights
+
+
+def _joint_init_spread(sources, directions, key, size: int, n: int, dtype) -> list:
+    """`joint_init` in a short-crested sea: each direction q has its own wave components (`encounter_components`
+    at the projected speed U|cos χ_q|, variance × w_q, normals of the realization keyed fold_in(key, q)), and each
+    source sums its coefficients of every direction before one batched inverse FFT."""
+    sea, speed, cosines, weights = directions
+    coefs = None
+    for q, (c, w) in enumerate(zip(cosines, weights, strict=True)):
+        omega_e, omegas, amps = encounter_components(
+            sea, speed * abs(c), c > 0, jr.fold_in(key, q), size, sources[0].dt
+        )
+        amps = amps * math.sqrt(w)
+        part = jnp.stack([src.coefficients(omegas, amps, q) for src in sources])
+        coefs = part if coefs is None else coefs + part
+    return [((x, dx), x[0]) for x, dx in _synthesise(coefs, omega_e, size, n, dtype)]
+
+
 class WaveMomentExcitation(AbstractExcitation):
-    """The direct wave roll moment per unit roll inertia M_w(t) [rad/s²] of a long-crested sea, synthesised by FFT
-    over the whole trial like `SuperpositionExcitation`.
+    """The direct wave roll moment per unit roll inertia M_w(t) [rad/s²] of a long-crested sea (or, with
+    `spreading`, a short-crested one: summed over its directions), synthesised by FFT over the whole trial like
+    `SuperpositionExcitation`.
 
     Components sit at encounter frequencies ω_e,j = 2πj/(M dt); each wave frequency ω that meets the ship at ω_e,j
     (one in head and beam seas, up to three in following seas: `jaxroll.sea.encounter_frequency`) adds its
@@ -549,11 +598,14 @@ class WaveMomentExcitation(AbstractExcitation):
 
     sea: AbstractWaveSpectrum
     omega: Float[Array, " n"]
-    transfer: Complex[Array, " n"]
-    speed: Float[Array, ""]
+    transfer: Complex[Array, " n"] | Complex[Array, "q n"]  # one row per direction in a short-crested sea
+    speed: Float[Array, ""]  # U|cos χ| (the encounter shift) in a long-crested sea; U in a short-crested one
     following: bool = eqx.field(static=True)
     dt: float = eqx.field(static=True)
     substeps: int = eqx.field(static=True, default=1)
+    # short-crested (`spreading`): cos χ_q and weights w_q of the directions (`EffectiveWave`); None long-crested
+    direction_cosines: tuple[float, ...] | None = eqx.field(static=True, default=None)
+    direction_weights: tuple[float, ...] | None = eqx.field(static=True, default=None)
 
     def __init__(
         self,
@@ -563,16 +615,26 @@ class WaveMomentExcitation(AbstractExcitation):
         *,
         speed: float = 0.0,
         heading: str | float = "head",
+        spreading: Spreading | None = None,
     ):
         """**Arguments:** `sea`: one-sided sea spectrum; `moment`: the hull's [`WaveMoment`][jaxroll.ship.WaveMoment]
         table (per unit inertia); `dt`: time step [s]; `speed`: U [m/s] ≥ 0; `heading`: `"head"`, `"following"` or
-        χ [rad] in [0, π] (0 following, π/2 beam, π head; χ ∈ (0, π): waves from port).
+        χ [rad] in [0, π] (0 following, π/2 beam, π head; χ ∈ (0, π): waves from port; the mean direction of a
+        short-crested sea); `spreading`: a `jaxroll.sea.Spreading` (short-crested: each direction χ_q = χ + θ_q
+        with its own moment F(ω, χ_q), F(−χ) = −F(χ) for waves from starboard, as for a hull symmetric port and
+        starboard), or None (long-crested).
 
         **Raises:** `ValueError` for a heading outside [0, π], a negative speed, or a heading outside the table's."""
         chi, cos_chi = heading_angle(heading), heading_cosine(heading)
         if not (math.isfinite(float(speed)) and float(speed) >= 0):
             raise ValueError(f"`speed` must be a finite number >= 0 [m/s]; got {speed!r}.")
         lo, hi = float(moment.headings[0]), float(moment.headings[-1])
+        spread = spreading is not None
+        if spread and not (lo <= 1e-12 and hi >= math.pi - 1e-12):
+            raise ValueError(
+                f"a short-crested sea needs the wave moment at every heading, 0–180°; the table has "
+                f"{math.degrees(lo):.4g}–{math.degrees(hi):.4g}° (`jaxroll.ship.wave_moment(..., headings=...)`)."
+            )
         if not lo - 1e-12 <= chi <= hi + 1e-12:
             raise ValueError(
                 f"heading χ = {math.degrees(chi):.4g}° is outside the wave-moment table's headings "
@@ -581,30 +643,54 @@ class WaveMomentExcitation(AbstractExcitation):
             )
         self.sea = sea
         self.omega = moment.omega
-        self.transfer = moment.at_heading(chi)
-        self.speed = jnp.asarray(float(speed) * abs(cos_chi), dtype=float)  # U|cos χ|: the encounter shift
         self.following = cos_chi > 0
         self.dt = float(dt)
+        if not spread:
+            self.transfer = moment.at_heading(chi)
+            # U|cos χ|: the encounter shift
+            self.speed = jnp.asarray(float(speed) * abs(cos_chi), dtype=float)
+            self.direction_cosines = self.direction_weights = None
+            return
+        theta, weights = spreading.directions()
+        self.direction_cosines, self.direction_weights = direction_cosines(chi, spreading)
+        rows = []
+        for chi_q in chi + theta:
+            # χ_q in (−π, 2π): waves from starboard (χ_q < 0 or > π) have F(χ_q) = −F(|χ_q| folded into [0, π])
+            folded = math.remainder(chi_q, 2 * math.pi)  # in [−π, π]
+            row = moment.at_heading(min(abs(folded), math.pi))
+            rows.append(-row if folded < 0 else row)
+        self.transfer = jnp.stack(rows)
+        self.speed = jnp.asarray(float(speed), dtype=float)
 
-    def transfer_at(self, omega) -> Complex[Array, "..."]:
-        """F/I44 [rad/s² per m] at wave frequencies ω [rad/s] (linear between the table's, 0 above it)."""
-        re = jnp.interp(omega, self.omega, self.transfer.real, right=0.0)
-        im = jnp.interp(omega, self.omega, self.transfer.imag, right=0.0)
+    def transfer_at(self, omega, direction: int | None = None) -> Complex[Array, "..."]:
+        """F/I44 [rad/s² per m] at wave frequencies ω [rad/s] (linear between the table's, 0 above it); of a
+        short-crested sea's `direction` q."""
+        row = self.transfer if direction is None else self.transfer[direction]
+        re = jnp.interp(omega, self.omega, row.real, right=0.0)
+        im = jnp.interp(omega, self.omega, row.imag, right=0.0)
         return jax.lax.complex(re, im)
 
     def spectrum(self, omega_e) -> Float[Array, "..."]:
         """One-sided spectrum of M_w, S_M(ω_e) = Σ_b |F(ω_b, χ)/I44|² S(ω_b)/|dω_e/dω| [rad²/s⁴ · s/rad], at
-        encounter frequencies ω_e [rad/s]."""
-        omegas, weights = encounter_branches(jnp.asarray(omega_e, dtype=float), self.speed, self.following)
-        f = self.transfer_at(omegas)
-        return jnp.sum(jnp.abs(f) ** 2 * self.sea(omegas) * weights, axis=-1)
+        encounter frequencies ω_e [rad/s]; short-crested: Σ_q w_q of the same at χ_q, U|cos χ_q|."""
+        omega_e = jnp.asarray(omega_e, dtype=float)
+        if self.direction_cosines is None:
+            omegas, weights = encounter_branches(omega_e, self.speed, self.following)
+            f = self.transfer_at(omegas)
+            return jnp.sum(jnp.abs(f) ** 2 * self.sea(omegas) * weights, axis=-1)
+        total = jnp.zeros(omega_e.shape)
+        for q, (c, w) in enumerate(zip(self.direction_cosines, self.direction_weights, strict=True)):
+            omegas, weights = encounter_branches(omega_e, self.speed * abs(c), c > 0)
+            f = self.transfer_at(omegas, q)
+            total = total + w * jnp.sum(jnp.abs(f) ** 2 * self.sea(omegas) * weights, axis=-1)
+        return total
 
-    def coefficients(self, omegas, amps):
+    def coefficients(self, omegas, amps, direction: int | None = None):
         """The FFT coefficients of M_w from the realization's components (`encounter_components`):
-        Σ_b F(ω_b, χ)/I44 a_b, F conjugated on branch 3."""
+        Σ_b F(ω_b, χ)/I44 a_b, F conjugated on branch 3; of a short-crested sea's `direction` q with F(ω, χ_q)."""
         coef = jnp.zeros(amps.shape[:1], dtype=amps.dtype)
         for b in range(amps.shape[1]):
-            f = self.transfer_at(omegas[:, b])
+            f = self.transfer_at(omegas[:, b], direction)
             if b == 2:  # ω − kU cos χ = −ω_e: the component turns the other way
                 f = jnp.conj(f)
             coef = coef + f * amps[:, b]

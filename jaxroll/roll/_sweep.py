@@ -19,6 +19,7 @@ import numpy as np
 from .._config import require_float64
 from .._display import progress_bar
 from ..sea._spectra import ITTC, heading_angle
+from ..sea._spreading import Spreading
 from ..ship._ship import Ship
 from ._equation import RollProblem
 from ._monte_carlo import monte_carlo_max_roll
@@ -62,6 +63,7 @@ def sweep_sea_states(
     dt: float = 0.5,
     filter_order: int | str = "auto",
     phi0: float = math.radians(5.0),
+    spreading: Spreading | None = None,
     chunk_size: int | None = None,
     devices=None,
     checkpoint: str | os.PathLike | None = None,
@@ -74,7 +76,8 @@ def sweep_sea_states(
 
     **Arguments:** `ship`; `key`; `hs` [m], `t01` [s], `speed` [m/s] and `heading` ("head" | "following" |
     χ [rad] in [0, π]: 0 following, π/2 beam, π head): the grid (the heading axis holds `heading_label`s); `angle_deg` [deg] and `confidence`: the exceedance angle and the interval level; the rest as in
-    `monte_carlo_max_roll` and `RollProblem.from_sea`. `checkpoint`: a directory holding one sub-directory per grid
+    `monte_carlo_max_roll` and `RollProblem.from_sea` (`spreading`: one directional spreading for every point, None
+    long-crested). `checkpoint`: a directory holding one sub-directory per grid
     point (`point_label`), so an interrupted sweep resumes at the point and chunk where it stopped.
     `progress` is called with the realizations done over the whole sweep (`True`: a tqdm bar, as in `monte_carlo`).
 
@@ -112,6 +115,7 @@ def sweep_sea_states(
                 dt=dt,
                 filter_order=filter_order,
                 phi0=phi0,
+                spreading=spreading,
             )
         except ValueError as e:
             where = f"heading {h}, U {u:g} m/s, H1/3 {height:g} m, T01 {period:g} s"

@@ -1,4 +1,4 @@
-"""The sea: wave spectra, Grim's effective wave, the shaping filter (Method 2)."""
+"""The sea: wave spectra, directional spreading, Grim's effective wave, the shaping filter (Method 2)."""
 
 from ._filters import (
     BAND_TOLERANCE as BAND_TOLERANCE,
@@ -24,4 +24,8 @@ from ._spectra import (
     encounter_spectrum as encounter_spectrum,
     sea_steepness as sea_steepness,
     spectral_moment as spectral_moment,
+)
+from ._spreading import (
+    Spreading as Spreading,
+    parse_spreading as parse_spreading,
 )

@@ -7,7 +7,11 @@ crest amidships; its amplitude transfer function for a component of wave number 
 
 In an oblique long-crested sea of heading χ the profile along the ship's axis is a wave of number k|cos χ|, so the
 transfer is F(k|cos χ|): beam seas (cos χ = 0) give ζ_G ≡ 0, no parametric excitation in this model (the direct
-roll moment of oblique waves is not modelled).
+roll moment of oblique waves is `jaxroll.WaveMomentExcitation`).
+
+In a short-crested sea (`spreading`, `jaxroll.sea.Spreading`) every wave direction θ_q of the spreading's
+discretisation meets the ship at its own relative heading χ + θ_q: its own encounter frequency, its own Grim
+transfer F(k|cos(χ + θ_q)|); S_G is the weighted sum of the Q long-crested S_G's (docs/spreading.md).
 
 The roll model uses ζ_mid = −ζ_G (positive when a trough is amidships); see `jaxroll.delta_gm`.
 """
@@ -31,6 +35,7 @@ from ._spectra import (
     spectral_moment,
     warn_if_breaking,
 )
+from ._spreading import Spreading
 
 
 def grim_transfer(k, length):
@@ -53,6 +58,10 @@ class EffectiveWave(eqx.Module):
     # |cos χ| < 1: oblique or beam. Head and following seas skip the projection, so that they compile to exactly
     # the computation they had before headings were angles (a shaping-filter fit is bitwise the same).
     projected: bool = eqx.field(static=True)
+    spreading: Spreading | None = None  # None: long-crested (the paper's sea)
+    # cos(χ + θ_q) of the spreading's directions θ_q and their weights (host floats; None when long-crested)
+    direction_cosines: tuple[float, ...] | None = eqx.field(static=True, default=None)
+    direction_weights: tuple[float, ...] | None = eqx.field(static=True, default=None)
 
     def __init__(
         self,
@@ -61,14 +70,23 @@ class EffectiveWave(eqx.Module):
         speed=0.0,
         heading: str | float = "head",
         *,
+        spreading: Spreading | None = None,
         validate: bool = True,
     ):
         """**Arguments:** `sea`: one-sided sea spectrum; `length`: L = Lpp [m]; `speed`: U [m/s] ≥ 0;
         `heading`: `"head"`, `"following"` or the angle χ [rad] in [0, π] between the ship's course and the
-        wave direction (0 following, π/2 beam, π head; long-crested). `validate=False` skips the checks of
+        (mean) wave direction (0 following, π/2 beam, π head); `spreading`: a `Spreading` for a short-crested
+        sea about that mean direction, or None (long-crested, the default). `validate=False` skips the checks of
         `length` and `speed` (for a traced construction whose nominal values were checked: a traced check is a
         host callback, which keeps the compiled program out of JAX's disk cache)."""
         chi, cos_chi = heading_angle(heading), heading_cosine(heading)  # validates
+        if spreading is not None and not isinstance(spreading, Spreading):
+            raise TypeError(f"`spreading` must be a jaxroll.sea.Spreading or None; got {spreading!r}.")
+        self.spreading = spreading
+        if spreading is None:
+            self.direction_cosines = self.direction_weights = None
+        else:
+            self.direction_cosines, self.direction_weights = direction_cosines(chi, spreading)
         self.sea = sea
         length, speed = as_float(length), as_float(speed)
         if validate:
@@ -87,12 +105,16 @@ class EffectiveWave(eqx.Module):
 
     @property
     def is_beam_sea(self) -> bool:
-        """True when cos χ = 0: the projected wave number, hence ζ_G and the parametric excitation, vanish."""
-        return float(self.cos_heading) == 0.0
+        """True when cos χ = 0 in a long-crested sea: the projected wave number, hence ζ_G and the parametric
+        excitation, vanish (a short-crested beam sea has waves of other directions: False)."""
+        return float(self.cos_heading) == 0.0 and self.spreading is None
 
     def spectrum(self, omega_e) -> Float[Array, "..."]:
         """One-sided effective-wave spectrum S_G(ω_e) = Σ F(k|cos χ|)² S(ω)/|dω_e/dω| [m² s/rad] in encounter
-        frequency (k = ω²/g; zero in beam seas)."""
+        frequency (k = ω²/g; zero in long-crested beam seas). Short-crested: the weighted sum over the spreading's
+        directions θ_q of the same sum at χ + θ_q (`spread_spectrum`)."""
+        if self.spreading is not None:
+            return spread_spectrum(self, omega_e)
         if self.projected:
             projection = jnp.abs(self.cos_heading)
             omegas, weights = encounter_branches(omega_e, self.speed * projection, self.following)
@@ -105,6 +127,34 @@ class EffectiveWave(eqx.Module):
     def variance(self) -> Float[Array, ""]:
         """σ_G² = ∫ S_G dω_e [m²]."""
         return spectral_moment(self.spectrum, 0)
+
+
+def direction_cosines(heading: float, spreading: Spreading) -> tuple[tuple[float, ...], tuple[float, ...]]:
+    """cos(χ + θ_q) [-] of the spreading's directions θ_q about the mean heading χ [rad] (below 1e-12 in magnitude
+    taken as 0, as `heading_cosine` does) and their weights w_q (`Spreading.directions`); host floats."""
+    theta, weights = spreading.directions()
+    c = np.cos(heading + theta)
+    return tuple(float(x) if abs(x) >= 1e-12 else 0.0 for x in c), tuple(float(w) for w in weights)
+
+
+def spread_spectrum(wave: EffectiveWave, omega_e) -> Float[Array, "..."]:
+    """S_G(ω_e) [m² s/rad] of a short-crested sea: Σ_q w_q Σ_b F(k_b|cos χ_q|)² S(ω_b)/|dω_e/dω|_q, each
+    direction χ_q = χ + θ_q with its own encounter branches (head-going, cos χ_q ≤ 0: one; following-going: up to
+    three) and its own projected wave number."""
+    omega_e = jnp.asarray(omega_e, dtype=float)
+    cos, w = np.asarray(wave.direction_cosines), np.asarray(wave.direction_weights)
+    total = jnp.zeros(omega_e.shape)
+    for following in (False, True):
+        group = (cos > 0) == following
+        if not np.any(group):
+            continue
+        c = np.abs(cos[group])
+        grid = jnp.broadcast_to(omega_e[..., None], (*omega_e.shape, c.size))
+        omegas, jacobians = encounter_branches(grid, wave.speed * c, following)  # [..., directions, 3]
+        f = grim_transfer(omegas**2 / GRAVITY * c[:, None], wave.length)
+        per_direction = jnp.sum(f**2 * wave.sea(omegas) * jacobians, axis=-1)
+        total = total + per_direction @ w[group]
+    return total
 
 
 #: The encounter frequencies [rad/s] on which `spectrum_on_grid` tabulates S_G (0-6 rad/s, step 5e-4 rad/s).

@@ -94,10 +94,17 @@ def wave_moment_refusal(theory: str) -> str:
 
 def refuse_wave_moment(ship, wave, theory: str) -> None:
     """Raise `ValueError` (`wave_moment_refusal`) when `ship` carries a wave moment (`ship.wave_moment`) and `wave`
-    (an `EffectiveWave`) is at an oblique or beam heading (|cos χ| < 1), where the moment joins the roll equation:
-    the parametric-only theories would silently leave it out. Static checks only (works when traced). A ship with a
-    GZ surface (`ship.restoring_surface`) is refused at every heading: the theories know only its small-heel
-    reduction."""
+    (an `EffectiveWave`) is at an oblique or beam heading (|cos χ| < 1) or short-crested, where the moment joins
+    the roll equation: the parametric-only theories would silently leave it out. Static checks only (works when
+    traced). A ship with a GZ surface (`ship.restoring_surface`) is refused at every heading: the theories know
+    only its small-heel reduction."""
     refuse_restoring_surface(ship, theory)
-    if getattr(ship, "wave_moment", None) is not None and getattr(wave, "projected", False):
+    if moment_joins(ship, wave):
         raise ValueError(wave_moment_refusal(theory))
+
+
+def moment_joins(ship, wave) -> bool:
+    """Whether `ship`'s direct wave moment joins its roll in `wave` (an `EffectiveWave`): the ship carries one and
+    the heading is oblique or beam (|cos χ| < 1), or the sea short-crested (oblique directions at every heading)."""
+    spread = getattr(wave, "spreading", None) is not None
+    return getattr(ship, "wave_moment", None) is not None and (getattr(wave, "projected", False) or spread)

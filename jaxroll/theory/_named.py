@@ -48,7 +48,7 @@ from ..ship._ship import Ship
 from ..ship._validity import warn_outside_validity
 from ._averaging import _finish, esam_pdf, roberts_pdf
 from ._envelope_fpk import dies_out_error, envelope_fpk_pdf
-from ._linear import refuse_wave_moment, wave_moment_refusal
+from ._linear import moment_joins, refuse_wave_moment, wave_moment_refusal
 from ._moment_equations import _roll_sde, moment_equations, zero_pattern
 from ._moment_solver import RESULTS, succeeded, tables_as_inputs
 from ._moments import (
@@ -378,11 +378,9 @@ def iter_theory_summaries(
     if not all(0 < q < 1 for q in levels):
         raise ValueError(f"`levels` must lie strictly between 0 and 1; got {levels!r}.")
     edges = np.deg2rad(bins)
-    if ship.restoring_surface is not None or (
-        ship.wave_moment is not None and getattr(wave, "projected", False)
-    ):
+    if ship.restoring_surface is not None or moment_joins(ship, wave):  # `refuse_wave_moment`, every name
         refusal = restoring_surface_refusal if ship.restoring_surface is not None else wave_moment_refusal
-        errors = [(name, ValueError(refusal(name))) for name in names]  # `refuse_wave_moment`, every name
+        errors = [(name, ValueError(refusal(name))) for name in names]
         if not return_exceptions and errors:
             raise errors[0][1]
         return iter(errors)
