@@ -1,8 +1,7 @@
 """The layout of every labelled result: which JSON levels are dimensions, the arrays' dimensions, the units the
-names do not state. One place for all outputs (docs/outputs.md lists what they give).
-
-Each layout covers one JSON shape: a result's summary (`AMPLITUDES`: `AmplitudeStatistics.summary`, …) or a
-command's JSON file (`OUTPUTS["pdf"]`: pdf.json, …), the latter built from the former.
+names do not state; one place for all outputs (docs/outputs.md lists what they give). Each layout covers one JSON
+shape: a result's summary (`AMPLITUDES`: `AmplitudeStatistics.summary`, …) or a command's JSON file
+(`OUTPUTS["pdf"]`: pdf.json, …), the latter built from the former.
 """
 
 from __future__ import annotations
