@@ -21,6 +21,7 @@ from ._common import (
 )
 from ._sea import (
     add_sea_options,
+    add_yaw_options,
     build_problem,
     check_sea_options,
     check_steps,
@@ -38,6 +39,7 @@ def register(sub) -> None:
         "amplitudes. N0 below 10⁴ share --realizations trials (10⁴); N0 ≥ 10⁴ use --realizations-large (5·10³).",
     )
     add_sea_options(p)
+    add_yaw_options(p)
     m = p.add_argument_group("maxima protocol")
     m.add_argument("--n0", default="20,50,100,1000,10000", help="comma-separated N0 values (default paper's)")
     m.add_argument("--realizations", type=int, default=10_000, help="trials for N0 < 10⁴ (default 10000)")

@@ -21,10 +21,12 @@ from ._common import (
 )
 from ._sea import (
     add_sea_options,
+    add_yaw_options,
     build_problem,
     check_positive,
     check_sea_options,
     check_steps,
+    has_yaw,
     heading_phrase,
     parse_heading,
     resolved_method,
@@ -47,6 +49,7 @@ def register(sub) -> None:
         "pdf_log.png, pdf.json and pdf.nc (docs/outputs.md) into --out.",
     )
     add_sea_options(p)
+    add_yaw_options(p)
     m = p.add_argument_group("Monte Carlo")
     m.add_argument("--realizations", type=int, default=10_000, help="number of realizations (default 10000)")
     m.add_argument("--duration", type=float, default=3600.0, help="simulated time per realization [s] (3600)")
@@ -251,8 +254,8 @@ def run(args) -> int:
             payload["total_run_time_s"] = earlier + elapsed
         if fit is not None:
             payload["filter_fit"] = fit.summary()
-        if (
-            problem.moment_excitation is not None
+        if problem.moment_excitation is not None and not has_yaw(
+            problem
         ):  # the direct wave moment's exact linear roll, beside the MC's
             from ..theory import linear_roll_variance
 

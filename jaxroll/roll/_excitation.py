@@ -26,6 +26,7 @@ from ..sea._filters import ShapingFilter, psd_sqrt
 from ..sea._grim import EffectiveWave, grim_transfer, superpose, superposition_length
 from ..sea._spectra import GRAVITY, AbstractWaveSpectrum, encounter_branches, heading_angle, heading_cosine
 from ..ship._wave_moment import WaveMoment
+from ._yaw import Yaw, YawNodes, grim_yaw_nodes, moment_yaw_nodes, yaw_block_values, yaw_init
 
 BLOCK = 128  # source steps per noise block (block j of a realization keyed k draws from fold_in(k, j))
 START_KEY = 0x7FFFFFFF  # the filter's stationary start draws from fold_in(k, START_KEY)
@@ -418,15 +419,20 @@ class SuperpositionExcitation(AbstractExcitation):
     dt: float = eqx.field(static=True)
     substeps: int = eqx.field(static=True, default=1)
     joint: bool = eqx.field(static=True, default=False)
+    yaw: YawNodes | None = None
 
-    def __init__(self, wave: EffectiveWave, dt: float, *, joint: bool = False):
+    def __init__(self, wave: EffectiveWave, dt: float, *, joint: bool = False, yaw: Yaw | None = None):
         """**Arguments:** `wave`: Grim's effective wave; `dt`: time step [s]; `joint`: synthesise from the
-        components shared with a `WaveMomentExcitation` (above)."""
+        components shared with a `WaveMomentExcitation` (above); `yaw`: a [`Yaw`][jaxroll.Yaw] of the heading
+        about `wave`'s (zero speed only; docs/yaw.md), None for none."""
         self.wave = wave
         self.dt = float(dt)
         self.joint = bool(joint)
+        self.yaw = None if yaw is None else grim_yaw_nodes(wave, yaw)
 
     def init(self, key, num_steps, m, dtype):
+        if self.yaw is not None:
+            return yaw_init(self, None, key, num_steps, m, dtype)[0]
         if self.joint:
             return joint_init(self, None, key, num_steps, m, dtype)[0]
         n = _padded_length(num_steps, m)
@@ -435,20 +441,27 @@ class SuperpositionExcitation(AbstractExcitation):
         return (zeta, dzeta), zeta[0]
 
     def block_inputs(self, key, state, index, m):
+        if self.yaw is not None:
+            return yaw_block_values(state[0], index, m)
         return _half_step_values(*state, index, m, jnp.asarray(self.dt, state[0].dtype))
 
     def advance(self, state, values, m):
         return state, tuple(values[j] for j in range(2 * m))
 
-    def coefficients(self, omegas, amps):
+    def coefficients(self, omegas, amps, projection=None):
         """The FFT coefficients of ζ_G from the realization's components (`encounter_components`):
-        Σ_b F_Grim(k_b |cos χ|) a_b, Grim's transfer being real."""
-        projection = jnp.abs(self.wave.cos_heading)
+        Σ_b F_Grim(k_b |cos χ|) a_b, Grim's transfer being real (`projection`: another |cos χ|)."""
+        if projection is None:
+            projection = jnp.abs(self.wave.cos_heading)
         g = grim_transfer(omegas**2 / GRAVITY * projection, self.wave.length)
         coef = jnp.zeros(amps.shape[:1], dtype=amps.dtype)
         for b in range(amps.shape[1]):
             coef = coef + amps[:, b] * jax.lax.complex(g[:, b], jnp.zeros_like(g[:, b]))
         return coef
+
+    def node_coefficients(self, omegas, amps):
+        """Under yaw: the coefficients at each node |cos χ_n| of `yaw` [nodes, size//2 + 1]."""
+        return jnp.stack([self.coefficients(omegas, amps, c) for c in self.yaw.nodes])
 
 
 def _check_length(n: int) -> None:
@@ -464,6 +477,8 @@ def joint_init(zeta_source, moment_source, key, num_steps: int, m: int, dtype) -
     realization keyed `key`, from one draw of the wave components (`encounter_components`) and one batched inverse
     FFT: `[(state, value at t = 0)]` per source given, as each one's own `init` (the same realization)."""
     sources = [s for s in (zeta_source, moment_source) if s is not None]
+    if sources[0].yaw is not None:
+        return yaw_init(zeta_source, moment_source, key, num_steps, m, dtype)
     n = _padded_length(num_steps, m)
     _check_length(n)
     size = superposition_length(n)
@@ -499,6 +514,7 @@ class WaveMomentExcitation(AbstractExcitation):
     following: bool = eqx.field(static=True)
     dt: float = eqx.field(static=True)
     substeps: int = eqx.field(static=True, default=1)
+    yaw: YawNodes | None = None
 
     def __init__(
         self,
@@ -508,10 +524,12 @@ class WaveMomentExcitation(AbstractExcitation):
         *,
         speed: float = 0.0,
         heading: str | float = "head",
+        yaw: Yaw | None = None,
     ):
         """**Arguments:** `sea`: one-sided sea spectrum; `moment`: the hull's [`WaveMoment`][jaxroll.ship.WaveMoment]
         table (per unit inertia); `dt`: time step [s]; `speed`: U [m/s] ≥ 0; `heading`: `"head"`, `"following"` or
-        χ [rad] in [0, π] (0 following, π/2 beam, π head; χ ∈ (0, π): waves from port).
+        χ [rad] in [0, π] (0 following, π/2 beam, π head; χ ∈ (0, π): waves from port); `yaw`: a
+        [`Yaw`][jaxroll.Yaw] of the heading about χ (zero speed only; docs/yaw.md), None for none.
 
         **Raises:** `ValueError` for a heading outside [0, π], a negative speed, or a heading outside the table's."""
         chi, cos_chi = heading_angle(heading), heading_cosine(heading)
@@ -530,11 +548,14 @@ class WaveMomentExcitation(AbstractExcitation):
         self.speed = jnp.asarray(float(speed) * abs(cos_chi), dtype=float)  # U|cos χ|: the encounter shift
         self.following = cos_chi > 0
         self.dt = float(dt)
+        self.yaw = None if yaw is None else moment_yaw_nodes(moment, chi, yaw)
 
-    def transfer_at(self, omega) -> Complex[Array, "..."]:
-        """F/I44 [rad/s² per m] at wave frequencies ω [rad/s] (linear between the table's, 0 above it)."""
-        re = jnp.interp(omega, self.omega, self.transfer.real, right=0.0)
-        im = jnp.interp(omega, self.omega, self.transfer.imag, right=0.0)
+    def transfer_at(self, omega, transfer=None) -> Complex[Array, "..."]:
+        """F/I44 [rad/s² per m] at wave frequencies ω [rad/s] (linear between the table's, 0 above it);
+        `transfer`: another row of the table than the heading's."""
+        transfer = self.transfer if transfer is None else transfer
+        re = jnp.interp(omega, self.omega, transfer.real, right=0.0)
+        im = jnp.interp(omega, self.omega, transfer.imag, right=0.0)
         return jax.lax.complex(re, im)
 
     def spectrum(self, omega_e) -> Float[Array, "..."]:
@@ -544,21 +565,27 @@ class WaveMomentExcitation(AbstractExcitation):
         f = self.transfer_at(omegas)
         return jnp.sum(jnp.abs(f) ** 2 * self.sea(omegas) * weights, axis=-1)
 
-    def coefficients(self, omegas, amps):
+    def coefficients(self, omegas, amps, transfer=None):
         """The FFT coefficients of M_w from the realization's components (`encounter_components`):
-        Σ_b F(ω_b, χ)/I44 a_b, F conjugated on branch 3."""
+        Σ_b F(ω_b, χ)/I44 a_b, F conjugated on branch 3 (`transfer`: another row of the table)."""
         coef = jnp.zeros(amps.shape[:1], dtype=amps.dtype)
         for b in range(amps.shape[1]):
-            f = self.transfer_at(omegas[:, b])
+            f = self.transfer_at(omegas[:, b], transfer)
             if b == 2:  # ω − kU cos χ = −ω_e: the component turns the other way
                 f = jnp.conj(f)
             coef = coef + f * amps[:, b]
         return coef
 
+    def node_coefficients(self, omegas, amps):
+        """Under yaw: the coefficients at each node heading χ_n of `yaw` [nodes, size//2 + 1]."""
+        return jnp.stack([self.coefficients(omegas, amps, row) for row in self.yaw.transfers])
+
     def init(self, key, num_steps, m, dtype):
         return joint_init(None, self, key, num_steps, m, dtype)[0]
 
     def block_inputs(self, key, state, index, m):
+        if self.yaw is not None:
+            return yaw_block_values(state[0], index, m)
         return _half_step_values(*state, index, m, jnp.asarray(self.dt, state[0].dtype))
 
     def advance(self, state, values, m):
