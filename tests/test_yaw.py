@@ -198,6 +198,8 @@ def _cli(*args) -> int:
             ["risk", "--yaw-std", "2", "--estimator", "splitting"],
             "--estimator splitting needs the shaping filter",
         ),
+        (["maxima", "--yaw-std", "2", "--theory", "roberts"], "roberts: the heading yaws"),
+        (["risk", "--yaw-std", "2", "--theory", "first_passage"], "first_passage: the heading yaws"),
     ],
 )
 def test_cli_bad_yaw(args, message, tmp_path, capsys):
@@ -238,3 +240,16 @@ def test_cli_pdf_with_yaw(tmp_path, capsys):
     capsys.readouterr()
     assert _cli(*common, "--theory", "esam", "--out", str(tmp_path / "t"), "--quiet") == 2
     assert "esam: the heading yaws" in capsys.readouterr().err
+
+
+def test_notebook_runs_in_smoke_mode(tmp_path, monkeypatch):
+    """notebooks/08_yaw.ipynb top to bottom in smoke mode: the PDFs with and without yaw are densities, the steady
+    moment's roll grows off head seas."""
+    from helpers import run_notebook
+
+    ns = run_notebook("08_yaw.ipynb", tmp_path, monkeypatch)
+    assert set(ns["pdfs"]) == {0, 3}
+    for pdf in ns["pdfs"].values():
+        assert 0.5 < float(np.sum(pdf)) <= 1.0 + 1e-9  # per degree on 1° bins: the mass below 40°
+    steady = ns["steady"]
+    assert 0 < steady[5] < steady[15] < steady[30] < steady[90]

@@ -100,6 +100,15 @@ def yaw_from_args(args):
     return yaw
 
 
+def refuse_theories_under_yaw(args, names) -> None:
+    """Raise CLIError when theories (`names`, e.g. roberts, first_passage) are asked for a run whose heading yaws:
+    each covers one fixed heading (`jaxroll.theory.yaw_refusal`)."""
+    if names and yaw_from_args(args) is not None:
+        from ..theory import yaw_refusal
+
+        raise CLIError(yaw_refusal(names[0]))
+
+
 def word_or_number(word: str, convert=int):
     """An argparse type: `word` (any case), a number by `convert`, or the text as given — refused later by the
     option's own check, with its name (argparse's own refusal would not name the fix)."""

@@ -27,6 +27,7 @@ from ._sea import (
     check_steps,
     heading_phrase,
     parse_heading,
+    refuse_theories_under_yaw,
     sea_config,
 )
 
@@ -131,6 +132,7 @@ def run(args) -> int:
 
     n0_all = parse_n0(args.n0)
     theories = parse_theories(args.theory)
+    refuse_theories_under_yaw(args, theories)
     check_chunk_size(args)
     for name in ("realizations", "realizations_large"):
         if getattr(args, name) < 1:

@@ -186,6 +186,7 @@ def run(args) -> int:
     print(
         f"Monte Carlo: {args.realizations} realizations × {args.duration:g} s, dt {args.dt} s, "
         f"H1/3 {args.hs} m, T01 {args.t01} s, {heading_phrase(parse_heading(args.heading))}, U {args.speed} m/s, method {resolved_method(args, ship)}"
+        + (f", yaw σ_ψ {args.yaw_std:g}° τ {args.yaw_time:g} s" if has_yaw(problem) else "")
     )
     earlier = 0.0
     resumed = checkpoint_file is not None and checkpoint_file.exists()

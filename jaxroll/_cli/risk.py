@@ -30,6 +30,7 @@ from ._sea import (
     check_steps,
     heading_phrase,
     parse_heading,
+    refuse_theories_under_yaw,
     resolved_method,
     sea_config,
     yaw_from_args,
@@ -225,6 +226,7 @@ def run(args) -> int:
     from ..roll import SPLITTING_EXCITATIONS
 
     theories, first_passage = parse_risk_theories(args.theory)
+    refuse_theories_under_yaw(args, theories + ["first_passage"] * first_passage)
     if args.estimator == "direct":  # one vocabulary with `jaxroll longterm --estimator` (issue 45)
         warnings.warn(
             "--estimator direct is now called brute-force (the same trials of the exposure's length; longterm's "
