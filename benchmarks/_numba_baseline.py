@@ -81,6 +81,7 @@ def _numba_kernel():
         capsized,
     ):
         nbins = hist.size
+        nr = chol.shape[1]
         z = np.empty(n, phid.dtype)
         e = np.empty(n, phid.dtype)
         zn = np.empty(n, phid.dtype)
@@ -106,12 +107,14 @@ def _numba_kernel():
         k = 0
         while k < n_steps:
             # one filter step of m time steps: exact transition, then the bridge at the 2m − 1 stage times
-            for q in range(n):
+            for q in range(nr):  # the step's noise: its nr principal directions (jaxroll's `noise_rank`)
                 e[q] = g.standard_normal()
             for q in range(n):
                 s = 0.0
                 for u in range(n):
-                    s += phid[q, u] * z[u] + chol[q, u] * e[u]
+                    s += phid[q, u] * z[u]
+                for u in range(nr):
+                    s += chol[q, u] * e[u]
                 zn[q] = s
             p[0] = p[2 * m]
             for j in range(2 * m - 1):

@@ -83,7 +83,7 @@ def numpy_rk4_run_steps(problem, n_real, n_steps, rng):
     phi, dphi = np.full(n_real, 0.087), np.zeros(n_real)
     p_end = pexc(z @ c)
     for _ in range(n_steps // m):
-        z1 = z @ phi_h.T + rng.standard_normal(z.shape) @ chol.T
+        z1 = z @ phi_h.T + rng.standard_normal((n_real, chol.shape[1])) @ chol.T
         ps = [p_end, *(pexc(z @ wa[j] + z1 @ wb[j]) for j in range(2 * m - 1)), pexc(z1 @ c)]
         for s_ in range(m):
             p0, pm, p1 = ps[2 * s_], ps[2 * s_ + 1], ps[2 * s_ + 2]

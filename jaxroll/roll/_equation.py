@@ -314,6 +314,7 @@ class RollProblem(eqx.Module):
         phi0: float = math.radians(5.0),
         dphi0: float = 0.0,
         substeps: int | None = None,
+        noise_rank: int | None = None,
         validate: bool = True,
         yaw: Yaw | None = None,
     ) -> "RollProblem":
@@ -339,6 +340,8 @@ class RollProblem(eqx.Module):
         - `phi0` [rad], `dphi0` [rad/s]: initial condition (the paper's 5°, 0).
         - `substeps`: time steps per shaping-filter step (None: chosen from the bridge's interpolation error,
           `FilterExcitation`); give it when the construction is traced, to keep the nominal problem's random stream.
+        - `noise_rank`: normals per shaping-filter step (None: the principal directions of the step's noise that
+          keep every state variance within 1e-6, `choose_noise_rank`); give it with `substeps` when traced.
         - `yaw`: a [`Yaw`][jaxroll.Yaw], the heading an Ornstein–Uhlenbeck process about χ (zero speed only; the
           superposition, with the ship's wave moment at every heading, head seas included: docs/yaw.md); None (or
           σ_ψ = 0): none, the problem exactly as without the argument.
@@ -404,7 +407,7 @@ class RollProblem(eqx.Module):
             if validate:
                 check_filter_fit(fit, dt)  # a filter that cannot be used is an error before any band warning
                 _warn_if_off_the_band(fit, ship, wave)
-            source = FilterExcitation(fit.filter, dt, substeps)
+            source = FilterExcitation(fit.filter, dt, substeps, noise_rank)
         else:
             fit = None
             source = SuperpositionExcitation(wave, dt, joint=moment is not None, yaw=yaw)

@@ -158,8 +158,9 @@ COARSE_TOLERANCE = 1e-6  # largest bridge interpolation error variance / σ_G² 
 class FilterExcitation(AbstractExcitation):
     """Method 2: exact discretisation of a shaping filter on a step H = m·dt, started from its stationary law.
 
-    Per source step the filter state moves exactly, z(t+H) = Φ z(t) + L ε (Φ = e^{AH}, L Lᵀ = Σ − ΦΣΦᵀ, ε ~ N(0, I),
-    n normals per m time steps), and ζ_G at the 2m − 1 RK4 stage times in between is its conditional mean given
+    Per source step the filter state moves exactly, z(t+H) = Φ z(t) + L ε (Φ = e^{AH}, L Lᵀ = Σ − ΦΣΦᵀ, ε ~ N(0, I);
+    L keeps the r principal directions of that nearly singular covariance, r normals per m time steps:
+    `choose_noise_rank`), and ζ_G at the 2m − 1 RK4 stage times in between is its conditional mean given
     the filter state at both ends, E[ζ_G(τ) | z(t), z(t+H)] = a·z(t) + b·z(t+H) (the Gaussian bridge, the best
     interpolant: `bridge`). m (`substeps`) is the largest of (4, 2, 1) whose bridge leaves out at most
     `COARSE_TOLERANCE`·σ_G² of the variance at every stage time (m = 4, H = 2 s, for the paper's sea at dt = 0.5 s:
@@ -167,26 +168,45 @@ class FilterExcitation(AbstractExcitation):
     """
 
     phi: Float[Array, "n n"]
-    chol: Float[Array, "n n"]
+    chol: Float[Array, "n r"]
     stationary_chol: Float[Array, "n n"]
     c: Float[Array, " n"]
     bridge: Float[Array, "2 s n"]
     dt: float = eqx.field(static=True)
     substeps: int = eqx.field(static=True)
 
-    def __init__(self, shaping_filter: ShapingFilter, dt: float, substeps: int | None = None):
+    def __init__(
+        self,
+        shaping_filter: ShapingFilter,
+        dt: float,
+        substeps: int | None = None,
+        noise_rank: int | None = None,
+    ):
         """**Arguments:** `shaping_filter` (e.g. `fit_filter(...).filter`); `dt`: time step [s]; `substeps`: time
-        steps per filter step m (None: the largest of 4, 2, 1 within `COARSE_TOLERANCE`; 1 when traced)."""
+        steps per filter step m (None: the largest of 4, 2, 1 within `COARSE_TOLERANCE`; 1 when traced);
+        `noise_rank`: normals per filter step r ≤ n (None: the smallest even r within `COARSE_TOLERANCE`,
+        `choose_noise_rank`; n when traced)."""
         self.dt = float(dt)
         if substeps is None:
             substeps = choose_substeps(shaping_filter, self.dt)
         if not (isinstance(substeps, int) and not isinstance(substeps, bool) and substeps >= 1):
             raise ValueError(f"`substeps` must be an integer >= 1; got {substeps!r}.")
+        n = shaping_filter.c.size
+        if noise_rank is None:
+            noise_rank = choose_noise_rank(shaping_filter, self.dt, substeps)
+        if not (isinstance(noise_rank, int) and not isinstance(noise_rank, bool) and 1 <= noise_rank <= n):
+            raise ValueError(
+                f"`noise_rank` must be an integer in 1 … {n} (the filter's order); got {noise_rank!r}."
+            )
         self.substeps = substeps
-        self.phi, self.chol, self.stationary_chol, self.bridge = filter_grid(
-            shaping_filter, self.dt, substeps
-        )
+        self.phi, chol, self.stationary_chol, self.bridge = filter_grid(shaping_filter, self.dt, substeps)
+        self.chol = chol[:, n - noise_rank :]  # (eigh's columns ascend: the r largest directions)
         self.c = shaping_filter.c
+
+    @property
+    def noise_rank(self) -> int:
+        """Normals drawn per filter step r: the r principal directions of the step's noise covariance."""
+        return self.chol.shape[1]
 
     def init(self, key, num_steps, m, dtype):
         _check_substeps(self, m)
@@ -195,7 +215,7 @@ class FilterExcitation(AbstractExcitation):
         return z, _dot(self.c, z)
 
     def block_inputs(self, key, state, index, m):
-        return tuple(e.astype(self.c.dtype) for e in block_normals_by_column(key, index, self.c.size))
+        return tuple(e.astype(self.c.dtype) for e in block_normals_by_column(key, index, self.noise_rank))
 
     def advance(self, z, eps, m):
         # Scalar algebra on the n filter states (not 4×4 matrix products): vmapped over realizations, each line
@@ -282,6 +302,41 @@ def choose_substeps(shaping_filter: ShapingFilter, dt: float, tol: float = COARS
         if np.isfinite(err) and err <= tol:
             return m
     return 1
+
+
+@cached_program
+def _noise_rank_errors(shaping_filter: ShapingFilter, dt: float, m: int):
+    """For r = 1 … n: the largest relative error of the variance of any linear function of the stationary state,
+    max eig Σ^{-1/2}(Σ − Σ_r)Σ^{-1/2}, when the step's noise keeps only its r principal directions (Σ_r: the
+    stationary covariance of z' = Φz + L_r ε, by the discrete Lyapunov equation in Kronecker form)."""
+    sigma = shaping_filter.stationary_covariance()
+    phi, chol, _, _ = filter_grid(shaping_filter, dt, m)
+    n = sigma.shape[0]
+    w, v = jnp.linalg.eigh(sigma)
+    whiten = v / jnp.sqrt(jnp.clip(w, jnp.finfo(w.dtype).tiny, None))  # Σ^{-1/2} up to a rotation
+    kron = jnp.eye(n * n) - jnp.kron(phi, phi)
+    errors = []
+    for r in range(1, n + 1):
+        dropped = chol[:, : n - r]
+        deficit = jnp.linalg.solve(kron, (dropped @ dropped.T).reshape(-1)).reshape(n, n)
+        errors.append(jnp.max(jnp.abs(jnp.linalg.eigvalsh(whiten.T @ deficit @ whiten))))
+    return jnp.stack(errors)
+
+
+def choose_noise_rank(shaping_filter: ShapingFilter, dt: float, m: int, tol: float = COARSE_TOLERANCE) -> int:
+    """The smallest even r (or n) whose dropped noise directions change the variance of every linear function of
+    the stationary filter state (ζ_G at every stage time among them) by at most `tol` relative (host side; n when
+    traced). The step's noise covariance Σ − ΦΣΦᵀ over H = m·dt is nearly singular: its eigenvalues fall by ×10–40
+    each (order 8, H = 2 s: r = 4 of 8 within 1e-6), so the Monte Carlo draws r normals per step instead of n."""
+    n = shaping_filter.c.size
+    try:
+        errors = np.asarray(_noise_rank_errors(shaping_filter, float(dt), m))
+    except jax.errors.TracerArrayConversionError:
+        return n
+    for r in range(2, n + 1, 2):
+        if np.isfinite(errors[r - 1]) and errors[r - 1] <= tol:
+            return r
+    return n
 
 
 @cached_program

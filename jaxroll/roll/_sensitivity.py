@@ -340,6 +340,7 @@ def sensitivity_problem(
         )  # every check of the nominal problem
     if excitation == "filter":  # the traced problems step the filter as the nominal one (same random stream)
         options["substeps"] = nominal.excitation.substeps
+        options["noise_rank"] = nominal.excitation.noise_rank
     gm0_nominal = float(ship.gm0)
     kappa = float(ship.omega0) ** 2 / gm0_nominal  # a1/GM0 = gΔ/I44, held fixed
     params = {

@@ -110,7 +110,7 @@ def _lane_segment(
     key's stream, so stage 0 of a one-stage run is `monte_carlo_max_roll`'s trials, and a run continued from where
     it stopped with its own key and the next row is the trial that did not stop."""
     ship, exc, h = problem.ship, problem.excitation, problem.dt
-    m, n = exc.substeps, exc.c.size
+    m, n = exc.substeps, exc.noise_rank
     r = lane["r"]
     eps = block_normals_by_column(jr.wrap_key_data(lane["key"]), r // BLOCK, n, r % BLOCK, segment)
     eps = tuple(e.astype(dtype) for e in eps)
