@@ -135,6 +135,19 @@ def test_no_yaw_is_todays_problem(moment_ship):
     np.testing.assert_array_equal(np.asarray(a), np.asarray(b))
 
 
+def test_the_chunk_counts_the_yawed_synthesis(moment_ship):
+    """The Monte Carlo's memory per realization adds the yawed synthesis' arrays (per node), nothing without yaw."""
+    from jaxroll.roll._yaw import yaw_bytes_per_realization
+
+    sea = jaxroll.ITTC(7.0, 10.0)
+    plain = jaxroll.RollProblem.from_sea(moment_ship, sea, heading=120 * DEG, dt=0.25)
+    assert yaw_bytes_per_realization(plain, 14400) == 0
+    yawed = jaxroll.RollProblem.from_sea(moment_ship, sea, dt=0.25, yaw=jaxroll.Yaw(3 * DEG, 30.0))
+    nodes = len(yawed.excitation.yaw.nodes) + len(yawed.moment_excitation.yaw.nodes)
+    per = yaw_bytes_per_realization(yawed, 14400)
+    assert nodes == 3 + 5 and 1.0e6 < per / nodes < 1.3e6  # ≈ 1.2 MB per node for 3600 s at dt 0.25 s
+
+
 def test_yaw_draws_from_its_own_stream(moment_ship):
     """ψ keyed fold_in(key, YAW_KEY): the wave components of a realization are those without yaw."""
     assert YAW_KEY not in (0x7FFFFFFE, 0x7FFFFFFF)

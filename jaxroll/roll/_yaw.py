@@ -260,3 +260,21 @@ def yaw_init(zeta_source, moment_source, key, num_steps: int, m: int, dtype) -> 
         value = value.astype(dtype)
         out.append(((value,), value[0]))
     return out
+
+
+def yaw_bytes_per_realization(problem, num_steps: int) -> int:
+    """The memory [bytes] a yawed problem's synthesis adds per realization of `num_steps` time steps (0 without
+    yaw), counted from its arrays: per node, the FFT coefficients of the process and its derivative (complex128),
+    the inverse FFT's output, and on the half steps the series, its weight and their product (float64)."""
+    from ..sea._grim import superposition_length
+    from ._excitation import _padded_length
+
+    sources = [
+        s for s in (problem.excitation, problem.moment_excitation) if getattr(s, "yaw", None) is not None
+    ]
+    if not sources:
+        return 0
+    n = _padded_length(num_steps, problem.excitation.substeps)
+    size = superposition_length(n)
+    per_node = 2 * (size // 2 + 1) * 16 + 2 * size * 8 + 3 * (2 * n) * 8
+    return sum(len(s.yaw.nodes) for s in sources) * per_node
