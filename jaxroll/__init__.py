@@ -124,6 +124,7 @@ if _typing.TYPE_CHECKING:
         SuperpositionExcitation as SuperpositionExcitation,
         SweepResult as SweepResult,
         WaveMomentExcitation as WaveMomentExcitation,
+        Yaw as Yaw,
         amplitude_samples as amplitude_samples,
         check_time_step as check_time_step,
         default_chunk_size as default_chunk_size,
@@ -223,7 +224,8 @@ _NAMES = {  # subpackage (or private module) -> the names `jaxroll` takes from i
         "monte_carlo monte_carlo_amplitudes monte_carlo_max_roll monte_carlo_maxima monte_carlo_sensitivity "
         "monte_carlo_splitting monte_carlo_splitting_angles parametric_band realization_mesh roll_acceleration roll_time_series "
         "roll_vector_field sensitivity_problem simulate simulate_chunk splitting_pilot sweep_sea_states "
-        "zero_crossing_amplitudes"
+        "zero_crossing_amplitudes "
+        "Yaw"
     ),
     "sea": (
         "ITTC JONSWAP AbstractWaveSpectrum EffectiveWave FilterFit ShapingFilter Spreading breaking_steepness "

@@ -13,7 +13,8 @@ def test_every_notebook_is_run_by_a_test():
         "05_hydrostatics.ipynb",
         "06_vulnerability.ipynb",
         "07_longterm.ipynb",
-    }  # 04-07 run by test_calibration, test_hydrostatics, test_sgisc, test_longterm
+        "08_yaw.ipynb",
+    }  # 04-08 run by test_calibration, test_hydrostatics, test_sgisc, test_longterm, test_yaw
     assert {p.name for p in NOTEBOOKS.glob("*.ipynb")} == tested
 
 

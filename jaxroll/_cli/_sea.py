@@ -85,6 +85,62 @@ def spreading_label(args) -> str:
     return "none" if spreading is None else spreading.label()
 
 
+def add_yaw_options(p: argparse.ArgumentParser) -> None:
+    """--yaw-std --yaw-time (docs/yaw.md)."""
+    g = p.add_argument_group("yaw (the heading wanders about --heading along each run; docs/yaw.md)")
+    g.add_argument(
+        "--yaw-std",
+        type=float,
+        default=0.0,
+        metavar="DEG",
+        help="standard deviation σ_ψ [deg] of an Ornstein–Uhlenbeck yaw, 0 to 45 (default 0: no yaw); at --speed 0, "
+        "with the superposition; a ship carrying a wave moment feels it at every heading, head seas included",
+    )
+    g.add_argument(
+        "--yaw-time",
+        type=float,
+        default=30.0,
+        metavar="S",
+        help="the yaw's correlation time τ [s] (default 30)",
+    )
+
+
+def yaw_from_args(args):
+    """The `Yaw` of --yaw-std/--yaw-time, None without yaw (σ_ψ = 0 or a command without the options). Raises
+    CLIError for values out of range, yaw at forward speed, or with --method filter."""
+    from ..roll import Yaw
+
+    std, tau = getattr(args, "yaw_std", 0.0), getattr(args, "yaw_time", 30.0)
+    if not (math.isfinite(tau) and tau > 0):
+        raise CLIError(f"--yaw-time must be a finite number > 0 [s]; got {tau:g}.")
+    try:
+        yaw = Yaw(math.radians(std), tau)
+    except ValueError as e:
+        raise CLIError(f"--yaw-std {std:g}: {e}") from None
+    if std == 0:
+        return None
+    if args.speed != 0:
+        raise CLIError(
+            f"--yaw-std at --speed {args.speed:g}: yaw at forward speed is not modelled (the encounter frequency "
+            "would follow the heading); use --speed 0 or --yaw-std 0 (docs/yaw.md)."
+        )
+    if args.method == "filter":
+        raise CLIError(
+            "--yaw-std needs --method superposition or auto: a shaping filter cannot make an effective wave whose "
+            "weight follows the heading (docs/yaw.md)."
+        )
+    return yaw
+
+
+def refuse_theories_under_yaw(args, names) -> None:
+    """Raise CLIError when theories (`names`, e.g. roberts, first_passage) are asked for a run whose heading yaws:
+    each covers one fixed heading (`jaxroll.theory.yaw_refusal`)."""
+    if names and yaw_from_args(args) is not None:
+        from ..theory import yaw_refusal
+
+        raise CLIError(yaw_refusal(names[0]))
+
+
 def word_or_number(word: str, convert=int):
     """An argparse type: `word` (any case), a number by `convert`, or the text as given — refused later by the
     option's own check, with its name (argparse's own refusal would not name the fix)."""
@@ -152,6 +208,11 @@ def heading_label(deg: float) -> str:
     return "head" if deg == 180.0 else "following" if deg == 0.0 else f"{deg:g}deg"
 
 
+def has_yaw(problem) -> bool:
+    """Whether a `RollProblem`'s heading yaws (`jaxroll.Yaw`)."""
+    return getattr(getattr(problem, "excitation", None), "yaw", None) is not None
+
+
 def heading_phrase(deg: float) -> str:
     """The heading in words for printed lines and titles, e.g. 'head seas' or 'oblique seas (χ = 135°)'."""
     if deg in (0.0, 180.0):
@@ -210,6 +271,8 @@ def resolved_method(args, ship) -> str:
     wave moment and the heading is oblique or beam (|cos χ| < 1), else "filter"."""
     if args.method != "auto":
         return args.method
+    if yaw_from_args(args) is not None:
+        return "superposition"
     oblique = abs(math.cos(math.radians(parse_heading(args.heading)))) < 1 - 1e-15
     # a short-crested sea has oblique directions at every heading
     spread = spreading_from_args(args) is not None
@@ -238,6 +301,12 @@ def sea_config(args, ship) -> dict:
     }
     if args.ship is None:
         cfg["ship_note"] = DEFAULT_SHIP_NOTE
+    if yaw_from_args(args) is not None:
+        cfg["yaw"] = {
+            "std_deg": args.yaw_std,
+            "correlation_time_s": args.yaw_time,
+            "model": "Ornstein-Uhlenbeck",
+        }
     return cfg
 
 
@@ -262,6 +331,7 @@ def check_sea_options(args) -> None:
         raise CLIError(f"--speed must be >= 0 [m/s] (use --heading for direction); got {args.speed}.")
     check_filter_order(args)
     spreading_from_args(args)
+    yaw_from_args(args)
 
 
 def _sea_from_args(args, ship):
@@ -306,6 +376,7 @@ def build_problem(args, ship, *, phi0_deg: float = 5.0):
         filter_order=args.filter_order,
         phi0=math.radians(phi0_deg),
         spreading=spreading_from_args(args),
+        yaw=yaw_from_args(args),
     )
     return problem, problem.filter_fit, sea
 

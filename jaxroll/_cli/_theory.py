@@ -8,7 +8,7 @@ import time
 import numpy as np
 
 from ._common import CLIError
-from ._sea import TheoryInputs, moment_filter, moment_filter_order
+from ._sea import TheoryInputs, has_yaw, moment_filter, moment_filter_order
 
 
 def first_line(error: Exception) -> str:
@@ -38,6 +38,8 @@ def compute(problem, args, name: str, *, estimator: str = "envelope"):
 
     if name not in theory.THEORIES:
         raise CLIError(f"unknown theory {name!r}")
+    if has_yaw(problem):
+        raise CLIError(theory.yaw_refusal(name))
     return _call(name, lambda: theory.theory_law(
         name, problem.ship, problem.wave, shaping_filter=moment_filter(problem, args),
         filter_order=moment_filter_order(args), estimator=estimator, warn=False))  # fmt: skip
@@ -70,10 +72,13 @@ def start_theory_summaries(problem, args, names, bins_deg, *, skip_failed: bool 
         bins_deg
     ):  # after the fit has started (`jaxroll theory`'s bins need the vanishing angle's program)
         bins_deg = bins_deg()
-    results = theory.iter_theory_summaries(
-        names, problem.ship, problem.wave, bins_deg, shaping_filter=fit, filter_order=moment_filter_order(args),
-        return_exceptions=True, warn=warn,
-    )  # fmt: skip
+    if has_yaw(problem):  # the theories' sea has one heading
+        results = [(name, ValueError(theory.yaw_refusal(name))) for name in names]
+    else:
+        results = theory.iter_theory_summaries(
+            names, problem.ship, problem.wave, bins_deg, shaping_filter=fit, filter_order=moment_filter_order(args),
+            return_exceptions=True, warn=warn,
+        )  # fmt: skip
     dispatch = time.time() - t0
 
     def finish():

@@ -21,9 +21,11 @@ from ._common import (
 )
 from ._sea import (
     add_sea_options,
+    add_yaw_options,
     build_problem,
     check_sea_options,
     check_steps,
+    refuse_theories_under_yaw,
     sea_config,
     sea_heading_phrase,
 )
@@ -37,6 +39,7 @@ def register(sub) -> None:
         "amplitudes. N0 below 10⁴ share --realizations trials (10⁴); N0 ≥ 10⁴ use --realizations-large (5·10³).",
     )
     add_sea_options(p)
+    add_yaw_options(p)
     m = p.add_argument_group("maxima protocol")
     m.add_argument("--n0", default="20,50,100,1000,10000", help="comma-separated N0 values (default paper's)")
     m.add_argument("--realizations", type=int, default=10_000, help="trials for N0 < 10⁴ (default 10000)")
@@ -128,6 +131,7 @@ def run(args) -> int:
 
     n0_all = parse_n0(args.n0)
     theories = parse_theories(args.theory)
+    refuse_theories_under_yaw(args, theories)
     check_chunk_size(args)
     for name in ("realizations", "realizations_large"):
         if getattr(args, name) < 1:

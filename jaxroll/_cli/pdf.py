@@ -21,10 +21,12 @@ from ._common import (
 )
 from ._sea import (
     add_sea_options,
+    add_yaw_options,
     build_problem,
     check_positive,
     check_sea_options,
     check_steps,
+    has_yaw,
     resolved_method,
     sea_config,
     sea_heading_phrase,
@@ -46,6 +48,7 @@ def register(sub) -> None:
         "pdf_log.png, pdf.json and pdf.nc (docs/outputs.md) into --out.",
     )
     add_sea_options(p)
+    add_yaw_options(p)
     m = p.add_argument_group("Monte Carlo")
     m.add_argument("--realizations", type=int, default=10_000, help="number of realizations (default 10000)")
     m.add_argument("--duration", type=float, default=3600.0, help="simulated time per realization [s] (3600)")
@@ -182,6 +185,7 @@ def run(args) -> int:
     print(
         f"Monte Carlo: {args.realizations} realizations × {args.duration:g} s, dt {args.dt} s, "
         f"H1/3 {args.hs} m, T01 {args.t01} s, {sea_heading_phrase(args)}, U {args.speed} m/s, method {resolved_method(args, ship)}"
+        + (f", yaw σ_ψ {args.yaw_std:g}° τ {args.yaw_time:g} s" if has_yaw(problem) else "")
     )
     earlier = 0.0
     resumed = checkpoint_file is not None and checkpoint_file.exists()
@@ -253,8 +257,8 @@ def run(args) -> int:
             payload["total_run_time_s"] = earlier + elapsed
         if fit is not None:
             payload["filter_fit"] = fit.summary()
-        if (
-            problem.moment_excitation is not None
+        if problem.moment_excitation is not None and not has_yaw(
+            problem
         ):  # the direct wave moment's exact linear roll, beside the MC's
             from ..theory import linear_roll_variance
 

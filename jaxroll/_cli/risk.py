@@ -23,13 +23,16 @@ from ._common import (
 )
 from ._sea import (
     add_sea_options,
+    add_yaw_options,
     build_problem,
     check_positive,
     check_sea_options,
     check_steps,
+    refuse_theories_under_yaw,
     resolved_method,
     sea_config,
     sea_heading_phrase,
+    yaw_from_args,
 )
 
 
@@ -41,6 +44,7 @@ def register(sub) -> None:
         "Wilson intervals; optionally the same from theoretical amplitude PDFs (--theory).",
     )
     add_sea_options(p)
+    add_yaw_options(p)
     p.add_argument("--angle", type=float, default=30.0, help="threshold roll angle [deg] (30)")
     p.add_argument("--hours", type=float, default=3.0, help="exposure time [h] (3)")
     p.add_argument("--realizations", type=int, default=2000, help="Monte Carlo trials (2000)")
@@ -221,6 +225,7 @@ def run(args) -> int:
     from ..roll import SPLITTING_EXCITATIONS
 
     theories, first_passage = parse_risk_theories(args.theory)
+    refuse_theories_under_yaw(args, theories + ["first_passage"] * first_passage)
     if args.estimator == "direct":  # one vocabulary with `jaxroll longterm --estimator` (issue 45)
         warnings.warn(
             "--estimator direct is now called brute-force (the same trials of the exposure's length; longterm's "
@@ -256,6 +261,11 @@ def run(args) -> int:
     budget = memory_budget(args)
     out = Path(args.out)
     ship = load_ship_arg(args.ship)
+    if args.estimator == "splitting" and yaw_from_args(args) is not None:
+        raise CLIError(
+            "--estimator splitting needs the shaping filter, which cannot make the yawing heading's effective wave "
+            "(--yaw-std, docs/yaw.md): use --estimator brute-force."
+        )
     if args.estimator == "splitting" and resolved_method(args, ship) not in SPLITTING_EXCITATIONS:
         raise CLIError(
             "--estimator splitting needs the shaping filter, which cannot make the direct wave moment this ship "

@@ -68,3 +68,4 @@ from ._statistics import (
     SweepResult as SweepResult,
 )
 from ._sweep import sweep_sea_states as sweep_sea_states
+from ._yaw import Yaw as Yaw

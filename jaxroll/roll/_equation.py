@@ -56,6 +56,7 @@ from ._excitation import (
     WaveMomentExcitation,
     joint_init,
 )
+from ._yaw import Yaw, check_yaw_speed
 
 
 def roll_acceleration(ship: Ship, phi, dphi, p, m=0.0) -> Float[Array, "..."]:
@@ -199,15 +200,38 @@ def check_time_step(
         )
 
 
-def _moment_excitation(ship: Ship, sea, speed, heading, dt, spreading=None) -> WaveMomentExcitation | None:
+def _moment_excitation(
+    ship: Ship, sea, speed, heading, dt, spreading=None, yaw=None
+) -> WaveMomentExcitation | None:
     """The direct wave moment the ship's table (`ship.wave_moment`, per the ship's own roll inertia) gives at this
-    heading; None without a table, and in long-crested head and following seas (|cos χ| = 1), where the moment of
-    a hull symmetric port and starboard vanishes and the paper's model runs unchanged (a short-crested sea has
-    oblique directions at every heading)."""
-    if ship.wave_moment is None or (spreading is None and abs(heading_cosine(heading)) == 1.0):
+    heading; None without a table, and in long-crested head and following seas (|cos χ| = 1) without `yaw`, where
+    the moment of a hull symmetric port and starboard vanishes and the paper's model runs unchanged (a short-crested
+    sea has oblique directions at every heading)."""
+    if ship.wave_moment is None or (
+        spreading is None and yaw is None and abs(heading_cosine(heading)) == 1.0
+    ):
         return None
     table = ship.wave_moment.per_inertia(roll_inertia(ship))
-    return WaveMomentExcitation(sea, table, dt, speed=speed, heading=heading, spreading=spreading)
+    return WaveMomentExcitation(sea, table, dt, speed=speed, heading=heading, spreading=spreading, yaw=yaw)
+
+
+def _check_yawed_time_step(dt, ship, wave, moment) -> None:
+    """`check_time_step` at every heading the yaw's moment nodes reach (the moment's bandwidth grows off head seas)."""
+    for chi in moment.yaw.nodes:
+        folded = abs(math.remainder(chi, 2 * math.pi))  # the same |F| at −χ and 2π − χ
+        at = WaveMomentExcitation(moment.sea, _node_table(moment), dt, heading=min(folded, math.pi))
+        check_time_step(dt, ship, wave, at)
+
+
+def _node_table(moment: WaveMomentExcitation):
+    """The moment's nodes as a `WaveMoment` over their folded headings (for the bandwidth check)."""
+    from ..ship._wave_moment import WaveMoment
+
+    chis = np.array([min(abs(math.remainder(c, 2 * math.pi)), math.pi) for c in moment.yaw.nodes])
+    order = np.argsort(chis, kind="stable")
+    chis, idx = np.unique(chis[order], return_index=True)
+    values = moment.yaw.transfers[order[idx]]
+    return WaveMoment(moment.omega, jnp.asarray(chis), values, jnp.asarray(1.0))
 
 
 class RollProblem(eqx.Module):
@@ -268,6 +292,12 @@ class RollProblem(eqx.Module):
                 "excitations are wrongly independent: use `SuperpositionExcitation(wave, dt, joint=True)`, or "
                 "`RollProblem.from_sea` with a ship carrying the wave moment."
             )
+        yaws = [getattr(s, "yaw", None) for s in (excitation, moment_excitation) if s is not None]
+        if len({None if y is None else y.yaw for y in yaws}) > 1:
+            raise ValueError(
+                "`excitation` and `moment_excitation` must be built with the same `yaw` (the heading of one run), "
+                "or both without: use `RollProblem.from_sea(..., yaw=)`."
+            )
         if (
             moment_excitation is not None
             and isinstance(moment_excitation, FilterExcitation)
@@ -298,6 +328,7 @@ class RollProblem(eqx.Module):
         noise_rank: int | None = None,
         validate: bool = True,
         spreading: Spreading | None = None,
+        yaw: Yaw | None = None,
     ) -> "RollProblem":
         """The roll problem of `ship` in the sea state `sea`: Grim's effective wave, its excitation, initial roll.
 
@@ -328,6 +359,9 @@ class RollProblem(eqx.Module):
           `FilterExcitation`); give it when the construction is traced, to keep the nominal problem's random stream.
         - `noise_rank`: normals per shaping-filter step (None: the principal directions of the step's noise that
           keep every state variance within 1e-6, `choose_noise_rank`); give it with `substeps` when traced.
+        - `yaw`: a [`Yaw`][jaxroll.Yaw], the heading an Ornstein–Uhlenbeck process about χ (zero speed only; the
+          superposition, with the ship's wave moment at every heading, head seas included: docs/yaw.md); None (or
+          σ_ψ = 0): none, the problem exactly as without the argument.
         - `validate`: check the inputs and gate the filter fit (default). `False` skips those concrete checks so
           that the construction can be traced (e.g. differentiated in the ship or sea parameters); validate the
           nominal problem first.
@@ -339,7 +373,22 @@ class RollProblem(eqx.Module):
         if excitation not in ("auto", "filter", "superposition"):
             raise ValueError(f"`excitation` must be 'auto', 'filter' or 'superposition'; got {excitation!r}.")
         wave = EffectiveWave(sea, ship.lpp, speed, heading, spreading=spreading, validate=validate)
-        moment = _moment_excitation(ship, sea, speed, heading, dt, spreading)
+        if yaw is not None and yaw.std == 0:
+            yaw = None  # no yaw: today's problem, bit for bit
+        if yaw is not None:
+            check_yaw_speed(yaw, speed)
+            if spreading is not None:
+                raise ValueError(
+                    "yaw in a short-crested sea is not modelled (the yawed synthesis is long-crested): drop the "
+                    "yaw or the spreading (--yaw-std 0 or --spreading none)."
+                )
+            if excitation == "filter":
+                raise ValueError(
+                    "yaw changes the effective wave's weight with the heading along the run: a shaping filter cannot "
+                    "make it; use excitation='superposition' or 'auto' (--method superposition/auto)."
+                )
+            excitation = "superposition"
+        moment = _moment_excitation(ship, sea, speed, heading, dt, spreading, yaw)
         if excitation == "auto":
             excitation = "filter" if moment is None else "superposition"
         elif excitation == "filter" and moment is not None:
@@ -352,7 +401,10 @@ class RollProblem(eqx.Module):
             for name, value in (("phi0", phi0), ("dphi0", dphi0)):
                 if not math.isfinite(value):
                     raise ValueError(f"`{name}` must be finite; got {value!r}.")
-            check_time_step(dt, ship, wave, moment)
+            if moment is not None and moment.yaw is not None:
+                _check_yawed_time_step(dt, ship, wave, moment)
+            else:
+                check_time_step(dt, ship, wave, moment)
             warn_outside_validity(ship, wave, stacklevel=2)
             capsize = float(vanishing_angle(ship))
             if abs(phi0) >= capsize:
@@ -387,7 +439,7 @@ class RollProblem(eqx.Module):
             source = FilterExcitation(fit.filter, dt, substeps, noise_rank)
         else:
             fit = None
-            source = SuperpositionExcitation(wave, dt, joint=moment is not None)
+            source = SuperpositionExcitation(wave, dt, joint=moment is not None, yaw=yaw)
         return cls(ship, source, phi0, dphi0, moment_excitation=moment, wave=wave, filter_fit=fit)
 
     @property

@@ -27,6 +27,7 @@ from ..sea._grim import EffectiveWave, direction_cosines, grim_transfer, superpo
 from ..sea._spectra import GRAVITY, AbstractWaveSpectrum, encounter_branches, heading_angle, heading_cosine
 from ..sea._spreading import Spreading
 from ..ship._wave_moment import WaveMoment
+from ._yaw import Yaw, YawNodes, grim_yaw_nodes, moment_yaw_nodes, yaw_block_values, yaw_init
 
 BLOCK = 128  # source steps per noise block (block j of a realization keyed k draws from fold_in(k, j))
 START_KEY = 0x7FFFFFFF  # the filter's stationary start draws from fold_in(k, START_KEY)
@@ -474,15 +475,20 @@ class SuperpositionExcitation(AbstractExcitation):
     dt: float = eqx.field(static=True)
     substeps: int = eqx.field(static=True, default=1)
     joint: bool = eqx.field(static=True, default=False)
+    yaw: YawNodes | None = None
 
-    def __init__(self, wave: EffectiveWave, dt: float, *, joint: bool = False):
+    def __init__(self, wave: EffectiveWave, dt: float, *, joint: bool = False, yaw: Yaw | None = None):
         """**Arguments:** `wave`: Grim's effective wave; `dt`: time step [s]; `joint`: synthesise from the
-        components shared with a `WaveMomentExcitation` (above)."""
+        components shared with a `WaveMomentExcitation` (above); `yaw`: a [`Yaw`][jaxroll.Yaw] of the heading
+        about `wave`'s (zero speed only; docs/yaw.md), None for none."""
         self.wave = wave
         self.dt = float(dt)
         self.joint = bool(joint)
+        self.yaw = None if yaw is None else grim_yaw_nodes(wave, yaw)
 
     def init(self, key, num_steps, m, dtype):
+        if self.yaw is not None:
+            return yaw_init(self, None, key, num_steps, m, dtype)[0]
         if self.joint:
             return joint_init(self, None, key, num_steps, m, dtype)[0]
         n = _padded_length(num_steps, m)
@@ -491,24 +497,30 @@ class SuperpositionExcitation(AbstractExcitation):
         return (zeta, dzeta), zeta[0]
 
     def block_inputs(self, key, state, index, m):
+        if self.yaw is not None:
+            return yaw_block_values(state[0], index, m)
         return _half_step_values(*state, index, m, jnp.asarray(self.dt, state[0].dtype))
 
     def advance(self, state, values, m):
         return state, tuple(values[j] for j in range(2 * m))
 
-    def coefficients(self, omegas, amps, direction: int | None = None):
+    def coefficients(self, omegas, amps, direction: int | None = None, projection=None):
         """The FFT coefficients of ζ_G from the realization's components (`encounter_components`):
         Σ_b F_Grim(k_b |cos χ|) a_b, Grim's transfer being real; of a short-crested sea's `direction` q (an index
-        into `wave.direction_cosines`) with cos χ_q."""
-        if direction is None:
+        into `wave.direction_cosines`) with cos χ_q; `projection`: another |cos χ| (yaw's nodes)."""
+        if projection is None and direction is None:
             projection = jnp.abs(self.wave.cos_heading)
-        else:
+        elif projection is None:
             projection = abs(self.wave.direction_cosines[direction])
         g = grim_transfer(omegas**2 / GRAVITY * projection, self.wave.length)
         coef = jnp.zeros(amps.shape[:1], dtype=amps.dtype)
         for b in range(amps.shape[1]):
             coef = coef + amps[:, b] * jax.lax.complex(g[:, b], jnp.zeros_like(g[:, b]))
         return coef
+
+    def node_coefficients(self, omegas, amps):
+        """Under yaw: the coefficients at each node |cos χ_n| of `yaw` [nodes, size//2 + 1]."""
+        return jnp.stack([self.coefficients(omegas, amps, projection=c) for c in self.yaw.nodes])
 
 
 def _check_length(n: int) -> None:
@@ -524,6 +536,8 @@ def joint_init(zeta_source, moment_source, key, num_steps: int, m: int, dtype) -
     realization keyed `key`, from one draw of the wave components (`encounter_components`) and one batched inverse
     FFT: `[(state, value at t = 0)]` per source given, as each one's own `init` (the same realization)."""
     sources = [s for s in (zeta_source, moment_source) if s is not None]
+    if sources[0].yaw is not None:
+        return yaw_init(zeta_source, moment_source, key, num_steps, m, dtype)
     n = _padded_length(num_steps, m)
     _check_length(n)
     size = superposition_length(n)
@@ -606,6 +620,7 @@ class WaveMomentExcitation(AbstractExcitation):
     # short-crested (`spreading`): cos χ_q and weights w_q of the directions (`EffectiveWave`); None long-crested
     direction_cosines: tuple[float, ...] | None = eqx.field(static=True, default=None)
     direction_weights: tuple[float, ...] | None = eqx.field(static=True, default=None)
+    yaw: YawNodes | None = None
 
     def __init__(
         self,
@@ -616,13 +631,15 @@ class WaveMomentExcitation(AbstractExcitation):
         speed: float = 0.0,
         heading: str | float = "head",
         spreading: Spreading | None = None,
+        yaw: Yaw | None = None,
     ):
         """**Arguments:** `sea`: one-sided sea spectrum; `moment`: the hull's [`WaveMoment`][jaxroll.ship.WaveMoment]
         table (per unit inertia); `dt`: time step [s]; `speed`: U [m/s] ≥ 0; `heading`: `"head"`, `"following"` or
         χ [rad] in [0, π] (0 following, π/2 beam, π head; χ ∈ (0, π): waves from port; the mean direction of a
         short-crested sea); `spreading`: a `jaxroll.sea.Spreading` (short-crested: each direction χ_q = χ + θ_q
         with its own moment F(ω, χ_q), F(−χ) = −F(χ) for waves from starboard, as for a hull symmetric port and
-        starboard), or None (long-crested).
+        starboard), or None (long-crested); `yaw`: a [`Yaw`][jaxroll.Yaw] of the heading about χ (zero speed, long-crested only;
+        docs/yaw.md), None for none.
 
         **Raises:** `ValueError` for a heading outside [0, π], a negative speed, or a heading outside the table's."""
         chi, cos_chi = heading_angle(heading), heading_cosine(heading)
@@ -630,6 +647,8 @@ class WaveMomentExcitation(AbstractExcitation):
             raise ValueError(f"`speed` must be a finite number >= 0 [m/s]; got {speed!r}.")
         lo, hi = float(moment.headings[0]), float(moment.headings[-1])
         spread = spreading is not None
+        if spread and yaw is not None:
+            raise ValueError("yaw in a short-crested sea is not modelled: drop the yaw or the spreading.")
         if spread and not (lo <= 1e-12 and hi >= math.pi - 1e-12):
             raise ValueError(
                 f"a short-crested sea needs the wave moment at every heading, 0–180°; the table has "
@@ -650,6 +669,7 @@ class WaveMomentExcitation(AbstractExcitation):
             # U|cos χ|: the encounter shift
             self.speed = jnp.asarray(float(speed) * abs(cos_chi), dtype=float)
             self.direction_cosines = self.direction_weights = None
+            self.yaw = None if yaw is None else moment_yaw_nodes(moment, chi, yaw)
             return
         theta, weights = spreading.directions()
         self.direction_cosines, self.direction_weights = direction_cosines(chi, spreading)
@@ -661,11 +681,15 @@ class WaveMomentExcitation(AbstractExcitation):
             rows.append(-row if folded < 0 else row)
         self.transfer = jnp.stack(rows)
         self.speed = jnp.asarray(float(speed), dtype=float)
+        self.yaw = None
 
-    def transfer_at(self, omega, direction: int | None = None) -> Complex[Array, "..."]:
+    def transfer_at(self, omega, direction: int | None = None, transfer=None) -> Complex[Array, "..."]:
         """F/I44 [rad/s² per m] at wave frequencies ω [rad/s] (linear between the table's, 0 above it); of a
-        short-crested sea's `direction` q."""
-        row = self.transfer if direction is None else self.transfer[direction]
+        short-crested sea's `direction` q; `transfer`: another row of the table than the heading's (yaw's nodes)."""
+        if transfer is not None:
+            row = transfer
+        else:
+            row = self.transfer if direction is None else self.transfer[direction]
         re = jnp.interp(omega, self.omega, row.real, right=0.0)
         im = jnp.interp(omega, self.omega, row.imag, right=0.0)
         return jax.lax.complex(re, im)
@@ -685,21 +709,28 @@ class WaveMomentExcitation(AbstractExcitation):
             total = total + w * jnp.sum(jnp.abs(f) ** 2 * self.sea(omegas) * weights, axis=-1)
         return total
 
-    def coefficients(self, omegas, amps, direction: int | None = None):
+    def coefficients(self, omegas, amps, direction: int | None = None, transfer=None):
         """The FFT coefficients of M_w from the realization's components (`encounter_components`):
-        Σ_b F(ω_b, χ)/I44 a_b, F conjugated on branch 3; of a short-crested sea's `direction` q with F(ω, χ_q)."""
+        Σ_b F(ω_b, χ)/I44 a_b, F conjugated on branch 3; of a short-crested sea's `direction` q with F(ω, χ_q); `transfer`: another row
+        of the table (yaw's nodes)."""
         coef = jnp.zeros(amps.shape[:1], dtype=amps.dtype)
         for b in range(amps.shape[1]):
-            f = self.transfer_at(omegas[:, b], direction)
+            f = self.transfer_at(omegas[:, b], direction, transfer)
             if b == 2:  # ω − kU cos χ = −ω_e: the component turns the other way
                 f = jnp.conj(f)
             coef = coef + f * amps[:, b]
         return coef
 
+    def node_coefficients(self, omegas, amps):
+        """Under yaw: the coefficients at each node heading χ_n of `yaw` [nodes, size//2 + 1]."""
+        return jnp.stack([self.coefficients(omegas, amps, transfer=row) for row in self.yaw.transfers])
+
     def init(self, key, num_steps, m, dtype):
         return joint_init(None, self, key, num_steps, m, dtype)[0]
 
     def block_inputs(self, key, state, index, m):
+        if self.yaw is not None:
+            return yaw_block_values(state[0], index, m)
         return _half_step_values(*state, index, m, jnp.asarray(self.dt, state[0].dtype))
 
     def advance(self, state, values, m):

@@ -20,8 +20,9 @@ from .._config import require_float64
 from .._display import progress_bar
 from ._equation import RollProblem, simulate
 from ._observers import AbstractObserver, AmplitudeHistogram, FirstMaxima, MaxRoll, envelope_record_every
-from ._sharding import chunk_size_for_memory, default_chunk_size, run_chunks
+from ._sharding import BYTES_PER_REALIZATION_STEP, chunk_size_for_memory, default_chunk_size, run_chunks
 from ._statistics import AmplitudeStatistics, MaximaStatistics, MaxRollStatistics
+from ._yaw import yaw_bytes_per_realization
 
 
 def simulate_chunk(
@@ -145,13 +146,10 @@ def monte_carlo(
         )
     _check_duration(duration)
     num_steps = int(round(duration / problem.dt))
-    chunk_size = chunk_size_for_memory(
-        chunk_size,
-        num_steps,
-        memory_budget,
-        observer.bytes_per_realization(num_steps // observer.record_every(problem)),
-        devices,
-    )
+    per_realization = observer.bytes_per_realization(num_steps // observer.record_every(problem))
+    if yaw_bytes := yaw_bytes_per_realization(problem, num_steps):  # the yawed synthesis' nodes (docs/yaw.md)
+        per_realization = (per_realization or max(num_steps, 1) * BYTES_PER_REALIZATION_STEP) + yaw_bytes
+    chunk_size = chunk_size_for_memory(chunk_size, num_steps, memory_budget, per_realization, devices)
     with progress_bar(progress, num_realizations, "Monte Carlo") as report:
         summed, per = run_chunks(
             simulate_chunk,

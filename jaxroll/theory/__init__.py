@@ -47,6 +47,7 @@ from ._excitation import (
 )
 from ._linear import (
     linear_roll_variance as linear_roll_variance,  # the direct wave moment's exact linear roll
+    yaw_refusal as yaw_refusal,  # the theories' reason under yaw (jaxroll.Yaw)
 )
 from ._moment_branch import MomentBranch as MomentBranch, moment_branch as moment_branch
 

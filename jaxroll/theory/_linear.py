@@ -58,6 +58,8 @@ def linear_roll_variance(problem, *, damping: str = "linear") -> Float[Array, ""
             "linear_roll_variance needs a problem with a direct wave moment (a WaveMomentExcitation): build it with "
             "RollProblem.from_sea for a ship carrying one (ship.wave_moment) at an oblique or beam heading."
         )
+    if getattr(moment, "yaw", None) is not None:
+        raise ValueError(yaw_refusal("linear_roll_variance"))
     if damping not in ("linear", "equivalent"):
         raise ValueError(f"`damping` must be 'linear' or 'equivalent'; got {damping!r}.")
     ship = problem.ship
@@ -89,6 +91,14 @@ def wave_moment_refusal(theory: str) -> str:
         f"{theory}: the ship carries a direct wave moment (ship.wave_moment), which joins the roll at oblique and "
         f"beam headings; {theory} covers the parametric excitation only. Use the Monte Carlo (jaxroll pdf/risk, "
         "monte_carlo_amplitudes), or jaxroll.theory.linear_roll_variance for E[φ²] in a small sea."
+    )
+
+
+def yaw_refusal(theory: str) -> str:
+    """The one-line reason theory `theory` gives for a run whose heading yaws (`jaxroll.Yaw`)."""
+    return (
+        f"{theory}: the heading yaws along the run (--yaw-std, jaxroll.Yaw); {theory} covers one heading, a "
+        "stationary sea at a fixed χ. Use the Monte Carlo (jaxroll pdf/maxima/risk, monte_carlo_amplitudes)."
     )
 
 
