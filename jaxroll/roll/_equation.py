@@ -598,8 +598,12 @@ def simulate(
         phi, dphi, alive, k_cap, obs, k, left = inner
         one = runtime_one(phi)  # φ is finite: P at the 2m + 1 half steps and the RK4 stages are computed once
         keep = lambda v: computed_once(v, one)  # noqa: E731
-        p = [wave_restoring_terms(ship, x) for x in xs[0]]
-        p = [(keep(v[0]), v[1]) if isinstance(v, tuple) else keep(v) for v in p]
+        # With a surface, ζ and its ζ-part d too: recomputed from the filter's states in each RK4 stage and range
+        # check that used them, they made XLA:CPU take > 20 GB to compile `monte_carlo_max_roll`'s loop (now 0.74 GB
+        # the whole process), and the Monte Carlo cost 1.40× the polynomial model's (now 1.19×: gz_surface.py)
+        zeta = xs[0] if surface is None else [keep(x) for x in xs[0]]
+        p = [wave_restoring_terms(ship, x) for x in zeta]
+        p = [(keep(v[0]), keep(v[1])) if isinstance(v, tuple) else keep(v) for v in p]
         mw = xs[1] if two_sources else [0.0] * len(p)
         outs = []
         for s in range(m):
@@ -609,7 +613,7 @@ def simulate(
             if surface is not None:
                 # ζ at the step's middle and end (its start is the last step's end; the source step's first start
                 # is checked too, for the run's first step)
-                zs = xs[0][2 * s : 2 * s + 3] if s == 0 else xs[0][2 * s + 1 : 2 * s + 3]
+                zs = zeta[2 * s : 2 * s + 3] if s == 0 else zeta[2 * s + 1 : 2 * s + 3]
                 on = functools.reduce(jnp.logical_and, (in_surface_range(surface, phi1, -z) for z in zs))
                 left = left | ((alive & ok & ~on & inside) if ragged else (alive & ok & ~on))
                 ok = ok & on
