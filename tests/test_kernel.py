@@ -201,7 +201,9 @@ def test_the_filter_step_draws_the_principal_directions_of_its_noise():
     problem = jaxroll.RollProblem.from_sea(jaxroll.c11_representative(), jaxroll.ITTC(7.0, 10.0))  # order 8
     exc, f = problem.excitation, problem.filter_fit.filter
     assert (f.order, exc.noise_rank, exc.chol.shape) == (8, 6, (8, 6))
-    assert default_problem().excitation.noise_rank == 4  # the paper's order 4: every direction (r = 2 leaves 8e-3)
+    assert (
+        default_problem().excitation.noise_rank == 4
+    )  # the paper's order 4: every direction (r = 2 leaves 8e-3)
     sigma = np.asarray(f.stationary_covariance())
     w, v = np.linalg.eigh(sigma)
     whiten = v / np.sqrt(w)

@@ -51,16 +51,8 @@ def surface_ships(grid) -> np.ndarray:
     return np.array([getattr(s, "restoring_surface", None) is not None for s in grid.ships])
 
 
-def refuse_theory(grid, moment_cells: np.ndarray, surface_cells: np.ndarray | None = None) -> None:
-    """`method="theory"` cannot give a moment cell, nor a cell of a ship with a GZ surface: **Raises** `ValueError`
-    naming the ship (and headings)."""
-    if surface_cells is not None and surface_cells.any():
-        s = int(np.argwhere(surface_cells)[0][0])
-        raise ValueError(
-            f"`method='theory'`: {grid.ship_names[s]} carries a GZ(φ, ζ_mid) surface (ship.restoring_surface), "
-            "which the theory (passage_risk) does not know. Use method='auto' (the Monte Carlo for that ship's "
-            "cells) or 'monte-carlo'."
-        )
+def refuse_theory(grid, moment_cells: np.ndarray) -> None:
+    """`method="theory"` cannot give a moment cell: **Raises** `ValueError` naming the ship and headings."""
     if not moment_cells.any():
         return
     s, k = np.argwhere(moment_cells.any(axis=(2, 3, 4)))[0]

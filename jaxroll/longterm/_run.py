@@ -19,6 +19,7 @@ import numpy as np
 from .._config import require_float64
 from ..io import dataset_attrs, ship_to_dict
 from ..roll import SPLITTING_EXCITATIONS
+from ..roll._monte_carlo import SURFACE_MAXIMA_REFUSAL
 from ..sea import Spreading
 from ..ship import c11_representative, vanishing_angle
 from ._allowance import measured_allowance
@@ -265,12 +266,14 @@ def longterm(
     beam = np.broadcast_to(grid.beam[None, :, None, None, None] & (spreading is None), shape) & ~moment
     # a ship with a GZ(φ, ζ) surface (`ship.restoring_surface`): no theory knows it, every cell is simulated
     surface = np.broadcast_to(surface_ships(grid)[:, None, None, None, None], shape)
+    if surface.any():  # (its exceedance Monte Carlo is refused for now: `SURFACE_MAXIMA_REFUSAL`)
+        raise ValueError(f"`longterm`: {SURFACE_MAXIMA_REFUSAL}")
     simulated = moment | surface  # the cells only the Monte Carlo (brute force) covers
     positive = comp_w > 0
     left_out = skipped_cells(comp_w, positive & ~beam, skip_weight)
     needed = positive & ~beam & ~left_out
     if method == "theory":
-        refuse_theory(grid, needed & moment, needed & surface)
+        refuse_theory(grid, needed & moment)
     below, above, outside, covered = measured_allowance(
         grid.scatter.hs[:, None], grid.scatter.t01[None, :], np.asarray(grid.speeds, float)[:, None, None]
     )

@@ -24,6 +24,16 @@ from ._sharding import BYTES_PER_REALIZATION_STEP, chunk_size_for_memory, defaul
 from ._statistics import AmplitudeStatistics, MaximaStatistics, MaxRollStatistics
 from ._yaw import yaw_bytes_per_realization
 
+#: A ship with a GZ surface runs the amplitude Monte Carlo only (`monte_carlo_amplitudes`, `jaxroll pdf`): the
+#: maxima's and the exceedances' time loops (`MaxRoll`, `FirstMaxima`) with the surface took XLA:CPU over 20 GB of
+#: memory to compile on one CPU device (issue 44, item 3; a known defect, refused rather than risked).
+SURFACE_MAXIMA_REFUSAL = (
+    "a ship with a GZ(φ, ζ_mid) surface (ship.restoring_surface) runs the amplitude Monte Carlo only (jaxroll pdf, "
+    "monte_carlo_amplitudes) for now: the maxima's and exceedances' Monte Carlo (maxima, risk, longterm) with the "
+    "surface needs more compiler memory than is safe. Drop the surface for those (the ship file without "
+    "[restoring_surface]) or use jaxroll pdf."
+)
+
 
 def simulate_chunk(
     problem: RollProblem,
@@ -145,6 +155,8 @@ def monte_carlo(
             f"`observer` must be an AbstractObserver (e.g. AmplitudeHistogram()); got {observer!r}."
         )
     _check_duration(duration)
+    if problem.ship.restoring_surface is not None and not isinstance(observer, AmplitudeHistogram):
+        raise ValueError(SURFACE_MAXIMA_REFUSAL)
     num_steps = int(round(duration / problem.dt))
     per_realization = observer.bytes_per_realization(num_steps // observer.record_every(problem))
     if yaw_bytes := yaw_bytes_per_realization(problem, num_steps):  # the yawed synthesis' nodes (docs/yaw.md)
