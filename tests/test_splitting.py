@@ -366,3 +366,14 @@ def test_interval_coverage_on_the_roll_problem(sea5):
     se = math.hypot(est.std(ddof=1) / math.sqrt(est.size), math.sqrt(p * (1 - p) / bf.n_realizations))
     assert abs(est.mean() - p) < 4 * se, (est.mean(), p, se)
     assert covered >= 0.85, covered
+
+
+def test_the_interval_of_few_ancestors_stays_a_probability():
+    """One or two effective ancestors give Student's t with ~1 degree of freedom (q = 12.7): the log-normal upper end
+    exp(qσ)·P̂ went to 327 in a long-term part (CI); it is clipped at 1, the lower end untouched."""
+    from jaxroll.roll._splitting_result import _interval
+
+    lo, hi = _interval(0.00864, 3.0, 1.0, ancestors=1.3)
+    assert hi == 1.0 and 0 < lo < 0.00864
+    lo2, hi2 = _interval(0.01, 0.01, 1.0, ancestors=50.0)
+    assert lo2 < 0.01 < hi2 < 0.02

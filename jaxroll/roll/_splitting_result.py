@@ -39,8 +39,8 @@ def _interval(estimate: float, relative_variance: float, upper_if_zero: float, a
     fractions, skewed to the right). The variance is in effect estimated from G = `ancestors` clusters (the
     families of the stage-0 ancestors), so, as a cluster-robust variance with few clusters: v = the relative
     variance × G/(G − 1) and q = Student's t quantile with G − 1 degrees of freedom (at least 1); G infinite: v the
-    relative variance, q = 1.96. docs/rare_events.md, "Variance and interval". [0, upper_if_zero] when the estimate
-    is 0."""
+    relative variance, q = 1.96. docs/rare_events.md, "Variance and interval". The upper end at most 1 (one or two
+    effective ancestors make q large). [0, upper_if_zero] when the estimate is 0."""
     if estimate <= 0:
         return 0.0, upper_if_zero
     v, q = max(relative_variance, 0.0), 1.959963984540054
@@ -48,7 +48,7 @@ def _interval(estimate: float, relative_variance: float, upper_if_zero: float, a
         dof = max(ancestors - 1.0, 1.0)
         v, q = v * ancestors / dof, _t_quantile(dof)
     sigma = math.sqrt(math.log1p(v))
-    return estimate * math.exp(-q * sigma), estimate * math.exp(q * sigma)
+    return estimate * math.exp(-q * sigma), min(estimate * math.exp(q * sigma), 1.0)  # (a probability: ≤ 1)
 
 
 def _t_quantile(dof: float) -> float:
