@@ -264,11 +264,10 @@ def longterm(
     # long-crested beam seas have no parametric excitation (P = 0 exactly); short-crested ones have (other
     # directions); with a moment, beam seas roll
     beam = np.broadcast_to(grid.beam[None, :, None, None, None] & (spreading is None), shape) & ~moment
-    # a ship with a GZ(φ, ζ) surface (`ship.restoring_surface`): no theory knows it, every cell is simulated
-    surface = np.broadcast_to(surface_ships(grid)[:, None, None, None, None], shape)
-    if surface.any():  # (its exceedance Monte Carlo is refused for now: `SURFACE_MAXIMA_REFUSAL`)
+    # a ship with a GZ(φ, ζ) surface (`ship.restoring_surface`): no theory knows it, and its exceedance Monte Carlo
+    # is refused for now (`SURFACE_MAXIMA_REFUSAL`)
+    if surface_ships(grid).any():
         raise ValueError(f"`longterm`: {SURFACE_MAXIMA_REFUSAL}")
-    simulated = moment | surface  # the cells only the Monte Carlo (brute force) covers
     positive = comp_w > 0
     left_out = skipped_cells(comp_w, positive & ~beam, skip_weight)
     needed = positive & ~beam & ~left_out
@@ -292,8 +291,8 @@ def longterm(
     if method in ("monte-carlo",):  # the time step against every cell, before any simulation
         check_time_steps(grid, needed, dt, spreading)
     elif method == "auto":
-        check_time_steps(grid, needed & simulated, dt, spreading)
-    needed_all, needed = needed, needed & ~simulated  # the theory's cells (all but the simulated-only ones)
+        check_time_steps(grid, needed & moment, dt, spreading)
+    needed_all, needed = needed, needed & ~moment  # the theory's cells (all of them but the moment cells)
 
     # ---- theory --------------------------------------------------------------------------------------------
     cells = _empty(shape, n_angles)
@@ -414,7 +413,7 @@ def longterm(
             flat(comp_w),
             flat(np.nan_to_num(cells["theory_probability"])),
             flat(cells["theory_doubtful"] | uncovered),
-            flat(needed & ~simulated),
+            flat(needed & ~moment),
             auto_share,
             auto_tolerance,
         )
@@ -428,7 +427,7 @@ def longterm(
                 max(2, realizations // 4),
             )
             trials[chosen] = n
-        trials[needed & simulated] = realizations  # no theory there: every such cell simulated
+        trials[needed & moment] = realizations  # no theory there: every moment cell simulated
     # which Monte Carlo cells are rare (splitting): auto by the theory, monte-carlo by each cell's pilot
     rare = np.zeros(shape, bool)
     if estimator == "splitting" and method == "auto":
@@ -527,9 +526,8 @@ def longterm(
 
     for j in mine_mc:
         c = mc_cells[j]
-        if moment[c] or surface[c]:  # no splitting (it restarts a filter's state, and knows no GZ surface);
-            # the superposition makes both excitations of a moment cell
-            r = simulate_cell(c, ships[c[0]], MOMENT_EXCITATION if moment[c] else excitation, "brute_force")
+        if moment[c]:  # the superposition makes both excitations; no splitting (it restarts a filter's state)
+            r = simulate_cell(c, ships[c[0]], MOMENT_EXCITATION, "brute_force")
             if twice[c]:
                 rp = simulate_cell(
                     c, parametric_only(ships[c[0]]), excitation, "brute_force", "parametric_only"
